@@ -1,0 +1,74 @@
+//! Typed errors of the fx crate. Every error that comes from user input names the file and, where
+//! there is one, the key path inside it (`portal[1].ring.strands`), so a message can be acted on
+//! without opening a debugger.
+
+use std::path::PathBuf;
+
+/// Anything that can go wrong reading a shot, generating rings or writing exports.
+#[derive(Debug, thiserror::Error)]
+pub enum FxError {
+    /// The shot (or another input) file could not be read at all.
+    #[error("{}: cannot read: {source}", file.display())]
+    Read {
+        file: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML.
+    #[error("{}: {message}", file.display())]
+    Syntax { file: PathBuf, message: String },
+    /// A key has a missing, unknown or invalid value.
+    #[error("{}: {key}: {message}", file.display())]
+    Key {
+        file: PathBuf,
+        key: String,
+        message: String,
+    },
+    /// An output could not be written.
+    #[error("{}: cannot write: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A ring cache is truncated, corrupt or of another version.
+    #[error("{}: not a valid ring cache: {message}", file.display())]
+    Cache { file: PathBuf, message: String },
+    /// A request that does not fit the shot (e.g. frames outside what can be generated).
+    #[error("{0}")]
+    Request(String),
+}
+
+/// A problem with one key of a shot, before it is tied to a file name.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Invalid {
+    /// Dotted key path, e.g. `portal[0].keys[2].scale`.
+    pub key: String,
+    /// What is wrong and, where it helps, what is expected.
+    pub message: String,
+}
+
+impl Invalid {
+    /// An error at `key`.
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    /// Ties the error to the file it came from.
+    pub fn in_file(self, file: impl Into<PathBuf>) -> FxError {
+        FxError::Key {
+            file: file.into(),
+            key: self.key,
+            message: self.message,
+        }
+    }
+}
+
+impl std::fmt::Display for Invalid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.key, self.message)
+    }
+}
