@@ -10,3 +10,7 @@ pub mod error;
 pub mod rig;
 
 pub use error::{FxError, Invalid};
+pub mod ring;
+pub mod shot;
+
+pub use shot::{FrameRange, Shot};

@@ -1,0 +1,72 @@
+//! Small validators for shot values: each names the key it checks and says what it expected.
+
+use crate::error::Invalid;
+
+/// A finite number.
+pub fn finite(key: &str, v: f64) -> Result<f64, Invalid> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(Invalid::new(key, format!("expected a finite number, got {v}")))
+    }
+}
+
+/// A finite number > 0.
+pub fn positive(key: &str, v: f64) -> Result<f64, Invalid> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(Invalid::new(key, format!("expected a positive number, got {v}")))
+    }
+}
+
+/// A finite number ≥ 0.
+pub fn non_negative(key: &str, v: f64) -> Result<f64, Invalid> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(Invalid::new(key, format!("expected a number ≥ 0, got {v}")))
+    }
+}
+
+/// A number in [lo, hi] (or [lo, hi) when `hi_open`).
+pub fn within(key: &str, v: f64, lo: f64, hi: f64, hi_open: bool) -> Result<f64, Invalid> {
+    let ok = v.is_finite() && v >= lo && if hi_open { v < hi } else { v <= hi };
+    if ok {
+        Ok(v)
+    } else {
+        let close = if hi_open { ')' } else { ']' };
+        Err(Invalid::new(
+            key,
+            format!("expected a number in [{lo}, {hi}{close}, got {v}"),
+        ))
+    }
+}
+
+/// An integer in [lo, hi]; `what` describes it when out of range (e.g. "a positive integer").
+pub fn integer(key: &str, v: i64, lo: i64, hi: i64, what: &str) -> Result<u32, Invalid> {
+    if v >= lo && v <= hi {
+        Ok(v as u32)
+    } else {
+        Err(Invalid::new(
+            key,
+            format!("expected {what} (at most {hi}), got {v}"),
+        ))
+    }
+}
+
+/// A name usable in file names: letters, digits, `_`, `-` and `.`, not empty.
+pub fn name(key: &str, v: &str) -> Result<String, Invalid> {
+    let ok = !v.is_empty()
+        && !v.starts_with('.')
+        && v.chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+    if ok {
+        Ok(v.to_owned())
+    } else {
+        Err(Invalid::new(
+            key,
+            format!("expected a name of letters, digits, '_', '-' or '.', got {v:?}"),
+        ))
+    }
+}

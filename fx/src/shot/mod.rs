@@ -1,0 +1,493 @@
+//! The shot: one TOML file that is the single source of truth for timing, camera, portal rigs and
+//! ring looks (syntax in [`schema`]). [`Shot::load`] parses and validates it; every problem is an
+//! [`FxError`] naming the file, the key path and, where known, the line.
+
+pub mod check;
+pub mod pose;
+pub mod schema;
+
+use crate::error::{FxError, Invalid};
+use crate::rig::{Camera, Opening, Projection, Rig, ThereFrame};
+use crate::ring::{ColorRamp, RingLook};
+use glam::DVec3;
+use pose::Facing;
+use schema::{FovAxis, PortalSection, RingSection, ShotFile};
+use std::path::{Path, PathBuf};
+
+/// An inclusive range of whole frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameRange {
+    pub first: i64,
+    pub last: i64,
+}
+
+impl FrameRange {
+    /// Parses `1001` or `1001-1096` (negative frames as `-5--1`).
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let bad = || format!("expected a frame like 1001 or a range like 1001-1096, got {text:?}");
+        let text = text.trim();
+        // Split at a '-' that follows a digit, so a leading minus stays with the number.
+        let split = text
+            .char_indices()
+            .skip(1)
+            .find(|&(i, c)| c == '-' && text.as_bytes()[i - 1].is_ascii_digit())
+            .map(|(i, _)| i);
+        let (a, b) = match split {
+            Some(i) => (&text[..i], &text[i + 1..]),
+            None => (text, text),
+        };
+        let first: i64 = a.trim().parse().map_err(|_| bad())?;
+        let last: i64 = b.trim().parse().map_err(|_| bad())?;
+        if last < first {
+            return Err(format!("the range {text:?} ends before it starts"));
+        }
+        Ok(Self { first, last })
+    }
+
+    /// The frames, in order.
+    pub fn iter(&self) -> impl Iterator<Item = i64> + Clone {
+        self.first..=self.last
+    }
+
+    /// How many frames.
+    pub fn len(&self) -> usize {
+        (self.last - self.first + 1) as usize
+    }
+
+    /// Never true: a range has at least one frame.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+}
+
+/// Ring tessellation settings (`[fx]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FxSettings {
+    pub chord_error_px: f64,
+    pub min_segments: u32,
+    pub max_segments: u32,
+}
+
+impl Default for FxSettings {
+    fn default() -> Self {
+        Self {
+            chord_error_px: 0.25,
+            min_segments: 96,
+            max_segments: 16384,
+        }
+    }
+}
+
+/// Sections owned by the renderer, kept as TOML until rift-render reads them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderSections {
+    pub render: Option<toml::Table>,
+    pub objects: Vec<toml::Table>,
+    pub materials: Vec<toml::Table>,
+    pub lights: Vec<toml::Table>,
+    pub environment: Option<toml::Table>,
+    /// `portal[i].surface`, one entry per opening.
+    pub portal_surfaces: Vec<Option<toml::Table>>,
+}
+
+/// A validated shot.
+#[derive(Clone, Debug)]
+pub struct Shot {
+    /// The file it came from (for messages).
+    pub source: PathBuf,
+    pub name: String,
+    pub fps: f64,
+    pub frames: FrameRange,
+    /// Shutter open and close, in frames relative to each frame.
+    pub shutter: [f64; 2],
+    pub camera: Camera,
+    pub rig: Rig,
+    /// The ring look of each opening (same order as `rig.openings`), if it has a ring.
+    pub rings: Vec<Option<RingLook>>,
+    pub fx: FxSettings,
+    pub render: RenderSections,
+}
+
+impl Shot {
+    /// Reads and validates a shot file.
+    pub fn load(path: &Path) -> Result<Self, FxError> {
+        let text = std::fs::read_to_string(path).map_err(|source| FxError::Read {
+            file: path.to_owned(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Validates shot text; `path` is only used in messages.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, FxError> {
+        let de = toml::Deserializer::parse(text).map_err(|e| FxError::Syntax {
+            file: path.to_owned(),
+            message: e.to_string().trim_end().to_owned(),
+        })?;
+        let raw: ShotFile = serde_path_to_error::deserialize(de).map_err(|e| {
+            let line = e
+                .inner()
+                .span()
+                .map(|s| format!(" (line {})", line_of(text, s.start)))
+                .unwrap_or_default();
+            let key = match e.path().to_string() {
+                p if p == "." => "(top level)".to_owned(),
+                p => p,
+            };
+            FxError::Key {
+                file: path.to_owned(),
+                key,
+                message: format!("{}{line}", e.inner().message()),
+            }
+        })?;
+        from_raw(raw, path).map_err(|e| e.in_file(path))
+    }
+
+    /// Time in seconds of a (possibly fractional) frame.
+    pub fn time_of(&self, frame: f64) -> f64 {
+        frame / self.fps
+    }
+
+    /// Shutter open and close offsets from a frame's time, in seconds.
+    pub fn shutter_seconds(&self) -> [f64; 2] {
+        [self.shutter[0] / self.fps, self.shutter[1] / self.fps]
+    }
+}
+
+/// 1-based line number of a byte offset.
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].matches('\n').count() + 1
+}
+
+fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
+    let s = &raw.shot;
+    let name = check::name("shot.name", &s.name)?;
+    let fps = check::positive("shot.fps", s.fps)?;
+    if s.frames[1] < s.frames[0] {
+        return Err(Invalid::new(
+            "shot.frames",
+            "expected [first, last] with last ≥ first",
+        ));
+    }
+    let frames = FrameRange {
+        first: s.frames[0],
+        last: s.frames[1],
+    };
+    let shutter = [
+        check::within("shot.shutter[0]", s.shutter[0], -1.0, 1.0, false)?,
+        check::within("shot.shutter[1]", s.shutter[1], -1.0, 1.0, false)?,
+    ];
+    if shutter[1] < shutter[0] {
+        return Err(Invalid::new("shot.shutter", "the shutter closes before it opens"));
+    }
+
+    let camera = camera(&raw.camera, fps)?;
+    let fx = fx_settings(&raw.fx)?;
+    let (rig, rings) = rig(&raw.portals, fps)?;
+    let render = RenderSections {
+        render: raw.render,
+        objects: raw.objects,
+        materials: raw.materials,
+        lights: raw.lights,
+        environment: raw.environment,
+        portal_surfaces: raw.portals.into_iter().map(|p| p.surface).collect(),
+    };
+    Ok(Shot {
+        source: path.to_owned(),
+        name,
+        fps,
+        frames,
+        shutter,
+        camera,
+        rig,
+        rings,
+        fx,
+        render,
+    })
+}
+
+fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
+    let w = check::integer("camera.resolution[0]", c.resolution[0], 1, 65536, "a positive integer")?;
+    let h = check::integer("camera.resolution[1]", c.resolution[1], 1, 65536, "a positive integer")?;
+    let aspect = w as f64 / h as f64;
+    let sensor_mm = match c.sensor_width_mm {
+        Some(v) => check::positive("camera.sensor_width_mm", v)?,
+        None => 36.0,
+    };
+    // Horizontal field of view and focal length in mm, from whichever was given.
+    let (fov_x, focal_mm) = match (c.fov_degrees, c.focal_length_mm) {
+        (Some(_), Some(_)) => {
+            return Err(Invalid::new(
+                "camera",
+                "give `fov_degrees` or `focal_length_mm`, not both",
+            ));
+        }
+        (None, None) => {
+            return Err(Invalid::new(
+                "camera",
+                "missing field `fov_degrees` (or `focal_length_mm`)",
+            ));
+        }
+        (Some(deg), None) => {
+            let deg = check::within("camera.fov_degrees", deg, 1e-3, 179.0, false)?;
+            let axis = c.fov_axis.unwrap_or(FovAxis::Horizontal);
+            let along_x = match axis {
+                FovAxis::Horizontal => true,
+                FovAxis::Vertical => false,
+                FovAxis::Smaller => w <= h,
+            };
+            let half = (0.5 * deg.to_radians()).tan();
+            let half_x = if along_x { half } else { half * aspect };
+            let fov_x = 2.0 * half_x.atan();
+            (fov_x, 0.5 * sensor_mm / half_x)
+        }
+        (None, Some(f)) => {
+            if c.fov_axis.is_some() {
+                return Err(Invalid::new("camera.fov_axis", "`fov_axis` goes with `fov_degrees`"));
+            }
+            let f = check::positive("camera.focal_length_mm", f)?;
+            (2.0 * (0.5 * sensor_mm / f).atan(), f)
+        }
+    };
+    let fov_y = 2.0 * ((0.5 * fov_x).tan() / aspect).atan();
+    let aperture_radius = match (c.fstop, c.aperture_radius) {
+        (Some(_), Some(_)) => {
+            return Err(Invalid::new("camera", "give `fstop` or `aperture_radius`, not both"));
+        }
+        (Some(n), None) => 0.5 * focal_mm * 1e-3 / check::positive("camera.fstop", n)?,
+        (None, Some(r)) => check::non_negative("camera.aperture_radius", r)?,
+        (None, None) => 0.0,
+    };
+    let focus_distance = match c.focus_distance {
+        Some(d) => check::positive("camera.focus_distance", d)?,
+        None if aperture_radius > 0.0 => {
+            return Err(Invalid::new(
+                "camera.focus_distance",
+                "a lens with an aperture needs `focus_distance`",
+            ));
+        }
+        None => 1.0,
+    };
+    let transform = pose::animated("camera.transform", &c.transform, Facing::NegativeZ, fps)?;
+    Ok(Camera {
+        transform,
+        projection: Projection {
+            resolution: [w, h],
+            fov_y,
+            aperture_radius,
+            focus_distance,
+        },
+    })
+}
+
+fn fx_settings(f: &schema::FxSection) -> Result<FxSettings, Invalid> {
+    let d = FxSettings::default();
+    let chord_error_px = match f.chord_error_px {
+        Some(v) => check::positive("fx.chord_error_px", v)?,
+        None => d.chord_error_px,
+    };
+    let min_segments = match f.min_segments {
+        Some(v) => check::integer("fx.min_segments", v, 3, 1 << 20, "an integer ≥ 3")?,
+        None => d.min_segments,
+    };
+    let max_segments = match f.max_segments {
+        Some(v) => check::integer(
+            "fx.max_segments",
+            v,
+            min_segments as i64,
+            1 << 20,
+            "an integer ≥ fx.min_segments",
+        )?,
+        None => d.max_segments.max(min_segments),
+    };
+    Ok(FxSettings {
+        chord_error_px,
+        min_segments,
+        max_segments,
+    })
+}
+
+fn rig(portals: &[PortalSection], fps: f64) -> Result<(Rig, Vec<Option<RingLook>>), Invalid> {
+    let mut names: Vec<String> = Vec::with_capacity(portals.len());
+    for (i, p) in portals.iter().enumerate() {
+        let n = check::name(&format!("portal[{i}].name"), &p.name)?;
+        if names.contains(&n) {
+            return Err(Invalid::new(
+                format!("portal[{i}].name"),
+                format!("another opening is already called {n:?}"),
+            ));
+        }
+        names.push(n);
+    }
+    // Resolve pairings first: a pairing may be written on either side, or both.
+    let mut partner: Vec<Option<usize>> = vec![None; portals.len()];
+    for (i, p) in portals.iter().enumerate() {
+        let Some(target) = &p.pair else { continue };
+        let key = format!("portal[{i}].pair");
+        if p.there.is_some() {
+            return Err(Invalid::new(key, "give `pair` or `there`, not both"));
+        }
+        let j = names
+            .iter()
+            .position(|n| n == target)
+            .ok_or_else(|| Invalid::new(&key, format!("no opening is called {target:?}")))?;
+        if j == i {
+            return Err(Invalid::new(key, "an opening cannot pair with itself"));
+        }
+        if portals[j].there.is_some() {
+            return Err(Invalid::new(
+                key,
+                format!("{target:?} has an explicit `there`; a paired opening's there frame comes from its partner"),
+            ));
+        }
+        for (a, b) in [(i, j), (j, i)] {
+            match partner[a] {
+                Some(existing) if existing != b => {
+                    return Err(Invalid::new(
+                        key,
+                        format!(
+                            "{:?} is already paired with {:?}",
+                            names[a], names[existing]
+                        ),
+                    ));
+                }
+                _ => partner[a] = Some(b),
+            }
+        }
+    }
+
+    let mut openings = Vec::with_capacity(portals.len());
+    let mut rings = Vec::with_capacity(portals.len());
+    for (i, p) in portals.iter().enumerate() {
+        let here = pose::animated(&format!("portal[{i}].here"), &p.here, Facing::PositiveZ, fps)?;
+        let there = match (&p.there, partner[i]) {
+            (Some(t), _) => ThereFrame::Explicit(pose::animated(
+                &format!("portal[{i}].there"),
+                t,
+                Facing::PositiveZ,
+                fps,
+            )?),
+            (None, Some(j)) => ThereFrame::Paired(j),
+            (None, None) => {
+                return Err(Invalid::new(
+                    format!("portal[{i}]"),
+                    "an opening needs `pair` or `there` (where it leads)",
+                ));
+            }
+        };
+        openings.push(Opening {
+            name: names[i].clone(),
+            here,
+            there,
+        });
+        rings.push(match &p.ring {
+            Some(r) => Some(ring_look(&format!("portal[{i}].ring"), r)?),
+            None => None,
+        });
+    }
+    Ok((Rig { openings }, rings))
+}
+
+fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
+    let k = |name: &str| format!("{key}.{name}");
+    let radius = check::positive(&k("radius"), r.radius)?;
+    let strands = check::integer(&k("strands"), r.strands, 1, 100_000, "a positive integer")?;
+    let mut look = RingLook::with_defaults(radius, strands);
+    // Optional values: check when given, keep the default otherwise.
+    let opt = |v: Option<f64>, key: &str, f: &dyn Fn(&str, f64) -> Result<f64, Invalid>, default: f64| {
+        v.map_or(Ok(default), |v| f(&k(key), v))
+    };
+    let unit = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, false);
+    let unit_open = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, true);
+    look.band = opt(r.band, "band", &check::non_negative, look.band)?;
+    look.counter_rotating = opt(r.counter_rotating, "counter_rotating", &unit, 0.5)?;
+    look.width = opt(r.width, "width", &check::positive, look.width)?;
+    look.width_variation = opt(r.width_variation, "width_variation", &unit_open, 0.5)?;
+    look.speed_variation = opt(r.speed_variation, "speed_variation", &unit_open, 0.2)?;
+    if let Some(seed) = r.seed {
+        look.seed = check::integer(&k("seed"), seed, 0, u32::MAX as i64, "an integer ≥ 0")?;
+    }
+
+    let n = &r.noise;
+    let nk = |name: &str| format!("noise.{name}");
+    look.noise.amplitude = opt(n.amplitude, &nk("amplitude"), &check::non_negative, look.noise.amplitude)?;
+    look.noise.depth = opt(n.depth, &nk("depth"), &check::non_negative, look.noise.depth)?;
+    look.noise.frequency = opt(n.frequency, &nk("frequency"), &check::positive, look.noise.frequency)?;
+    if let Some(o) = n.octaves {
+        look.noise.octaves = check::integer(&k(&nk("octaves")), o, 1, 12, "an integer from 1")?;
+    }
+    look.noise.roughness = opt(n.roughness, &nk("roughness"), &|key, v| check::within(key, v, 1e-6, 1.0, false), look.noise.roughness)?;
+    look.noise.evolution = opt(n.evolution, &nk("evolution"), &check::non_negative, look.noise.evolution)?;
+    look.noise.size_compensation = opt(n.size_compensation, &nk("size_compensation"), &unit, 1.0)?;
+
+    let s = &r.speed;
+    let sk = |name: &str| format!("speed.{name}");
+    look.speed.turns_per_second = opt(s.turns_per_second, &sk("turns_per_second"), &check::finite, look.speed.turns_per_second)?;
+    look.speed.reference_size = opt(s.reference_size, &sk("reference_size"), &check::positive, look.speed.reference_size)?;
+    look.speed.size_compensation = opt(s.size_compensation, &sk("size_compensation"), &unit, 1.0)?;
+    look.speed.min_visible_turn = opt(s.min_visible_turn, &sk("min_visible_turn"), &check::non_negative, look.speed.min_visible_turn)?;
+
+    let c = &r.color;
+    let ck = |name: &str| format!("color.{name}");
+    if let Some(stops) = &c.ramp {
+        look.color.ramp = ramp(&k(&ck("ramp")), stops)?;
+    }
+    look.color.intensity = opt(c.intensity, &ck("intensity"), &check::non_negative, look.color.intensity)?;
+    look.color.intensity_variation = opt(c.intensity_variation, &ck("intensity_variation"), &unit, look.color.intensity_variation)?;
+    look.color.flicker = opt(c.flicker, &ck("flicker"), &unit, look.color.flicker)?;
+    look.color.flicker_rate = opt(c.flicker_rate, &ck("flicker_rate"), &check::non_negative, look.color.flicker_rate)?;
+
+    // The strands must stay clear of the centre whatever the noise does.
+    let inner = look.min_radius() - 0.5 * look.width * (1.0 + look.width_variation);
+    if inner <= 0.0 {
+        return Err(Invalid::new(
+            k("radius"),
+            format!(
+                "the ring would cross its centre: radius {} is not larger than band/2 + noise.amplitude + width ({:.4})",
+                look.radius,
+                look.radius - inner
+            ),
+        ));
+    }
+    Ok(look)
+}
+
+fn ramp(key: &str, stops: &[schema::RampStop]) -> Result<ColorRamp, Invalid> {
+    if stops.is_empty() {
+        return Err(Invalid::new(key, "expected at least one stop"));
+    }
+    let mut out = Vec::with_capacity(stops.len());
+    for (i, s) in stops.iter().enumerate() {
+        let at = check::within(&format!("{key}[{i}].at"), s.at, 0.0, 1.0, false)?;
+        if out.last().is_some_and(|&(prev, _)| at <= prev) {
+            return Err(Invalid::new(
+                format!("{key}[{i}].at"),
+                "stops must be in increasing order",
+            ));
+        }
+        let c = DVec3::from_array(s.color);
+        if !c.is_finite() || c.min_element() < 0.0 {
+            return Err(Invalid::new(
+                format!("{key}[{i}].color"),
+                "expected three finite numbers ≥ 0 (linear RGB)",
+            ));
+        }
+        out.push((at, c));
+    }
+    Ok(ColorRamp { stops: out })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_ranges() {
+        assert_eq!(FrameRange::parse("1001").unwrap(), FrameRange { first: 1001, last: 1001 });
+        assert_eq!(FrameRange::parse("1001-1096").unwrap().len(), 96);
+        assert_eq!(FrameRange::parse("-5--1").unwrap(), FrameRange { first: -5, last: -1 });
+        assert!(FrameRange::parse("1005-1001").is_err());
+        assert!(FrameRange::parse("abc").is_err());
+        assert!(FrameRange::parse("").is_err());
+    }
+}
