@@ -180,6 +180,12 @@ impl Similarity {
     }
 }
 
+impl Default for Similarity {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
 impl std::ops::Mul for Similarity {
     type Output = Similarity;
     fn mul(self, rhs: Similarity) -> Similarity {

@@ -4,3 +4,13 @@
 pub mod look;
 
 pub use look::{ColorLook, ColorRamp, NoiseLook, RingLook, SpeedLook};
+pub mod bake;
+pub mod curves;
+pub mod noise_field;
+pub mod strand;
+pub mod timing;
+
+pub use bake::{MotionError, RingGenerator};
+pub use curves::{RingCurves, RingFrame};
+pub use strand::RingModel;
+pub use timing::RingTiming;

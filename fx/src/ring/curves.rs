@@ -1,0 +1,86 @@
+//! Baked ring curves: what fx hands to exporters and the renderer.
+
+use crate::rig::Similarity;
+use glam::Vec3;
+
+/// One opening's strands at one frame, in the opening's local frame (the opening lies in local
+/// XY, front along +Z). Vertex arrays are concatenated strand after strand; each strand is a
+/// closed (periodic) polyline whose last vertex connects back to its first.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RingCurves {
+    /// The opening's name.
+    pub opening: String,
+    /// P_H at the frame's time.
+    pub here: Similarity,
+    /// Vertices of each strand.
+    pub vertex_counts: Vec<u32>,
+    /// +1 or −1 per strand: the way it turns about local +Z.
+    pub directions: Vec<i8>,
+    /// Positions at the frame's time.
+    pub points: Vec<Vec3>,
+    /// Per second: P(t+Δ) ≈ P + vΔ + ½aΔ² across the shutter.
+    pub velocities: Vec<Vec3>,
+    /// Per second squared.
+    pub accelerations: Vec<Vec3>,
+    /// Curve width (diameter).
+    pub widths: Vec<f32>,
+    /// Linear Rec.709 colour.
+    pub colors: Vec<Vec3>,
+    /// Radiance scale: the strand emits `colors · intensities`.
+    pub intensities: Vec<f32>,
+}
+
+impl RingCurves {
+    /// Total vertex count.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// True when there are no vertices.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Index ranges of each strand's vertices.
+    pub fn strand_ranges(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+        self.vertex_counts.iter().scan(0usize, |start, &n| {
+            let r = *start..*start + n as usize;
+            *start += n as usize;
+            Some(r)
+        })
+    }
+
+    /// Axis-aligned bounds of the positions grown by half the widths: (min, max).
+    pub fn extent(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for (p, w) in self.points.iter().zip(&self.widths) {
+            lo = lo.min(*p - Vec3::splat(0.5 * w));
+            hi = hi.max(*p + Vec3::splat(0.5 * w));
+        }
+        if self.points.is_empty() {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (lo, hi)
+        }
+    }
+}
+
+/// Every opening's rings at one frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RingFrame {
+    pub frame: i64,
+    /// Seconds.
+    pub time: f64,
+    pub fps: f64,
+    /// Shutter open and close relative to `time`, seconds.
+    pub shutter: [f64; 2],
+    pub rings: Vec<RingCurves>,
+}
+
+impl RingFrame {
+    /// Total vertex count of all rings.
+    pub fn vertex_count(&self) -> usize {
+        self.rings.iter().map(RingCurves::len).sum()
+    }
+}
