@@ -1,1 +1,54 @@
-fn main(){}
+//! `rift`: the command-line program. Parses arguments and wires rift-fx and rift-render together;
+//! everything else lives in the library crates.
+
+mod bench;
+mod fx_cmd;
+mod progress;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Portal effects and a portal-aware path tracer.
+#[derive(Parser)]
+#[command(name = "rift", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Generate portal rings for a shot and write them as USD, PLY and ring caches.
+    Fx(fx_cmd::FxArgs),
+    /// Measure performance and print tables.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Fx(args) => fx_cmd::run(args),
+        Command::Bench(cmd) => bench::run(cmd),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("rift: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
+pub fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> T + Send,
+) -> anyhow::Result<T> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        anyhow::ensure!(n > 0, "--threads: expected a positive number");
+        builder = builder.num_threads(n);
+    }
+    Ok(builder.build()?.install(f))
+}

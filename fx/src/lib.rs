@@ -14,3 +14,4 @@ pub mod ring;
 pub mod shot;
 
 pub use shot::{FrameRange, Shot};
+pub mod export;

@@ -124,9 +124,14 @@ impl<'a> RingGenerator<'a> {
         let here = self.shot.rig.here_at(opening, time);
         let n = self.segments(model, &here, time) as usize;
         let strands = model.strands.len();
+        let [open, close] = self.shot.shutter_seconds();
         let mut out = RingCurves {
             opening: self.shot.rig.openings[opening].name.clone(),
             here,
+            here_shutter: [
+                self.shot.rig.here_at(opening, time + open),
+                self.shot.rig.here_at(opening, time + close),
+            ],
             vertex_counts: vec![n as u32; strands],
             directions: model.strands.iter().map(|s| s.direction as i8).collect(),
             ..Default::default()

@@ -12,6 +12,8 @@ pub struct RingCurves {
     pub opening: String,
     /// P_H at the frame's time.
     pub here: Similarity,
+    /// P_H at shutter open and close (equal to `here` for a static opening).
+    pub here_shutter: [Similarity; 2],
     /// Vertices of each strand.
     pub vertex_counts: Vec<u32>,
     /// +1 or −1 per strand: the way it turns about local +Z.
@@ -50,19 +52,18 @@ impl RingCurves {
         })
     }
 
-    /// Axis-aligned bounds of the positions grown by half the widths: (min, max).
+    /// Axis-aligned bounds of the positions grown by half the largest width, as USD computes the
+    /// extent of curves: (min, max).
     pub fn extent(&self) -> (Vec3, Vec3) {
-        let mut lo = Vec3::splat(f32::INFINITY);
-        let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for (p, w) in self.points.iter().zip(&self.widths) {
-            lo = lo.min(*p - Vec3::splat(0.5 * w));
-            hi = hi.max(*p + Vec3::splat(0.5 * w));
-        }
         if self.points.is_empty() {
-            (Vec3::ZERO, Vec3::ZERO)
-        } else {
-            (lo, hi)
+            return (Vec3::ZERO, Vec3::ZERO);
         }
+        let pad = Vec3::splat(0.5 * self.widths.iter().copied().fold(0.0, f32::max));
+        let (lo, hi) = self.points.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        (lo - pad, hi + pad)
     }
 }
 

@@ -1,0 +1,96 @@
+//! Writing baked rings: USD (`.usda` BasisCurves), a binary PLY point cloud of the boundary, and a
+//! compact native cache that the renderer loads. Every file is written to a temporary name beside
+//! its destination and renamed into place, so a failed or interrupted job leaves no partial file.
+
+pub mod atomic;
+pub mod cache;
+pub mod ply;
+pub mod usda;
+
+use crate::error::FxError;
+use crate::ring::RingFrame;
+use std::path::{Path, PathBuf};
+
+/// The formats `rift fx` can write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    Usd,
+    Ply,
+    Cache,
+}
+
+impl Format {
+    /// Every format.
+    pub const ALL: [Format; 3] = [Format::Usd, Format::Ply, Format::Cache];
+
+    /// Parses a comma-separated list such as `usd,ply,cache`.
+    pub fn parse_list(text: &str) -> Result<Vec<Format>, String> {
+        let mut out = Vec::new();
+        for word in text.split(',').map(str::trim).filter(|w| !w.is_empty()) {
+            let f = match word {
+                "usd" | "usda" => Format::Usd,
+                "ply" => Format::Ply,
+                "cache" => Format::Cache,
+                other => {
+                    return Err(format!(
+                        "unknown format {other:?}: expected usd, ply or cache"
+                    ));
+                }
+            };
+            if !out.contains(&f) {
+                out.push(f);
+            }
+        }
+        if out.is_empty() {
+            return Err("expected at least one of usd, ply, cache".into());
+        }
+        Ok(out)
+    }
+}
+
+/// Output file names for a shot called `shot`.
+pub fn usda_path(dir: &Path, shot: &str, frame: i64) -> PathBuf {
+    dir.join(format!("{shot}.{frame:04}.usda"))
+}
+
+/// One PLY per opening and frame.
+pub fn ply_path(dir: &Path, shot: &str, opening: &str, frame: i64) -> PathBuf {
+    dir.join(format!("{shot}.{opening}.{frame:04}.ply"))
+}
+
+/// One cache per frame holding every opening.
+pub fn cache_path(dir: &Path, shot: &str, frame: i64) -> PathBuf {
+    dir.join(format!("{shot}.{frame:04}.ringcache"))
+}
+
+/// Writes `frame` in the given formats; returns the paths written.
+pub fn write_frame(
+    dir: &Path,
+    shot: &str,
+    frame: &RingFrame,
+    formats: &[Format],
+) -> Result<Vec<PathBuf>, FxError> {
+    let mut written = Vec::new();
+    for format in formats {
+        match format {
+            Format::Usd => {
+                let path = usda_path(dir, shot, frame.frame);
+                atomic::write(&path, |w| usda::write(w, shot, frame))?;
+                written.push(path);
+            }
+            Format::Ply => {
+                for ring in &frame.rings {
+                    let path = ply_path(dir, shot, &ring.opening, frame.frame);
+                    atomic::write(&path, |w| ply::write(w, frame, ring))?;
+                    written.push(path);
+                }
+            }
+            Format::Cache => {
+                let path = cache_path(dir, shot, frame.frame);
+                atomic::write(&path, |w| cache::write(w, frame))?;
+                written.push(path);
+            }
+        }
+    }
+    Ok(written)
+}
