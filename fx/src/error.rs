@@ -1,6 +1,7 @@
 //! Typed errors of the fx crate. Every error that comes from user input names the file and, where
 //! there is one, the key path inside it (`portal[1].ring.strands`), so a message can be acted on
-//! without opening a debugger.
+//! without opening a debugger. Causes are part of the message (not a `source` chain), so each
+//! error prints once, complete.
 
 use std::path::PathBuf;
 
@@ -8,12 +9,8 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum FxError {
     /// The shot (or another input) file could not be read at all.
-    #[error("{}: cannot read: {source}", file.display())]
-    Read {
-        file: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{}: cannot read: {cause}", file.display())]
+    Read { file: PathBuf, cause: std::io::Error },
     /// The file is not valid TOML.
     #[error("{}: {message}", file.display())]
     Syntax { file: PathBuf, message: String },
@@ -25,12 +22,8 @@ pub enum FxError {
         message: String,
     },
     /// An output could not be written.
-    #[error("{}: cannot write: {source}", path.display())]
-    Write {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{}: cannot write: {cause}", path.display())]
+    Write { path: PathBuf, cause: std::io::Error },
     /// A ring cache is truncated, corrupt or of another version.
     #[error("{}: not a valid ring cache: {message}", file.display())]
     Cache { file: PathBuf, message: String },

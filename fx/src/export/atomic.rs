@@ -10,9 +10,9 @@ pub fn write(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), FxError> {
-    let err = |source| FxError::Write {
+    let err = |cause| FxError::Write {
         path: path.to_owned(),
-        source,
+        cause,
     };
     let name = path.file_name().ok_or_else(|| {
         err(std::io::Error::new(

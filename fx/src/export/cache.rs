@@ -76,9 +76,9 @@ pub fn write(w: &mut dyn Write, frame: &RingFrame) -> io::Result<()> {
 
 /// Reads a cache file.
 pub fn read(path: &Path) -> Result<RingFrame, FxError> {
-    let bytes = std::fs::read(path).map_err(|source| FxError::Read {
+    let bytes = std::fs::read(path).map_err(|cause| FxError::Read {
         file: path.to_owned(),
-        source,
+        cause,
     })?;
     decode(&bytes).map_err(|message| FxError::Cache {
         file: path.to_owned(),

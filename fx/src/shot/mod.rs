@@ -111,9 +111,9 @@ pub struct Shot {
 impl Shot {
     /// Reads and validates a shot file.
     pub fn load(path: &Path) -> Result<Self, FxError> {
-        let text = std::fs::read_to_string(path).map_err(|source| FxError::Read {
+        let text = std::fs::read_to_string(path).map_err(|cause| FxError::Read {
             file: path.to_owned(),
-            source,
+            cause,
         })?;
         Self::parse(&text, path)
     }
