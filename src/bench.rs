@@ -4,9 +4,9 @@
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use rayon::prelude::*;
+use rift_fx::Shot;
 use rift_fx::export::{self, Format};
 use rift_fx::ring::RingGenerator;
-use rift_fx::Shot;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -59,7 +59,10 @@ fn fx(args: FxBenchArgs) -> anyhow::Result<()> {
     for _ in 0..args.repeats {
         let t = Instant::now();
         vertices = crate::with_threads(args.threads, || {
-            frames.par_iter().map(|&f| generator.frame(f).vertex_count()).sum()
+            frames
+                .par_iter()
+                .map(|&f| generator.frame(f).vertex_count())
+                .sum()
         })?;
         gen_times.push(t.elapsed().as_secs_f64());
     }
@@ -94,7 +97,12 @@ fn fx(args: FxBenchArgs) -> anyhow::Result<()> {
         rows.push((format, median(times), bytes));
     }
 
-    let strands: usize = shot.rings.iter().flatten().map(|r| r.strands as usize).sum();
+    let strands: usize = shot
+        .rings
+        .iter()
+        .flatten()
+        .map(|r| r.strands as usize)
+        .sum();
     println!(
         "rift bench fx: {} ({} frames, {} rings, {strands} strands, {:.0} vertices/strand on average), {threads} threads, median of {}",
         args.shot.display(),
@@ -103,8 +111,18 @@ fn fx(args: FxBenchArgs) -> anyhow::Result<()> {
         vertices as f64 / (strands * frames.len()) as f64,
         args.repeats
     );
-    println!("{:<14} {:>10} {:>16} {:>22} {:>10}", "stage", "vertices", "median s", "strand-vertices/s", "MB/s");
-    println!("{:<14} {:>10} {:>16.3} {:>22.3e} {:>10}", "generate", vertices, generation, vertices as f64 / generation, "-");
+    println!(
+        "{:<14} {:>10} {:>16} {:>22} {:>10}",
+        "stage", "vertices", "median s", "strand-vertices/s", "MB/s"
+    );
+    println!(
+        "{:<14} {:>10} {:>16.3} {:>22.3e} {:>10}",
+        "generate",
+        vertices,
+        generation,
+        vertices as f64 / generation,
+        "-"
+    );
     for (format, secs, bytes) in rows {
         println!(
             "{:<14} {:>10} {:>16.3} {:>22.3e} {:>10.1}",

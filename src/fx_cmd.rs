@@ -42,7 +42,10 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
     };
     let formats = Format::parse_list(&args.format).map_err(|e| anyhow::anyhow!("--format: {e}"))?;
     if shot.rings.iter().all(Option::is_none) {
-        bail!("{}: no opening has a ring (add a [portal.ring] table)", shot.source.display());
+        bail!(
+            "{}: no opening has a ring (add a [portal.ring] table)",
+            shot.source.display()
+        );
     }
     prepare_output_dir(&args.output)?;
 
@@ -71,10 +74,12 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
         let (v, f, motion) = result?;
         vertices += v;
         files += f;
-        if let Some(m) = motion {
-            if worst.as_ref().is_none_or(|w| m.max_relative > w.max_relative) {
-                worst = Some(m);
-            }
+        if let Some(m) = motion
+            && worst
+                .as_ref()
+                .is_none_or(|w| m.max_relative > w.max_relative)
+        {
+            worst = Some(m);
         }
     }
     eprintln!(

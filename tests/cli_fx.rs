@@ -19,7 +19,10 @@ fn expect_failure(name: &str, text: Option<&str>, extra: &[&str], expect: &[&str
     args.extend_from_slice(extra);
     let out = rift(dir.path(), &args);
     let msg = stderr(&out);
-    assert!(!out.status.success(), "{name}: expected failure, got success");
+    assert!(
+        !out.status.success(),
+        "{name}: expected failure, got success"
+    );
     assert_eq!(out.status.code(), Some(1), "{name}: exit code");
     for e in expect {
         assert!(msg.contains(e), "{name}: message {msg:?} lacks {e:?}");
@@ -33,7 +36,17 @@ fn expect_failure(name: &str, text: Option<&str>, extra: &[&str], expect: &[&str
 fn writes_every_format_for_every_frame_and_ring() {
     let dir = tempfile::tempdir().unwrap();
     let shot = root().join("tests/data/small_shot.toml");
-    let out = rift(dir.path(), &["fx", shot.to_str().unwrap(), "--frames", "1001-1003", "-o", "o"]);
+    let out = rift(
+        dir.path(),
+        &[
+            "fx",
+            shot.to_str().unwrap(),
+            "--frames",
+            "1001-1003",
+            "-o",
+            "o",
+        ],
+    );
     assert!(out.status.success(), "{}", stderr(&out));
     let names: Vec<String> = files_in(&dir.path().join("o"))
         .iter()
@@ -58,7 +71,19 @@ fn output_is_byte_identical_for_any_thread_count_and_frame_subset() {
     let shot = root().join("tests/data/small_shot.toml");
     let shot = shot.to_str().unwrap();
     for (threads, out) in [("1", "one"), ("2", "two"), ("3", "three")] {
-        let r = rift(dir.path(), &["fx", shot, "--frames", "1001-1004", "-o", out, "--threads", threads]);
+        let r = rift(
+            dir.path(),
+            &[
+                "fx",
+                shot,
+                "--frames",
+                "1001-1004",
+                "-o",
+                out,
+                "--threads",
+                threads,
+            ],
+        );
         assert!(r.status.success(), "{}", stderr(&r));
     }
     let alone = rift(dir.path(), &["fx", shot, "--frames", "1003", "-o", "alone"]);
@@ -68,12 +93,20 @@ fn output_is_byte_identical_for_any_thread_count_and_frame_subset() {
     for other in ["two", "three"] {
         for f in &one {
             let g = dir.path().join(other).join(f.file_name().unwrap());
-            assert!(std::fs::read(f).unwrap() == std::fs::read(&g).unwrap(), "{} differs with {other} threads", f.display());
+            assert!(
+                std::fs::read(f).unwrap() == std::fs::read(&g).unwrap(),
+                "{} differs with {other} threads",
+                f.display()
+            );
         }
     }
     for f in files_in(&dir.path().join("alone")) {
         let g = dir.path().join("one").join(f.file_name().unwrap());
-        assert!(std::fs::read(&f).unwrap() == std::fs::read(&g).unwrap(), "{} differs when generated alone", f.display());
+        assert!(
+            std::fs::read(&f).unwrap() == std::fs::read(&g).unwrap(),
+            "{} differs when generated alone",
+            f.display()
+        );
     }
 }
 
@@ -81,36 +114,62 @@ fn output_is_byte_identical_for_any_thread_count_and_frame_subset() {
 fn ply_and_cache_carry_the_same_curves() {
     let dir = tempfile::tempdir().unwrap();
     let shot = root().join("tests/data/small_shot.toml");
-    let r = rift(dir.path(), &["fx", shot.to_str().unwrap(), "--frames", "1005", "-o", "o"]);
+    let r = rift(
+        dir.path(),
+        &["fx", shot.to_str().unwrap(), "--frames", "1005", "-o", "o"],
+    );
     assert!(r.status.success());
     let cache = rift_fx::export::cache::read(&dir.path().join("o/small.1005.ringcache")).unwrap();
     assert_eq!(cache.frame, 1005);
     assert_eq!(cache.rings.len(), 2);
     for ring in &cache.rings {
-        let bytes = std::fs::read(dir.path().join(format!("o/small.{}.1005.ply", ring.opening))).unwrap();
-        let header_end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        let bytes = std::fs::read(
+            dir.path()
+                .join(format!("o/small.{}.1005.ply", ring.opening)),
+        )
+        .unwrap();
+        let header_end = bytes
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .unwrap()
+            + 11;
         let header = std::str::from_utf8(&bytes[..header_end]).unwrap();
         assert!(header.starts_with("ply\nformat binary_little_endian 1.0\n"));
         assert!(header.contains(&format!("element vertex {}\n", ring.len())));
-        let props: Vec<&str> = header.lines().filter_map(|l| l.strip_prefix("property ")).collect();
+        let props: Vec<&str> = header
+            .lines()
+            .filter_map(|l| l.strip_prefix("property "))
+            .collect();
         assert_eq!(props.len(), rift_fx::export::ply::PROPERTIES.len());
         let body = &bytes[header_end..];
         let stride = 4 * props.len();
         assert_eq!(body.len(), stride * ring.len());
-        let field = |row: usize, col: usize| f32::from_le_bytes(body[row * stride + 4 * col..][..4].try_into().unwrap());
-        let strand = |row: usize| i32::from_le_bytes(body[row * stride + 48..][..4].try_into().unwrap());
+        let field = |row: usize, col: usize| {
+            f32::from_le_bytes(body[row * stride + 4 * col..][..4].try_into().unwrap())
+        };
+        let strand =
+            |row: usize| i32::from_le_bytes(body[row * stride + 48..][..4].try_into().unwrap());
         for (s, range) in ring.strand_ranges().enumerate() {
             for i in range {
                 let p = ring.points[i];
                 assert_eq!([field(i, 0), field(i, 1), field(i, 2)], p.to_array());
-                assert_eq!([field(i, 3), field(i, 4), field(i, 5)], ring.velocities[i].to_array());
-                assert_eq!([field(i, 6), field(i, 7), field(i, 8)], ring.accelerations[i].to_array());
+                assert_eq!(
+                    [field(i, 3), field(i, 4), field(i, 5)],
+                    ring.velocities[i].to_array()
+                );
+                assert_eq!(
+                    [field(i, 6), field(i, 7), field(i, 8)],
+                    ring.accelerations[i].to_array()
+                );
                 assert!((field(i, 9) as f64 - 1005.0 / 24.0).abs() < 1e-4);
                 let angle = field(i, 10);
                 assert!((0.0..std::f32::consts::TAU).contains(&angle));
                 assert!((angle.cos() * field(i, 11) - p.x).abs() < 1e-5);
                 assert_eq!(strand(i), s as i32);
-                assert_eq!([field(i, 13), field(i, 14), field(i, 15)], ring.colors[i].to_array());
+                assert_eq!(
+                    [field(i, 13), field(i, 14), field(i, 15)],
+                    ring.colors[i].to_array()
+                );
                 assert_eq!(field(i, 16), ring.intensities[i]);
                 assert_eq!(field(i, 17), ring.widths[i]);
             }
@@ -122,13 +181,32 @@ fn ply_and_cache_carry_the_same_curves() {
 fn a_corrupt_cache_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
     let shot = root().join("tests/data/small_shot.toml");
-    assert!(rift(dir.path(), &["fx", shot.to_str().unwrap(), "--frames", "1001", "-o", "o", "--format", "cache"]).status.success());
+    assert!(
+        rift(
+            dir.path(),
+            &[
+                "fx",
+                shot.to_str().unwrap(),
+                "--frames",
+                "1001",
+                "-o",
+                "o",
+                "--format",
+                "cache"
+            ]
+        )
+        .status
+        .success()
+    );
     let path = dir.path().join("o/small.1001.ringcache");
     let mut bytes = std::fs::read(&path).unwrap();
     bytes.truncate(bytes.len() - 100);
     std::fs::write(&path, &bytes).unwrap();
     let err = rift_fx::export::cache::read(&path).unwrap_err().to_string();
-    assert!(err.contains("small.1001.ringcache") && err.contains("not a valid ring cache"), "{err}");
+    assert!(
+        err.contains("small.1001.ringcache") && err.contains("not a valid ring cache"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -139,36 +217,66 @@ fn missing_file() {
 #[test]
 fn unknown_key() {
     let text = small_shot().replace("strands = 4", "strands = 4\nstrandz = 5");
-    expect_failure("bad.toml", Some(&text), &[], &["bad.toml", "portal[0].ring.strandz", "unknown field"]);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml", "portal[0].ring.strandz", "unknown field"],
+    );
 }
 
 #[test]
 fn wrong_type() {
     let text = small_shot().replace("fps = 24.0", "fps = \"fast\"");
-    expect_failure("bad.toml", Some(&text), &[], &["bad.toml", "shot.fps", "invalid type", "line 4"]);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml", "shot.fps", "invalid type", "line 4"],
+    );
 }
 
 #[test]
 fn zero_strands() {
     let text = small_shot().replace("strands = 3", "strands = 0");
-    expect_failure("bad.toml", Some(&text), &[], &["bad.toml: portal[1].ring.strands: expected a positive integer"]);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml: portal[1].ring.strands: expected a positive integer"],
+    );
 }
 
 #[test]
 fn negative_radius() {
     let text = small_shot().replacen("radius = 0.8", "radius = -0.8", 1);
-    expect_failure("bad.toml", Some(&text), &[], &["bad.toml: portal[0].ring.radius: expected a positive number"]);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml: portal[0].ring.radius: expected a positive number"],
+    );
 }
 
 #[test]
 fn singular_portal_frame() {
     let text = small_shot().replace("scale = 1.5", "scale = 0.0");
-    expect_failure("bad.toml", Some(&text), &[], &["bad.toml: portal[1].here.scale", "singular"]);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml: portal[1].here.scale", "singular"],
+    );
     let text = small_shot().replace(
         "here = { position = [-1.2, 1.5, 0.0], rotation_degrees = [0.0, 20.0, 0.0] }",
         "here = { position = [-1.2, 1.5, 0.0], look_at = [-1.2, 1.5, 0.0] }",
     );
-    expect_failure("bad.toml", Some(&text), &[], &["bad.toml: portal[0].here.look_at", "singular"]);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml: portal[0].here.look_at", "singular"],
+    );
 }
 
 #[test]
@@ -177,13 +285,23 @@ fn non_similarity_pairing() {
         "here = { position = [2.0, 1.6, -4.0], rotation_degrees = [0.0, -35.0, 0.0], scale = 1.5 }",
         "here = { matrix = [[1.0, 0.0, 0.0, 2.0], [0.0, 2.0, 0.0, 1.6], [0.0, 0.0, 1.0, -4.0], [0.0, 0.0, 0.0, 1.0]] }",
     );
-    expect_failure("bad.toml", Some(&text), &[], &["bad.toml: portal[1].here.matrix", "not a similarity"]);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml: portal[1].here.matrix", "not a similarity"],
+    );
 }
 
 #[test]
 fn pairing_with_an_unknown_opening() {
     let text = small_shot().replace("pair = \"b\"", "pair = \"zz\"");
-    expect_failure("bad.toml", Some(&text), &[], &["bad.toml: portal[0].pair", "no opening is called \"zz\""]);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml: portal[0].pair", "no opening is called \"zz\""],
+    );
 }
 
 #[test]
@@ -195,18 +313,36 @@ fn unwritable_output_directory() {
     let out = rift(dir.path(), &["fx", "shot.toml", "-o", "blocker/out"]);
     assert_eq!(out.status.code(), Some(1));
     let msg = stderr(&out);
-    assert!(msg.contains("blocker/out") && msg.contains("output directory"), "{msg}");
+    assert!(
+        msg.contains("blocker/out") && msg.contains("output directory"),
+        "{msg}"
+    );
     assert_eq!(files_in(dir.path()).len(), 2, "nothing else written");
 }
 
 #[test]
 fn bad_frames_and_formats() {
     let text = small_shot();
-    expect_failure("s.toml", Some(&text), &["--frames", "1010-1001"], &["--frames", "ends before it starts"]);
-    expect_failure("s.toml", Some(&text), &["--format", "usd,obj"], &["--format", "unknown format \"obj\""]);
+    expect_failure(
+        "s.toml",
+        Some(&text),
+        &["--frames", "1010-1001"],
+        &["--frames", "ends before it starts"],
+    );
+    expect_failure(
+        "s.toml",
+        Some(&text),
+        &["--format", "usd,obj"],
+        &["--format", "unknown format \"obj\""],
+    );
 }
 
 #[test]
 fn syntax_error_names_the_line() {
-    expect_failure("bad.toml", Some("[shot\nname = 1\n"), &[], &["bad.toml", "line 1"]);
+    expect_failure(
+        "bad.toml",
+        Some("[shot\nname = 1\n"),
+        &[],
+        &["bad.toml", "line 1"],
+    );
 }

@@ -7,8 +7,8 @@
 
 mod common;
 
-use rift_fx::ring::RingGenerator;
 use rift_fx::Shot;
+use rift_fx::ring::RingGenerator;
 
 const GOLDEN: &str = "tests/golden/small_shot.csv";
 const FRAMES: [i64; 2] = [1001, 1009];
@@ -60,7 +60,9 @@ fn curves_match_golden_data() {
     let rows = current();
     let path = common::root().join(GOLDEN);
     if std::env::var_os("RIFT_BLESS").is_some() {
-        let mut text = String::from("# opening,frame,strand,vertex (-1: vertex count row),x,y,z,vx,vy,vz,ax,ay,az,width,r,g,b,intensity\n");
+        let mut text = String::from(
+            "# opening,frame,strand,vertex (-1: vertex count row),x,y,z,vx,vy,vz,ax,ay,az,width,r,g,b,intensity\n",
+        );
         for (key, v) in &rows {
             let values: Vec<String> = v.iter().map(|x| format!("{x:e}")).collect();
             text.push_str(&format!("{key},{}\n", values.join(",")));
@@ -76,10 +78,17 @@ fn curves_match_golden_data() {
         .filter(|l| !l.starts_with('#'))
         .map(|l| {
             let parts: Vec<&str> = l.split(',').collect();
-            (parts[..4].join(","), parts[4..].iter().map(|x| x.parse().unwrap()).collect())
+            (
+                parts[..4].join(","),
+                parts[4..].iter().map(|x| x.parse().unwrap()).collect(),
+            )
         })
         .collect();
-    assert_eq!(golden.len(), rows.len(), "row count differs from golden data");
+    assert_eq!(
+        golden.len(),
+        rows.len(),
+        "row count differs from golden data"
+    );
     let mut worst = (0.0f64, String::new());
     for ((gk, g), (ck, c)) in golden.iter().zip(&rows) {
         assert_eq!(gk, ck, "row order differs");
@@ -90,7 +99,10 @@ fn curves_match_golden_data() {
         for col in 0..COLUMNS {
             let ratio = (g[col] - c[col]).abs() / tolerance(col, g[col]);
             if ratio > worst.0 {
-                worst = (ratio, format!("{gk} column {col}: golden {} now {}", g[col], c[col]));
+                worst = (
+                    ratio,
+                    format!("{gk} column {col}: golden {} now {}", g[col], c[col]),
+                );
             }
         }
     }

@@ -12,7 +12,19 @@ use std::process::Command;
 fn example_shot_usd_passes_usd_core_validators() {
     let dir = tempfile::tempdir().unwrap();
     let shot = root().join("examples/shots/portal_pair.toml");
-    let out = rift(dir.path(), &["fx", shot.to_str().unwrap(), "--frames", "1001-1003", "-o", "o", "--format", "usd"]);
+    let out = rift(
+        dir.path(),
+        &[
+            "fx",
+            shot.to_str().unwrap(),
+            "--frames",
+            "1001-1003",
+            "-o",
+            "o",
+            "--format",
+            "usd",
+        ],
+    );
     assert!(out.status.success(), "{}", stderr(&out));
     let usda: Vec<String> = files_in(&dir.path().join("o"))
         .iter()
@@ -20,7 +32,9 @@ fn example_shot_usd_passes_usd_core_validators() {
         .collect();
     assert_eq!(usda.len(), 3);
 
-    let probe = Command::new("python3").args(["-c", "import pxr.UsdValidation"]).output();
+    let probe = Command::new("python3")
+        .args(["-c", "import pxr.UsdValidation"])
+        .output();
     let ready = probe.as_ref().is_ok_and(|o| o.status.success());
     assert!(
         ready,
@@ -28,8 +42,16 @@ fn example_shot_usd_passes_usd_core_validators() {
         probe.map(|o| String::from_utf8_lossy(&o.stderr).into_owned())
     );
     let script = root().join("tests/support/usd_validate.py");
-    let check = Command::new("python3").arg(script).args(&usda).output().unwrap();
+    let check = Command::new("python3")
+        .arg(script)
+        .args(&usda)
+        .output()
+        .unwrap();
     let report = String::from_utf8_lossy(&check.stdout);
-    assert!(check.status.success(), "usd validation failed:\n{report}{}", String::from_utf8_lossy(&check.stderr));
+    assert!(
+        check.status.success(),
+        "usd validation failed:\n{report}{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
     assert_eq!(report.matches(": ok").count(), 3, "{report}");
 }

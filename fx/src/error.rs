@@ -10,7 +10,10 @@ use std::path::PathBuf;
 pub enum FxError {
     /// The shot (or another input) file could not be read at all.
     #[error("{}: cannot read: {cause}", file.display())]
-    Read { file: PathBuf, cause: std::io::Error },
+    Read {
+        file: PathBuf,
+        cause: std::io::Error,
+    },
     /// The file is not valid TOML.
     #[error("{}: {message}", file.display())]
     Syntax { file: PathBuf, message: String },
@@ -23,7 +26,10 @@ pub enum FxError {
     },
     /// An output could not be written.
     #[error("{}: cannot write: {cause}", path.display())]
-    Write { path: PathBuf, cause: std::io::Error },
+    Write {
+        path: PathBuf,
+        cause: std::io::Error,
+    },
     /// A ring cache is truncated, corrupt or of another version.
     #[error("{}: not a valid ring cache: {message}", file.display())]
     Cache { file: PathBuf, message: String },

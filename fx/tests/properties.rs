@@ -2,10 +2,10 @@
 
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
-use rift_fx::rig::opening::{solve_here, solve_there};
-use rift_fx::rig::Similarity;
-use rift_fx::ring::RingGenerator;
 use rift_fx::Shot;
+use rift_fx::rig::Similarity;
+use rift_fx::rig::opening::{solve_here, solve_there};
+use rift_fx::ring::RingGenerator;
 use std::path::Path;
 
 /// A random but sensible look and camera path, as shot text.
@@ -30,8 +30,22 @@ struct Params {
 
 fn params() -> impl Strategy<Value = Params> {
     (
-        (0.3f64..3.0, 0.0f64..0.1, 0.0f64..0.06, 0.0f64..1.0, 1.0f64..12.0, 1u32..5),
-        (0.0f64..2.0, 0.02f64..0.5, 0.0f64..1.0, 1u32..7, 0.0f64..1.0, any::<u32>()),
+        (
+            0.3f64..3.0,
+            0.0f64..0.1,
+            0.0f64..0.06,
+            0.0f64..1.0,
+            1.0f64..12.0,
+            1u32..5,
+        ),
+        (
+            0.0f64..2.0,
+            0.02f64..0.5,
+            0.0f64..1.0,
+            1u32..7,
+            0.0f64..1.0,
+            any::<u32>(),
+        ),
         (3.0f64..30.0, 3.0f64..30.0, -70.0f64..70.0, 0.5f64..2.0),
     )
         .prop_map(|(a, b, c)| Params {

@@ -37,7 +37,12 @@ pub fn write(w: &mut dyn Write, frame: &RingFrame) -> io::Result<()> {
         b.extend_from_slice(&(ring.opening.len() as u32).to_le_bytes());
         b.extend_from_slice(ring.opening.as_bytes());
         for s in [ring.here_shutter[0], ring.here, ring.here_shutter[1]] {
-            let values = s.rotation.to_array().into_iter().chain(s.translation.to_array()).chain([s.scale]);
+            let values = s
+                .rotation
+                .to_array()
+                .into_iter()
+                .chain(s.translation.to_array())
+                .chain([s.scale]);
             for v in values {
                 b.extend_from_slice(&v.to_le_bytes());
             }
@@ -98,7 +103,9 @@ pub fn decode(bytes: &[u8]) -> Result<RingFrame, String> {
     let mut r = Reader { bytes: body, at: 8 };
     let version = r.u32()?;
     if version != VERSION {
-        return Err(format!("version {version}; this rift reads version {VERSION}"));
+        return Err(format!(
+            "version {version}; this rift reads version {VERSION}"
+        ));
     }
     let ring_count = r.u32()? as usize;
     let frame = r.i64()?;
@@ -116,9 +123,13 @@ pub fn decode(bytes: &[u8]) -> Result<RingFrame, String> {
         }
         let strands = r.u32()? as usize;
         let n = r.u32()? as usize;
-        let vertex_counts = (0..strands).map(|_| r.u32()).collect::<Result<Vec<_>, _>>()?;
+        let vertex_counts = (0..strands)
+            .map(|_| r.u32())
+            .collect::<Result<Vec<_>, _>>()?;
         if vertex_counts.iter().map(|&c| c as usize).sum::<usize>() != n {
-            return Err(format!("ring {opening:?}: strand vertex counts do not add up to {n}"));
+            return Err(format!(
+                "ring {opening:?}: strand vertex counts do not add up to {n}"
+            ));
         }
         let directions = (0..strands)
             .map(|_| r.u32().map(|d| d as i32 as i8))

@@ -15,8 +15,24 @@ use std::io::{self, Write};
 
 /// Property names in file order (every one `float` except `strand`).
 pub const PROPERTIES: [&str; 18] = [
-    "x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az", "time", "angle", "radius", "strand", "r",
-    "g", "b", "intensity", "width",
+    "x",
+    "y",
+    "z",
+    "vx",
+    "vy",
+    "vz",
+    "ax",
+    "ay",
+    "az",
+    "time",
+    "angle",
+    "radius",
+    "strand",
+    "r",
+    "g",
+    "b",
+    "intensity",
+    "width",
 ];
 
 /// Writes one opening's ring at one frame.
@@ -24,9 +40,20 @@ pub fn write(w: &mut dyn Write, frame: &RingFrame, ring: &RingCurves) -> io::Res
     let m = ring.here.to_mat4().transpose().to_cols_array();
     writeln!(w, "ply")?;
     writeln!(w, "format binary_little_endian 1.0")?;
-    writeln!(w, "comment rift fx ring boundary: opening {} frame {}", ring.opening, frame.frame)?;
-    writeln!(w, "comment fps {} shutter {} {} (seconds)", frame.fps, frame.shutter[0], frame.shutter[1])?;
-    write!(w, "comment space opening-local; here frame (row-major 4x4):")?;
+    writeln!(
+        w,
+        "comment rift fx ring boundary: opening {} frame {}",
+        ring.opening, frame.frame
+    )?;
+    writeln!(
+        w,
+        "comment fps {} shutter {} {} (seconds)",
+        frame.fps, frame.shutter[0], frame.shutter[1]
+    )?;
+    write!(
+        w,
+        "comment space opening-local; here frame (row-major 4x4):"
+    )?;
     for v in m {
         write!(w, " {v}")?;
     }

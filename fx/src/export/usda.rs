@@ -18,7 +18,10 @@ pub fn write(w: &mut dyn Write, shot: &str, frame: &RingFrame) -> io::Result<()>
     writeln!(w, "#usda 1.0")?;
     writeln!(w, "(")?;
     writeln!(w, "    defaultPrim = \"{shot}\"")?;
-    writeln!(w, "    doc = \"rift fx portal rings: shot {shot}, frame {code}\"")?;
+    writeln!(
+        w,
+        "    doc = \"rift fx portal rings: shot {shot}, frame {code}\""
+    )?;
     writeln!(w, "    startTimeCode = {code}")?;
     writeln!(w, "    endTimeCode = {code}")?;
     writeln!(w, "    framesPerSecond = {}", frame.fps)?;
@@ -65,7 +68,10 @@ fn write_ring(w: &mut dyn Write, frame: &RingFrame, ring: &RingCurves) -> io::Re
         writeln!(w, "),")?;
     }
     writeln!(w, "        }}")?;
-    writeln!(w, "        uniform token[] xformOpOrder = [\"xformOp:transform\"]")?;
+    writeln!(
+        w,
+        "        uniform token[] xformOpOrder = [\"xformOp:transform\"]"
+    )?;
     writeln!(w)?;
     writeln!(w, "        def BasisCurves \"ring\"")?;
     writeln!(w, "        {{")?;

@@ -139,7 +139,11 @@ mod tests {
     #[test]
     fn passes_through_keys_and_holds_outside() {
         let anim = AnimatedTransform::new(
-            vec![key(0.0, 0.0, 0.0, 1.0), key(1.0, 2.0, 1.0, 2.0), key(3.0, 3.0, 2.0, 4.0)],
+            vec![
+                key(0.0, 0.0, 0.0, 1.0),
+                key(1.0, 2.0, 1.0, 2.0),
+                key(3.0, 3.0, 2.0, 4.0),
+            ],
             Interpolation::Smooth,
         );
         for k in anim.keys() {
@@ -148,7 +152,10 @@ mod tests {
         assert_eq!(anim.at(-5.0), anim.keys()[0].value);
         assert_eq!(anim.at(50.0), anim.keys()[2].value);
         // geometric scale: halfway between 1 and 2 is sqrt(2)
-        let mid = AnimatedTransform::new(vec![key(0.0, 0.0, 0.0, 1.0), key(1.0, 0.0, 0.0, 2.0)], Interpolation::Linear);
+        let mid = AnimatedTransform::new(
+            vec![key(0.0, 0.0, 0.0, 1.0), key(1.0, 0.0, 0.0, 2.0)],
+            Interpolation::Linear,
+        );
         assert!((mid.at(0.5).scale - 2f64.sqrt()).abs() < 1e-12);
     }
 

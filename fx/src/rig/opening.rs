@@ -87,7 +87,11 @@ mod tests {
 
     fn pair() -> Rig {
         let a = Similarity::new(DQuat::from_rotation_y(0.4), DVec3::new(-2.0, 1.0, 0.0), 1.0);
-        let b = Similarity::new(DQuat::from_rotation_x(-0.3), DVec3::new(5.0, 1.5, -3.0), 2.0);
+        let b = Similarity::new(
+            DQuat::from_rotation_x(-0.3),
+            DVec3::new(5.0, 1.5, -3.0),
+            2.0,
+        );
         Rig {
             openings: vec![
                 Opening {

@@ -229,7 +229,11 @@ mod tests {
             Similarity::from_affine(&flat),
             Err(SimilarityError::Singular)
         );
-        let shear = DAffine3::from_mat3(DMat3::from_cols(DVec3::X, DVec3::new(0.3, 1.0, 0.0), DVec3::Z));
+        let shear = DAffine3::from_mat3(DMat3::from_cols(
+            DVec3::X,
+            DVec3::new(0.3, 1.0, 0.0),
+            DVec3::Z,
+        ));
         assert!(Similarity::from_affine(&shear).is_err());
     }
 }

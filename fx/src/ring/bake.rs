@@ -13,8 +13,8 @@
 //!
 //! Tessellation: a polyline with segment length Δs misses a curve of curvature κ by κΔs²/8. The
 //! curvature is bounded by that of the ring (1/R) plus the noise's
-//! (amplitude · 4·Σ wᵢ fᵢ² / R², fᵢ features around the ring per octave, doubled for Perlin noise's
-//! sharper features); the tolerance in pixels becomes local units at the ring's nearest distance
+//! (amplitude · c·Σ wᵢ fᵢ² / R², fᵢ features around the ring per octave, c calibrated for Perlin
+//! noise's sharper features); the tolerance in pixels becomes local units at the ring's nearest distance
 //! to the camera. The count is clamped to `[fx.min_segments, fx.max_segments]` so rings seen only
 //! through portals stay smooth.
 
@@ -25,6 +25,11 @@ use crate::rig::Similarity;
 use crate::shot::{FrameRange, Shot};
 use glam::DVec3;
 use std::f64::consts::TAU;
+
+/// How much sharper Perlin noise bends than a sinusoid with as many features, in the curvature
+/// estimate. Calibrated so the worst chord error lands near half the tolerance (measured by
+/// `tessellation_meets_the_chord_error_tolerance`).
+const PERLIN_SHARPNESS: f64 = 1.0;
 
 /// Generates baked rings for the frames of a shot.
 #[derive(Clone, Debug)]
@@ -101,10 +106,12 @@ impl<'a> RingGenerator<'a> {
         let reach = look.max_radius() * here.scale;
         let distance = (camera.position(t) - here.translation).length();
         let nearest = (distance - reach).max(0.05 * reach);
-        let tolerance = settings.chord_error_px * nearest / camera.projection.focal_pixels() / here.scale;
+        let tolerance =
+            settings.chord_error_px * nearest / camera.projection.focal_pixels() / here.scale;
         let octaves = model.field.octaves(model.timing.lod(t));
         let r = look.min_radius();
-        let curvature = 1.0 / r + look.noise.amplitude * 4.0 * octaves.mean_square_features() / (r * r);
+        let curvature = 1.0 / r
+            + look.noise.amplitude * PERLIN_SHARPNESS * octaves.mean_square_features() / (r * r);
         let step = (8.0 * tolerance / curvature).sqrt();
         let n = (TAU * look.max_radius() / step).ceil();
         (n.min(settings.max_segments as f64) as u32).max(settings.min_segments)
@@ -162,7 +169,10 @@ impl<'a> RingGenerator<'a> {
                 let f1 = model.profile(strand, &after, c, s);
                 let f_before = if linear_profile {
                     let ratio = self.nodes[0] / self.nodes[1];
-                    [f0[0] + (f1[0] - f0[0]) * ratio, f0[1] + (f1[1] - f0[1]) * ratio]
+                    [
+                        f0[0] + (f1[0] - f0[0]) * ratio,
+                        f0[1] + (f1[1] - f0[1]) * ratio,
+                    ]
                 } else {
                     model.profile(strand, &before, c, s)
                 };
@@ -202,7 +212,10 @@ impl<'a> RingGenerator<'a> {
                 model.strands.iter().zip(curves.strand_ranges()).enumerate()
             {
                 let n = range.len();
-                let instants: Vec<_> = times.iter().map(|&d| (d, model.instant(strand, baked.time + d))).collect();
+                let instants: Vec<_> = times
+                    .iter()
+                    .map(|&d| (d, model.instant(strand, baked.time + d)))
+                    .collect();
                 for (k, vi) in range.enumerate() {
                     let u = TAU * k as f64 / n as f64;
                     let (c, s) = (u.cos(), u.sin());
@@ -216,7 +229,8 @@ impl<'a> RingGenerator<'a> {
                         let rel = err / model.look.radius;
                         result.max_relative = result.max_relative.max(rel);
                         if strand_index == fastest {
-                            result.fastest_strand_relative = result.fastest_strand_relative.max(rel);
+                            result.fastest_strand_relative =
+                                result.fastest_strand_relative.max(rel);
                         }
                     }
                 }
@@ -275,7 +289,13 @@ mod tests {
 
     #[test]
     fn quadratic_fit_is_exact_for_quadratics() {
-        for shutter in [[-0.01, 0.01], [0.0, 0.02], [-0.03, 0.0], [-0.005, 0.015], [0.0, 0.0]] {
+        for shutter in [
+            [-0.01, 0.01],
+            [0.0, 0.02],
+            [-0.03, 0.0],
+            [-0.005, 0.015],
+            [0.0, 0.0],
+        ] {
             let nodes = fit_nodes(shutter, 24.0);
             assert!(nodes[0] != 0.0 && nodes[1] != 0.0 && nodes[0] != nodes[1]);
             let fit = QuadraticFit::new(nodes);
@@ -284,6 +304,79 @@ mod tests {
             let at = |d: f64| p + v * d + 0.5 * a * d * d;
             let (fv, fa) = fit.solve(p, at(nodes[0]), at(nodes[1]));
             assert!((fv - v).length() < 1e-9 && (fa - a).length() < 1e-6);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tessellation_tests {
+    use super::*;
+    use std::path::Path;
+
+    /// Largest distance, in pixels at the ring's nearest distance to camera, between the true
+    /// strand and its polyline (checked at segment quarter- and mid-points), over every strand.
+    fn worst_chord_error_px(shot: &Shot, frame: i64) -> (f64, u32) {
+        let generator = RingGenerator::new(shot, shot.frames);
+        let t = shot.time_of(frame as f64);
+        let mut worst = (0.0f64, 0);
+        for (i, model) in generator.models() {
+            let here = shot.rig.here_at(i, t);
+            let n = generator.segments(model, &here, t);
+            let reach = model.look.max_radius() * here.scale;
+            let nearest =
+                ((shot.camera.position(t) - here.translation).length() - reach).max(0.05 * reach);
+            let px_per_local = shot.camera.projection.focal_pixels() / nearest * here.scale;
+            for strand in &model.strands {
+                let at = model.instant(strand, t);
+                let point = |u: f64| model.position(strand, &at, u.cos(), u.sin());
+                for k in 0..n {
+                    let (u0, u1) = (TAU * k as f64 / n as f64, TAU * (k + 1) as f64 / n as f64);
+                    let (a, b) = (point(u0), point(u1));
+                    for f in [0.25, 0.5, 0.75] {
+                        let on_curve = point(u0 + f * (u1 - u0));
+                        // Distance from the curve point to the chord segment.
+                        let ab = b - a;
+                        let s = ((on_curve - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+                        let d = (on_curve - (a + ab * s)).length() * px_per_local;
+                        worst.0 = worst.0.max(d);
+                    }
+                }
+                worst.1 = worst.1.max(n);
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn tessellation_meets_the_chord_error_tolerance() {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/portal_pair.toml"),
+        )
+        .unwrap();
+        // Let the tolerance, not the minimum, decide the count.
+        let text = text.replace("min_segments = 96", "min_segments = 3");
+        for tolerance in [0.1, 0.25, 1.0] {
+            let text = text.replace(
+                "chord_error_px = 0.25",
+                &format!("chord_error_px = {tolerance}"),
+            );
+            let shot = Shot::parse(&text, Path::new("portal_pair.toml")).unwrap();
+            for frame in [1001, 1050, 1096] {
+                let (err, n) = worst_chord_error_px(&shot, frame);
+                eprintln!(
+                    "tolerance {tolerance} px, frame {frame}: worst chord error {err:.3} px, {n} segments"
+                );
+                assert!(n < shot.fx.max_segments, "count clamped");
+                assert!(
+                    err <= tolerance,
+                    "frame {frame}: chord error {err:.3} px > {tolerance} px with {n} segments"
+                );
+                // Not wastefully fine either: within a factor of ten of the tolerance.
+                assert!(
+                    err >= 0.1 * tolerance,
+                    "frame {frame}: {err:.4} px is far below {tolerance} px ({n} segments)"
+                );
+            }
         }
     }
 }

@@ -96,7 +96,14 @@ impl NoiseField {
     /// The field at material angle (cos u, sin u), evolution coordinate `tau`, for a channel
     /// placed at `offset` in noise space. In [−1, 1].
     #[inline]
-    pub fn sample(&self, octaves: &Octaves, cos_u: f64, sin_u: f64, tau: f64, offset: [f64; 3]) -> f64 {
+    pub fn sample(
+        &self,
+        octaves: &Octaves,
+        cos_u: f64,
+        sin_u: f64,
+        tau: f64,
+        offset: [f64; 3],
+    ) -> f64 {
         let mut sum = 0.0;
         for j in 0..octaves.count {
             let r = octaves.radius[j];
@@ -130,7 +137,10 @@ mod tests {
         for boundary in [-2.0, -1.0, 0.0, 1.0, 2.0] {
             let below = field.sample(&field.octaves(boundary - 1e-9), c, s, 0.7, [1.0, 2.0, 3.0]);
             let at = field.sample(&field.octaves(boundary), c, s, 0.7, [1.0, 2.0, 3.0]);
-            assert!((below - at).abs() < 1e-6, "jump at L = {boundary}: {below} vs {at}");
+            assert!(
+                (below - at).abs() < 1e-6,
+                "jump at L = {boundary}: {below} vs {at}"
+            );
         }
     }
 
@@ -140,7 +150,13 @@ mod tests {
         for i in 0..2000 {
             let u = i as f64 * 0.0137;
             let lod = (i % 17) as f64 * 0.37 - 3.0;
-            let v = field.sample(&field.octaves(lod), u.cos(), u.sin(), u * 0.1, [5.0, 6.0, 7.0]);
+            let v = field.sample(
+                &field.octaves(lod),
+                u.cos(),
+                u.sin(),
+                u * 0.1,
+                [5.0, 6.0, 7.0],
+            );
             assert!((-1.0..=1.0).contains(&v));
         }
     }

@@ -132,9 +132,15 @@ impl RingModel {
     #[inline]
     pub fn profile(&self, s: &Strand, at: &StrandInstant, cos_u: f64, sin_u: f64) -> [f64; 2] {
         let n = &self.look.noise;
-        let radial = self.field.sample(&at.octaves, cos_u, sin_u, at.tau, s.channels[0]);
+        let radial = self
+            .field
+            .sample(&at.octaves, cos_u, sin_u, at.tau, s.channels[0]);
         let z = if n.depth > 0.0 {
-            n.amplitude * n.depth * self.field.sample(&at.octaves, cos_u, sin_u, at.tau, s.channels[1])
+            n.amplitude
+                * n.depth
+                * self
+                    .field
+                    .sample(&at.octaves, cos_u, sin_u, at.tau, s.channels[1])
         } else {
             0.0
         };
@@ -143,8 +149,16 @@ impl RingModel {
 
     /// Width and heat (0..1) of material angle (cos u, sin u) of strand `s`.
     #[inline]
-    pub fn width_and_heat(&self, s: &Strand, at: &StrandInstant, cos_u: f64, sin_u: f64) -> (f64, f64) {
-        let h = self.field.sample(&at.octaves, cos_u, sin_u, at.tau, s.channels[2]);
+    pub fn width_and_heat(
+        &self,
+        s: &Strand,
+        at: &StrandInstant,
+        cos_u: f64,
+        sin_u: f64,
+    ) -> (f64, f64) {
+        let h = self
+            .field
+            .sample(&at.octaves, cos_u, sin_u, at.tau, s.channels[2]);
         (
             self.look.width * (1.0 + self.look.width_variation * h),
             0.5 + 0.5 * h,
@@ -160,7 +174,8 @@ impl RingModel {
     /// Emitted radiance scale and colour for a given heat and flicker.
     pub fn emission(&self, heat: f64, flicker: f64) -> (f64, DVec3) {
         let c = &self.look.color;
-        let intensity = c.intensity * (1.0 - c.intensity_variation + c.intensity_variation * heat) * flicker;
+        let intensity =
+            c.intensity * (1.0 - c.intensity_variation + c.intensity_variation * heat) * flicker;
         (intensity, c.ramp.at(heat))
     }
 }

@@ -71,8 +71,8 @@ impl SpeedModel<'_> {
         let here = self.rig.here_at(self.opening, t);
         let to_camera = self.camera.position(t) - here.translation;
         let d = to_camera.length().max(1e-9);
-        let size = self.look.radius * here.scale
-            / (2.0 * d * self.camera.projection.tan_half_fov_y());
+        let size =
+            self.look.radius * here.scale / (2.0 * d * self.camera.projection.tan_half_fov_y());
         let normal = here.transform_direction(glam::DVec3::Z);
         let b = (normal.dot(to_camera) / d).abs().max(0.05);
         let perimeter =
@@ -87,7 +87,11 @@ impl SpeedModel<'_> {
         let ratio = (speed.reference_size / s_eff).clamp(1.0 / MAX_RATIO, MAX_RATIO);
         let mut omega = TAU * speed.turns_per_second * ratio.powf(speed.size_compensation);
         if omega.abs() < self.min_omega {
-            omega = self.min_omega.copysign(if speed.turns_per_second < 0.0 { -1.0 } else { 1.0 });
+            omega = self.min_omega.copysign(if speed.turns_per_second < 0.0 {
+                -1.0
+            } else {
+                1.0
+            });
         }
         let lod = (self.look.noise.size_compensation * (s_eff / speed.reference_size).log2())
             .clamp(-MAX_LOD, MAX_LOD);
@@ -126,7 +130,11 @@ impl RingTiming {
         let step = |k: usize, sign: f64| {
             // Simpson over [k, k+sign].
             let a = omega[k];
-            let b = if sign > 0.0 { omega[k + 1] } else { omega[k - 1] };
+            let b = if sign > 0.0 {
+                omega[k + 1]
+            } else {
+                omega[k - 1]
+            };
             let t_mid = time(lo + k as i64) + 0.5 * sign * dt;
             sign * dt / 6.0 * (a + 4.0 * model.eval(t_mid).0 + b)
         };
@@ -216,6 +224,10 @@ fn screen_time(shot: &Shot, opening: usize, look: &RingLook) -> f64 {
             })
         })
         .count();
-    let frames = if visible == 0 { shot.frames.len() } else { visible };
+    let frames = if visible == 0 {
+        shot.frames.len()
+    } else {
+        visible
+    };
     frames as f64 / shot.fps
 }

@@ -7,7 +7,10 @@ pub fn finite(key: &str, v: f64) -> Result<f64, Invalid> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(Invalid::new(key, format!("expected a finite number, got {v}")))
+        Err(Invalid::new(
+            key,
+            format!("expected a finite number, got {v}"),
+        ))
     }
 }
 
@@ -16,7 +19,10 @@ pub fn positive(key: &str, v: f64) -> Result<f64, Invalid> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        Err(Invalid::new(key, format!("expected a positive number, got {v}")))
+        Err(Invalid::new(
+            key,
+            format!("expected a positive number, got {v}"),
+        ))
     }
 }
 

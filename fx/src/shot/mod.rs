@@ -178,7 +178,10 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
         check::within("shot.shutter[1]", s.shutter[1], -1.0, 1.0, false)?,
     ];
     if shutter[1] < shutter[0] {
-        return Err(Invalid::new("shot.shutter", "the shutter closes before it opens"));
+        return Err(Invalid::new(
+            "shot.shutter",
+            "the shutter closes before it opens",
+        ));
     }
 
     let camera = camera(&raw.camera, fps)?;
@@ -207,8 +210,20 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
 }
 
 fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
-    let w = check::integer("camera.resolution[0]", c.resolution[0], 1, 65536, "a positive integer")?;
-    let h = check::integer("camera.resolution[1]", c.resolution[1], 1, 65536, "a positive integer")?;
+    let w = check::integer(
+        "camera.resolution[0]",
+        c.resolution[0],
+        1,
+        65536,
+        "a positive integer",
+    )?;
+    let h = check::integer(
+        "camera.resolution[1]",
+        c.resolution[1],
+        1,
+        65536,
+        "a positive integer",
+    )?;
     let aspect = w as f64 / h as f64;
     let sensor_mm = match c.sensor_width_mm {
         Some(v) => check::positive("camera.sensor_width_mm", v)?,
@@ -243,7 +258,10 @@ fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
         }
         (None, Some(f)) => {
             if c.fov_axis.is_some() {
-                return Err(Invalid::new("camera.fov_axis", "`fov_axis` goes with `fov_degrees`"));
+                return Err(Invalid::new(
+                    "camera.fov_axis",
+                    "`fov_axis` goes with `fov_degrees`",
+                ));
             }
             let f = check::positive("camera.focal_length_mm", f)?;
             (2.0 * (0.5 * sensor_mm / f).atan(), f)
@@ -252,7 +270,10 @@ fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
     let fov_y = 2.0 * ((0.5 * fov_x).tan() / aspect).atan();
     let aperture_radius = match (c.fstop, c.aperture_radius) {
         (Some(_), Some(_)) => {
-            return Err(Invalid::new("camera", "give `fstop` or `aperture_radius`, not both"));
+            return Err(Invalid::new(
+                "camera",
+                "give `fstop` or `aperture_radius`, not both",
+            ));
         }
         (Some(n), None) => 0.5 * focal_mm * 1e-3 / check::positive("camera.fstop", n)?,
         (None, Some(r)) => check::non_negative("camera.aperture_radius", r)?,
@@ -337,7 +358,9 @@ fn rig(portals: &[PortalSection], fps: f64) -> Result<(Rig, Vec<Option<RingLook>
         if portals[j].there.is_some() {
             return Err(Invalid::new(
                 key,
-                format!("{target:?} has an explicit `there`; a paired opening's there frame comes from its partner"),
+                format!(
+                    "{target:?} has an explicit `there`; a paired opening's there frame comes from its partner"
+                ),
             ));
         }
         for (a, b) in [(i, j), (j, i)] {
@@ -359,7 +382,12 @@ fn rig(portals: &[PortalSection], fps: f64) -> Result<(Rig, Vec<Option<RingLook>
     let mut openings = Vec::with_capacity(portals.len());
     let mut rings = Vec::with_capacity(portals.len());
     for (i, p) in portals.iter().enumerate() {
-        let here = pose::animated(&format!("portal[{i}].here"), &p.here, Facing::PositiveZ, fps)?;
+        let here = pose::animated(
+            &format!("portal[{i}].here"),
+            &p.here,
+            Facing::PositiveZ,
+            fps,
+        )?;
         let there = match (&p.there, partner[i]) {
             (Some(t), _) => ThereFrame::Explicit(pose::animated(
                 &format!("portal[{i}].there"),
@@ -394,9 +422,10 @@ fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
     let strands = check::integer(&k("strands"), r.strands, 1, 100_000, "a positive integer")?;
     let mut look = RingLook::with_defaults(radius, strands);
     // Optional values: check when given, keep the default otherwise.
-    let opt = |v: Option<f64>, key: &str, f: &dyn Fn(&str, f64) -> Result<f64, Invalid>, default: f64| {
-        v.map_or(Ok(default), |v| f(&k(key), v))
-    };
+    let opt = |v: Option<f64>,
+               key: &str,
+               f: &dyn Fn(&str, f64) -> Result<f64, Invalid>,
+               default: f64| { v.map_or(Ok(default), |v| f(&k(key), v)) };
     let unit = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, false);
     let unit_open = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, true);
     look.band = opt(r.band, "band", &check::non_negative, look.band)?;
@@ -410,32 +439,87 @@ fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
 
     let n = &r.noise;
     let nk = |name: &str| format!("noise.{name}");
-    look.noise.amplitude = opt(n.amplitude, &nk("amplitude"), &check::non_negative, look.noise.amplitude)?;
-    look.noise.depth = opt(n.depth, &nk("depth"), &check::non_negative, look.noise.depth)?;
-    look.noise.frequency = opt(n.frequency, &nk("frequency"), &check::positive, look.noise.frequency)?;
+    look.noise.amplitude = opt(
+        n.amplitude,
+        &nk("amplitude"),
+        &check::non_negative,
+        look.noise.amplitude,
+    )?;
+    look.noise.depth = opt(
+        n.depth,
+        &nk("depth"),
+        &check::non_negative,
+        look.noise.depth,
+    )?;
+    look.noise.frequency = opt(
+        n.frequency,
+        &nk("frequency"),
+        &check::positive,
+        look.noise.frequency,
+    )?;
     if let Some(o) = n.octaves {
         look.noise.octaves = check::integer(&k(&nk("octaves")), o, 1, 12, "an integer from 1")?;
     }
-    look.noise.roughness = opt(n.roughness, &nk("roughness"), &|key, v| check::within(key, v, 1e-6, 1.0, false), look.noise.roughness)?;
-    look.noise.evolution = opt(n.evolution, &nk("evolution"), &check::non_negative, look.noise.evolution)?;
+    look.noise.roughness = opt(
+        n.roughness,
+        &nk("roughness"),
+        &|key, v| check::within(key, v, 1e-6, 1.0, false),
+        look.noise.roughness,
+    )?;
+    look.noise.evolution = opt(
+        n.evolution,
+        &nk("evolution"),
+        &check::non_negative,
+        look.noise.evolution,
+    )?;
     look.noise.size_compensation = opt(n.size_compensation, &nk("size_compensation"), &unit, 1.0)?;
 
     let s = &r.speed;
     let sk = |name: &str| format!("speed.{name}");
-    look.speed.turns_per_second = opt(s.turns_per_second, &sk("turns_per_second"), &check::finite, look.speed.turns_per_second)?;
-    look.speed.reference_size = opt(s.reference_size, &sk("reference_size"), &check::positive, look.speed.reference_size)?;
+    look.speed.turns_per_second = opt(
+        s.turns_per_second,
+        &sk("turns_per_second"),
+        &check::finite,
+        look.speed.turns_per_second,
+    )?;
+    look.speed.reference_size = opt(
+        s.reference_size,
+        &sk("reference_size"),
+        &check::positive,
+        look.speed.reference_size,
+    )?;
     look.speed.size_compensation = opt(s.size_compensation, &sk("size_compensation"), &unit, 1.0)?;
-    look.speed.min_visible_turn = opt(s.min_visible_turn, &sk("min_visible_turn"), &check::non_negative, look.speed.min_visible_turn)?;
+    look.speed.min_visible_turn = opt(
+        s.min_visible_turn,
+        &sk("min_visible_turn"),
+        &check::non_negative,
+        look.speed.min_visible_turn,
+    )?;
 
     let c = &r.color;
     let ck = |name: &str| format!("color.{name}");
     if let Some(stops) = &c.ramp {
         look.color.ramp = ramp(&k(&ck("ramp")), stops)?;
     }
-    look.color.intensity = opt(c.intensity, &ck("intensity"), &check::non_negative, look.color.intensity)?;
-    look.color.intensity_variation = opt(c.intensity_variation, &ck("intensity_variation"), &unit, look.color.intensity_variation)?;
+    look.color.intensity = opt(
+        c.intensity,
+        &ck("intensity"),
+        &check::non_negative,
+        look.color.intensity,
+    )?;
+    look.color.intensity_variation = opt(
+        c.intensity_variation,
+        &ck("intensity_variation"),
+        &unit,
+        look.color.intensity_variation,
+    )?;
     look.color.flicker = opt(c.flicker, &ck("flicker"), &unit, look.color.flicker)?;
-    look.color.flicker_rate = opt(c.flicker_rate, &ck("flicker_rate"), &check::non_negative, look.color.flicker_rate)?;
+    look.color.flicker_rate = opt(
+        c.flicker_rate,
+        &ck("flicker_rate"),
+        &check::non_negative,
+        look.color.flicker_rate,
+    )?;
 
     // The strands must stay clear of the centre whatever the noise does.
     let inner = look.min_radius() - 0.5 * look.width * (1.0 + look.width_variation);
@@ -483,9 +567,21 @@ mod tests {
 
     #[test]
     fn frame_ranges() {
-        assert_eq!(FrameRange::parse("1001").unwrap(), FrameRange { first: 1001, last: 1001 });
+        assert_eq!(
+            FrameRange::parse("1001").unwrap(),
+            FrameRange {
+                first: 1001,
+                last: 1001
+            }
+        );
         assert_eq!(FrameRange::parse("1001-1096").unwrap().len(), 96);
-        assert_eq!(FrameRange::parse("-5--1").unwrap(), FrameRange { first: -5, last: -1 });
+        assert_eq!(
+            FrameRange::parse("-5--1").unwrap(),
+            FrameRange {
+                first: -5,
+                last: -1
+            }
+        );
         assert!(FrameRange::parse("1005-1001").is_err());
         assert!(FrameRange::parse("abc").is_err());
         assert!(FrameRange::parse("").is_err());

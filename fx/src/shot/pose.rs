@@ -70,13 +70,13 @@ pub fn animated(
             .frame
             .ok_or_else(|| Invalid::new(kkey.clone(), "missing field `frame`"))?;
         let frame = check::finite(&format!("{kkey}.frame"), frame)?;
-        if let Some(prev) = out.last().map(|p: &TransformKey| p.time) {
-            if frame / fps <= prev {
-                return Err(Invalid::new(
-                    format!("{kkey}.frame"),
-                    "keys must be in increasing frame order",
-                ));
-            }
+        if let Some(prev) = out.last().map(|p: &TransformKey| p.time)
+            && frame / fps <= prev
+        {
+            return Err(Invalid::new(
+                format!("{kkey}.frame"),
+                "keys must be in increasing frame order",
+            ));
         }
         out.push(TransformKey {
             time: frame / fps,
@@ -186,7 +186,11 @@ fn vec3(key: &str, v: [f64; 3]) -> Result<DVec3, Invalid> {
 /// The rotation whose facing axis points from `eye` to `target` with +Y towards `up`.
 fn look_rotation(eye: DVec3, target: DVec3, up: DVec3, facing: Facing) -> Result<DQuat, String> {
     let to_target = target - eye;
-    let scale = eye.abs().max_element().max(target.abs().max_element()).max(1.0);
+    let scale = eye
+        .abs()
+        .max_element()
+        .max(target.abs().max_element())
+        .max(1.0);
     if to_target.length() <= 1e-12 * scale {
         return Err("the target equals the position (singular frame)".into());
     }
