@@ -421,104 +421,123 @@ fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
     let radius = check::positive(&k("radius"), r.radius)?;
     let strands = check::integer(&k("strands"), r.strands, 1, 100_000, "a positive integer")?;
     let mut look = RingLook::with_defaults(radius, strands);
-    // Optional values: check when given, keep the default otherwise.
-    let opt = |v: Option<f64>,
-               key: &str,
-               f: &dyn Fn(&str, f64) -> Result<f64, Invalid>,
-               default: f64| { v.map_or(Ok(default), |v| f(&k(key), v)) };
     let unit = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, false);
     let unit_open = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, true);
-    look.band = opt(r.band, "band", &check::non_negative, look.band)?;
-    look.counter_rotating = opt(r.counter_rotating, "counter_rotating", &unit, 0.5)?;
-    look.width = opt(r.width, "width", &check::positive, look.width)?;
-    look.width_variation = opt(r.width_variation, "width_variation", &unit_open, 0.5)?;
-    look.speed_variation = opt(r.speed_variation, "speed_variation", &unit_open, 0.2)?;
+    let roughness = |key: &str, v: f64| check::within(key, v, 1e-6, 1.0, false);
+
+    set(&mut look.band, r.band, &k("band"), check::non_negative)?;
+    set(
+        &mut look.counter_rotating,
+        r.counter_rotating,
+        &k("counter_rotating"),
+        unit,
+    )?;
+    set(&mut look.width, r.width, &k("width"), check::positive)?;
+    set(
+        &mut look.width_variation,
+        r.width_variation,
+        &k("width_variation"),
+        unit_open,
+    )?;
+    set(
+        &mut look.speed_variation,
+        r.speed_variation,
+        &k("speed_variation"),
+        unit_open,
+    )?;
     if let Some(seed) = r.seed {
         look.seed = check::integer(&k("seed"), seed, 0, u32::MAX as i64, "an integer ≥ 0")?;
     }
 
-    let n = &r.noise;
-    let nk = |name: &str| format!("noise.{name}");
-    look.noise.amplitude = opt(
+    let (n, noise) = (&r.noise, &mut look.noise);
+    set(
+        &mut noise.amplitude,
         n.amplitude,
-        &nk("amplitude"),
-        &check::non_negative,
-        look.noise.amplitude,
+        &k("noise.amplitude"),
+        check::non_negative,
     )?;
-    look.noise.depth = opt(
+    set(
+        &mut noise.depth,
         n.depth,
-        &nk("depth"),
-        &check::non_negative,
-        look.noise.depth,
+        &k("noise.depth"),
+        check::non_negative,
     )?;
-    look.noise.frequency = opt(
+    set(
+        &mut noise.frequency,
         n.frequency,
-        &nk("frequency"),
-        &check::positive,
-        look.noise.frequency,
+        &k("noise.frequency"),
+        check::positive,
     )?;
     if let Some(o) = n.octaves {
-        look.noise.octaves = check::integer(&k(&nk("octaves")), o, 1, 12, "an integer from 1")?;
+        noise.octaves = check::integer(&k("noise.octaves"), o, 1, 12, "an integer from 1")?;
     }
-    look.noise.roughness = opt(
+    set(
+        &mut noise.roughness,
         n.roughness,
-        &nk("roughness"),
-        &|key, v| check::within(key, v, 1e-6, 1.0, false),
-        look.noise.roughness,
+        &k("noise.roughness"),
+        roughness,
     )?;
-    look.noise.evolution = opt(
+    set(
+        &mut noise.evolution,
         n.evolution,
-        &nk("evolution"),
-        &check::non_negative,
-        look.noise.evolution,
+        &k("noise.evolution"),
+        check::non_negative,
     )?;
-    look.noise.size_compensation = opt(n.size_compensation, &nk("size_compensation"), &unit, 1.0)?;
+    set(
+        &mut noise.size_compensation,
+        n.size_compensation,
+        &k("noise.size_compensation"),
+        unit,
+    )?;
 
-    let s = &r.speed;
-    let sk = |name: &str| format!("speed.{name}");
-    look.speed.turns_per_second = opt(
+    let (s, speed) = (&r.speed, &mut look.speed);
+    set(
+        &mut speed.turns_per_second,
         s.turns_per_second,
-        &sk("turns_per_second"),
-        &check::finite,
-        look.speed.turns_per_second,
+        &k("speed.turns_per_second"),
+        check::finite,
     )?;
-    look.speed.reference_size = opt(
+    set(
+        &mut speed.reference_size,
         s.reference_size,
-        &sk("reference_size"),
-        &check::positive,
-        look.speed.reference_size,
+        &k("speed.reference_size"),
+        check::positive,
     )?;
-    look.speed.size_compensation = opt(s.size_compensation, &sk("size_compensation"), &unit, 1.0)?;
-    look.speed.min_visible_turn = opt(
+    set(
+        &mut speed.size_compensation,
+        s.size_compensation,
+        &k("speed.size_compensation"),
+        unit,
+    )?;
+    set(
+        &mut speed.min_visible_turn,
         s.min_visible_turn,
-        &sk("min_visible_turn"),
-        &check::non_negative,
-        look.speed.min_visible_turn,
+        &k("speed.min_visible_turn"),
+        check::non_negative,
     )?;
 
-    let c = &r.color;
-    let ck = |name: &str| format!("color.{name}");
+    let (c, color) = (&r.color, &mut look.color);
     if let Some(stops) = &c.ramp {
-        look.color.ramp = ramp(&k(&ck("ramp")), stops)?;
+        color.ramp = ramp(&k("color.ramp"), stops)?;
     }
-    look.color.intensity = opt(
+    set(
+        &mut color.intensity,
         c.intensity,
-        &ck("intensity"),
-        &check::non_negative,
-        look.color.intensity,
+        &k("color.intensity"),
+        check::non_negative,
     )?;
-    look.color.intensity_variation = opt(
+    set(
+        &mut color.intensity_variation,
         c.intensity_variation,
-        &ck("intensity_variation"),
-        &unit,
-        look.color.intensity_variation,
+        &k("color.intensity_variation"),
+        unit,
     )?;
-    look.color.flicker = opt(c.flicker, &ck("flicker"), &unit, look.color.flicker)?;
-    look.color.flicker_rate = opt(
+    set(&mut color.flicker, c.flicker, &k("color.flicker"), unit)?;
+    set(
+        &mut color.flicker_rate,
         c.flicker_rate,
-        &ck("flicker_rate"),
-        &check::non_negative,
-        look.color.flicker_rate,
+        &k("color.flicker_rate"),
+        check::non_negative,
     )?;
 
     // The strands must stay clear of the centre whatever the noise does.
@@ -534,6 +553,19 @@ fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
         ));
     }
     Ok(look)
+}
+
+/// Overwrites `target` (holding its default) with `value` when given, after `valid` accepts it.
+fn set(
+    target: &mut f64,
+    value: Option<f64>,
+    key: &str,
+    valid: impl Fn(&str, f64) -> Result<f64, Invalid>,
+) -> Result<(), Invalid> {
+    if let Some(v) = value {
+        *target = valid(key, v)?;
+    }
+    Ok(())
 }
 
 fn ramp(key: &str, stops: &[schema::RampStop]) -> Result<ColorRamp, Invalid> {
