@@ -60,7 +60,11 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
                 let baked = generator.frame(frame);
                 let files = export::write_frame(&args.output, &shot.name, &baked, &formats)?;
                 let motion = args.check_motion.then(|| generator.motion_error(frame, 9));
-                progress.done(&format!("frame {frame}: {} files", files.len()));
+                progress.done(&format!(
+                    "frame {frame}: {} file{}",
+                    files.len(),
+                    if files.len() == 1 { "" } else { "s" }
+                ));
                 Ok::<_, rift_fx::FxError>((baked.vertex_count(), files.len(), motion))
             })
             .collect::<Vec<_>>()

@@ -31,7 +31,7 @@
 //! pair = "B"                    # or an explicit `there` pose, as `here`
 //! [portal.ring]                 # omit for an opening without a ring
 //! radius = 1.0                  # mean radius in the opening's frame
-//! band = 0.06                   # radial spread of the strands' base radii
+//! band = 0.06                   # ring thickness: radial spread of the strands' base radii
 //! strands = 24
 //! counter_rotating = 0.5        # fraction of strands that turn the other way
 //! width = 0.012                 # strand width (diameter)
