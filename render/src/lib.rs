@@ -1,7 +1,9 @@
-//! rift-render: the portal-aware CPU path tracer (in progress).
+//! rift-render: a portal-aware CPU path tracer.
 //!
-//! It will build a scene from the same shot file as rift-fx (through [`rift_fx::Shot`]), load or
-//! generate the ring curves, and trace light through portals. Until then this crate only fixes the
-//! dependency direction: render depends on fx, never the reverse.
+//! It builds a scene from the same shot file as rift-fx (through [`rift_fx::Shot`]) and traces
+//! light with unidirectional path tracing, next-event estimation and multiple importance
+//! sampling. render depends on fx, never the reverse.
+
+pub mod geometry;
 
 pub use rift_fx;
