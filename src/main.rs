@@ -4,6 +4,7 @@
 mod bench;
 mod fx_cmd;
 mod progress;
+mod render_cmd;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -20,6 +21,8 @@ struct Cli {
 enum Command {
     /// Generate portal rings for a shot and write them as USD, PLY and ring caches.
     Fx(fx_cmd::FxArgs),
+    /// Render frames of a shot to EXR with the path tracer.
+    Render(render_cmd::RenderArgs),
     /// Measure performance and print tables.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -29,6 +32,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Fx(args) => fx_cmd::run(args),
+        Command::Render(args) => render_cmd::run(args),
         Command::Bench(cmd) => bench::run(cmd),
     };
     match result {

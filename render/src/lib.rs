@@ -4,6 +4,17 @@
 //! light with unidirectional path tracing, next-event estimation and multiple importance
 //! sampling. render depends on fx, never the reverse.
 
+pub mod camera;
+pub mod error;
+pub mod film;
 pub mod geometry;
+pub mod integrator;
+pub mod lights;
+pub mod material;
+pub mod render;
+pub mod sampling;
+pub mod scene;
 
+pub use error::RenderError;
 pub use rift_fx;
+pub use scene::Scene;

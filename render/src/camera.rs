@@ -1,0 +1,55 @@
+//! The render camera: a pinhole or thin lens at the shot camera's pose, generating primary rays.
+
+use crate::sampling::concentric_disk;
+use glam::{Vec2, Vec3};
+use rift_fx::rig::Camera as ShotCamera;
+
+/// A camera frozen at one time (motion blur evaluates the shot camera per ray time).
+#[derive(Clone, Copy, Debug)]
+pub struct Lens {
+    pub position: Vec3,
+    /// Camera axes in world space: right, up, and backward (the camera looks down −`back`).
+    pub right: Vec3,
+    pub up: Vec3,
+    pub back: Vec3,
+    pub tan_half_fov_y: f32,
+    pub aspect: f32,
+    pub aperture_radius: f32,
+    pub focus_distance: f32,
+}
+
+impl Lens {
+    /// The shot camera at time `t`.
+    pub fn at(camera: &ShotCamera, t: f64) -> Self {
+        let frame = camera.transform.at(t);
+        let axis = |v: glam::DVec3| frame.transform_direction(v).as_vec3().normalize();
+        let p = &camera.projection;
+        Self {
+            position: frame.translation.as_vec3(),
+            right: axis(glam::DVec3::X),
+            up: axis(glam::DVec3::Y),
+            back: axis(glam::DVec3::Z),
+            tan_half_fov_y: p.tan_half_fov_y() as f32,
+            aspect: p.aspect() as f32,
+            aperture_radius: p.aperture_radius as f32,
+            focus_distance: p.focus_distance as f32,
+        }
+    }
+
+    /// A primary ray through film position `ndc` (x, y in [0, 1], y down) using `lens_u` for the
+    /// aperture: (origin, unit direction).
+    pub fn ray(&self, ndc: Vec2, lens_u: Vec2) -> (Vec3, Vec3) {
+        let x = (2.0 * ndc.x - 1.0) * self.tan_half_fov_y * self.aspect;
+        let y = (1.0 - 2.0 * ndc.y) * self.tan_half_fov_y;
+        let dir = (self.right * x + self.up * y - self.back).normalize();
+        if self.aperture_radius <= 0.0 {
+            return (self.position, dir);
+        }
+        // Thin lens: every ray through the film point meets the pinhole ray on the focus plane.
+        let focus_t = self.focus_distance / dir.dot(-self.back);
+        let focus = self.position + dir * focus_t;
+        let d = concentric_disk(lens_u) * self.aperture_radius;
+        let origin = self.position + self.right * d.x + self.up * d.y;
+        (origin, (focus - origin).normalize())
+    }
+}

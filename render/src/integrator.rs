@@ -1,0 +1,112 @@
+//! Unidirectional path tracing with next-event estimation and multiple importance sampling
+//! (power heuristic) between light sampling and BSDF sampling, and Russian roulette from the
+//! third bounce. Each bounce draws a fixed number of sample dimensions (light pick, light point,
+//! BSDF direction, roulette), so the Sobol dimensions line up across paths.
+
+use crate::geometry::offset_origin;
+use crate::sampling::{Frame, SampleStream, power_heuristic};
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Roulette starts after this many bounces.
+const ROULETTE_AFTER: u32 = 3;
+
+/// What one camera path returns.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathSample {
+    pub radiance: Vec3,
+    /// 1 when the camera ray hit geometry.
+    pub alpha: f32,
+}
+
+/// Traces one path from `origin` along unit `dir`.
+pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStream) -> PathSample {
+    let mut out = PathSample::default();
+    let mut beta = Vec3::ONE;
+    // Solid-angle pdf of the BSDF sample that produced `dir` (MIS against light sampling);
+    // camera rays and specular bounces count as delta.
+    let mut prev_pdf = 0.0f32;
+    let mut prev_delta = true;
+    let mut bounce = 0u32;
+    while let Some(hit) = scene.accel.intersect(origin, dir, f32::INFINITY) {
+        if bounce == 0 {
+            out.alpha = 1.0;
+        }
+        let tri = &scene.triangles[hit.triangle as usize];
+        let ng = tri.normal().normalize();
+        let p = tri.point(hit.b1, hit.b2);
+        let material = scene.material(hit.triangle);
+        let cos_o = -dir.dot(ng);
+
+        if material.emits() {
+            let le = material.emitted(cos_o);
+            if le != Vec3::ZERO {
+                let weight = if prev_delta {
+                    1.0
+                } else {
+                    let pdf_light =
+                        scene.lights.pdf_area(hit.triangle) * hit.t * hit.t / cos_o.abs();
+                    power_heuristic(prev_pdf, pdf_light)
+                };
+                out.radiance += beta * le * weight;
+            }
+        }
+        // Dimensions of this bounce, drawn whether or not they are used.
+        let u_pick = s.next_1d();
+        let u_light = s.next_2d();
+        let u_bsdf = s.next_2d();
+        let u_roulette = s.next_1d();
+        if scene.settings.max_bounces.is_some_and(|m| bounce >= m) {
+            break;
+        }
+
+        // Shade on the side the path arrived from.
+        let n = if cos_o >= 0.0 { ng } else { -ng };
+        let frame = Frame::new(n);
+        let wo = frame.to_local(-dir);
+        let p_out = offset_origin(p, n);
+
+        if let Some(light) = scene.lights.sample(&scene.triangles, u_pick, u_light) {
+            let cos_l_raw = (p_out - light.point).dot(light.normal);
+            let facing = cos_l_raw > 0.0 || (light.two_sided && cos_l_raw < 0.0);
+            if facing {
+                let light_side = if cos_l_raw > 0.0 {
+                    light.normal
+                } else {
+                    -light.normal
+                };
+                let target = offset_origin(light.point, light_side);
+                let to = target - p_out;
+                let dist2 = to.length_squared();
+                let dist = dist2.sqrt();
+                let wi_world = to / dist;
+                let wi = frame.to_local(wi_world);
+                let f = material.bsdf.eval(wo, wi);
+                if f != Vec3::ZERO && !scene.accel.occluded(p_out, wi_world, dist) {
+                    let cos_l = wi_world.dot(light_side).abs();
+                    let pdf_light = light.pdf_area * dist2 / cos_l;
+                    let weight = power_heuristic(pdf_light, material.bsdf.pdf(wo, wi));
+                    out.radiance += beta * f * light.radiance * (weight / pdf_light);
+                }
+            }
+        }
+
+        let Some(bs) = material.bsdf.sample(wo, u_bsdf) else {
+            break;
+        };
+        beta *= bs.weight;
+        prev_pdf = bs.pdf;
+        prev_delta = bs.delta;
+        dir = frame.to_world(bs.wi).normalize();
+        origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
+        bounce += 1;
+        if bounce >= ROULETTE_AFTER {
+            let survive = beta.max_element().min(0.95);
+            if survive <= 0.0 || u_roulette >= survive {
+                break;
+            }
+            beta /= survive;
+        }
+    }
+    out
+}

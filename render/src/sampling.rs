@@ -1,0 +1,220 @@
+//! Sampling helpers: orthonormal frames, warps from the unit square, alias tables, and the
+//! per-pixel Owen-scrambled Sobol sequence.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_PI_4, PI};
+
+/// An orthonormal frame around a unit normal.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// A frame around unit `n` (Duff et al. 2017, branchless and continuous except at one sign).
+    pub fn new(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        Self {
+            s: Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+            t: Vec3::new(b, sign + n.y * n.y * a, -n.y),
+            n,
+        }
+    }
+
+    /// World → local.
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// Local → world.
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// Cosine-weighted direction on the +Z hemisphere.
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = concentric_disk(u);
+    Vec3::new(d.x, d.y, (1.0 - d.length_squared()).max(0.0).sqrt())
+}
+
+/// Shirley–Chiu concentric map from the square to the unit disk.
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, 0.5 * PI - FRAC_PI_4 * (o.x / o.y))
+    };
+    Vec2::new(r * theta.cos(), r * theta.sin())
+}
+
+/// Uniform barycentrics (b1, b2) on a triangle.
+pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
+    let s = u.x.sqrt();
+    (s * (1.0 - u.y), s * u.y)
+}
+
+/// Power heuristic (β = 2) weight of a strategy with pdf `a` against one with pdf `b`.
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2.is_infinite() {
+        1.0
+    } else if a2 + b2 == 0.0 {
+        0.0
+    } else {
+        a2 / (a2 + b2)
+    }
+}
+
+/// Walker/Vose alias table: O(1) sampling of a discrete distribution.
+#[derive(Clone, Debug, Default)]
+pub struct AliasTable {
+    prob: Vec<f32>,
+    alias: Vec<u32>,
+    pmf: Vec<f32>,
+}
+
+impl AliasTable {
+    /// From non-negative weights (at least one positive).
+    pub fn new(weights: &[f64]) -> Self {
+        let n = weights.len();
+        let total: f64 = weights.iter().sum();
+        let pmf: Vec<f32> = weights.iter().map(|w| (w / total) as f32).collect();
+        let mut scaled: Vec<f64> = weights.iter().map(|w| w / total * n as f64).collect();
+        let mut prob = vec![1.0f32; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) =
+            (0..n).partition(|&i| scaled[i] < 1.0);
+        while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+            prob[s] = scaled[s] as f32;
+            alias[s] = l as u32;
+            scaled[l] -= 1.0 - scaled[s];
+            if scaled[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        Self { prob, alias, pmf }
+    }
+
+    /// Picks an index with one uniform number.
+    pub fn sample(&self, u: f32) -> usize {
+        let n = self.prob.len();
+        let x = u * n as f32;
+        let i = (x as usize).min(n - 1);
+        let frac = x - i as f32;
+        if frac < self.prob[i] {
+            i
+        } else {
+            self.alias[i] as usize
+        }
+    }
+
+    /// Probability of index `i`.
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+
+    /// Number of entries.
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+}
+
+/// The sample stream of one pixel sample: Owen-scrambled Sobol (sobol_burley) with a per-pixel
+/// seed, one dimension after another; past the 256 dimensions the sequence has, a hashed
+/// uniform stream continues it so unlimited path depth stays well defined.
+pub struct SampleStream {
+    index: u32,
+    seed: u32,
+    dimension: u32,
+}
+
+impl SampleStream {
+    /// Sample `index` of the pixel whose decorrelation seed is `seed`.
+    pub fn new(index: u32, seed: u32) -> Self {
+        Self {
+            index,
+            seed,
+            dimension: 0,
+        }
+    }
+
+    /// The next number in [0, 1).
+    pub fn next_1d(&mut self) -> f32 {
+        let d = self.dimension;
+        self.dimension += 1;
+        if d < sobol_burley::NUM_DIMENSIONS {
+            sobol_burley::sample(self.index, d, self.seed)
+        } else {
+            let h = hash32(self.index ^ hash32(d ^ hash32(self.seed)));
+            (h >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+        }
+    }
+
+    /// The next pair.
+    pub fn next_2d(&mut self) -> Vec2 {
+        Vec2::new(self.next_1d(), self.next_1d())
+    }
+}
+
+/// A 32-bit integer hash (lowbias32).
+pub fn hash32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn alias_table_reproduces_weights() {
+        let w = [1.0, 0.0, 3.0, 6.0];
+        let t = AliasTable::new(&w);
+        let mut counts = [0usize; 4];
+        let n = 100_000;
+        for i in 0..n {
+            counts[t.sample((i as f32 + 0.5) / n as f32)] += 1;
+        }
+        for (c, w) in counts.iter().zip(w) {
+            assert!(
+                (*c as f64 / n as f64 - w / 10.0).abs() < 0.002,
+                "{counts:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn frames_are_orthonormal() {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(0.3, -0.4, 0.866).normalize(),
+            Vec3::new(0.0, 0.0, -1.0),
+        ] {
+            let f = Frame::new(n);
+            assert!(
+                f.s.dot(f.t).abs() < 1e-6
+                    && f.s.dot(n).abs() < 1e-6
+                    && (f.s.cross(f.t) - n).length() < 1e-5
+            );
+        }
+    }
+}

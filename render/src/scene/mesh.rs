@@ -1,0 +1,87 @@
+//! Mesh files: OBJ (with its MTL, through tobj). Each OBJ object/group becomes one part with the
+//! name of its `usemtl` material and, when the MTL has it, that material's Kd and Ke.
+
+use crate::error::RenderError;
+use glam::Vec3;
+use std::path::Path;
+
+/// Material values an MTL file gives.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MtlMaterial {
+    pub name: String,
+    pub diffuse: Option<Vec3>,
+    pub emission: Option<Vec3>,
+}
+
+/// One part of a mesh file: triangles in the file's space and the material it names.
+#[derive(Clone, Debug)]
+pub struct MeshPart {
+    pub name: String,
+    pub triangles: Vec<[Vec3; 3]>,
+    pub material: Option<MtlMaterial>,
+}
+
+/// Loads an OBJ file.
+pub fn load_obj(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
+    let bad = |message: String| RenderError::Mesh {
+        file: path.to_owned(),
+        message,
+    };
+    if !path.is_file() {
+        return Err(bad("no such mesh file".into()));
+    }
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ..Default::default()
+    };
+    let (models, materials) =
+        tobj::load_obj(path, &options).map_err(|e| bad(format!("malformed OBJ: {e}")))?;
+    let materials = materials.map_err(|e| bad(format!("its MTL could not be read: {e}")))?;
+    let mut parts = Vec::with_capacity(models.len());
+    for model in models {
+        let m = &model.mesh;
+        let positions: Vec<Vec3> = m
+            .positions
+            .chunks_exact(3)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect();
+        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(bad(format!(
+                "object {:?}: vertex {i} is not finite",
+                model.name
+            )));
+        }
+        let mut triangles = Vec::with_capacity(m.indices.len() / 3);
+        for (f, idx) in m.indices.chunks_exact(3).enumerate() {
+            let get = |k: usize| {
+                positions.get(idx[k] as usize).copied().ok_or_else(|| {
+                    bad(format!(
+                        "object {:?}: face {f} uses vertex {} of {}",
+                        model.name,
+                        idx[k],
+                        positions.len()
+                    ))
+                })
+            };
+            triangles.push([get(0)?, get(1)?, get(2)?]);
+        }
+        let material = m
+            .material_id
+            .and_then(|id| materials.get(id))
+            .map(|mat| MtlMaterial {
+                name: mat.name.clone(),
+                diffuse: mat.diffuse.map(Vec3::from_array),
+                emission: mat.emissive.map(Vec3::from_array),
+            });
+        parts.push(MeshPart {
+            name: model.name,
+            triangles,
+            material,
+        });
+    }
+    if parts.iter().all(|p| p.triangles.is_empty()) {
+        return Err(bad("malformed OBJ: no faces".into()));
+    }
+    Ok(parts)
+}

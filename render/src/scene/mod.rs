@@ -1,0 +1,247 @@
+//! The render scene built from a shot: world-space triangles with materials, the BVH, emitters,
+//! the camera and render settings. Syntax of the renderer's shot sections: [`schema`].
+
+pub mod mesh;
+pub mod schema;
+
+use crate::error::{RenderError, key_error};
+use crate::geometry::{Accel, Triangle};
+use crate::lights::{Emitter, Lights};
+use crate::material::{Bsdf, Material};
+use glam::Vec3;
+use rift_fx::shot::check;
+use rift_fx::shot::pose::{self, Facing};
+use rift_fx::{Invalid, Shot};
+use schema::{MaterialKind, MaterialSection, ObjectSection, RenderSection};
+use serde::de::DeserializeOwned;
+use std::path::Path;
+
+/// Render settings from `[render]` (command-line flags override them).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    pub spp: u32,
+    pub seed: u32,
+    /// `None`: unlimited (Russian roulette ends paths).
+    pub max_bounces: Option<u32>,
+    /// Output path pattern; `#`s become the frame number.
+    pub output: String,
+}
+
+/// Everything the integrator needs.
+pub struct Scene {
+    pub triangles: Vec<Triangle>,
+    /// Material index per triangle.
+    pub triangle_material: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub accel: Accel,
+    pub lights: Lights,
+    pub settings: Settings,
+}
+
+/// Deserialises one renderer-owned table, naming `key` in errors.
+fn parse<T: DeserializeOwned>(
+    file: &Path,
+    key: &str,
+    table: &toml::Table,
+) -> Result<T, RenderError> {
+    serde_path_to_error::deserialize(toml::Value::Table(table.clone())).map_err(|e| {
+        let path = e.path().to_string();
+        let full = if path == "." {
+            key.to_owned()
+        } else {
+            format!("{key}.{path}")
+        };
+        key_error(file, full, e.inner().to_string())
+    })
+}
+
+impl Scene {
+    /// Builds the scene of `shot` at `frame`.
+    pub fn build(shot: &Shot, frame: i64) -> Result<Self, RenderError> {
+        let file = &shot.source;
+        let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
+        let base = file.parent().unwrap_or(Path::new("."));
+        let sections = &shot.render;
+
+        let render: RenderSection = match &sections.render {
+            Some(t) => parse(file, "render", t)?,
+            None => RenderSection::default(),
+        };
+        let settings = Settings {
+            spp: match render.spp {
+                Some(v) => check::integer("render.spp", v, 1, 1 << 16, "a positive integer")
+                    .map_err(invalid)?,
+                None => 16,
+            },
+            seed: match render.seed {
+                Some(v) => check::integer("render.seed", v, 0, u32::MAX as i64, "an integer ≥ 0")
+                    .map_err(invalid)?,
+                None => 0,
+            },
+            max_bounces: match render.max_bounces {
+                Some(v) => Some(
+                    check::integer("render.max_bounces", v, 0, 1 << 16, "an integer ≥ 0")
+                        .map_err(invalid)?,
+                ),
+                None => None,
+            },
+            output: render
+                .output
+                .unwrap_or_else(|| format!("out/{}.####.exr", shot.name)),
+        };
+
+        let mut materials = Vec::new();
+        for (i, table) in sections.materials.iter().enumerate() {
+            let key = format!("material[{i}]");
+            let m: MaterialSection = parse(file, &key, table)?;
+            if materials.iter().any(|x: &Material| x.name == m.name) {
+                return Err(key_error(
+                    file,
+                    format!("{key}.name"),
+                    format!("another material is already called {:?}", m.name),
+                ));
+            }
+            materials.push(material(&key, &m).map_err(invalid)?);
+        }
+
+        let mut triangles = Vec::new();
+        let mut triangle_material = Vec::new();
+        let t = shot.time_of(frame as f64);
+        for (i, table) in sections.objects.iter().enumerate() {
+            let key = format!("object[{i}]");
+            let o: ObjectSection = parse(file, &key, table)?;
+            let transform = match &o.transform {
+                Some(spec) => pose::animated(
+                    &format!("{key}.transform"),
+                    spec,
+                    Facing::PositiveZ,
+                    shot.fps,
+                )
+                .map_err(invalid)?
+                .at(t),
+                None => rift_fx::rig::Similarity::IDENTITY,
+            };
+            let mesh_path = base.join(&o.mesh);
+            let parts = match mesh_path.extension().and_then(|e| e.to_str()) {
+                Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)?,
+                _ => {
+                    return Err(key_error(
+                        file,
+                        format!("{key}.mesh"),
+                        format!("{:?}: expected an .obj file", o.mesh),
+                    ));
+                }
+            };
+            for part in parts {
+                let index = match (&o.material, &part.material) {
+                    (Some(name), _) => find(&materials, name).ok_or_else(|| {
+                        key_error(
+                            file,
+                            format!("{key}.material"),
+                            format!("no material is called {name:?}"),
+                        )
+                    })?,
+                    (None, Some(mtl)) => match find(&materials, &mtl.name) {
+                        Some(i) => i,
+                        None => {
+                            // From the MTL: Kd as diffuse reflectance, Ke as one-sided emission.
+                            materials.push(Material {
+                                name: mtl.name.clone(),
+                                bsdf: Bsdf::Diffuse {
+                                    reflectance: mtl.diffuse.unwrap_or(Vec3::splat(0.8)),
+                                },
+                                emission: mtl.emission.unwrap_or(Vec3::ZERO),
+                                two_sided_emission: false,
+                            });
+                            materials.len() - 1
+                        }
+                    },
+                    (None, None) => {
+                        return Err(key_error(
+                            file,
+                            format!("{key}.material"),
+                            format!(
+                                "part {:?} of {} names no material; set `material`",
+                                part.name, o.mesh
+                            ),
+                        ));
+                    }
+                };
+                for tri in part.triangles {
+                    let v = tri.map(|p| transform.transform_point(p.as_dvec3()).as_vec3());
+                    triangles.push(Triangle { v });
+                    triangle_material.push(index as u32);
+                }
+            }
+        }
+
+        let emitters = triangles
+            .iter()
+            .enumerate()
+            .filter_map(|(i, tri)| {
+                let m = &materials[triangle_material[i] as usize];
+                (m.emits() && tri.area() > 0.0).then(|| Emitter {
+                    triangle: i as u32,
+                    radiance: m.emission,
+                    two_sided: m.two_sided_emission,
+                    area: tri.area(),
+                })
+            })
+            .collect();
+        let lights = Lights::new(emitters, triangles.len());
+        let accel = Accel::build(&triangles);
+        Ok(Self {
+            triangles,
+            triangle_material,
+            materials,
+            accel,
+            lights,
+            settings,
+        })
+    }
+
+    /// The material of triangle `i`.
+    pub fn material(&self, triangle: u32) -> &Material {
+        &self.materials[self.triangle_material[triangle as usize] as usize]
+    }
+}
+
+fn find(materials: &[Material], name: &str) -> Option<usize> {
+    materials.iter().position(|m| m.name == name)
+}
+
+fn color(key: &str, v: Option<[f64; 3]>, default: Vec3) -> Result<Vec3, Invalid> {
+    match v {
+        None => Ok(default),
+        Some(c) if c.iter().all(|x| x.is_finite() && *x >= 0.0) => {
+            Ok(glam::DVec3::from_array(c).as_vec3())
+        }
+        Some(_) => Err(Invalid::new(
+            key,
+            "expected three finite numbers ≥ 0 (linear RGB)",
+        )),
+    }
+}
+
+fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
+    let reflectance = color(
+        &format!("{key}.reflectance"),
+        m.reflectance,
+        Vec3::splat(0.8),
+    )?;
+    if reflectance.max_element() > 1.0 {
+        return Err(Invalid::new(
+            format!("{key}.reflectance"),
+            "a reflectance above 1 creates energy",
+        ));
+    }
+    let bsdf = match m.kind {
+        MaterialKind::Diffuse => Bsdf::Diffuse { reflectance },
+    };
+    Ok(Material {
+        name: m.name.clone(),
+        bsdf,
+        emission: color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?,
+        two_sided_emission: m.two_sided_emission.unwrap_or(false),
+    })
+}

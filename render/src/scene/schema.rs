@@ -1,0 +1,64 @@
+//! The renderer's sections of the shot file (rift-fx keeps them as raw TOML).
+//!
+//! ```toml
+//! [render]
+//! spp = 64                      # samples per pixel
+//! seed = 0
+//! max_bounces = 16              # omit for unlimited (Russian roulette ends paths)
+//! output = "out/shot.####.exr"  # frame number replaces the #s; relative to the working directory
+//!
+//! [[material]]
+//! name = "white"
+//! type = "diffuse"              # "diffuse" (more types come with the material work)
+//! reflectance = [0.8, 0.8, 0.8]
+//! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709
+//! two_sided_emission = false
+//!
+//! [[object]]
+//! name = "room"
+//! mesh = "cornell.obj"          # OBJ (+MTL) or PLY, relative to the shot file
+//! material = "white"            # optional: otherwise each OBJ group's `usemtl` name, looked up
+//!                               # among [[material]] first and then in the MTL (Kd, Ke)
+//! transform = { position = [0.0, 0.0, 0.0] }   # a pose as in rift-fx (optional)
+//! ```
+
+use serde::Deserialize;
+
+/// `[render]`.
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSection {
+    pub spp: Option<i64>,
+    pub seed: Option<i64>,
+    pub max_bounces: Option<i64>,
+    pub output: Option<String>,
+}
+
+/// One `[[material]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSection {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub kind: MaterialKind,
+    pub reflectance: Option<[f64; 3]>,
+    pub emission: Option<[f64; 3]>,
+    pub two_sided_emission: Option<bool>,
+}
+
+/// Material types.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum MaterialKind {
+    Diffuse,
+}
+
+/// One `[[object]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSection {
+    pub name: String,
+    pub mesh: String,
+    pub material: Option<String>,
+    pub transform: Option<rift_fx::shot::schema::PoseSpec>,
+}
