@@ -1,7 +1,7 @@
 //! Unidirectional path tracing with next-event estimation and multiple importance sampling
 //! (power heuristic) between light sampling and BSDF sampling, and Russian roulette from the
-//! third bounce. Each bounce draws a fixed number of sample dimensions (light pick, light point,
-//! BSDF direction, roulette), so the Sobol dimensions line up across paths.
+//! third bounce. Each bounce draws the same two four-dimensional sets (light pick, light point and
+//! roulette; BSDF direction), so the Sobol dimensions line up across paths.
 
 use crate::geometry::offset_origin;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
@@ -52,10 +52,9 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
             }
         }
         // Dimensions of this bounce, drawn whether or not they are used.
-        let u_pick = s.next_1d();
-        let u_light = s.next_2d();
-        let u_bsdf = s.next_2d();
-        let u_roulette = s.next_1d();
+        let [u_pick, lx, ly, u_roulette] = s.next_4d();
+        let [bx, by, _, _] = s.next_4d();
+        let (u_light, u_bsdf) = (glam::Vec2::new(lx, ly), glam::Vec2::new(bx, by));
         if scene.settings.max_bounces.is_some_and(|m| bounce >= m) {
             break;
         }

@@ -34,8 +34,8 @@ pub fn render(scene: &Scene, camera: &Camera, t: f64, spp: u32) -> Image {
                     let mut discarded = 0;
                     for i in 0..spp {
                         let mut s = SampleStream::new(i, pixel_seed);
-                        let jitter = s.next_2d();
-                        let lens_u = s.next_2d();
+                        let [jx, jy, lx, ly] = s.next_4d();
+                        let (jitter, lens_u) = (Vec2::new(jx, jy), Vec2::new(lx, ly));
                         let ndc = (Vec2::new(x as f32, y as f32) + jitter)
                             / Vec2::new(w as f32, h as f32);
                         let (o, d) = lens.ray(ndc, lens_u);
