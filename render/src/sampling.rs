@@ -151,7 +151,11 @@ pub struct SampleStream {
 impl SampleStream {
     /// Sample `index` of the pixel whose decorrelation seed is `seed`.
     pub fn new(index: u32, seed: u32) -> Self {
-        Self { index, seed, set: 0 }
+        Self {
+            index,
+            seed,
+            set: 0,
+        }
     }
 
     /// The next four numbers in [0, 1).
