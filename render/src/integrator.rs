@@ -4,6 +4,7 @@
 //! roulette; BSDF direction), so the Sobol dimensions line up across paths.
 
 use crate::geometry::offset_origin;
+use crate::lights::LightPlace;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -28,7 +29,18 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
     let mut prev_pdf = 0.0f32;
     let mut prev_delta = true;
     let mut bounce = 0u32;
-    while let Some(hit) = scene.accel.intersect(origin, dir, f32::INFINITY) {
+    loop {
+        let Some(hit) = scene.accel.intersect(origin, dir, f32::INFINITY) else {
+            if let Some(env) = scene.lights.environment {
+                let weight = if prev_delta {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, scene.lights.pdf_environment())
+                };
+                out.radiance += beta * env * weight;
+            }
+            break;
+        };
         if bounce == 0 {
             out.alpha = 1.0;
         }
@@ -66,24 +78,29 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
         let p_out = offset_origin(p, n);
 
         if let Some(light) = scene.lights.sample(&scene.triangles, u_pick, u_light) {
-            let cos_l_raw = (p_out - light.point).dot(light.normal);
-            let facing = cos_l_raw > 0.0 || (light.two_sided && cos_l_raw < 0.0);
-            if facing {
-                let light_side = if cos_l_raw > 0.0 {
-                    light.normal
-                } else {
-                    -light.normal
-                };
-                let target = offset_origin(light.point, light_side);
-                let to = target - p_out;
-                let dist2 = to.length_squared();
-                let dist = dist2.sqrt();
-                let wi_world = to / dist;
+            // Direction, distance for the shadow ray and solid-angle pdf of the light sample.
+            let towards = match light.place {
+                LightPlace::Direction(d) => Some((d, f32::INFINITY, light.pdf)),
+                LightPlace::Point {
+                    point,
+                    normal,
+                    two_sided,
+                } => {
+                    let cos_raw = (p_out - point).dot(normal);
+                    (cos_raw > 0.0 || (two_sided && cos_raw < 0.0)).then(|| {
+                        let light_side = if cos_raw > 0.0 { normal } else { -normal };
+                        let to = offset_origin(point, light_side) - p_out;
+                        let dist2 = to.length_squared();
+                        let dist = dist2.sqrt();
+                        let wi = to / dist;
+                        (wi, dist, light.pdf * dist2 / wi.dot(light_side).abs())
+                    })
+                }
+            };
+            if let Some((wi_world, dist, pdf_light)) = towards {
                 let wi = frame.to_local(wi_world);
                 let f = material.bsdf.eval(wo, wi);
                 if f != Vec3::ZERO && !scene.accel.occluded(p_out, wi_world, dist) {
-                    let cos_l = wi_world.dot(light_side).abs();
-                    let pdf_light = light.pdf_area * dist2 / cos_l;
                     let weight = power_heuristic(pdf_light, material.bsdf.pdf(wo, wi));
                     out.radiance += beta * f * light.radiance * (weight / pdf_light);
                 }

@@ -1,10 +1,12 @@
 //! Emitters and how next-event estimation picks them: every emissive triangle, chosen in
 //! proportion to its power with an alias table (O(1) per sample whatever the count), then a
-//! uniform point on it.
+//! uniform point on it; and a constant environment, sampled uniformly over the sphere. When both
+//! exist each is picked half the time.
 
 use crate::geometry::Triangle;
 use crate::sampling::{AliasTable, uniform_triangle};
 use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
 
 /// One emissive triangle.
 #[derive(Clone, Copy, Debug)]
@@ -15,16 +17,26 @@ pub struct Emitter {
     pub area: f32,
 }
 
-/// A sampled point on an emitter.
+/// Where a light sample lies.
+#[derive(Clone, Copy, Debug)]
+pub enum LightPlace {
+    /// A point on an emissive triangle, with its unit geometric normal (front side).
+    Point {
+        point: Vec3,
+        normal: Vec3,
+        two_sided: bool,
+    },
+    /// A direction towards the environment, infinitely far.
+    Direction(Vec3),
+}
+
+/// A sampled light.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
-    pub point: Vec3,
-    /// Unit geometric normal (front side).
-    pub normal: Vec3,
+    pub place: LightPlace,
     pub radiance: Vec3,
-    pub two_sided: bool,
-    /// Area-measure pdf of having picked this point.
-    pub pdf_area: f32,
+    /// Area-measure pdf for a point, solid-angle pdf for a direction.
+    pub pdf: f32,
 }
 
 /// All emitters of a scene.
@@ -34,6 +46,10 @@ pub struct Lights {
     table: AliasTable,
     /// Emitter index per scene triangle (u32::MAX: not an emitter).
     by_triangle: Vec<u32>,
+    /// Constant environment radiance, if any.
+    pub environment: Option<Vec3>,
+    /// Probability of sampling the environment rather than a triangle.
+    environment_probability: f32,
 }
 
 fn luminance(c: Vec3) -> f32 {
@@ -42,7 +58,7 @@ fn luminance(c: Vec3) -> f32 {
 
 impl Lights {
     /// Collects emitters; `triangle_count` is the scene's triangle count.
-    pub fn new(emitters: Vec<Emitter>, triangle_count: usize) -> Self {
+    pub fn new(emitters: Vec<Emitter>, triangle_count: usize, environment: Option<Vec3>) -> Self {
         let weights: Vec<f64> = emitters
             .iter()
             .map(|e| {
@@ -59,39 +75,66 @@ impl Lights {
         for (i, e) in emitters.iter().enumerate() {
             by_triangle[e.triangle as usize] = i as u32;
         }
+        let environment = environment.filter(|e| e.max_element() > 0.0);
+        let environment_probability = match (environment.is_some(), emitters.is_empty()) {
+            (false, _) => 0.0,
+            (true, true) => 1.0,
+            (true, false) => 0.5,
+        };
         Self {
             emitters,
             table,
             by_triangle,
+            environment,
+            environment_probability,
         }
     }
 
     /// True when there is nothing to sample.
     pub fn is_empty(&self) -> bool {
-        self.emitters.is_empty()
+        self.emitters.is_empty() && self.environment.is_none()
     }
 
-    /// Picks an emitter and a point on it.
+    /// Picks a light and a point (or direction) on it.
     pub fn sample(
         &self,
         triangles: &[Triangle],
         u_pick: f32,
         u_point: Vec2,
     ) -> Option<LightSample> {
-        if self.is_empty() {
+        let p_env = self.environment_probability;
+        if let Some(radiance) = self.environment.filter(|_| u_pick < p_env) {
+            let z = 1.0 - 2.0 * u_point.x;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * PI * u_point.y;
+            return Some(LightSample {
+                place: LightPlace::Direction(Vec3::new(r * phi.cos(), r * phi.sin(), z)),
+                radiance,
+                pdf: self.pdf_environment(),
+            });
+        }
+        if self.emitters.is_empty() {
             return None;
         }
-        let i = self.table.sample(u_pick);
+        let u = ((u_pick - p_env) / (1.0 - p_env)).clamp(0.0, 1.0 - f32::EPSILON);
+        let i = self.table.sample(u);
         let e = &self.emitters[i];
         let tri = &triangles[e.triangle as usize];
         let (b1, b2) = uniform_triangle(u_point);
         Some(LightSample {
-            point: tri.point(b1, b2),
-            normal: tri.normal().normalize(),
+            place: LightPlace::Point {
+                point: tri.point(b1, b2),
+                normal: tri.normal().normalize(),
+                two_sided: e.two_sided,
+            },
             radiance: e.radiance,
-            two_sided: e.two_sided,
-            pdf_area: self.table.pmf(i) / e.area,
+            pdf: (1.0 - p_env) * self.table.pmf(i) / e.area,
         })
+    }
+
+    /// Solid-angle pdf with which [`Lights::sample`] picks an environment direction.
+    pub fn pdf_environment(&self) -> f32 {
+        self.environment_probability / (4.0 * PI)
     }
 
     /// Area-measure pdf with which [`Lights::sample`] picks a point on `triangle`.

@@ -12,7 +12,7 @@ use glam::Vec3;
 use rift_fx::shot::check;
 use rift_fx::shot::pose::{self, Facing};
 use rift_fx::{Invalid, Shot};
-use schema::{MaterialKind, MaterialSection, ObjectSection, RenderSection};
+use schema::{EnvironmentSection, MaterialKind, MaterialSection, ObjectSection, RenderSection};
 use serde::de::DeserializeOwned;
 use std::path::Path;
 
@@ -188,7 +188,14 @@ impl Scene {
                 })
             })
             .collect();
-        let lights = Lights::new(emitters, triangles.len());
+        let environment = match &sections.environment {
+            Some(t) => {
+                let e: EnvironmentSection = parse(file, "environment", t)?;
+                Some(color("environment.radiance", Some(e.radiance), Vec3::ZERO).map_err(invalid)?)
+            }
+            None => None,
+        };
+        let lights = Lights::new(emitters, triangles.len(), environment);
         let accel = Accel::build(&triangles);
         Ok(Self {
             triangles,

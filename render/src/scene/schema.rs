@@ -14,6 +14,9 @@
 //! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709
 //! two_sided_emission = false
 //!
+//! [environment]                # light from every direction where rays escape
+//! radiance = [0.2, 0.25, 0.3]
+//!
 //! [[object]]
 //! name = "room"
 //! mesh = "cornell.obj"          # OBJ (+MTL) or PLY, relative to the shot file
@@ -61,4 +64,11 @@ pub struct ObjectSection {
     pub mesh: String,
     pub material: Option<String>,
     pub transform: Option<rift_fx::shot::schema::PoseSpec>,
+}
+
+/// `[environment]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentSection {
+    pub radiance: [f64; 3],
 }

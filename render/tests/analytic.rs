@@ -1,0 +1,196 @@
+//! Analytic radiometry tests (in the spirit of pbrt's integrator tests): results known exactly.
+
+use glam::Vec3;
+use rift_render::Scene;
+use rift_render::rift_fx::Shot;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// An icosphere of radius 1 as OBJ text (convex: no point sees another).
+fn icosphere_obj(subdivisions: u32) -> String {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut v: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[usize; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut next = Vec::new();
+        let mut mid = std::collections::HashMap::new();
+        let mut midpoint = |a: usize, b: usize, v: &mut Vec<Vec3>| {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                v.push(((v[a] + v[b]) * 0.5).normalize());
+                v.len() - 1
+            })
+        };
+        for [a, b, c] in f {
+            let (ab, bc, ca) = (
+                midpoint(a, b, &mut v),
+                midpoint(b, c, &mut v),
+                midpoint(c, a, &mut v),
+            );
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    let mut obj = String::new();
+    for p in &v {
+        writeln!(obj, "v {} {} {}", p.x, p.y, p.z).unwrap();
+    }
+    for [a, b, c] in f {
+        writeln!(obj, "f {} {} {}", a + 1, b + 1, c + 1).unwrap();
+    }
+    obj
+}
+
+/// Renders `extra` TOML (materials, objects, environment) at 48×48 and `spp`.
+fn render(dir: &Path, extra: &str, spp: u32) -> rift_render::film::Image {
+    let text = format!(
+        r#"
+[shot]
+name = "analytic"
+fps = 24.0
+frames = [1, 1]
+[camera]
+resolution = [48, 48]
+fov_degrees = 40.0
+[camera.transform]
+position = [0.0, 0.0, 4.0]
+{extra}
+"#
+    );
+    let path = dir.join("shot.toml");
+    std::fs::write(&path, &text).unwrap();
+    let shot = Shot::load(&path).unwrap();
+    let scene = Scene::build(&shot, 1).unwrap();
+    rift_render::render::render(&scene, &shot.camera, 0.0, spp)
+}
+
+fn sphere_scene(reflectance: f32) -> String {
+    format!(
+        r#"
+[environment]
+radiance = [1.0, 1.0, 1.0]
+[[material]]
+name = "m"
+type = "diffuse"
+reflectance = [{reflectance}, {reflectance}, {reflectance}]
+[[object]]
+name = "ball"
+mesh = "ball.obj"
+material = "m"
+"#
+    )
+}
+
+/// Mean over pixels where every camera ray hit (alpha 1) and over those where none did.
+fn means(img: &rift_render::film::Image) -> (Vec3, Vec3, usize) {
+    let (mut hit, mut miss, mut n_hit, mut n_miss) = (Vec3::ZERO, Vec3::ZERO, 0, 0);
+    for (c, a) in img.rgb.iter().zip(&img.alpha) {
+        if *a == 1.0 {
+            hit += *c;
+            n_hit += 1;
+        } else if *a == 0.0 {
+            miss += *c;
+            n_miss += 1;
+        }
+    }
+    (hit / n_hit as f32, miss / n_miss.max(1) as f32, n_hit)
+}
+
+#[test]
+fn white_furnace_and_half_albedo_sphere() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("ball.obj"), icosphere_obj(3)).unwrap();
+    for albedo in [1.0f32, 0.5] {
+        let img = render(dir.path(), &sphere_scene(albedo), 32);
+        let (on, off, n) = means(&img);
+        assert!(n > 300, "the sphere covers pixels");
+        assert!(
+            (on - Vec3::splat(albedo)).abs().max_element() < 0.005 * albedo,
+            "albedo {albedo}: sphere mean {on}"
+        );
+        assert_eq!(off, Vec3::ONE, "the environment seen directly is exact");
+        // Every pixel of the convex sphere converges to the albedo: none is far off.
+        for (c, a) in img.rgb.iter().zip(&img.alpha) {
+            if *a == 1.0 {
+                assert!(
+                    (c.x - albedo).abs() < 0.15 * albedo,
+                    "pixel {c} for albedo {albedo}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn emitter_seen_head_on_shows_its_radiance() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("quad.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let extra = r#"
+[[material]]
+name = "lamp"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [2.0, 3.0, 4.0]
+[[object]]
+name = "panel"
+mesh = "quad.obj"
+material = "lamp"
+"#;
+    let img = render(dir.path(), extra, 4);
+    let radiance = Vec3::new(2.0, 3.0, 4.0);
+    let mut full = 0;
+    for (c, a) in img.rgb.iter().zip(&img.alpha) {
+        if *a == 1.0 {
+            assert!((*c - radiance).abs().max_element() < 1e-5, "{c}");
+            full += 1;
+        }
+    }
+    assert!(full > 100);
+    // Seen from behind, a one-sided emitter is black.
+    let behind = extra.replace(
+        "mesh = \"quad.obj\"",
+        "mesh = \"quad.obj\"\ntransform = { rotation_degrees = [0.0, 180.0, 0.0] }",
+    );
+    let img = render(dir.path(), &behind, 4);
+    assert!(img.rgb.iter().all(|c| *c == Vec3::ZERO));
+}
