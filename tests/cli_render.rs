@@ -142,3 +142,23 @@ fn unwritable_output() {
     assert_eq!(out.status.code(), Some(1));
     assert!(stderr(&out).contains("blocker"), "{}", stderr(&out));
 }
+
+#[test]
+fn nan_in_a_transform() {
+    let dir = scene_dir(|t| {
+        t.replace(
+            "mesh = \"cornell.obj\"",
+            "mesh = \"cornell.obj\"\ntransform = { position = [nan, 0.0, 0.0] }",
+        )
+    });
+    expect_failure(&dir, &["shot.toml: object[0].transform.position", "finite"]);
+}
+
+#[test]
+fn zero_resolution() {
+    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [0, 256]"));
+    expect_failure(
+        &dir,
+        &["shot.toml: camera.resolution[0]", "positive integer"],
+    );
+}
