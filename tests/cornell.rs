@@ -10,7 +10,13 @@ use rift_render::film::read_exr_rgb;
 use std::path::PathBuf;
 
 fn reference() -> PathBuf {
-    root().join("../shared/reference/cornell/reference.exr")
+    let path = root().join("../shared/reference/cornell/reference.exr");
+    assert!(
+        path.is_file(),
+        "the Cornell reference pack is expected beside the checkout, at {}",
+        path.display()
+    );
+    path
 }
 
 /// Renders the example at `spp` through the CLI, returning (mean, relMSE against the reference).
