@@ -31,6 +31,12 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores). The image is identical for any count.
     #[arg(long)]
     threads: Option<usize>,
+    /// Image size in pixels, overriding the shot (the vertical field of view is kept).
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    res: Option<Vec<u32>>,
+    /// Also write an sRGB PNG preview beside each EXR.
+    #[arg(long)]
+    png: bool,
 }
 
 /// Replaces the run of `#` in `pattern` with `frame`, zero-padded to the run's length.
@@ -51,7 +57,13 @@ pub fn frame_path(pattern: &str, frame: i64) -> String {
 
 /// Runs `rift render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let shot = Shot::load(&args.shot)?;
+    let mut shot = Shot::load(&args.shot)?;
+    if let Some(res) = &args.res {
+        if res.iter().any(|&v| v == 0 || v > 65536) {
+            bail!("--res: expected a width and height from 1 to 65536 pixels");
+        }
+        shot.camera.projection.resolution = [res[0], res[1]];
+    }
     let frames = match (&args.frames, args.frame) {
         (Some(text), _) => FrameRange::parse(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
         (None, Some(f)) => FrameRange { first: f, last: f },
@@ -89,6 +101,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         })?;
         let seconds = started.elapsed().as_secs_f64();
         image.write_exr(&path)?;
+        if args.png {
+            image.write_png(&path.with_extension("png"))?;
+        }
         eprintln!(
             "rift render: frame {frame}: {}x{} at {spp} spp in {seconds:.2} s ({:.2} Mpaths/s) -> {}{}",
             image.width,

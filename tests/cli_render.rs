@@ -162,3 +162,36 @@ fn zero_resolution() {
         &["shot.toml: camera.resolution[0]", "positive integer"],
     );
 }
+
+#[test]
+fn resolution_override_and_png_preview() {
+    let dir = scene_dir(|t| t);
+    let r = rift(
+        dir.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--spp",
+            "1",
+            "--res",
+            "40",
+            "30",
+            "--png",
+            "-o",
+            "img.####.exr",
+        ],
+    );
+    assert!(r.status.success(), "{}", stderr(&r));
+    let (w, h, _) = rift_render::film::read_exr_rgb(&dir.path().join("img.0001.exr")).unwrap();
+    assert_eq!((w, h), (40, 30));
+    let png = std::fs::read(dir.path().join("img.0001.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let be = |i: usize| u32::from_be_bytes(png[i..i + 4].try_into().unwrap());
+    assert_eq!((be(16), be(20)), (40, 30), "IHDR width and height");
+    let bad = rift(
+        dir.path(),
+        &["render", "shot.toml", "--res", "0", "30", "-o", "x.exr"],
+    );
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(stderr(&bad).contains("--res"));
+}

@@ -46,6 +46,48 @@ impl Image {
     }
 }
 
+impl Image {
+    /// Writes an 8-bit sRGB PNG preview (values clipped to [0, 1], alpha dropped).
+    pub fn write_png(&self, path: &Path) -> Result<(), RenderError> {
+        let err = |message: String| RenderError::Write {
+            path: path.to_owned(),
+            message,
+        };
+        let mut bytes = Vec::with_capacity(self.rgb.len() * 3);
+        for c in &self.rgb {
+            bytes.extend(c.to_array().map(|v| (srgb_encode(v) * 255.0 + 0.5) as u8));
+        }
+        let mut encoded = Vec::new();
+        {
+            let mut encoder =
+                png::Encoder::new(&mut encoded, self.width as u32, self.height as u32);
+            encoder.set_color(png::ColorType::Rgb);
+            encoder.set_depth(png::BitDepth::Eight);
+            encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+            let mut writer = encoder.write_header().map_err(|e| err(e.to_string()))?;
+            writer
+                .write_image_data(&bytes)
+                .map_err(|e| err(e.to_string()))?;
+        }
+        rift_fx::export::atomic::write(path, |out| out.write_all(&encoded))
+            .map_err(|e| err(e.to_string()))
+    }
+}
+
+/// The sRGB transfer function, for values clipped to [0, 1].
+fn srgb_encode(linear: f32) -> f32 {
+    let v = if linear.is_finite() {
+        linear.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
 /// Reads the RGB channels of an EXR (for references and tests).
 pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<Vec3>), RenderError> {
     use exr::prelude::*;
