@@ -15,6 +15,27 @@ use std::time::Instant;
 pub enum BenchCommand {
     /// Ring generation and export throughput on a heavy shot.
     Fx(FxBenchArgs),
+    /// Error against a converged reference as samples grow: relMSE, seconds, efficiency.
+    Convergence(ConvergenceArgs),
+}
+
+/// Arguments of `rift bench convergence`.
+#[derive(Args)]
+pub struct ConvergenceArgs {
+    /// The shot to render (its first frame).
+    shot: PathBuf,
+    /// The converged reference image (EXR, same resolution).
+    #[arg(long)]
+    reference: PathBuf,
+    /// Sample counts to measure, comma-separated.
+    #[arg(long, default_value = "16,64,256,1024")]
+    spp: String,
+    /// Where to write the table as CSV.
+    #[arg(long, default_value = "out/convergence.csv")]
+    csv: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 /// Arguments of `rift bench fx`.
@@ -38,6 +59,7 @@ pub struct FxBenchArgs {
 pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     match cmd {
         BenchCommand::Fx(args) => fx(args),
+        BenchCommand::Convergence(args) => convergence(args),
     }
 }
 
@@ -133,5 +155,73 @@ fn fx(args: FxBenchArgs) -> anyhow::Result<()> {
             bytes as f64 / secs / 1e6
         );
     }
+    Ok(())
+}
+
+/// relMSE = mean over pixels and channels of (v − ref)² / (ref² + 0.01).
+fn relative_mse(image: &[glam::Vec3], reference: &[glam::Vec3]) -> f64 {
+    let sum: f64 = image
+        .iter()
+        .zip(reference)
+        .map(|(v, r)| {
+            let (v, r) = (v.as_dvec3(), r.as_dvec3());
+            ((v - r) * (v - r) / (r * r + glam::DVec3::splat(0.01))).element_sum()
+        })
+        .sum();
+    sum / (3 * image.len()) as f64
+}
+
+fn convergence(args: ConvergenceArgs) -> anyhow::Result<()> {
+    let shot = Shot::load(&args.shot)?;
+    let (rw, rh, reference) = rift_render::film::read_exr_rgb(&args.reference)?;
+    let [w, h] = shot.camera.projection.resolution;
+    anyhow::ensure!(
+        (w as usize, h as usize) == (rw, rh),
+        "{}: the reference is {rw}x{rh}, the shot renders {w}x{h}",
+        args.reference.display()
+    );
+    let counts: Vec<u32> = args
+        .spp
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<u32>()
+                .ok()
+                .filter(|&n| (1..=1 << 16).contains(&n))
+        })
+        .collect::<Option<_>>()
+        .ok_or_else(|| {
+            anyhow::anyhow!("--spp: expected comma-separated sample counts from 1 to 65536")
+        })?;
+    let frame = shot.frames.first;
+    let scene = rift_render::Scene::build(&shot, frame)?;
+    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
+    println!(
+        "rift bench convergence: {} against {}, {w}x{h}, {threads} threads",
+        args.shot.display(),
+        args.reference.display()
+    );
+    println!(
+        "{:>6} {:>10} {:>12} {:>12} {:>10}",
+        "spp", "seconds", "relMSE", "efficiency", "Mpaths/s"
+    );
+    let mut csv = String::from("spp,seconds,rel_mse,efficiency,mpaths_per_s\n");
+    for spp in counts {
+        let t = Instant::now();
+        let image = crate::with_threads(args.threads, || {
+            rift_render::render::render(&scene, &shot.camera, shot.time_of(frame as f64), spp)
+        })?;
+        let seconds = t.elapsed().as_secs_f64();
+        let rel = relative_mse(&image.rgb, &reference);
+        let efficiency = 1.0 / (rel * seconds);
+        let mpaths = (w as f64 * h as f64 * spp as f64) / seconds / 1e6;
+        println!("{spp:>6} {seconds:>10.3} {rel:>12.4e} {efficiency:>12.1} {mpaths:>10.3}");
+        csv.push_str(&format!("{spp},{seconds},{rel},{efficiency},{mpaths}\n"));
+    }
+    if let Some(dir) = args.csv.parent().filter(|d| !d.as_os_str().is_empty()) {
+        crate::fx_cmd::prepare_output_dir(dir)?;
+    }
+    rift_fx::export::atomic::write(&args.csv, |w| w.write_all(csv.as_bytes()))?;
+    println!("wrote {}", args.csv.display());
     Ok(())
 }

@@ -118,13 +118,19 @@ impl<'a> RingGenerator<'a> {
     }
 
     /// True when the strand profile (radius, height) may be taken as linear in time across the
-    /// shutter: its neglected curvature, about 3·amplitude·(evolution·shutter)², estimated from the
-    /// evolution speed, is below 2e-5 of the ring radius. Rotation, the fast part of the motion,
-    /// is always exact at the fit nodes.
-    fn profile_is_linear(&self, model: &RingModel) -> bool {
+    /// shutter of the frame at `time`. The profile moves through noise evolution and through the
+    /// level of detail, which follows the camera; its departure from a straight line is estimated
+    /// as 3·amplitude·(evolution·shutter)² plus 2·amplitude·(the level of detail's own departure
+    /// from linearity at the fit nodes), and must stay below 2e-5 of the ring radius. Rotation,
+    /// the fast part of the motion, is always exact at the fit nodes.
+    fn profile_is_linear(&self, model: &RingModel, time: f64) -> bool {
         let noise = &model.look.noise;
-        let span = noise.evolution * (self.nodes[1] - self.nodes[0]).abs();
-        3.0 * noise.amplitude * (1.0 + noise.depth) * span * span < 2e-5 * model.look.radius
+        let [d0, d1] = self.nodes;
+        let reach = noise.amplitude * (1.0 + noise.depth);
+        let span = noise.evolution * (d1 - d0).abs();
+        let lod = |d: f64| model.timing.lod(time + d);
+        let lod_bend = (lod(d0) - (lod(0.0) + (lod(d1) - lod(0.0)) * d0 / d1)).abs();
+        3.0 * reach * span * span + 2.0 * reach * lod_bend < 2e-5 * model.look.radius
     }
 
     fn bake(&self, opening: usize, model: &RingModel, time: f64) -> RingCurves {
@@ -158,7 +164,7 @@ impl<'a> RingGenerator<'a> {
             })
             .collect();
         let fit = QuadraticFit::new(self.nodes);
-        let linear_profile = self.profile_is_linear(model);
+        let linear_profile = self.profile_is_linear(model, time);
         for strand in &model.strands {
             let now = model.instant(strand, time);
             let before = model.instant(strand, time + self.nodes[0]);
