@@ -178,19 +178,6 @@ fn fx(args: FxBenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// relMSE = mean over pixels and channels of (v − ref)² / (ref² + 0.01).
-fn relative_mse(image: &[glam::Vec3], reference: &[glam::Vec3]) -> f64 {
-    let sum: f64 = image
-        .iter()
-        .zip(reference)
-        .map(|(v, r)| {
-            let (v, r) = (v.as_dvec3(), r.as_dvec3());
-            ((v - r) * (v - r) / (r * r + glam::DVec3::splat(0.01))).element_sum()
-        })
-        .sum();
-    sum / (3 * image.len()) as f64
-}
-
 fn convergence(args: ConvergenceArgs) -> anyhow::Result<()> {
     let shot = Shot::load(&args.shot)?;
     let (rw, rh, reference) = rift_render::film::read_exr_rgb(&args.reference)?;
@@ -232,7 +219,7 @@ fn convergence(args: ConvergenceArgs) -> anyhow::Result<()> {
             rift_render::render::render(&scene, &shot.camera, shot.time_of(frame as f64), spp)
         })?;
         let seconds = t.elapsed().as_secs_f64();
-        let rel = relative_mse(&image.rgb, &reference);
+        let rel = rift_render::film::relative_mse(&image.rgb, &reference);
         let efficiency = 1.0 / (rel * seconds);
         let mpaths = (w as f64 * h as f64 * spp as f64) / seconds / 1e6;
         println!("{spp:>6} {seconds:>10.3} {rel:>12.4e} {efficiency:>12.1} {mpaths:>10.3}");

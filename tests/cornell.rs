@@ -6,7 +6,7 @@ mod common;
 
 use common::{rift, root, stderr};
 use glam::DVec3;
-use rift_render::film::read_exr_rgb;
+use rift_render::film::{channel_mean, read_exr_rgb, relative_mse};
 use std::path::PathBuf;
 
 fn reference() -> PathBuf {
@@ -39,24 +39,15 @@ fn render(spp: u32) -> (DVec3, f64) {
     let (w, h, img) = read_exr_rgb(&out).unwrap();
     let (rw, rh, reference) = read_exr_rgb(&reference()).unwrap();
     assert_eq!((w, h), (rw, rh));
-    let n = img.len() as f64;
-    let mean = img.iter().map(|c| c.as_dvec3()).sum::<DVec3>() / n;
-    let rel_mse = img
-        .iter()
-        .zip(&reference)
-        .map(|(v, r)| {
-            let (v, r) = (v.as_dvec3(), r.as_dvec3());
-            ((v - r) * (v - r) / (r * r + DVec3::splat(0.01))).element_sum() / 3.0
-        })
-        .sum::<f64>()
-        / n;
+    let mean = channel_mean(&img);
+    let rel_mse = relative_mse(&img, &reference);
     (mean, rel_mse)
 }
 
 #[test]
 fn cornell_matches_the_reference_mean_and_converges_as_one_over_spp() {
     let (_, _, reference) = read_exr_rgb(&reference()).unwrap();
-    let ref_mean = reference.iter().map(|c| c.as_dvec3()).sum::<DVec3>() / reference.len() as f64;
+    let ref_mean = channel_mean(&reference);
     let (mean8, mse8) = render(8);
     let (mean32, mse32) = render(32);
     for mean in [mean8, mean32] {

@@ -17,12 +17,6 @@ pub struct Image {
 }
 
 impl Image {
-    /// Mean of each channel over the image.
-    pub fn mean(&self) -> Vec3 {
-        let sum: glam::DVec3 = self.rgb.iter().map(|c| c.as_dvec3()).sum();
-        (sum / self.rgb.len() as f64).as_vec3()
-    }
-
     /// Writes an RGBA float EXR.
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
         use exr::prelude::*;
@@ -86,6 +80,25 @@ fn srgb_encode(linear: f32) -> f32 {
     } else {
         1.055 * v.powf(1.0 / 2.4) - 0.055
     }
+}
+
+/// Mean of each channel over an image, in f64.
+pub fn channel_mean(pixels: &[Vec3]) -> glam::DVec3 {
+    pixels.iter().map(|c| c.as_dvec3()).sum::<glam::DVec3>() / pixels.len() as f64
+}
+
+/// Relative MSE against a reference: the mean over pixels and channels of
+/// (v − ref)² / (ref² + 0.01), the error measure of `rift bench convergence`.
+pub fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
+    let sum: f64 = image
+        .iter()
+        .zip(reference)
+        .map(|(v, r)| {
+            let (v, r) = (v.as_dvec3(), r.as_dvec3());
+            ((v - r) * (v - r) / (r * r + glam::DVec3::splat(0.01))).element_sum()
+        })
+        .sum();
+    sum / (3 * image.len()) as f64
 }
 
 /// Reads the RGB channels of an EXR (for references and tests).
