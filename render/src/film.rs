@@ -38,9 +38,7 @@ impl Image {
         rift_fx::export::atomic::write(path, |out| out.write_all(bytes.get_ref()))
             .map_err(|e| err(e.to_string()))
     }
-}
 
-impl Image {
     /// Writes an 8-bit sRGB PNG preview (values clipped to [0, 1], alpha dropped).
     pub fn write_png(&self, path: &Path) -> Result<(), RenderError> {
         let err = |message: String| RenderError::Write {

@@ -96,11 +96,4 @@ impl Bsdf {
             }
         }
     }
-
-    /// Albedo-like colour for the albedo AOV and for path termination.
-    pub fn albedo(&self) -> Vec3 {
-        match self {
-            Bsdf::Diffuse { reflectance } => *reflectance,
-        }
-    }
 }

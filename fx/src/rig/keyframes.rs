@@ -88,12 +88,7 @@ impl AnimatedTransform {
                 let mut s = k0.value.interpolate(&k1.value, w);
                 let m0 = self.tangent(i) * dt;
                 let m1 = self.tangent(i + 1) * dt;
-                let (p0, p1) = (k0.value.translation, k1.value.translation);
-                let (w2, w3) = (w * w, w * w * w);
-                s.translation = p0 * (2.0 * w3 - 3.0 * w2 + 1.0)
-                    + m0 * (w3 - 2.0 * w2 + w)
-                    + p1 * (-2.0 * w3 + 3.0 * w2)
-                    + m1 * (w3 - w2);
+                s.translation = hermite(k0.value.translation, m0, k1.value.translation, m1, w);
                 s
             }
         }
@@ -118,6 +113,19 @@ impl AnimatedTransform {
             (slope(i - 1, i) * h1 + slope(i, i + 1) * h0) / (h0 + h1)
         }
     }
+}
+
+/// The cubic Hermite curve from `p0` (slope `m0`) to `p1` (slope `m1`) at `w` in [0, 1], slopes
+/// already scaled by the segment length.
+pub fn hermite<T>(p0: T, m0: T, p1: T, m1: T, w: f64) -> T
+where
+    T: std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T>,
+{
+    let (w2, w3) = (w * w, w * w * w);
+    p0 * (2.0 * w3 - 3.0 * w2 + 1.0)
+        + m0 * (w3 - 2.0 * w2 + w)
+        + p1 * (-2.0 * w3 + 3.0 * w2)
+        + m1 * (w3 - w2)
 }
 
 #[cfg(test)]

@@ -30,6 +30,7 @@
 //! noise field cross-fades octaves continuously in L (see [`super::noise_field`]), so detail
 //! appears and fades without popping.
 
+use crate::rig::keyframes::hermite;
 use crate::rig::{Camera, Rig};
 use crate::ring::RingLook;
 use crate::shot::Shot;
@@ -175,13 +176,8 @@ impl RingTiming {
     /// Rotation angle Θ(t) in radians (before per-strand direction and speed factor).
     pub fn angle(&self, t: f64) -> f64 {
         let (k, w) = self.locate(t);
-        let (p0, p1) = (self.theta[k], self.theta[k + 1]);
         let (m0, m1) = (self.omega[k] * self.dt, self.omega[k + 1] * self.dt);
-        let (w2, w3) = (w * w, w * w * w);
-        p0 * (2.0 * w3 - 3.0 * w2 + 1.0)
-            + m0 * (w3 - 2.0 * w2 + w)
-            + p1 * (-2.0 * w3 + 3.0 * w2)
-            + m1 * (w3 - w2)
+        hermite(self.theta[k], m0, self.theta[k + 1], m1, w)
     }
 
     /// Angular velocity ω(t), rad/s.

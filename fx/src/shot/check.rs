@@ -1,6 +1,7 @@
 //! Small validators for shot values: each names the key it checks and says what it expected.
 
 use crate::error::Invalid;
+use glam::DVec3;
 
 /// A finite number.
 pub fn finite(key: &str, v: f64) -> Result<f64, Invalid> {
@@ -73,6 +74,19 @@ pub fn name(key: &str, v: &str) -> Result<String, Invalid> {
         Err(Invalid::new(
             key,
             format!("expected a name of letters, digits, '_', '-' or '.', got {v:?}"),
+        ))
+    }
+}
+
+/// A linear Rec.709 colour: three finite numbers ≥ 0.
+pub fn color(key: &str, v: [f64; 3]) -> Result<DVec3, Invalid> {
+    let c = DVec3::from_array(v);
+    if c.is_finite() && c.min_element() >= 0.0 {
+        Ok(c)
+    } else {
+        Err(Invalid::new(
+            key,
+            "expected three finite numbers ≥ 0 (linear RGB)",
         ))
     }
 }

@@ -9,7 +9,6 @@ pub mod schema;
 use crate::error::{FxError, Invalid};
 use crate::rig::{Camera, Opening, Projection, Rig, ThereFrame};
 use crate::ring::{ColorRamp, RingLook};
-use glam::DVec3;
 use pose::Facing;
 use schema::{FovAxis, PortalSection, RingSection, ShotFile};
 use std::path::{Path, PathBuf};
@@ -581,14 +580,7 @@ fn ramp(key: &str, stops: &[schema::RampStop]) -> Result<ColorRamp, Invalid> {
                 "stops must be in increasing order",
             ));
         }
-        let c = DVec3::from_array(s.color);
-        if !c.is_finite() || c.min_element() < 0.0 {
-            return Err(Invalid::new(
-                format!("{key}[{i}].color"),
-                "expected three finite numbers ≥ 0 (linear RGB)",
-            ));
-        }
-        out.push((at, c));
+        out.push((at, check::color(&format!("{key}[{i}].color"), s.color)?));
     }
     Ok(ColorRamp { stops: out })
 }

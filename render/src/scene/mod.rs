@@ -218,16 +218,7 @@ fn find(materials: &[Material], name: &str) -> Option<usize> {
 }
 
 fn color(key: &str, v: Option<[f64; 3]>, default: Vec3) -> Result<Vec3, Invalid> {
-    match v {
-        None => Ok(default),
-        Some(c) if c.iter().all(|x| x.is_finite() && *x >= 0.0) => {
-            Ok(glam::DVec3::from_array(c).as_vec3())
-        }
-        Some(_) => Err(Invalid::new(
-            key,
-            "expected three finite numbers ≥ 0 (linear RGB)",
-        )),
-    }
+    v.map_or(Ok(default), |c| check::color(key, c).map(|c| c.as_vec3()))
 }
 
 fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
