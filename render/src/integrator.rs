@@ -64,8 +64,8 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
             }
         }
         // Dimensions of this bounce, drawn whether or not they are used.
-        let [u_pick, lx, ly, u_roulette] = s.next_4d();
-        let [bx, by, _, _] = s.next_4d();
+        let [lx, ly, bx, by] = s.next_4d();
+        let [u_pick, u_roulette, _, _] = s.uniform_4d();
         let (u_light, u_bsdf) = (glam::Vec2::new(lx, ly), glam::Vec2::new(bx, by));
         if scene.settings.max_bounces.is_some_and(|m| bounce >= m) {
             break;

@@ -134,18 +134,21 @@ impl AliasTable {
     }
 }
 
-/// The sample stream of one pixel sample: Owen-scrambled Sobol (sobol_burley) with a per-pixel
-/// seed, drawn four dimensions at a time (one SIMD scramble per set), for the first
-/// [`SOBOL_SETS`] sets: the camera and the first bounces, where stratification reduces noise.
-/// Deeper dimensions, where it no longer measurably helps, come from a cheap hashed uniform
-/// stream, which also keeps unlimited path depth well defined.
-/// Four-dimensional sets drawn from Sobol: the camera set and two sets for each of three bounces.
-pub const SOBOL_SETS: u32 = 7;
+/// The sample stream of one pixel sample. The dimensions that matter most (film position,
+/// lens, and per bounce the light point and the BSDF direction) come four at a time from
+/// Owen-scrambled Sobol (sobol_burley, one SIMD scramble per set) with a per-pixel seed, for the
+/// first [`SOBOL_SETS`] sets: the camera and the first bounces, where stratification reduces
+/// noise. Deeper sets, and decisions that gain nothing from stratification (which light, whether
+/// to continue), come from a cheap hashed uniform stream, which also keeps unlimited path depth
+/// well defined.
+pub const SOBOL_SETS: u32 = 4;
 
 pub struct SampleStream {
     index: u32,
     seed: u32,
     set: u32,
+    /// Counter of the hashed stream.
+    uniform: u32,
 }
 
 impl SampleStream {
@@ -155,21 +158,28 @@ impl SampleStream {
             index,
             seed,
             set: 0,
+            uniform: 0,
         }
     }
 
-    /// The next four numbers in [0, 1).
+    /// The next four stratified numbers in [0, 1).
     pub fn next_4d(&mut self) -> [f32; 4] {
         let d = self.set;
         self.set += 1;
         if d < SOBOL_SETS {
             sobol_burley::sample_4d(self.index, d, self.seed)
         } else {
-            let base = hash32(self.index ^ hash32(d ^ hash32(self.seed)));
-            std::array::from_fn(|k| {
-                (hash32(base.wrapping_add(k as u32)) >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
-            })
+            self.uniform_4d()
         }
+    }
+
+    /// Four independent uniform numbers in [0, 1) from the hashed stream.
+    pub fn uniform_4d(&mut self) -> [f32; 4] {
+        let base = hash32(self.index ^ hash32(self.uniform ^ hash32(self.seed ^ 0x5bd1_e995)));
+        self.uniform += 1;
+        std::array::from_fn(|k| {
+            (hash32(base.wrapping_add(k as u32)) >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+        })
     }
 }
 

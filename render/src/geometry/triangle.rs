@@ -70,22 +70,24 @@ impl ShearedRay {
 
 /// Distance along the ray to the triangle (in units of the direction's length), with the
 /// barycentrics (b1, b2) of the hit, if hit within (0, t_max).
-#[inline]
+#[inline(always)]
 pub fn intersect_watertight(
     ray: &ShearedRay,
     tri: &Triangle,
     t_max: f32,
 ) -> Option<(f32, f32, f32)> {
-    let (kx, ky, kz) = (ray.kx, ray.ky, ray.kz);
-    let a = tri.v[0] - ray.origin;
-    let b = tri.v[1] - ray.origin;
-    let c = tri.v[2] - ray.origin;
-    let ax = a[kx] - ray.sx * a[kz];
-    let ay = a[ky] - ray.sy * a[kz];
-    let bx = b[kx] - ray.sx * b[kz];
-    let by = b[ky] - ray.sy * b[kz];
-    let cx = c[kx] - ray.sx * c[kz];
-    let cy = c[ky] - ray.sy * c[kz];
+    // Vertices relative to the origin, permuted so the ray's dominant axis comes last, then
+    // sheared onto the ray.
+    let permute = |v: Vec3| {
+        let v = v.to_array();
+        [v[ray.kx], v[ray.ky], v[ray.kz]]
+    };
+    let [ax, ay, az] = permute(tri.v[0] - ray.origin);
+    let [bx, by, bz] = permute(tri.v[1] - ray.origin);
+    let [cx, cy, cz] = permute(tri.v[2] - ray.origin);
+    let (ax, ay) = (ax - ray.sx * az, ay - ray.sy * az);
+    let (bx, by) = (bx - ray.sx * bz, by - ray.sy * bz);
+    let (cx, cy) = (cx - ray.sx * cz, cy - ray.sy * cz);
     let mut u = cx * by - cy * bx;
     let mut v = ax * cy - ay * cx;
     let mut w = bx * ay - by * ax;
@@ -104,9 +106,7 @@ pub fn intersect_watertight(
     if det == 0.0 {
         return None;
     }
-    let az = ray.sz * a[kz];
-    let bz = ray.sz * b[kz];
-    let cz = ray.sz * c[kz];
+    let (az, bz, cz) = (ray.sz * az, ray.sz * bz, ray.sz * cz);
     let t_scaled = u * az + v * bz + w * cz;
     // Compare t against (0, t_max) without dividing, with det's sign folded in.
     let sign = det.signum();
