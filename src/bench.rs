@@ -215,9 +215,7 @@ fn convergence(args: ConvergenceArgs) -> anyhow::Result<()> {
     let mut csv = String::from("spp,seconds,rel_mse,efficiency,mpaths_per_s\n");
     for spp in counts {
         let t = Instant::now();
-        let image = crate::with_threads(args.threads, || {
-            rift_render::render::render(&scene, &shot.camera, shot.time_of(frame as f64), spp)
-        })?;
+        let image = crate::with_threads(args.threads, || rift_render::render::render(&scene, spp))?;
         let seconds = t.elapsed().as_secs_f64();
         let rel = rift_render::film::relative_mse(&image.rgb, &reference);
         let efficiency = 1.0 / (rel * seconds);
@@ -263,7 +261,7 @@ fn rays(args: RaysArgs) -> anyhow::Result<()> {
     );
     let tris = height_field(args.cells);
     let t = Instant::now();
-    let accel = rift_render::geometry::Accel::build(&tris);
+    let accel = rift_render::geometry::TriangleBvh::build(&tris, 0);
     let build = t.elapsed().as_secs_f64();
     // Incoherent rays: random origins above the surface, random downward-ish directions.
     let ray = |i: usize| {

@@ -96,9 +96,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         let started = Instant::now();
         let spp = scene.settings.spp;
-        let image = crate::with_threads(args.threads, || {
-            rift_render::render::render(&scene, &shot.camera, shot.time_of(frame as f64), spp)
-        })?;
+        let image = crate::with_threads(args.threads, || rift_render::render::render(&scene, spp))?;
         let seconds = started.elapsed().as_secs_f64();
         image.write_exr(&path)?;
         if args.png {

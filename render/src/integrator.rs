@@ -20,8 +20,14 @@ pub struct PathSample {
     pub alpha: f32,
 }
 
-/// Traces one path from `origin` along unit `dir`.
-pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStream) -> PathSample {
+/// Traces one path from `origin` along unit `dir` at time `time` (seconds).
+pub fn trace(
+    scene: &Scene,
+    mut origin: Vec3,
+    mut dir: Vec3,
+    time: f64,
+    s: &mut SampleStream,
+) -> PathSample {
     let mut out = PathSample::default();
     let mut beta = Vec3::ONE;
     // Solid-angle pdf of the BSDF sample that produced `dir` (MIS against light sampling);
@@ -30,7 +36,7 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
     let mut prev_delta = true;
     let mut bounce = 0u32;
     loop {
-        let Some(hit) = scene.accel.intersect(origin, dir, f32::INFINITY) else {
+        let Some(hit) = scene.accel.intersect(origin, dir, f32::INFINITY, time) else {
             if let Some(env) = scene.lights.environment {
                 let weight = if prev_delta {
                     1.0
@@ -44,9 +50,8 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
         if bounce == 0 {
             out.alpha = 1.0;
         }
-        let tri = &scene.triangles[hit.triangle as usize];
-        let ng = tri.normal().normalize();
-        let p = tri.point(hit.b1, hit.b2);
+        let surface = scene.surface(&hit, time);
+        let (p, ng) = (surface.p, surface.ng);
         let material = scene.material(hit.triangle);
         let cos_o = -dir.dot(ng);
 
@@ -57,7 +62,8 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
                     1.0
                 } else {
                     let pdf_light =
-                        scene.lights.pdf_area(hit.triangle) * hit.t * hit.t / cos_o.abs();
+                        scene.lights.pdf_area(hit.triangle, surface.area_scale) * hit.t * hit.t
+                            / cos_o.abs();
                     power_heuristic(prev_pdf, pdf_light)
                 };
                 out.radiance += beta * le * weight;
@@ -77,7 +83,10 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
         let wo = frame.to_local(-dir);
         let p_out = offset_origin(p, n);
 
-        if let Some(light) = scene.lights.sample(&scene.triangles, u_pick, u_light) {
+        let light = scene.lights.sample(u_pick, u_light, |e| {
+            scene.world_triangle(e.triangle, e.instance, time)
+        });
+        if let Some(light) = light {
             // Direction, distance for the shadow ray and solid-angle pdf of the light sample.
             let towards = match light.place {
                 LightPlace::Direction(d) => Some((d, f32::INFINITY, light.pdf)),
@@ -100,7 +109,7 @@ pub fn trace(scene: &Scene, mut origin: Vec3, mut dir: Vec3, s: &mut SampleStrea
             if let Some((wi_world, dist, pdf_light)) = towards {
                 let wi = frame.to_local(wi_world);
                 let f = material.bsdf.eval(wo, wi);
-                if f != Vec3::ZERO && !scene.accel.occluded(p_out, wi_world, dist) {
+                if f != Vec3::ZERO && !scene.accel.occluded(p_out, wi_world, dist, time) {
                     let weight = power_heuristic(pdf_light, material.bsdf.pdf(wo, wi));
                     out.radiance += beta * f * light.radiance * (weight / pdf_light);
                 }

@@ -12,8 +12,12 @@ use std::f32::consts::PI;
 #[derive(Clone, Copy, Debug)]
 pub struct Emitter {
     pub triangle: u32,
+    /// Moving instance the triangle belongs to, or [`crate::geometry::STATIC`].
+    pub instance: u32,
     pub radiance: Vec3,
     pub two_sided: bool,
+    /// Area as stored (object space for a moving object); sets the selection weight, while
+    /// sampling uses the world area at the ray's time.
     pub area: f32,
 }
 
@@ -95,12 +99,13 @@ impl Lights {
         self.emitters.is_empty() && self.environment.is_none()
     }
 
-    /// Picks a light and a point (or direction) on it.
+    /// Picks a light and a point (or direction) on it; `world` gives an emitter's triangle in
+    /// world space at the ray's time.
     pub fn sample(
         &self,
-        triangles: &[Triangle],
         u_pick: f32,
         u_point: Vec2,
+        world: impl Fn(&Emitter) -> Triangle,
     ) -> Option<LightSample> {
         let p_env = self.environment_probability;
         if let Some(radiance) = self.environment.filter(|_| u_pick < p_env) {
@@ -119,16 +124,18 @@ impl Lights {
         let u = ((u_pick - p_env) / (1.0 - p_env)).clamp(0.0, 1.0 - f32::EPSILON);
         let i = self.table.sample(u);
         let e = &self.emitters[i];
-        let tri = &triangles[e.triangle as usize];
+        let tri = world(e);
         let (b1, b2) = uniform_triangle(u_point);
-        Some(LightSample {
+        let normal = tri.normal();
+        let area = 0.5 * normal.length();
+        (area > 0.0).then(|| LightSample {
             place: LightPlace::Point {
                 point: tri.point(b1, b2),
-                normal: tri.normal().normalize(),
+                normal: normal / (2.0 * area),
                 two_sided: e.two_sided,
             },
             radiance: e.radiance,
-            pdf: (1.0 - p_env) * self.table.pmf(i) / e.area,
+            pdf: (1.0 - p_env) * self.table.pmf(i) / area,
         })
     }
 
@@ -137,11 +144,14 @@ impl Lights {
         self.environment_probability / (4.0 * PI)
     }
 
-    /// Area-measure pdf with which [`Lights::sample`] picks a point on `triangle`.
-    pub fn pdf_area(&self, triangle: u32) -> f32 {
+    /// Area-measure pdf with which [`Lights::sample`] picks a point on `triangle`, whose world
+    /// area is `area_scale` times its stored area.
+    pub fn pdf_area(&self, triangle: u32, area_scale: f32) -> f32 {
         match self.by_triangle.get(triangle as usize) {
             Some(&i) if i != u32::MAX => {
-                self.table.pmf(i as usize) / self.emitters[i as usize].area
+                let e = &self.emitters[i as usize];
+                (1.0 - self.environment_probability) * self.table.pmf(i as usize)
+                    / (e.area * area_scale)
             }
             _ => 0.0,
         }

@@ -8,14 +8,16 @@ use crate::sampling::{SampleStream, hash32};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use rift_fx::rig::Camera;
 
 const TILE: usize = 16;
 
-/// Renders `scene` through `camera` at time `t` with `spp` samples per pixel.
-pub fn render(scene: &Scene, camera: &Camera, t: f64, spp: u32) -> Image {
+/// Renders `scene` through its camera with `spp` samples per pixel, each at a time spread over
+/// the shutter.
+pub fn render(scene: &Scene, spp: u32) -> Image {
+    let camera = &scene.camera;
     let [w, h] = camera.projection.resolution.map(|v| v as usize);
-    let lens = Lens::at(camera, t);
+    let [open, close] = scene.shutter;
+    let still_lens = (!scene.camera_moves()).then(|| Lens::at(camera, open));
     let tiles_x = w.div_ceil(TILE);
     let tiles: Vec<(usize, usize)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
@@ -36,10 +38,16 @@ pub fn render(scene: &Scene, camera: &Camera, t: f64, spp: u32) -> Image {
                         let mut s = SampleStream::new(i, pixel_seed);
                         let [jx, jy, lx, ly] = s.next_4d();
                         let (jitter, lens_u) = (Vec2::new(jx, jy), Vec2::new(lx, ly));
+                        let time = if close > open {
+                            open + (close - open) * s.time() as f64
+                        } else {
+                            open
+                        };
                         let ndc = (Vec2::new(x as f32, y as f32) + jitter)
                             / Vec2::new(w as f32, h as f32);
+                        let lens = still_lens.unwrap_or_else(|| Lens::at(camera, time));
                         let (o, d) = lens.ray(ndc, lens_u);
-                        let sample = trace(scene, o, d, &mut s);
+                        let sample = trace(scene, o, d, time, &mut s);
                         if sample.radiance.is_finite() {
                             sum += sample.radiance;
                             alpha += sample.alpha;

@@ -173,6 +173,12 @@ impl SampleStream {
         }
     }
 
+    /// The sample's time within the shutter, in [0, 1): a Sobol dimension of its own (the
+    /// first one the bounces never reach), so motion blur is stratified too.
+    pub fn time(&self) -> f32 {
+        sobol_burley::sample(self.index, 4 * SOBOL_SETS, self.seed)
+    }
+
     /// Four independent uniform numbers in [0, 1) from the hashed stream.
     pub fn uniform_4d(&mut self) -> [f32; 4] {
         let base = hash32(self.index ^ hash32(self.uniform ^ hash32(self.seed ^ 0x5bd1_e995)));

@@ -97,7 +97,7 @@ position = [0.0, 0.0, 4.0]
     std::fs::write(&path, &text).unwrap();
     let shot = Shot::load(&path).unwrap();
     let scene = Scene::build(&shot, 1).unwrap();
-    rift_render::render::render(&scene, &shot.camera, 0.0, spp)
+    rift_render::render::render(&scene, spp)
 }
 
 fn sphere_scene(reflectance: f32) -> String {

@@ -1,167 +1,118 @@
-//! The ray-tracing acceleration structure: an obvhs compressed wide BVH (CWBVH) over world-space
-//! triangles, with closest-hit and occlusion queries using the watertight triangle test.
+//! The scene's ray queries over two levels: every static triangle, already in world space, in one
+//! BVH; and each moving object in its own BVH under a top-level BVH of their bounds over the
+//! rays' time interval. A static scene has no top level and pays nothing for motion.
 
-use super::triangle::{ShearedRay, Triangle, intersect_watertight};
+use super::instance::{MovingInstance, Placement};
+use super::triangle::Triangle;
+use super::triangle_bvh::{TriangleBvh, TriangleHit};
 use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::ray::{Ray, RayHit};
+
+/// Marks a hit on static geometry.
+pub const STATIC: u32 = u32::MAX;
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
-    /// Distance along the (unit) ray direction.
+    /// Distance along the (unit) world-space ray direction.
     pub t: f32,
-    /// Index of the triangle in the list the structure was built from.
+    /// Scene-wide triangle index.
     pub triangle: u32,
-    /// Barycentrics of the hit: p = (1 − b1 − b2)·v0 + b1·v1 + b2·v2.
+    /// Moving instance that was hit, or [`STATIC`].
+    pub instance: u32,
+    /// Barycentrics: p = (1 − b1 − b2)·v0 + b1·v1 + b2·v2.
     pub b1: f32,
     pub b2: f32,
 }
 
-/// BVH plus triangles in leaf order.
+/// Static world-space triangles plus moving instances.
 pub struct Accel {
-    bvh: Option<CwBvh>,
-    /// Triangles in the BVH's primitive order.
-    leaf_triangles: Vec<Triangle>,
-    /// Original index of each leaf triangle.
-    leaf_ids: Vec<u32>,
+    statics: TriangleBvh,
+    instances: Vec<MovingInstance>,
+    top: Option<CwBvh>,
 }
 
 impl Accel {
-    /// Builds over `triangles` (any count, including none).
-    pub fn build(triangles: &[Triangle]) -> Self {
-        if triangles.is_empty() {
-            return Self {
-                bvh: None,
-                leaf_triangles: Vec::new(),
-                leaf_ids: Vec::new(),
-            };
-        }
-        let tris: Vec<obvhs::triangle::Triangle> = triangles
-            .iter()
-            .map(|t| obvhs::triangle::Triangle {
-                v0: t.v[0].into(),
-                v1: t.v[1].into(),
-                v2: t.v[2].into(),
-            })
-            .collect();
-        let bvh = build_cwbvh_from_tris(
-            &tris,
-            BvhBuildParams::medium_build(),
-            &mut Default::default(),
-        );
-        let leaf_ids = bvh.primitive_indices.clone();
-        let leaf_triangles = leaf_ids.iter().map(|&i| triangles[i as usize]).collect();
-        Self {
-            bvh: Some(bvh),
-            leaf_triangles,
-            leaf_ids,
-        }
-    }
-
-    /// Closest hit along `origin + t·dir` for t in (0, t_max); `dir` must be unit length.
-    pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        let sheared = ShearedRay::new(origin, dir);
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
-        let mut hit = RayHit::none();
-        let mut bary = (0.0, 0.0);
-        let mut best = t_max;
-        let found = bvh.ray_traverse(ray, &mut hit, |_, id| {
-            match intersect_watertight(&sheared, &self.leaf_triangles[id], best) {
-                Some((t, b1, b2)) => {
-                    best = t;
-                    bary = (b1, b2);
-                    t
-                }
-                None => f32::INFINITY,
-            }
+    /// `statics` are world-space triangles with scene-wide indices from 0.
+    pub fn build(statics: &[Triangle], instances: Vec<MovingInstance>) -> Self {
+        let top = (!instances.is_empty()).then(|| {
+            let bounds: Vec<_> = instances.iter().map(|i| i.bounds).collect();
+            build_cwbvh(
+                &bounds,
+                BvhBuildParams::medium_build(),
+                &mut Default::default(),
+            )
         });
-        found.then(|| Hit {
-            t: hit.t,
-            triangle: self.leaf_ids[hit.primitive_id as usize],
-            b1: bary.0,
-            b2: bary.1,
-        })
+        Self {
+            statics: TriangleBvh::build(statics, 0),
+            instances,
+            top,
+        }
     }
 
-    /// True when anything lies along `origin + t·dir` for t in (0, t_max).
-    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
+    /// True when some geometry moves.
+    pub fn has_motion(&self) -> bool {
+        !self.instances.is_empty()
+    }
+
+    /// Placement of moving instance `i` at time `t`.
+    pub fn placement(&self, instance: u32, t: f64) -> Placement {
+        self.instances[instance as usize].placement(t)
+    }
+
+    /// Closest hit along `origin + t·dir` (unit `dir`) for t in (0, t_max) at time `time`.
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> Option<Hit> {
+        let mut best = self
+            .statics
+            .intersect(origin, dir, t_max)
+            .map(|h| lift(h, STATIC));
+        if let Some(top) = &self.top {
+            let nearest = best.map_or(t_max, |h| h.t);
+            let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, nearest);
+            let mut top_hit = RayHit::none();
+            top.ray_traverse(ray, &mut top_hit, |r, leaf| {
+                let i = top.primitive_indices[leaf];
+                match self.instances[i as usize].intersect(origin, dir, r.tmax, time) {
+                    Some(h) => {
+                        best = Some(lift(h, i));
+                        h.t
+                    }
+                    None => f32::INFINITY,
+                }
+            });
+        }
+        best
+    }
+
+    /// True when anything lies along `origin + t·dir` for t in (0, t_max) at time `time`.
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
+        if self.statics.occluded(origin, dir, t_max) {
+            return true;
+        }
+        let Some(top) = &self.top else {
             return false;
         };
-        let sheared = ShearedRay::new(origin, dir);
         let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
-        !bvh.ray_traverse_miss(ray, |_, id| {
-            intersect_watertight(&sheared, &self.leaf_triangles[id], t_max)
-                .map_or(f32::INFINITY, |h| h.0)
+        !top.ray_traverse_miss(ray, |_, leaf| {
+            let i = top.primitive_indices[leaf] as usize;
+            if self.instances[i].occluded(origin, dir, t_max, time) {
+                0.0
+            } else {
+                f32::INFINITY
+            }
         })
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn grid(n: usize) -> Vec<Triangle> {
-        let mut out = Vec::new();
-        for i in 0..n {
-            for j in 0..n {
-                let (x, y) = (i as f32, j as f32);
-                let p = |dx: f32, dy: f32| Vec3::new(x + dx, y + dy, (x * 0.3 + y * 0.2).sin());
-                out.push(Triangle {
-                    v: [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0)],
-                });
-                out.push(Triangle {
-                    v: [p(0.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)],
-                });
-            }
-        }
-        out
-    }
-
-    #[test]
-    fn matches_brute_force() {
-        let tris = grid(12);
-        let accel = Accel::build(&tris);
-        for k in 0..500 {
-            let origin = Vec3::new(
-                6.0 + (k as f32 * 0.7).sin() * 5.0,
-                6.0 + (k as f32 * 1.3).cos() * 5.0,
-                4.0,
-            );
-            let dir = Vec3::new(
-                (k as f32 * 0.37).sin() * 0.4,
-                (k as f32 * 0.53).cos() * 0.4,
-                -1.0,
-            )
-            .normalize();
-            let sheared = ShearedRay::new(origin, dir);
-            let brute = tris
-                .iter()
-                .enumerate()
-                .filter_map(|(i, t)| {
-                    intersect_watertight(&sheared, t, f32::INFINITY).map(|h| (h.0, i))
-                })
-                .min_by(|a, b| a.0.total_cmp(&b.0));
-            let hit = accel.intersect(origin, dir, f32::INFINITY);
-            assert_eq!(
-                hit.map(|h| h.triangle as usize),
-                brute.map(|b| b.1),
-                "ray {k}"
-            );
-            if let (Some(h), Some(b)) = (hit, brute) {
-                assert!((h.t - b.0).abs() < 1e-5);
-                assert!(accel.occluded(origin, dir, h.t * 1.001));
-                assert!(!accel.occluded(origin, dir, h.t * 0.999));
-            }
-        }
-        assert!(
-            Accel::build(&[])
-                .intersect(Vec3::ZERO, Vec3::X, 1.0)
-                .is_none()
-        );
+fn lift(h: TriangleHit, instance: u32) -> Hit {
+    Hit {
+        t: h.t,
+        triangle: h.triangle,
+        instance,
+        b1: h.b1,
+        b2: h.b2,
     }
 }

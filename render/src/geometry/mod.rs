@@ -1,9 +1,14 @@
-//! Geometry: watertight triangles, robust ray origins, and the BVH over a scene's triangles.
+//! Geometry: watertight triangles, robust ray origins, per-part BVHs and the two-level scene
+//! structure that gives moving objects motion blur.
 
 pub mod accel;
+pub mod instance;
 pub mod offset;
 pub mod triangle;
+pub mod triangle_bvh;
 
-pub use accel::{Accel, Hit};
+pub use accel::{Accel, Hit, STATIC};
+pub use instance::{MovingInstance, Placement};
 pub use offset::offset_origin;
 pub use triangle::{Triangle, intersect_watertight};
+pub use triangle_bvh::{TriangleBvh, TriangleHit};

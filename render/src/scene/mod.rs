@@ -1,14 +1,17 @@
-//! The render scene built from a shot: world-space triangles with materials, the BVH, emitters,
-//! the camera and render settings. Syntax of the renderer's shot sections: [`schema`].
+//! The render scene built from a shot: triangles with materials (static ones baked to world
+//! space, moving ones kept in object space under their keyframed transform), the ray-query
+//! structure, emitters, the camera, the shutter and render settings. Syntax of the renderer's shot
+//! sections: [`schema`].
 
 pub mod mesh;
 pub mod schema;
 
 use crate::error::{RenderError, key_error};
-use crate::geometry::{Accel, Triangle};
+use crate::geometry::{Accel, Hit, MovingInstance, STATIC, Triangle};
 use crate::lights::{Emitter, Lights};
 use crate::material::{Bsdf, Material};
 use glam::Vec3;
+use rift_fx::rig::{AnimatedTransform, Camera};
 use rift_fx::shot::check;
 use rift_fx::shot::pose::{self, Facing};
 use rift_fx::{Invalid, Shot};
@@ -29,13 +32,37 @@ pub struct Settings {
 
 /// Everything the integrator needs.
 pub struct Scene {
+    /// Static triangles (world space) first, then each moving object's (object space).
     pub triangles: Vec<Triangle>,
+    /// Unit geometric normal per triangle, in the triangle's space.
+    pub normals: Vec<Vec3>,
     /// Material index per triangle.
     pub triangle_material: Vec<u32>,
     pub materials: Vec<Material>,
     pub accel: Accel,
     pub lights: Lights,
     pub settings: Settings,
+    pub camera: Camera,
+    /// Shutter open and close, seconds.
+    pub shutter: [f64; 2],
+}
+
+/// A surface point in world space.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub p: Vec3,
+    /// Unit geometric normal (front side: counter-clockwise winding).
+    pub ng: Vec3,
+    /// World area of the triangle over its stored area (a moving object's scale squared).
+    pub area_scale: f32,
+}
+
+/// One object's triangles on their way into the scene.
+struct Part {
+    triangles: Vec<Triangle>,
+    materials: Vec<u32>,
+    /// `None`: baked to world space.
+    motion: Option<AnimatedTransform>,
 }
 
 /// Deserialises one renderer-owned table, naming `key` in errors.
@@ -104,9 +131,10 @@ impl Scene {
             materials.push(material(&key, &m).map_err(invalid)?);
         }
 
-        let mut triangles = Vec::new();
-        let mut triangle_material = Vec::new();
-        let t = shot.time_of(frame as f64);
+        let shutter = shot
+            .shutter_seconds()
+            .map(|s| s + shot.time_of(frame as f64));
+        let mut parts = Vec::new();
         for (i, table) in sections.objects.iter().enumerate() {
             let key = format!("object[{i}]");
             let o: ObjectSection = parse(file, &key, table)?;
@@ -117,12 +145,11 @@ impl Scene {
                     Facing::PositiveZ,
                     shot.fps,
                 )
-                .map_err(invalid)?
-                .at(t),
-                None => rift_fx::rig::Similarity::IDENTITY,
+                .map_err(invalid)?,
+                None => AnimatedTransform::constant(rift_fx::rig::Similarity::IDENTITY),
             };
             let mesh_path = base.join(&o.mesh);
-            let parts = match mesh_path.extension().and_then(|e| e.to_str()) {
+            let mesh_parts = match mesh_path.extension().and_then(|e| e.to_str()) {
                 Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)?,
                 _ => {
                     return Err(key_error(
@@ -132,8 +159,15 @@ impl Scene {
                     ));
                 }
             };
-            for part in parts {
-                let index = match (&o.material, &part.material) {
+            let moves = moves_during(&transform, shutter);
+            let placed = transform.at(shutter[0]);
+            let mut part = Part {
+                triangles: Vec::new(),
+                materials: Vec::new(),
+                motion: moves.then_some(transform),
+            };
+            for mesh_part in mesh_parts {
+                let index = match (&o.material, &mesh_part.material) {
                     (Some(name), _) => find(&materials, name).ok_or_else(|| {
                         key_error(
                             file,
@@ -162,18 +196,51 @@ impl Scene {
                             format!("{key}.material"),
                             format!(
                                 "part {:?} of {} names no material; set `material`",
-                                part.name, o.mesh
+                                mesh_part.name, o.mesh
                             ),
                         ));
                     }
                 };
-                for tri in part.triangles {
-                    let v = tri.map(|p| transform.transform_point(p.as_dvec3()).as_vec3());
-                    triangles.push(Triangle { v });
-                    triangle_material.push(index as u32);
+                for tri in mesh_part.triangles {
+                    let v = if moves {
+                        tri
+                    } else {
+                        tri.map(|p| placed.transform_point(p.as_dvec3()).as_vec3())
+                    };
+                    part.triangles.push(Triangle { v });
+                    part.materials.push(index as u32);
                 }
             }
+            parts.push(part);
         }
+        // Static parts first so their triangles take the indices the static BVH starts at.
+        parts.sort_by_key(|p| p.motion.is_some());
+
+        let mut triangles = Vec::new();
+        let mut triangle_material = Vec::new();
+        let mut triangle_instance = Vec::new();
+        let mut instances = Vec::new();
+        let mut static_count = 0;
+        for part in parts {
+            let first = triangles.len() as u32;
+            let instance = match part.motion {
+                None => {
+                    static_count += part.triangles.len();
+                    STATIC
+                }
+                Some(motion) => {
+                    instances.push(MovingInstance::new(&part.triangles, first, motion, shutter));
+                    instances.len() as u32 - 1
+                }
+            };
+            triangle_instance.extend(std::iter::repeat_n(instance, part.triangles.len()));
+            triangles.extend(part.triangles);
+            triangle_material.extend(part.materials);
+        }
+        let normals = triangles
+            .iter()
+            .map(|t| t.normal().normalize_or_zero())
+            .collect();
 
         let emitters = triangles
             .iter()
@@ -182,6 +249,7 @@ impl Scene {
                 let m = &materials[triangle_material[i] as usize];
                 (m.emits() && tri.area() > 0.0).then(|| Emitter {
                     triangle: i as u32,
+                    instance: triangle_instance[i],
                     radiance: m.emission,
                     two_sided: m.two_sided_emission,
                     area: tri.area(),
@@ -196,21 +264,79 @@ impl Scene {
             None => None,
         };
         let lights = Lights::new(emitters, triangles.len(), environment);
-        let accel = Accel::build(&triangles);
+        let accel = Accel::build(&triangles[..static_count], instances);
         Ok(Self {
             triangles,
+            normals,
             triangle_material,
             materials,
             accel,
             lights,
             settings,
+            camera: shot.camera.clone(),
+            shutter,
         })
+    }
+
+    /// The world-space point and normal of `hit` at time `time`.
+    pub fn surface(&self, hit: &Hit, time: f64) -> SurfacePoint {
+        let tri = &self.triangles[hit.triangle as usize];
+        let p = tri.point(hit.b1, hit.b2);
+        let n = self.normals[hit.triangle as usize];
+        if hit.instance == STATIC {
+            return SurfacePoint {
+                p,
+                ng: n,
+                area_scale: 1.0,
+            };
+        }
+        let placement = self.accel.placement(hit.instance, time);
+        SurfacePoint {
+            p: placement.to_world.transform_point3(p),
+            ng: placement.to_world.transform_vector3(n).normalize(),
+            area_scale: placement.scale * placement.scale,
+        }
+    }
+
+    /// Triangle `i` of `instance` in world space at time `time`.
+    pub fn world_triangle(&self, i: u32, instance: u32, time: f64) -> Triangle {
+        let tri = self.triangles[i as usize];
+        if instance == STATIC {
+            return tri;
+        }
+        let to_world = self.accel.placement(instance, time).to_world;
+        Triangle {
+            v: tri.v.map(|v| to_world.transform_point3(v)),
+        }
+    }
+
+    /// True when the camera moves while the shutter is open.
+    pub fn camera_moves(&self) -> bool {
+        moves_during(&self.camera.transform, self.shutter)
     }
 
     /// The material of triangle `i`.
     pub fn material(&self, triangle: u32) -> &Material {
         &self.materials[self.triangle_material[triangle as usize] as usize]
     }
+}
+
+/// True when `transform` is not the same at every time in `interval`. Sampled at the ends, at
+/// keys inside and at interior points, so a segment that leaves and comes back still counts.
+fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) -> bool {
+    if transform.is_static() {
+        return false;
+    }
+    let first = transform.at(interval[0]);
+    let keys_inside = transform
+        .keys()
+        .iter()
+        .map(|k| k.time)
+        .filter(|&t| t > interval[0] && t < interval[1]);
+    (1..=8)
+        .map(|i| interval[0] + (interval[1] - interval[0]) * i as f64 / 8.0)
+        .chain(keys_inside)
+        .any(|t| transform.at(t) != first)
 }
 
 fn find(materials: &[Material], name: &str) -> Option<usize> {

@@ -22,7 +22,10 @@
 //! mesh = "cornell.obj"          # OBJ (+MTL) or PLY, relative to the shot file
 //! material = "white"            # optional: otherwise each OBJ group's `usemtl` name, looked up
 //!                               # among [[material]] first and then in the MTL (Kd, Ke)
-//! transform = { position = [0.0, 0.0, 0.0] }   # a pose as in rift-fx (optional)
+//! transform = { position = [0.0, 0.0, 0.0] }   # a pose as in rift-fx (optional), or keys:
+//! # transform = { keys = [{ frame = 1, position = [0, 0, 0] }, { frame = 2, position = [1, 0, 0] }] }
+//! # An object whose transform changes while the shutter is open is blurred along its motion
+//! # (rays meet it at their own time); any other object is baked into world space.
 //! ```
 
 use serde::Deserialize;

@@ -1,0 +1,128 @@
+//! A moving object: its triangles in object space under their own BVH, placed in the world by a
+//! keyframed similarity that is evaluated at each ray's time. Rays are taken into object space
+//! rather than the triangles into world space, so motion blur costs one transform per visit.
+
+use super::triangle::Triangle;
+use super::triangle_bvh::{TriangleBvh, TriangleHit};
+use glam::{Affine3A, Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use rift_fx::rig::{AnimatedTransform, Similarity};
+
+/// Times at which the world bounds are sampled across the time interval rays may have.
+const BOUND_STEPS: usize = 64;
+
+/// An object with a time-varying placement.
+pub struct MovingInstance {
+    transform: AnimatedTransform,
+    bvh: TriangleBvh,
+    /// World bounds over every time a ray can have.
+    pub bounds: Aabb,
+}
+
+/// The placement of an instance at one time, in f32 for the hot path.
+#[derive(Clone, Copy, Debug)]
+pub struct Placement {
+    pub to_world: Affine3A,
+    pub to_object: Affine3A,
+    /// Uniform scale (areas scale by its square).
+    pub scale: f32,
+}
+
+impl Placement {
+    fn new(s: &Similarity) -> Self {
+        let affine = |s: &Similarity| Affine3A::from_mat4(s.to_mat4().as_mat4());
+        Self {
+            to_world: affine(s),
+            to_object: affine(&s.inverse()),
+            scale: s.scale as f32,
+        }
+    }
+}
+
+impl MovingInstance {
+    /// `triangles` in object space with scene-wide indices from `first_id`; `times` is the
+    /// interval rays may have (the shutter, widened by any time offsets).
+    pub fn new(
+        triangles: &[Triangle],
+        first_id: u32,
+        transform: AnimatedTransform,
+        times: [f64; 2],
+    ) -> Self {
+        let corners = object_corners(triangles);
+        let placed_corners = |t: f64| {
+            let s = transform.at(t);
+            corners.map(|c| s.transform_point(c.as_dvec3()).as_vec3())
+        };
+        // Bounds of the corners at sampled times (a similarity maps the box to one whose corners
+        // bound the object), padded by twice the largest step a corner makes between samples, so
+        // the curved motion between samples stays inside.
+        let mut bounds = Aabb::empty();
+        let mut previous = placed_corners(times[0]);
+        let mut pad = 0.0f32;
+        for i in 0..=BOUND_STEPS {
+            let t = times[0] + (times[1] - times[0]) * i as f64 / BOUND_STEPS as f64;
+            let now = placed_corners(t);
+            for (a, b) in now.iter().zip(&previous) {
+                bounds.extend(Vec3A::from(*a));
+                pad = pad.max(2.0 * a.distance(*b));
+            }
+            previous = now;
+        }
+        for key in transform.keys() {
+            if key.time > times[0] && key.time < times[1] {
+                for c in placed_corners(key.time) {
+                    bounds.extend(Vec3A::from(c));
+                }
+            }
+        }
+        bounds.min -= Vec3A::splat(pad);
+        bounds.max += Vec3A::splat(pad);
+        Self {
+            transform,
+            bvh: TriangleBvh::build(triangles, first_id),
+            bounds,
+        }
+    }
+
+    /// The placement at time `t`.
+    pub fn placement(&self, t: f64) -> Placement {
+        Placement::new(&self.transform.at(t))
+    }
+
+    /// Closest hit of the world-space ray `origin + t·dir` at time `time`; t is in world units
+    /// because the object-space direction is not renormalised.
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> Option<TriangleHit> {
+        let p = self.placement(time);
+        self.bvh.intersect(
+            p.to_object.transform_point3(origin),
+            p.to_object.transform_vector3(dir),
+            t_max,
+        )
+    }
+
+    /// True when the object blocks `origin + t·dir`, t in (0, t_max), at time `time`.
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
+        let p = self.placement(time);
+        self.bvh.occluded(
+            p.to_object.transform_point3(origin),
+            p.to_object.transform_vector3(dir),
+            t_max,
+        )
+    }
+}
+
+/// The eight corners of the triangles' object-space box.
+fn object_corners(triangles: &[Triangle]) -> [Vec3; 8] {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for v in triangles.iter().flat_map(|t| t.v) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    std::array::from_fn(|i| {
+        Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}

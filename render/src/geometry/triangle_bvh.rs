@@ -1,0 +1,177 @@
+//! One bottom-level acceleration structure: an obvhs compressed wide BVH (CWBVH) over a run of
+//! triangles (a static scene part in world space, or one moving object in its own space), with
+//! closest-hit and occlusion queries using the watertight triangle test.
+
+use super::triangle::{ShearedRay, Triangle, intersect_watertight};
+use glam::{Vec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::ray::{Ray, RayHit};
+
+/// A closest hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    /// Ray parameter: distance in units of the ray direction's length.
+    pub t: f32,
+    /// Scene-wide index of the triangle.
+    pub triangle: u32,
+    /// Barycentrics of the hit: p = (1 − b1 − b2)·v0 + b1·v1 + b2·v2.
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// BVH plus triangles in leaf order.
+pub struct TriangleBvh {
+    bvh: Option<CwBvh>,
+    /// Triangles in the BVH's primitive order.
+    leaf_triangles: Vec<Triangle>,
+    /// Scene-wide index of each leaf triangle.
+    leaf_ids: Vec<u32>,
+}
+
+impl TriangleBvh {
+    /// Builds over `triangles` (any count, including none), whose scene-wide indices start at
+    /// `first_id`.
+    pub fn build(triangles: &[Triangle], first_id: u32) -> Self {
+        if triangles.is_empty() {
+            return Self {
+                bvh: None,
+                leaf_triangles: Vec::new(),
+                leaf_ids: Vec::new(),
+            };
+        }
+        let tris: Vec<obvhs::triangle::Triangle> = triangles
+            .iter()
+            .map(|t| obvhs::triangle::Triangle {
+                v0: t.v[0].into(),
+                v1: t.v[1].into(),
+                v2: t.v[2].into(),
+            })
+            .collect();
+        let bvh = build_cwbvh_from_tris(
+            &tris,
+            BvhBuildParams::medium_build(),
+            &mut Default::default(),
+        );
+        let leaf_triangles = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| triangles[i as usize])
+            .collect();
+        let leaf_ids = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| i + first_id)
+            .collect();
+        Self {
+            bvh: Some(bvh),
+            leaf_triangles,
+            leaf_ids,
+        }
+    }
+
+    /// Closest hit along `origin + t·dir` for t in (0, t_max).
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<TriangleHit> {
+        let bvh = self.bvh.as_ref()?;
+        let sheared = ShearedRay::new(origin, dir);
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+        let mut hit = RayHit::none();
+        let mut bary = (0.0, 0.0);
+        let mut best = t_max;
+        let found = bvh.ray_traverse(ray, &mut hit, |_, id| {
+            match intersect_watertight(&sheared, &self.leaf_triangles[id], best) {
+                Some((t, b1, b2)) => {
+                    best = t;
+                    bary = (b1, b2);
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        found.then(|| TriangleHit {
+            t: hit.t,
+            triangle: self.leaf_ids[hit.primitive_id as usize],
+            b1: bary.0,
+            b2: bary.1,
+        })
+    }
+
+    /// True when anything lies along `origin + t·dir` for t in (0, t_max).
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return false;
+        };
+        let sheared = ShearedRay::new(origin, dir);
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+        !bvh.ray_traverse_miss(ray, |_, id| {
+            intersect_watertight(&sheared, &self.leaf_triangles[id], t_max)
+                .map_or(f32::INFINITY, |h| h.0)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(n: usize) -> Vec<Triangle> {
+        let mut out = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) = (i as f32, j as f32);
+                let p = |dx: f32, dy: f32| Vec3::new(x + dx, y + dy, (x * 0.3 + y * 0.2).sin());
+                out.push(Triangle {
+                    v: [p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0)],
+                });
+                out.push(Triangle {
+                    v: [p(0.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)],
+                });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn matches_brute_force() {
+        let tris = grid(12);
+        let accel = TriangleBvh::build(&tris, 0);
+        for k in 0..500 {
+            let origin = Vec3::new(
+                6.0 + (k as f32 * 0.7).sin() * 5.0,
+                6.0 + (k as f32 * 1.3).cos() * 5.0,
+                4.0,
+            );
+            let dir = Vec3::new(
+                (k as f32 * 0.37).sin() * 0.4,
+                (k as f32 * 0.53).cos() * 0.4,
+                -1.0,
+            )
+            .normalize();
+            let sheared = ShearedRay::new(origin, dir);
+            let brute = tris
+                .iter()
+                .enumerate()
+                .filter_map(|(i, t)| {
+                    intersect_watertight(&sheared, t, f32::INFINITY).map(|h| (h.0, i))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let hit = accel.intersect(origin, dir, f32::INFINITY);
+            assert_eq!(
+                hit.map(|h| h.triangle as usize),
+                brute.map(|b| b.1),
+                "ray {k}"
+            );
+            if let (Some(h), Some(b)) = (hit, brute) {
+                assert!((h.t - b.0).abs() < 1e-5);
+                assert!(accel.occluded(origin, dir, h.t * 1.001));
+                assert!(!accel.occluded(origin, dir, h.t * 0.999));
+            }
+        }
+        assert!(
+            TriangleBvh::build(&[], 0)
+                .intersect(Vec3::ZERO, Vec3::X, 1.0)
+                .is_none()
+        );
+    }
+}
