@@ -5,6 +5,7 @@
 
 use crate::geometry::offset_origin;
 use crate::lights::LightPlace;
+use crate::material::Side;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -35,6 +36,9 @@ pub fn trace(
     let mut prev_pdf = 0.0f32;
     let mut prev_delta = true;
     let mut bounce = 0u32;
+    // Product of η² over refractions, so roulette sees the throughput without the radiance
+    // compression of entering or leaving glass.
+    let mut eta_scale = 1.0f32;
     loop {
         let Some(hit) = scene.accel.intersect(origin, dir, f32::INFINITY, time) else {
             if let Some(env) = scene.lights.environment {
@@ -71,62 +75,85 @@ pub fn trace(
         }
         // Dimensions of this bounce, drawn whether or not they are used.
         let [lx, ly, bx, by] = s.next_4d();
-        let [u_pick, u_roulette, _, _] = s.uniform_4d();
+        let [u_pick, u_roulette, u_lobe, _] = s.uniform_4d();
         let (u_light, u_bsdf) = (glam::Vec2::new(lx, ly), glam::Vec2::new(bx, by));
         if scene.settings.max_bounces.is_some_and(|m| bounce >= m) {
             break;
         }
 
         // Shade on the side the path arrived from.
-        let n = if cos_o >= 0.0 { ng } else { -ng };
+        let (n, side) = if cos_o >= 0.0 {
+            (ng, Side::Front)
+        } else {
+            (-ng, Side::Back)
+        };
         let frame = Frame::new(n);
         let wo = frame.to_local(-dir);
-        let p_out = offset_origin(p, n);
+        let bsdf = &material.bsdf;
 
-        let light = scene.lights.sample(u_pick, u_light, |e| {
-            scene.world_triangle(e.triangle, e.instance, time)
-        });
+        let light = if bsdf.is_delta() {
+            None
+        } else {
+            scene.lights.sample(u_pick, u_light, |e| {
+                scene.world_triangle(e.triangle, e.instance, time)
+            })
+        };
         if let Some(light) = light {
-            // Direction, distance for the shadow ray and solid-angle pdf of the light sample.
+            // Direction, the point the shadow ray must reach (None: infinitely far) and the
+            // solid-angle pdf of the light sample.
             let towards = match light.place {
-                LightPlace::Direction(d) => Some((d, f32::INFINITY, light.pdf)),
+                LightPlace::Direction(d) => Some((d, None, light.pdf)),
                 LightPlace::Point {
                     point,
                     normal,
                     two_sided,
                 } => {
-                    let cos_raw = (p_out - point).dot(normal);
+                    let cos_raw = (p - point).dot(normal);
                     (cos_raw > 0.0 || (two_sided && cos_raw < 0.0)).then(|| {
                         let light_side = if cos_raw > 0.0 { normal } else { -normal };
-                        let to = offset_origin(point, light_side) - p_out;
+                        let to = point - p;
                         let dist2 = to.length_squared();
-                        let dist = dist2.sqrt();
-                        let wi = to / dist;
-                        (wi, dist, light.pdf * dist2 / wi.dot(light_side).abs())
+                        let wi = to / dist2.sqrt();
+                        let target = offset_origin(point, light_side);
+                        (
+                            wi,
+                            Some(target),
+                            light.pdf * dist2 / wi.dot(light_side).abs(),
+                        )
                     })
                 }
             };
-            if let Some((wi_world, dist, pdf_light)) = towards {
+            if let Some((wi_world, target, pdf_light)) = towards {
                 let wi = frame.to_local(wi_world);
-                let f = material.bsdf.eval(wo, wi);
-                if f != Vec3::ZERO && !scene.accel.occluded(p_out, wi_world, dist, time) {
-                    let weight = power_heuristic(pdf_light, material.bsdf.pdf(wo, wi));
+                let f = bsdf.eval(wo, wi, side);
+                // The shadow ray leaves from the side of the surface it goes to.
+                let from = offset_origin(p, if wi_world.dot(ng) > 0.0 { ng } else { -ng });
+                let (shadow_dir, dist) = match target {
+                    Some(t) => {
+                        let d = t - from;
+                        let len = d.length();
+                        (d / len, len)
+                    }
+                    None => (wi_world, f32::INFINITY),
+                };
+                if f != Vec3::ZERO && !scene.accel.occluded(from, shadow_dir, dist, time) {
+                    let weight = power_heuristic(pdf_light, bsdf.pdf(wo, wi, side));
                     out.radiance += beta * f * light.radiance * (weight / pdf_light);
                 }
             }
         }
-
-        let Some(bs) = material.bsdf.sample(wo, u_bsdf) else {
+        let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
             break;
         };
         beta *= bs.weight;
+        eta_scale *= bs.eta * bs.eta;
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
         dir = frame.to_world(bs.wi).normalize();
         origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
         bounce += 1;
         if bounce >= ROULETTE_AFTER {
-            let survive = beta.max_element().min(0.95);
+            let survive = (beta.max_element() * eta_scale).min(0.95);
             if survive <= 0.0 || u_roulette >= survive {
                 break;
             }

@@ -10,6 +10,7 @@ use crate::error::{RenderError, key_error};
 use crate::geometry::{Accel, Hit, MovingInstance, STATIC, Triangle};
 use crate::lights::{Emitter, Lights};
 use crate::material::{Bsdf, Material};
+use crate::microfacet::Ggx;
 use glam::Vec3;
 use rift_fx::rig::{AnimatedTransform, Camera};
 use rift_fx::shot::check;
@@ -359,8 +360,48 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
             "a reflectance above 1 creates energy",
         ));
     }
+    let roughness = match m.roughness {
+        Some(r) => check::within(&format!("{key}.roughness"), r, 0.0, 1.0, false)? as f32,
+        None => 0.0,
+    };
+    let unused = |field: &str, what: &str| {
+        Invalid::new(
+            format!("{key}.{field}"),
+            format!("a {what} material has no {field}"),
+        )
+    };
     let bsdf = match m.kind {
-        MaterialKind::Diffuse => Bsdf::Diffuse { reflectance },
+        MaterialKind::Diffuse => {
+            if m.roughness.is_some() {
+                return Err(unused("roughness", "diffuse"));
+            }
+            if m.ior.is_some() {
+                return Err(unused("ior", "diffuse"));
+            }
+            Bsdf::Diffuse { reflectance }
+        }
+        MaterialKind::Conductor => {
+            if m.ior.is_some() {
+                return Err(unused("ior", "conductor"));
+            }
+            Bsdf::Conductor {
+                f0: color(&format!("{key}.reflectance"), m.reflectance, Vec3::ONE)?,
+                ggx: Ggx::from_roughness(roughness),
+            }
+        }
+        MaterialKind::Dielectric => {
+            if m.reflectance.is_some() {
+                return Err(unused("reflectance", "dielectric"));
+            }
+            let ior = match m.ior {
+                Some(v) => check::within(&format!("{key}.ior"), v, 1e-3, 1e3, false)? as f32,
+                None => 1.5,
+            };
+            Bsdf::Dielectric {
+                ior,
+                ggx: Ggx::from_roughness(roughness),
+            }
+        }
     };
     Ok(Material {
         name: m.name.clone(),

@@ -9,10 +9,22 @@
 //!
 //! [[material]]
 //! name = "white"
-//! type = "diffuse"              # "diffuse" (more types come with the material work)
-//! reflectance = [0.8, 0.8, 0.8]
+//! type = "diffuse"              # "diffuse", "conductor" or "dielectric"
+//! reflectance = [0.8, 0.8, 0.8] # diffuse: albedo; conductor: colour at normal incidence
 //! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709
 //! two_sided_emission = false
+//!
+//! [[material]]
+//! name = "gold"
+//! type = "conductor"            # GGX microfacets, Schlick Fresnel
+//! reflectance = [1.0, 0.78, 0.34]
+//! roughness = 0.3               # 0 (mirror) to 1; α = roughness²
+//!
+//! [[material]]
+//! name = "glass"
+//! type = "dielectric"           # GGX reflection and refraction, exact Fresnel
+//! ior = 1.5                     # inside (behind the front face) over outside
+//! roughness = 0.0               # 0: a perfectly smooth interface
 //!
 //! [environment]                # light from every direction where rays escape
 //! radiance = [0.2, 0.25, 0.3]
@@ -48,6 +60,8 @@ pub struct MaterialSection {
     #[serde(rename = "type")]
     pub kind: MaterialKind,
     pub reflectance: Option<[f64; 3]>,
+    pub roughness: Option<f64>,
+    pub ior: Option<f64>,
     pub emission: Option<[f64; 3]>,
     pub two_sided_emission: Option<bool>,
 }
@@ -57,6 +71,8 @@ pub struct MaterialSection {
 #[serde(rename_all = "lowercase")]
 pub enum MaterialKind {
     Diffuse,
+    Conductor,
+    Dielectric,
 }
 
 /// One `[[object]]`.
