@@ -3,7 +3,7 @@
 //! uniform point on it; and a constant environment, sampled uniformly over the sphere. When both
 //! exist each is picked half the time.
 
-use crate::geometry::Triangle;
+use crate::geometry::{STATIC, Triangle};
 use crate::sampling::{AliasTable, uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -16,6 +16,10 @@ pub struct Emitter {
     pub instance: u32,
     pub radiance: Vec3,
     pub two_sided: bool,
+    /// The triangle as stored (world space when static, else object space).
+    pub vertices: Triangle,
+    /// Unit normal of the stored triangle.
+    pub normal: Vec3,
     /// Area as stored (object space for a moving object); sets the selection weight, while
     /// sampling uses the world area at the ray's time.
     pub area: f32,
@@ -99,13 +103,13 @@ impl Lights {
         self.emitters.is_empty() && self.environment.is_none()
     }
 
-    /// Picks a light and a point (or direction) on it; `world` gives an emitter's triangle in
-    /// world space at the ray's time.
+    /// Picks a light and a point (or direction) on it; `moving` gives the world-space triangle
+    /// of an emitter on a moving object at the ray's time.
     pub fn sample(
         &self,
         u_pick: f32,
         u_point: Vec2,
-        world: impl Fn(&Emitter) -> Triangle,
+        moving: impl Fn(&Emitter) -> Triangle,
     ) -> Option<LightSample> {
         let p_env = self.environment_probability;
         if let Some(radiance) = self.environment.filter(|_| u_pick < p_env) {
@@ -124,14 +128,19 @@ impl Lights {
         let u = ((u_pick - p_env) / (1.0 - p_env)).clamp(0.0, 1.0 - f32::EPSILON);
         let i = self.table.sample(u);
         let e = &self.emitters[i];
-        let tri = world(e);
+        let (tri, normal, area) = if e.instance == STATIC {
+            (e.vertices, e.normal, e.area)
+        } else {
+            let tri = moving(e);
+            let n = tri.normal();
+            let area = 0.5 * n.length();
+            (tri, n / (2.0 * area), area)
+        };
         let (b1, b2) = uniform_triangle(u_point);
-        let normal = tri.normal();
-        let area = 0.5 * normal.length();
         (area > 0.0).then(|| LightSample {
             place: LightPlace::Point {
                 point: tri.point(b1, b2),
-                normal: normal / (2.0 * area),
+                normal,
                 two_sided: e.two_sided,
             },
             radiance: e.radiance,

@@ -238,7 +238,7 @@ impl Scene {
             triangles.extend(part.triangles);
             triangle_material.extend(part.materials);
         }
-        let normals = triangles
+        let normals: Vec<Vec3> = triangles
             .iter()
             .map(|t| t.normal().normalize_or_zero())
             .collect();
@@ -253,6 +253,8 @@ impl Scene {
                     instance: triangle_instance[i],
                     radiance: m.emission,
                     two_sided: m.two_sided_emission,
+                    vertices: *tri,
+                    normal: normals[i],
                     area: tri.area(),
                 })
             })
@@ -280,6 +282,7 @@ impl Scene {
     }
 
     /// The world-space point and normal of `hit` at time `time`.
+    #[inline]
     pub fn surface(&self, hit: &Hit, time: f64) -> SurfacePoint {
         let tri = &self.triangles[hit.triangle as usize];
         let p = tri.point(hit.b1, hit.b2);
