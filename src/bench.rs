@@ -215,7 +215,9 @@ fn convergence(args: ConvergenceArgs) -> anyhow::Result<()> {
     let mut csv = String::from("spp,seconds,rel_mse,efficiency,mpaths_per_s\n");
     for spp in counts {
         let t = Instant::now();
-        let image = crate::with_threads(args.threads, || rift_render::render::render(&scene, spp))?;
+        let image = crate::with_threads(args.threads, || {
+            rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(spp))
+        })?;
         let seconds = t.elapsed().as_secs_f64();
         let rel = rift_render::film::relative_mse(&image.rgb, &reference);
         let efficiency = 1.0 / (rel * seconds);

@@ -39,6 +39,14 @@ impl Progress {
         }
     }
 
+    /// `n` more units of work are done, without a line of its own (for fine-grained work such
+    /// as samples; off a terminal only the caller's summary is printed).
+    pub fn advance(&self, n: u64) {
+        if let Some(bar) = &self.bar {
+            bar.inc(n);
+        }
+    }
+
     /// Removes the bar.
     pub fn finish(&self) {
         if let Some(bar) = &self.bar {

@@ -1,10 +1,12 @@
 //! `rift render`: render frames of a shot to EXR.
 
 use crate::fx_cmd::prepare_output_dir;
+use crate::progress::Progress;
 use anyhow::bail;
 use clap::Args;
 use rift_fx::{FrameRange, Shot};
 use rift_render::Scene;
+use rift_render::render::RenderOptions;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -34,6 +36,18 @@ pub struct RenderArgs {
     /// Image size in pixels, overriding the shot (the vertical field of view is kept).
     #[arg(long, num_args = 2, value_names = ["W", "H"])]
     res: Option<Vec<u32>>,
+    /// Render only a window, as fractions of the frame `x0,x1,y0,y1` (0 to 1, y down); the EXR
+    /// keeps the full frame as its display window.
+    #[arg(long, value_name = "X0,X1,Y0,Y1")]
+    crop: Option<String>,
+    /// Stop sampling each pixel once its estimated relative error falls below this (adaptive
+    /// sampling; --spp is then the most a pixel takes).
+    #[arg(long, value_name = "E")]
+    target_error: Option<f32>,
+    /// Wall-clock seconds per frame, after which no new samples start (every pixel still gets
+    /// its first few).
+    #[arg(long, value_name = "S")]
+    time_limit: Option<f64>,
     /// Also write an sRGB PNG preview beside each EXR.
     #[arg(long)]
     png: bool,
@@ -75,6 +89,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.spp == Some(0) || args.spp.is_some_and(|s| s > 1 << 16) {
         bail!("--spp: expected 1 to 65536 samples per pixel");
     }
+    let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
+    let crop = match &args.crop {
+        Some(text) => Some(
+            rift_render::film::Window::from_fractions(text, w, h)
+                .map_err(|e| anyhow::anyhow!("--crop: {e}"))?,
+        ),
+        None => None,
+    };
+    if let Some(e) = args.target_error
+        && !(e.is_finite() && e > 0.0)
+    {
+        bail!("--target-error: expected a positive relative error such as 0.01, got {e}");
+    }
+    let time_limit = match args.time_limit {
+        Some(s) if s.is_finite() && s > 0.0 => Some(std::time::Duration::from_secs_f64(s)),
+        Some(s) => bail!("--time-limit: expected a positive number of seconds, got {s}"),
+        None => None,
+    };
     for frame in frames.iter() {
         let mut scene = Scene::build(&shot, frame)?;
         if let Some(spp) = args.spp {
@@ -96,17 +128,32 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         let started = Instant::now();
         let spp = scene.settings.spp;
-        let image = crate::with_threads(args.threads, || rift_render::render::render(&scene, spp))?;
+        let pixels = crop.map_or(w * h, |c| c.area());
+        let progress = Progress::new(&format!("frame {frame}"), pixels * spp as usize);
+        let advance = |n: u64| progress.advance(n);
+        let options = RenderOptions {
+            spp,
+            crop,
+            target_error: args.target_error,
+            time_limit,
+            progress: Some(&advance),
+        };
+        let image = crate::with_threads(args.threads, || {
+            rift_render::render::render(&scene, &options)
+        })?;
+        progress.finish();
         let seconds = started.elapsed().as_secs_f64();
+        let samples: u64 = image.spp.iter().map(|&n| n as u64).sum();
         image.write_exr(&path)?;
         if args.png {
             image.write_png(&path.with_extension("png"))?;
         }
         eprintln!(
-            "rift render: frame {frame}: {}x{} at {spp} spp in {seconds:.2} s ({:.2} Mpaths/s) -> {}{}",
-            image.width,
-            image.height,
-            (image.width * image.height) as f64 * spp as f64 / seconds / 1e6,
+            "rift render: frame {frame}: {}x{} at {:.1} spp (mean; at most {spp}) in {seconds:.2} s ({:.2} Mpaths/s) -> {}{}",
+            image.window.width(),
+            image.window.height(),
+            samples as f64 / image.spp.len() as f64,
+            samples as f64 / seconds / 1e6,
             path.display(),
             if image.discarded > 0 {
                 format!(" ({} non-finite samples discarded)", image.discarded)

@@ -195,3 +195,205 @@ fn resolution_override_and_png_preview() {
     assert_eq!(bad.status.code(), Some(1));
     assert!(stderr(&bad).contains("--res"));
 }
+
+fn run_ok(dir: &tempfile::TempDir, args: &[&str]) {
+    let r = rift(dir.path(), args);
+    assert!(r.status.success(), "{}", stderr(&r));
+}
+
+#[test]
+fn crop_renders_the_same_pixels_as_the_full_frame() {
+    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [40, 32]"));
+    run_ok(
+        &dir,
+        &["render", "shot.toml", "--spp", "4", "-o", "full.exr"],
+    );
+    run_ok(
+        &dir,
+        &[
+            "render",
+            "shot.toml",
+            "--spp",
+            "4",
+            "--crop",
+            "0.25,0.6,0.5,1",
+            "-o",
+            "crop.exr",
+        ],
+    );
+    let full = rift_render::film::read_exr_layer(&dir.path().join("full.exr")).unwrap();
+    let crop = rift_render::film::read_exr_layer(&dir.path().join("crop.exr")).unwrap();
+    assert_eq!(crop.display, (40, 32), "the display window stays the frame");
+    assert_eq!(crop.position, (10, 16));
+    assert_eq!(crop.size, (14, 16), "columns 10..24, rows 16..32");
+    for (name, values) in &crop.channels {
+        let whole = &full.channels[name];
+        for y in 0..crop.size.1 {
+            for x in 0..crop.size.0 {
+                let a = values[y * crop.size.0 + x];
+                let b = whole[(y + 16) * 40 + x + 10];
+                assert_eq!(a.to_bits(), b.to_bits(), "{name} at ({x}, {y})");
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_crop_window() {
+    let dir = scene_dir(|t| t);
+    for (crop, expect) in [
+        ("0.5,0.2,0,1", "empty"),
+        ("0,1,0", "four numbers"),
+        ("0,1.5,0,1", "from 0 to 1"),
+        ("a,b,c,d", "four numbers"),
+        ("0,1,0.7,0.7", "y0 below y1"),
+    ] {
+        let out = rift(
+            dir.path(),
+            &[
+                "render",
+                "shot.toml",
+                "--crop",
+                crop,
+                "--spp",
+                "1",
+                "-o",
+                "out/img.exr",
+            ],
+        );
+        let msg = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{crop}: {msg}");
+        assert!(
+            msg.contains("--crop") && msg.contains(expect),
+            "{crop}: {msg}"
+        );
+        assert!(files_in(&dir.path().join("out")).is_empty());
+    }
+}
+
+#[test]
+fn aovs_and_metadata() {
+    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [32, 32]"));
+    run_ok(
+        &dir,
+        &[
+            "render",
+            "shot.toml",
+            "--spp",
+            "8",
+            "--frame",
+            "1",
+            "-o",
+            "img.exr",
+        ],
+    );
+    let exr = rift_render::film::read_exr_layer(&dir.path().join("img.exr")).unwrap();
+    let names: Vec<&str> = exr.channels.keys().map(String::as_str).collect();
+    for c in [
+        "R", "G", "B", "A", "Z", "spp", "albedo.R", "albedo.G", "albedo.B", "N.X", "N.Y", "N.Z",
+    ] {
+        assert!(names.contains(&c), "channel {c} missing from {names:?}");
+    }
+    assert!(exr.channels["spp"].iter().all(|&n| n == 8.0));
+    assert_eq!(exr.numbers["rift/spp"], 8.0);
+    assert_eq!(exr.numbers["rift/frame"], 1.0);
+    assert!(exr.numbers["rift/renderSeconds"] > 0.0);
+    // Row 8 of the centre column sees the back wall (white, facing +Z, about 4.9 away).
+    let c = 8 * 32 + 16;
+    let albedo = [exr.channels["albedo.R"][c], exr.channels["albedo.G"][c]];
+    assert!((albedo[0] - 0.885809).abs() < 1e-4 && (albedo[1] - 0.698859).abs() < 1e-4);
+    assert!(exr.channels["N.Z"][c] > 0.999, "back wall faces the camera");
+    let z = exr.channels["Z"][c];
+    assert!((z - 4.9).abs() < 0.05, "depth {z}");
+    // A corner pixel sees past the open box: background depth, alpha 0.
+    let corner = 0;
+    if exr.channels["A"][corner] == 0.0 {
+        assert_eq!(
+            exr.channels["Z"][corner],
+            rift_render::film::BACKGROUND_DEPTH
+        );
+    }
+}
+
+#[test]
+fn adaptive_sampling_spends_samples_where_the_error_is() {
+    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [32, 32]"));
+    for threads in ["1", "2"] {
+        run_ok(
+            &dir,
+            &[
+                "render",
+                "shot.toml",
+                "--spp",
+                "256",
+                "--target-error",
+                "0.03",
+                "--threads",
+                threads,
+                "-o",
+                &format!("adaptive{threads}.exr"),
+            ],
+        );
+    }
+    let a = rift_render::film::read_exr_layer(&dir.path().join("adaptive1.exr")).unwrap();
+    let b = rift_render::film::read_exr_layer(&dir.path().join("adaptive2.exr")).unwrap();
+    assert!(
+        a.channels == b.channels,
+        "adaptive output depends on threads"
+    );
+    let spp = &a.channels["spp"];
+    let (lo, hi) = spp
+        .iter()
+        .fold((f32::MAX, 0.0f32), |(l, h), &n| (l.min(n), h.max(n)));
+    assert!(lo >= 16.0 && hi <= 256.0, "spp from {lo} to {hi}");
+    assert!(lo < hi, "some pixels stop before others");
+    // Pixels wholly on the lamp see a constant radiance: no error, so they stop at the first
+    // check (those touching its edge may not).
+    let lamp: Vec<f32> = spp
+        .iter()
+        .zip(&a.channels["R"])
+        .filter(|(_, r)| **r > 18.0)
+        .map(|(n, _)| *n)
+        .collect();
+    let at_first_check = lamp.iter().filter(|&&n| n == 16.0).count();
+    assert!(at_first_check * 2 > lamp.len(), "{lamp:?}");
+    let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+    assert!(
+        mean(spp) > 2.0 * mean(&lamp),
+        "the walls take more samples than the lamp"
+    );
+}
+
+#[test]
+fn time_limit_stops_early_and_still_writes_every_pixel() {
+    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [64, 64]"));
+    run_ok(
+        &dir,
+        &[
+            "render",
+            "shot.toml",
+            "--spp",
+            "65536",
+            "--time-limit",
+            "0.5",
+            "-o",
+            "limited.exr",
+        ],
+    );
+    let exr = rift_render::film::read_exr_layer(&dir.path().join("limited.exr")).unwrap();
+    let spp = &exr.channels["spp"];
+    assert!(
+        spp.iter().all(|&n| n >= 4.0),
+        "every pixel has its first pass"
+    );
+    assert!(
+        spp.iter().all(|&n| n < 65536.0),
+        "the limit stopped sampling"
+    );
+    for bad in ["0", "-1", "nan"] {
+        let flag = format!("--time-limit={bad}");
+        let out = rift(dir.path(), &["render", "shot.toml", &flag, "-o", "x.exr"]);
+        assert_eq!(out.status.code(), Some(1));
+        assert!(stderr(&out).contains("--time-limit"));
+    }
+}

@@ -1,7 +1,7 @@
 //! The render camera: a pinhole or thin lens at the shot camera's pose, generating primary rays.
 
 use crate::sampling::concentric_disk;
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 use rift_fx::rig::Camera as ShotCamera;
 
 /// A camera frozen at one time (motion blur evaluates the shot camera per ray time).
@@ -51,5 +51,36 @@ impl Lens {
         let d = concentric_disk(lens_u) * self.aperture_radius;
         let origin = self.position + self.right * d.x + self.up * d.y;
         (origin, (focus - origin).normalize())
+    }
+
+    /// World-to-camera matrix in the layout OpenEXR's `worldToCamera` uses (Imath: row
+    /// vectors, the translation in elements 12–14); the camera looks down its −Z.
+    pub fn world_to_camera(&self) -> [f32; 16] {
+        self.view().to_cols_array()
+    }
+
+    /// World-to-NDC matrix in the same layout: x/w and y/w run from −1 to 1 across the frame
+    /// (y up) and w is the depth in front of the camera.
+    pub fn world_to_ndc(&self) -> [f32; 16] {
+        let sx = 1.0 / (self.tan_half_fov_y * self.aspect);
+        let sy = 1.0 / self.tan_half_fov_y;
+        let projection = Mat4::from_cols(
+            Vec4::new(sx, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, sy, 0.0, 0.0),
+            Vec4::new(0.0, 0.0, 0.0, -1.0),
+            Vec4::new(0.0, 0.0, 1.0, 0.0),
+        );
+        (projection * self.view()).to_cols_array()
+    }
+
+    /// World-to-camera as a column-vector matrix.
+    fn view(&self) -> Mat4 {
+        Mat4::from_cols(
+            self.right.extend(0.0),
+            self.up.extend(0.0),
+            self.back.extend(0.0),
+            self.position.extend(1.0),
+        )
+        .inverse()
     }
 }

@@ -4,32 +4,166 @@ use crate::error::RenderError;
 use glam::Vec3;
 use std::path::Path;
 
-/// A finished image.
+/// A pixel window: columns x0..x1 and rows y0..y1 (half-open), top row 0.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub x0: usize,
+    pub x1: usize,
+    pub y0: usize,
+    pub y1: usize,
+}
+
+impl Window {
+    /// The whole image.
+    pub fn full(width: usize, height: usize) -> Self {
+        Self {
+            x0: 0,
+            x1: width,
+            y0: 0,
+            y1: height,
+        }
+    }
+
+    /// A crop window from fractions of the image `x0,x1,y0,y1` in [0, 1] (as in pbrt and
+    /// Cycles' border render), covering every pixel the fractions touch.
+    pub fn from_fractions(text: &str, width: usize, height: usize) -> Result<Self, String> {
+        let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+        let values: Vec<f64> = parts
+            .iter()
+            .map(|p| p.parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("expected four numbers x0,x1,y0,y1, got {text:?}"))?;
+        let [x0, x1, y0, y1] = values[..] else {
+            return Err(format!("expected four numbers x0,x1,y0,y1, got {text:?}"));
+        };
+        if !values.iter().all(|v| (0.0..=1.0).contains(v)) {
+            return Err(format!(
+                "{text:?}: each value is a fraction of the image from 0 to 1"
+            ));
+        }
+        if x0 >= x1 || y0 >= y1 {
+            return Err(format!(
+                "{text:?}: the window is empty (x0 must be below x1 and y0 below y1)"
+            ));
+        }
+        let (w, h) = (width as f64, height as f64);
+        let window = Self {
+            x0: (x0 * w).floor() as usize,
+            x1: ((x1 * w).ceil() as usize).min(width),
+            y0: (y0 * h).floor() as usize,
+            y1: ((y1 * h).ceil() as usize).min(height),
+        };
+        if window.width() == 0 || window.height() == 0 {
+            return Err(format!("{text:?}: the window holds no pixel"));
+        }
+        Ok(window)
+    }
+
+    pub fn width(&self) -> usize {
+        self.x1 - self.x0
+    }
+
+    pub fn height(&self) -> usize {
+        self.y1 - self.y0
+    }
+
+    pub fn area(&self) -> usize {
+        self.width() * self.height()
+    }
+}
+
+/// What an EXR records about how it was made.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Metadata {
+    pub frame: i64,
+    pub render_seconds: f64,
+    /// Samples per pixel asked for (the most any pixel took).
+    pub spp: u32,
+    /// Row-major world-to-camera matrix at the frame (camera looks down −Z).
+    pub world_to_camera: [f32; 16],
+    /// Row-major world-to-NDC matrix (perspective) at the frame.
+    pub world_to_ndc: [f32; 16],
+}
+
+/// Depth written where a camera ray hit nothing (a large finite value, as compositing
+/// packages expect; never infinity).
+pub const BACKGROUND_DEPTH: f32 = 1e10;
+
+/// A finished image: the beauty pass and the AOVs over a data window of a full frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
+    /// Full frame size (the display window).
     pub width: usize,
     pub height: usize,
-    /// Row-major, top row first.
+    /// The pixels held (the data window); the whole frame unless cropped.
+    pub window: Window,
+    /// Row-major over the window, top row first.
     pub rgb: Vec<Vec3>,
     pub alpha: Vec<f32>,
+    /// Reflectance of the first surface hit, averaged over the pixel's samples.
+    pub albedo: Vec<Vec3>,
+    /// World-space normal of the first surface hit (facing the camera), averaged.
+    pub normal: Vec<Vec3>,
+    /// Camera-space depth of the first hit, averaged over the samples that hit.
+    pub depth: Vec<f32>,
+    /// Samples each pixel took (adaptive sampling and time limits make them differ).
+    pub spp: Vec<u32>,
     /// Samples discarded for being NaN or infinite.
     pub discarded: u64,
+    pub metadata: Metadata,
 }
 
 impl Image {
-    /// Writes an RGBA float EXR.
+    /// Writes a float EXR with R, G, B, A, albedo.R/G/B, N.X/Y/Z, Z and spp, the crop as the
+    /// data window, and the metadata as header attributes.
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
         use exr::prelude::*;
         let err = |message: String| RenderError::Write {
             path: path.to_owned(),
             message,
         };
-        let (w, h) = (self.width, self.height);
-        let channels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
-            let c = self.rgb[y * w + x];
-            (c.x, c.y, c.z, self.alpha[y * w + x])
-        });
-        let image = exr::image::Image::from_channels((w, h), channels);
+        let channel =
+            |name: &str, values: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(values));
+        let split = |v: &[Vec3], k: usize| v.iter().map(|c| c[k]).collect::<Vec<f32>>();
+        let mut channels = vec![
+            channel("R", split(&self.rgb, 0)),
+            channel("G", split(&self.rgb, 1)),
+            channel("B", split(&self.rgb, 2)),
+            channel("A", self.alpha.clone()),
+            channel("Z", self.depth.clone()),
+            channel("spp", self.spp.iter().map(|&n| n as f32).collect()),
+        ];
+        for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
+            channels.push(channel(&format!("albedo.{suffix}"), split(&self.albedo, k)));
+        }
+        for (k, suffix) in ["X", "Y", "Z"].iter().enumerate() {
+            channels.push(channel(&format!("N.{suffix}"), split(&self.normal, k)));
+        }
+        let mut attributes = LayerAttributes::default();
+        attributes.layer_position = Vec2(self.window.x0 as i32, self.window.y0 as i32);
+        attributes.software_name = Some(Text::from(concat!("rift ", env!("CARGO_PKG_VERSION"))));
+        attributes.world_to_camera = Some(self.metadata.world_to_camera);
+        attributes.world_to_normalized_device = Some(self.metadata.world_to_ndc);
+        let m = &self.metadata;
+        for (key, value) in [
+            ("rift/frame", AttributeValue::I32(m.frame as i32)),
+            ("rift/renderSeconds", AttributeValue::F64(m.render_seconds)),
+            ("rift/spp", AttributeValue::I32(m.spp as i32)),
+            (
+                "rift/discardedSamples",
+                AttributeValue::F64(self.discarded as f64),
+            ),
+        ] {
+            attributes.other.insert(Text::from(key), value);
+        }
+        let layer = Layer::new(
+            (self.window.width(), self.window.height()),
+            attributes,
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(SmallVec::from_vec(channels)),
+        );
+        let display = IntegerBounds::from_dimensions((self.width, self.height));
+        let image = exr::image::Image::new(ImageAttributes::new(display), layer);
         let mut bytes = std::io::Cursor::new(Vec::new());
         image
             .write()
@@ -51,8 +185,11 @@ impl Image {
         }
         let mut encoded = Vec::new();
         {
-            let mut encoder =
-                png::Encoder::new(&mut encoded, self.width as u32, self.height as u32);
+            let mut encoder = png::Encoder::new(
+                &mut encoded,
+                self.window.width() as u32,
+                self.window.height() as u32,
+            );
             encoder.set_color(png::ColorType::Rgb);
             encoder.set_depth(png::BitDepth::Eight);
             encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
@@ -121,4 +258,66 @@ pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<Vec3>), RenderErro
     let size = image.layer_data.size;
     let (_, pixels) = image.layer_data.channel_data.pixels;
     Ok((size.width(), size.height(), pixels))
+}
+
+/// Every channel of an EXR's first layer, with where it sits in the frame (for tests and
+/// tools that check what rift wrote).
+#[derive(Clone, Debug)]
+pub struct ExrLayer {
+    /// Display window size.
+    pub display: (usize, usize),
+    /// Data window position and size.
+    pub position: (i32, i32),
+    pub size: (usize, usize),
+    /// Samples per channel name, row-major over the data window.
+    pub channels: std::collections::BTreeMap<String, Vec<f32>>,
+    /// Custom header attributes rift writes (`rift/...`), as numbers.
+    pub numbers: std::collections::BTreeMap<String, f64>,
+}
+
+/// Reads the first layer of an EXR with all its channels.
+pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
+    use exr::prelude::*;
+    let image = read_all_flat_layers_from_file(path).map_err(|e| RenderError::Image {
+        path: path.to_owned(),
+        message: e.to_string(),
+    })?;
+    let display = image.attributes.display_window.size;
+    let layer = image.layer_data.first().ok_or_else(|| RenderError::Image {
+        path: path.to_owned(),
+        message: "the file has no layer".into(),
+    })?;
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let values = c.sample_data.values_as_f32().collect();
+            (c.name.to_string(), values)
+        })
+        .collect();
+    let numbers = layer
+        .attributes
+        .other
+        .iter()
+        .filter_map(|(k, v)| {
+            let n = match v {
+                AttributeValue::F64(x) => *x,
+                AttributeValue::F32(x) => *x as f64,
+                AttributeValue::I32(x) => *x as f64,
+                _ => return None,
+            };
+            Some((k.to_string(), n))
+        })
+        .collect();
+    Ok(ExrLayer {
+        display: (display.width(), display.height()),
+        position: (
+            layer.attributes.layer_position.x(),
+            layer.attributes.layer_position.y(),
+        ),
+        size: (layer.size.width(), layer.size.height()),
+        channels,
+        numbers,
+    })
 }

@@ -17,8 +17,18 @@ const ROULETTE_AFTER: u32 = 3;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathSample {
     pub radiance: Vec3,
-    /// 1 when the camera ray hit geometry.
-    pub alpha: f32,
+    /// The camera ray's hit, for alpha and the AOVs.
+    pub first: Option<FirstHit>,
+}
+
+/// The surface a camera ray hit.
+#[derive(Clone, Copy, Debug)]
+pub struct FirstHit {
+    /// Distance along the camera ray.
+    pub t: f32,
+    /// World-space geometric normal, facing the camera.
+    pub normal: Vec3,
+    pub albedo: Vec3,
 }
 
 /// Traces one path from `origin` along unit `dir` at time `time` (seconds).
@@ -51,13 +61,17 @@ pub fn trace(
             }
             break;
         };
-        if bounce == 0 {
-            out.alpha = 1.0;
-        }
         let surface = scene.surface(&hit, time);
         let (p, ng) = (surface.p, surface.ng);
         let material = scene.material(hit.triangle);
         let cos_o = -dir.dot(ng);
+        if bounce == 0 {
+            out.first = Some(FirstHit {
+                t: hit.t,
+                normal: if cos_o >= 0.0 { ng } else { -ng },
+                albedo: material.bsdf.albedo(),
+            });
+        }
 
         if material.emits() {
             let le = material.emitted(cos_o);

@@ -1,78 +1,257 @@
-//! Rendering a frame: tiles of pixels in parallel with rayon. Each pixel's samples depend only on
-//! the pixel, the sample index and the seed, so the image is the same for any thread count.
+//! Rendering a frame: tiles of pixels in parallel with rayon, in passes of samples.
+//!
+//! Each pixel's samples depend only on the pixel, the sample index and the seed, so the image is
+//! the same for any thread count. Adaptive sampling is decided per pixel from that pixel's own
+//! samples, so it keeps that property; only a wall-clock time limit makes output depend on the
+//! machine.
 
 use crate::camera::Lens;
-use crate::film::Image;
+use crate::film::{BACKGROUND_DEPTH, Image, Metadata, Window};
 use crate::integrator::trace;
 use crate::sampling::{SampleStream, hash32};
 use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use std::time::{Duration, Instant};
 
 const TILE: usize = 16;
+/// Samples a pixel takes before its error estimate is trusted.
+const MIN_ADAPTIVE_SPP: u32 = 16;
+/// The first pass when sampling progressively (adaptive or time-limited).
+const FIRST_PASS: u32 = 4;
 
-/// Renders `scene` through its camera with `spp` samples per pixel, each at a time spread over
-/// the shutter.
-pub fn render(scene: &Scene, spp: u32) -> Image {
+/// How to render, beyond the scene.
+pub struct RenderOptions<'a> {
+    /// Samples per pixel (the most any pixel takes when sampling adaptively).
+    pub spp: u32,
+    /// Only these pixels; `None`: the whole frame.
+    pub crop: Option<Window>,
+    /// Stop sampling a pixel once the estimated relative error of its mean falls below this:
+    /// standard error / sqrt(mean² + 0.01), the same regularised measure as relMSE.
+    pub target_error: Option<f32>,
+    /// Wall-clock budget: passes shrink to what is predicted to fit, and no tile starts after it
+    /// runs out (every pixel still gets its first pass).
+    pub time_limit: Option<Duration>,
+    /// Called with the number of samples just finished, from worker threads.
+    pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
+}
+
+impl RenderOptions<'_> {
+    /// Plain rendering at `spp` samples per pixel over the whole frame.
+    pub fn new(spp: u32) -> Self {
+        Self {
+            spp,
+            crop: None,
+            target_error: None,
+            time_limit: None,
+            progress: None,
+        }
+    }
+}
+
+/// One pixel's running sums.
+#[derive(Clone, Copy, Default)]
+struct Pixel {
+    sum: DVec3,
+    /// Sum of squared luminance, for the error estimate.
+    lum_sq: f64,
+    hits: u32,
+    albedo: Vec3,
+    normal: Vec3,
+    depth: f64,
+    samples: u32,
+    discarded: u32,
+    converged: bool,
+}
+
+impl Pixel {
+    /// Standard error of the mean luminance over sqrt(mean² + 0.01).
+    fn relative_error(&self) -> f64 {
+        let n = (self.samples - self.discarded) as f64;
+        if n < 2.0 {
+            return f64::INFINITY;
+        }
+        let mean = luminance(self.sum) / n;
+        let variance = ((self.lum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0);
+        (variance / n).sqrt() / (mean * mean + 0.01).sqrt()
+    }
+}
+
+fn luminance(c: DVec3) -> f64 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// Renders `scene` through its camera; each sample has its own time within the shutter.
+pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
+    let started = Instant::now();
     let camera = &scene.camera;
     let [w, h] = camera.projection.resolution.map(|v| v as usize);
+    let window = options.crop.unwrap_or(Window::full(w, h));
     let [open, close] = scene.shutter;
     let still_lens = (!scene.camera_moves()).then(|| Lens::at(camera, open));
-    let tiles_x = w.div_ceil(TILE);
-    let tiles: Vec<(usize, usize)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
-        .collect();
-    let seed = scene.settings.seed;
-    let done: Vec<Vec<(usize, Vec3, f32, u64)>> = tiles
-        .par_iter()
-        .map(|&(tx, ty)| {
-            let mut out = Vec::with_capacity(TILE * TILE);
-            for y in ty * TILE..((ty + 1) * TILE).min(h) {
-                for x in tx * TILE..((tx + 1) * TILE).min(w) {
-                    let pixel_seed =
-                        hash32(hash32((y * w + x) as u32) ^ hash32(seed.wrapping_add(0x9e37_79b9)));
-                    let mut sum = Vec3::ZERO;
-                    let mut alpha = 0.0;
-                    let mut discarded = 0;
-                    for i in 0..spp {
-                        let mut s = SampleStream::new(i, pixel_seed);
-                        let [jx, jy, lx, ly] = s.next_4d();
-                        let (jitter, lens_u) = (Vec2::new(jx, jy), Vec2::new(lx, ly));
-                        let time = if close > open {
-                            open + (close - open) * s.time() as f64
-                        } else {
-                            open
-                        };
-                        let ndc = (Vec2::new(x as f32, y as f32) + jitter)
-                            / Vec2::new(w as f32, h as f32);
-                        let lens = still_lens.unwrap_or_else(|| Lens::at(camera, time));
-                        let (o, d) = lens.ray(ndc, lens_u);
-                        let sample = trace(scene, o, d, time, &mut s);
-                        if sample.radiance.is_finite() {
-                            sum += sample.radiance;
-                            alpha += sample.alpha;
-                        } else {
-                            discarded += 1;
-                        }
-                    }
-                    let kept = (spp as u64 - discarded).max(1) as f32;
-                    out.push((y * w + x, sum / kept, alpha / kept, discarded));
-                }
-            }
-            out
+    let seed = hash32(scene.settings.seed.wrapping_add(0x9e37_79b9));
+
+    // Each tile owns its pixels (row-major within the tile), so passes can run tiles in
+    // parallel and carry their sums from pass to pass.
+    let mut tiles: Vec<(Window, Vec<Pixel>)> = (window.y0..window.y1)
+        .step_by(TILE)
+        .flat_map(|y0| {
+            (window.x0..window.x1).step_by(TILE).map(move |x0| {
+                let tile = Window {
+                    x0,
+                    x1: (x0 + TILE).min(window.x1),
+                    y0,
+                    y1: (y0 + TILE).min(window.y1),
+                };
+                (tile, vec![Pixel::default(); tile.area()])
+            })
         })
         .collect();
-    let mut image = Image {
+    let forward = -still_lens.unwrap_or_else(|| Lens::at(camera, open)).back;
+
+    // Samples `px` (the pixel at column x, row y) up to sample index `last` (exclusive).
+    let sample_pixel = |x: usize, y: usize, px: &mut Pixel, last: u32| {
+        let pixel_seed = hash32(hash32((y * w + x) as u32) ^ seed);
+        for i in px.samples..last {
+            let mut s = SampleStream::new(i, pixel_seed);
+            let [jx, jy, lx, ly] = s.next_4d();
+            let time = if close > open {
+                open + (close - open) * s.time() as f64
+            } else {
+                open
+            };
+            let ndc =
+                (Vec2::new(x as f32, y as f32) + Vec2::new(jx, jy)) / Vec2::new(w as f32, h as f32);
+            let lens = still_lens.unwrap_or_else(|| Lens::at(camera, time));
+            let (o, d) = lens.ray(ndc, Vec2::new(lx, ly));
+            let sample = trace(scene, o, d, time, &mut s);
+            if !sample.radiance.is_finite() {
+                px.discarded += 1;
+                continue;
+            }
+            let c = sample.radiance.as_dvec3();
+            px.sum += c;
+            px.lum_sq += luminance(c) * luminance(c);
+            if let Some(first) = sample.first {
+                px.hits += 1;
+                px.albedo += first.albedo;
+                px.normal += first.normal;
+                px.depth += (first.t * d.dot(forward)) as f64;
+            }
+        }
+        px.samples = px.samples.max(last);
+    };
+
+    let progressive = options.target_error.is_some() || options.time_limit.is_some();
+    let deadline = options.time_limit.map(|limit| started + limit);
+    let mut done = 0u32;
+    let mut seconds_per_sample = 0.0f64;
+    while done < options.spp {
+        // Progressive passes double the samples so far: 4, 4, 8, 16, ...
+        let mut size = if !progressive {
+            options.spp
+        } else if done == 0 {
+            FIRST_PASS.min(options.spp)
+        } else {
+            done.min(options.spp - done)
+        };
+        // Under a time limit, shrink the pass to what the remaining time is predicted to fit.
+        if let Some(deadline) = deadline.filter(|_| done > 0) {
+            let left = deadline
+                .saturating_duration_since(Instant::now())
+                .as_secs_f64();
+            let fits = (left / seconds_per_sample.max(1e-12)).floor() as u32;
+            if fits == 0 {
+                break;
+            }
+            size = size.min(fits);
+        }
+        let last = done + size;
+        let pass_started = Instant::now();
+        let first_pass = done == 0;
+        tiles.par_iter_mut().for_each(|(tile, tile_pixels)| {
+            if !first_pass && deadline.is_some_and(|d| Instant::now() > d) {
+                return;
+            }
+            let mut taken = 0u64;
+            for (k, px) in tile_pixels.iter_mut().enumerate() {
+                if px.converged {
+                    continue;
+                }
+                let before = px.samples;
+                sample_pixel(
+                    tile.x0 + k % tile.width(),
+                    tile.y0 + k / tile.width(),
+                    px,
+                    last,
+                );
+                taken += (px.samples - before) as u64;
+                if let Some(target) = options.target_error {
+                    px.converged =
+                        px.samples >= MIN_ADAPTIVE_SPP && px.relative_error() <= target as f64;
+                }
+            }
+            if let Some(report) = options.progress {
+                report(taken);
+            }
+        });
+        seconds_per_sample = pass_started.elapsed().as_secs_f64() / size as f64;
+        done = last;
+    }
+
+    // Tile-major sums back to rows over the window.
+    let mut pixels = vec![Pixel::default(); window.area()];
+    for (tile, tile_pixels) in &tiles {
+        for (k, px) in tile_pixels.iter().enumerate() {
+            let (x, y) = (tile.x0 + k % tile.width(), tile.y0 + k / tile.width());
+            pixels[(y - window.y0) * window.width() + (x - window.x0)] = *px;
+        }
+    }
+    finish(scene, window, w, h, &pixels, options.spp, started)
+}
+
+/// Means of the accumulated sums, as an image with metadata.
+fn finish(
+    scene: &Scene,
+    window: Window,
+    w: usize,
+    h: usize,
+    pixels: &[Pixel],
+    spp: u32,
+    started: Instant,
+) -> Image {
+    let kept = |p: &Pixel| (p.samples - p.discarded).max(1) as f64;
+    let per_hit = |p: &Pixel| p.hits.max(1) as f32;
+    let lens = Lens::at(&scene.camera, scene.shutter[0]);
+    Image {
         width: w,
         height: h,
-        rgb: vec![Vec3::ZERO; w * h],
-        alpha: vec![0.0; w * h],
-        discarded: 0,
-    };
-    for (i, c, a, d) in done.into_iter().flatten() {
-        image.rgb[i] = c;
-        image.alpha[i] = a;
-        image.discarded += d;
+        window,
+        rgb: pixels.iter().map(|p| (p.sum / kept(p)).as_vec3()).collect(),
+        alpha: pixels
+            .iter()
+            .map(|p| (p.hits as f64 / kept(p)) as f32)
+            .collect(),
+        albedo: pixels.iter().map(|p| p.albedo / per_hit(p)).collect(),
+        normal: pixels.iter().map(|p| p.normal / per_hit(p)).collect(),
+        depth: pixels
+            .iter()
+            .map(|p| {
+                if p.hits == 0 {
+                    BACKGROUND_DEPTH
+                } else {
+                    (p.depth / p.hits as f64) as f32
+                }
+            })
+            .collect(),
+        spp: pixels.iter().map(|p| p.samples).collect(),
+        discarded: pixels.iter().map(|p| p.discarded as u64).sum(),
+        metadata: Metadata {
+            frame: scene.frame,
+            render_seconds: started.elapsed().as_secs_f64(),
+            spp,
+            world_to_camera: lens.world_to_camera(),
+            world_to_ndc: lens.world_to_ndc(),
+        },
     }
-    image
 }

@@ -97,7 +97,7 @@ position = [0.0, 0.0, 4.0]
     std::fs::write(&path, &text).unwrap();
     let shot = Shot::load(&path).unwrap();
     let scene = Scene::build(&shot, 1).unwrap();
-    rift_render::render::render(&scene, spp)
+    rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(spp))
 }
 
 fn sphere_scene(reflectance: f32) -> String {

@@ -36,7 +36,7 @@ fov_degrees = 40.0
     std::fs::write(dir.join("quad.obj"), QUAD).unwrap();
     let shot = Shot::load(&path).unwrap();
     let scene = Scene::build(&shot, 1).unwrap();
-    rift_render::render::render(&scene, spp)
+    rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(spp))
 }
 
 const LAMP: &str = r#"

@@ -44,6 +44,8 @@ pub struct Scene {
     pub lights: Lights,
     pub settings: Settings,
     pub camera: Camera,
+    /// The frame rendered.
+    pub frame: i64,
     /// Shutter open and close, seconds.
     pub shutter: [f64; 2],
 }
@@ -277,6 +279,7 @@ impl Scene {
             lights,
             settings,
             camera: shot.camera.clone(),
+            frame,
             shutter,
         })
     }
