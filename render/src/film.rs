@@ -139,11 +139,13 @@ impl Image {
         for (k, suffix) in ["X", "Y", "Z"].iter().enumerate() {
             channels.push(channel(&format!("N.{suffix}"), split(&self.normal, k)));
         }
-        let mut attributes = LayerAttributes::default();
-        attributes.layer_position = Vec2(self.window.x0 as i32, self.window.y0 as i32);
-        attributes.software_name = Some(Text::from(concat!("rift ", env!("CARGO_PKG_VERSION"))));
-        attributes.world_to_camera = Some(self.metadata.world_to_camera);
-        attributes.world_to_normalized_device = Some(self.metadata.world_to_ndc);
+        let mut attributes = LayerAttributes {
+            layer_position: Vec2(self.window.x0 as i32, self.window.y0 as i32),
+            software_name: Some(Text::from(concat!("rift ", env!("CARGO_PKG_VERSION")))),
+            world_to_camera: Some(self.metadata.world_to_camera),
+            world_to_normalized_device: Some(self.metadata.world_to_ndc),
+            ..Default::default()
+        };
         let m = &self.metadata;
         for (key, value) in [
             ("rift/frame", AttributeValue::I32(m.frame as i32)),
