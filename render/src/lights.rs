@@ -103,16 +103,19 @@ impl Lights {
         self.emitters.is_empty() && self.environment.is_none()
     }
 
-    /// Picks a light and a point (or direction) on it; `moving` gives the world-space triangle
-    /// of an emitter on a moving object at the ray's time.
-    pub fn sample(
-        &self,
-        u_pick: f32,
-        u_point: Vec2,
-        moving: impl Fn(&Emitter) -> Triangle,
-    ) -> Option<LightSample> {
+    /// Picks a light and a point (or direction) on it from one stratified 2-D sample: `u.x`
+    /// chooses the light and is then rescaled to be reused for the point, so the light samples
+    /// of a pixel stay stratified across the emitters' surface. `moving` gives the world-space
+    /// triangle of an emitter on a moving object at the ray's time.
+    pub fn sample(&self, u: Vec2, moving: impl Fn(&Emitter) -> Triangle) -> Option<LightSample> {
         let p_env = self.environment_probability;
-        if let Some(radiance) = self.environment.filter(|_| u_pick < p_env) {
+        let on_environment = u.x < p_env;
+        let u_point = if on_environment {
+            Vec2::new(u.x / p_env, u.y)
+        } else {
+            Vec2::new((u.x - p_env) / (1.0 - p_env), u.y)
+        };
+        if let Some(radiance) = self.environment.filter(|_| on_environment) {
             let z = 1.0 - 2.0 * u_point.x;
             let r = (1.0 - z * z).max(0.0).sqrt();
             let phi = 2.0 * PI * u_point.y;
@@ -125,8 +128,8 @@ impl Lights {
         if self.emitters.is_empty() {
             return None;
         }
-        let u = ((u_pick - p_env) / (1.0 - p_env)).clamp(0.0, 1.0 - f32::EPSILON);
-        let i = self.table.sample(u);
+        let (i, u_rest) = self.table.sample(u_point.x.clamp(0.0, 1.0 - f32::EPSILON));
+        let u_point = Vec2::new(u_rest, u_point.y);
         let e = &self.emitters[i];
         let (tri, normal, area) = if e.instance == STATIC {
             (e.vertices, e.normal, e.area)

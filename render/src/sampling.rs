@@ -105,17 +105,20 @@ impl AliasTable {
         Self { prob, alias, pmf }
     }
 
-    /// Picks an index with one uniform number.
-    pub fn sample(&self, u: f32) -> usize {
+    /// Picks an index with one uniform number and returns that number rescaled to [0, 1)
+    /// within the choice, so it can be used again (it keeps its stratification).
+    pub fn sample(&self, u: f32) -> (usize, f32) {
         let n = self.prob.len();
         let x = u * n as f32;
         let i = (x as usize).min(n - 1);
         let frac = x - i as f32;
-        if frac < self.prob[i] {
-            i
+        let p = self.prob[i];
+        let (index, rest) = if frac < p {
+            (i, frac / p)
         } else {
-            self.alias[i] as usize
-        }
+            (self.alias[i] as usize, (frac - p) / (1.0 - p))
+        };
+        (index, rest.clamp(0.0, 1.0 - f32::EPSILON))
     }
 
     /// Probability of index `i`.
@@ -147,8 +150,8 @@ pub struct SampleStream {
     index: u32,
     seed: u32,
     set: u32,
-    /// Counter of the hashed stream.
-    uniform: u32,
+    /// State of the hashed stream (SplitMix64).
+    uniform: u64,
 }
 
 impl SampleStream {
@@ -158,7 +161,7 @@ impl SampleStream {
             index,
             seed,
             set: 0,
-            uniform: 0,
+            uniform: ((seed as u64) << 32 | index as u64) ^ 0x5bd1_e995_9e37_79b9,
         }
     }
 
@@ -179,13 +182,20 @@ impl SampleStream {
         sobol_burley::sample(self.index, 4 * SOBOL_SETS, self.seed)
     }
 
-    /// Four independent uniform numbers in [0, 1) from the hashed stream.
+    /// Four independent uniform numbers in [0, 1) from the hashed stream: two SplitMix64
+    /// outputs, 24 bits per number.
     pub fn uniform_4d(&mut self) -> [f32; 4] {
-        let base = hash32(self.index ^ hash32(self.uniform ^ hash32(self.seed ^ 0x5bd1_e995)));
-        self.uniform += 1;
-        std::array::from_fn(|k| {
-            (hash32(base.wrapping_add(k as u32)) >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
-        })
+        let (a, b) = (self.next_u64(), self.next_u64());
+        let unit = |bits: u64| (bits & 0xff_ffff) as f32 * (1.0 / (1u32 << 24) as f32);
+        [unit(a), unit(a >> 32), unit(b), unit(b >> 32)]
+    }
+
+    fn next_u64(&mut self) -> u64 {
+        self.uniform = self.uniform.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.uniform;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
     }
 }
 
@@ -209,7 +219,7 @@ mod tests {
         let mut counts = [0usize; 4];
         let n = 100_000;
         for i in 0..n {
-            counts[t.sample((i as f32 + 0.5) / n as f32)] += 1;
+            counts[t.sample((i as f32 + 0.5) / n as f32).0] += 1;
         }
         for (c, w) in counts.iter().zip(w) {
             assert!(
