@@ -397,3 +397,19 @@ fn time_limit_stops_early_and_still_writes_every_pixel() {
         assert!(stderr(&out).contains("--time-limit"));
     }
 }
+
+#[test]
+fn bad_environment_and_material_keys() {
+    let dir = scene_dir(|t| t + "\n[environment]\nmap = \"nosky.exr\"\n");
+    expect_failure(&dir, &["shot.toml: environment.map", "nosky.exr"]);
+    let dir = scene_dir(|t| t + "\n[environment]\nradiance = [1.0, 1.0, 1.0]\nmap = \"a.exr\"\n");
+    expect_failure(&dir, &["shot.toml: environment.map", "not both"]);
+    let dir = scene_dir(|t| {
+        t + "\n[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nreflectance = [1.0, 1.0, 1.0]\n"
+    });
+    expect_failure(&dir, &["shot.toml: material[0].reflectance", "dielectric"]);
+    let dir = scene_dir(|t| {
+        t + "\n[[material]]\nname = \"metal\"\ntype = \"conductor\"\nroughness = 1.5\n"
+    });
+    expect_failure(&dir, &["shot.toml: material[0].roughness"]);
+}

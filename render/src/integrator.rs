@@ -59,13 +59,13 @@ pub fn trace(
     let mut eta_scale = 1.0f32;
     loop {
         let Some(hit) = scene.accel.intersect(origin, dir, f32::INFINITY, time) else {
-            if let Some(env) = scene.lights.environment {
+            if let Some(env) = &scene.lights.environment {
                 let weight = if prev_delta {
                     1.0
                 } else {
-                    power_heuristic(prev_pdf, scene.lights.pdf_environment())
+                    power_heuristic(prev_pdf, scene.lights.pdf_environment(dir))
                 };
-                out.radiance += beta * env * weight;
+                out.radiance += beta * env.radiance(dir) * weight;
             }
             break;
         };

@@ -5,6 +5,7 @@
 //! sampling. render depends on fx, never the reverse.
 
 pub mod camera;
+pub mod environment;
 pub mod error;
 pub mod film;
 pub mod geometry;

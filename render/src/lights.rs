@@ -1,12 +1,12 @@
 //! Emitters and how next-event estimation picks them: every emissive triangle, chosen in
 //! proportion to its power with an alias table (O(1) per sample whatever the count), then a
-//! uniform point on it; and a constant environment, sampled uniformly over the sphere. When both
+//! uniform point on it; and the environment, sampled by its own distribution. When both
 //! exist each is picked half the time.
 
+use crate::environment::Environment;
 use crate::geometry::{STATIC, Triangle};
 use crate::sampling::{AliasTable, uniform_triangle};
 use glam::{Vec2, Vec3};
-use std::f32::consts::PI;
 
 /// One emissive triangle.
 #[derive(Clone, Copy, Debug)]
@@ -54,8 +54,8 @@ pub struct Lights {
     table: AliasTable,
     /// Emitter index per scene triangle (u32::MAX: not an emitter).
     by_triangle: Vec<u32>,
-    /// Constant environment radiance, if any.
-    pub environment: Option<Vec3>,
+    /// Light from where rays escape, if any.
+    pub environment: Option<Environment>,
     /// Probability of sampling the environment rather than a triangle.
     environment_probability: f32,
 }
@@ -66,7 +66,11 @@ fn luminance(c: Vec3) -> f32 {
 
 impl Lights {
     /// Collects emitters; `triangle_count` is the scene's triangle count.
-    pub fn new(emitters: Vec<Emitter>, triangle_count: usize, environment: Option<Vec3>) -> Self {
+    pub fn new(
+        emitters: Vec<Emitter>,
+        triangle_count: usize,
+        environment: Option<Environment>,
+    ) -> Self {
         let weights: Vec<f64> = emitters
             .iter()
             .map(|e| {
@@ -83,7 +87,7 @@ impl Lights {
         for (i, e) in emitters.iter().enumerate() {
             by_triangle[e.triangle as usize] = i as u32;
         }
-        let environment = environment.filter(|e| e.max_element() > 0.0);
+        let environment = environment.filter(|e| !e.is_black());
         let environment_probability = match (environment.is_some(), emitters.is_empty()) {
             (false, _) => 0.0,
             (true, true) => 1.0,
@@ -115,14 +119,12 @@ impl Lights {
         } else {
             Vec2::new((u.x - p_env) / (1.0 - p_env), u.y)
         };
-        if let Some(radiance) = self.environment.filter(|_| on_environment) {
-            let z = 1.0 - 2.0 * u_point.x;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = 2.0 * PI * u_point.y;
-            return Some(LightSample {
-                place: LightPlace::Direction(Vec3::new(r * phi.cos(), r * phi.sin(), z)),
-                radiance,
-                pdf: self.pdf_environment(),
+        if let Some(env) = self.environment.as_ref().filter(|_| on_environment) {
+            let s = env.sample(u_point);
+            return (s.pdf > 0.0).then_some(LightSample {
+                place: LightPlace::Direction(s.direction),
+                radiance: s.radiance,
+                pdf: p_env * s.pdf,
             });
         }
         if self.emitters.is_empty() {
@@ -151,9 +153,11 @@ impl Lights {
         })
     }
 
-    /// Solid-angle pdf with which [`Lights::sample`] picks an environment direction.
-    pub fn pdf_environment(&self) -> f32 {
-        self.environment_probability / (4.0 * PI)
+    /// Solid-angle pdf with which [`Lights::sample`] picks environment direction `dir`.
+    pub fn pdf_environment(&self, dir: Vec3) -> f32 {
+        self.environment
+            .as_ref()
+            .map_or(0.0, |env| self.environment_probability * env.pdf(dir))
     }
 
     /// Area-measure pdf with which [`Lights::sample`] picks a point on `triangle`, whose world

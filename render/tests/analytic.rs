@@ -229,3 +229,69 @@ material = "lamp"
     let img = render(dir.path(), &behind, 4);
     assert!(img.rgb.iter().all(|c| *c == Vec3::ZERO));
 }
+
+/// Writes a lat-long EXR whose upper half (the sky) has radiance `sky` and lower half `ground`.
+fn write_sky_map(path: &Path, sky: f32, ground: f32) {
+    let (w, h) = (64usize, 32usize);
+    exr::prelude::write_rgb_file(path, w, h, |_, y| {
+        let v = if y < h / 2 { sky } else { ground };
+        (v, v, v)
+    })
+    .unwrap();
+}
+
+#[test]
+fn lat_long_environment_lights_like_its_radiance() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("ball.obj"), icosphere_obj(3)).unwrap();
+    // A map of radiance 1 everywhere is the white furnace again.
+    write_sky_map(&dir.path().join("white.exr"), 1.0, 1.0);
+    let furnace = sphere_scene(1.0).replace(
+        "radiance = [1.0, 1.0, 1.0]",
+        "map = \"white.exr\"\nrotation_degrees = 40.0",
+    );
+    let (on, off, _) = means(&render(dir.path(), &furnace, 32));
+    assert!((on - Vec3::ONE).abs().max_element() < 0.005, "{on}");
+    assert!((off - Vec3::ONE).abs().max_element() < 1e-6, "{off}");
+    // Sky of radiance 2 over a black ground: a floor of albedo 0.5 facing up receives
+    // irradiance 2π and reflects radiance 0.5 · 2 = 1.
+    write_sky_map(&dir.path().join("sky.exr"), 2.0, 0.0);
+    std::fs::write(
+        dir.path().join("floor.obj"),
+        "v -50 0 -50\nv 50 0 -50\nv 50 0 50\nv -50 0 50\nf 1 3 2\nf 1 4 3\n",
+    )
+    .unwrap();
+    let text = r#"
+[shot]
+name = "sky"
+fps = 24.0
+frames = [1, 1]
+[camera]
+resolution = [32, 32]
+fov_degrees = 30.0
+[camera.transform]
+position = [0.0, 3.0, 0.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, -1.0]
+[environment]
+map = "sky.exr"
+[[material]]
+name = "m"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+[[object]]
+name = "floor"
+mesh = "floor.obj"
+material = "m"
+"#;
+    let path = dir.path().join("sky.toml");
+    std::fs::write(&path, text).unwrap();
+    let shot = Shot::load(&path).unwrap();
+    let scene = Scene::build(&shot, 1).unwrap();
+    let img = rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(64));
+    let mean = img.rgb.iter().sum::<Vec3>() / img.rgb.len() as f32;
+    assert!(
+        (mean - Vec3::ONE).abs().max_element() < 0.01,
+        "floor {mean}"
+    );
+}

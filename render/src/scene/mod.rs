@@ -6,6 +6,7 @@
 pub mod mesh;
 pub mod schema;
 
+use crate::environment::{Environment, LatLong};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{Accel, Hit, MovingInstance, STATIC, Triangle};
 use crate::lights::{Emitter, Lights};
@@ -262,10 +263,11 @@ impl Scene {
             })
             .collect();
         let environment = match &sections.environment {
-            Some(t) => {
-                let e: EnvironmentSection = parse(file, "environment", t)?;
-                Some(color("environment.radiance", Some(e.radiance), Vec3::ZERO).map_err(invalid)?)
-            }
+            Some(t) => Some(environment(
+                file,
+                base,
+                &parse::<EnvironmentSection>(file, "environment", t)?,
+            )?),
             None => None,
         };
         let lights = Lights::new(emitters, triangles.len(), environment);
@@ -344,6 +346,73 @@ fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) -> bool {
         .map(|i| interval[0] + (interval[1] - interval[0]) * i as f64 / 8.0)
         .chain(keys_inside)
         .any(|t| transform.at(t) != first)
+}
+
+/// The environment light of `[environment]`: a constant or a lat-long map.
+fn environment(
+    file: &Path,
+    base: &Path,
+    e: &EnvironmentSection,
+) -> Result<Environment, RenderError> {
+    let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
+    match (&e.radiance, &e.map) {
+        (Some(_), Some(_)) => Err(key_error(
+            file,
+            "environment.map",
+            "give either `radiance` or `map`, not both",
+        )),
+        (None, None) => Err(key_error(
+            file,
+            "environment",
+            "expected `radiance = [r, g, b]` or `map = \"file.exr\"`",
+        )),
+        (Some(radiance), None) => {
+            if e.intensity.is_some() || e.rotation_degrees.is_some() {
+                return Err(key_error(
+                    file,
+                    "environment",
+                    "`intensity` and `rotation_degrees` apply to a `map` only",
+                ));
+            }
+            Ok(Environment::Constant(
+                color("environment.radiance", Some(*radiance), Vec3::ZERO).map_err(invalid)?,
+            ))
+        }
+        (None, Some(map)) => {
+            let intensity = match e.intensity {
+                Some(v) => check::non_negative("environment.intensity", v).map_err(invalid)?,
+                None => 1.0,
+            };
+            let degrees = match e.rotation_degrees {
+                Some(v) => check::finite("environment.rotation_degrees", v).map_err(invalid)?,
+                None => 0.0,
+            };
+            let path = base.join(map);
+            let (w, h, texels) = crate::film::read_exr_rgb(&path)
+                .map_err(|cause| key_error(file, "environment.map", format!("{map:?}: {cause}")))?;
+            if let Some(bad) = texels
+                .iter()
+                .position(|c| !c.is_finite() || c.min_element() < 0.0)
+            {
+                return Err(key_error(
+                    file,
+                    "environment.map",
+                    format!(
+                        "{map:?}: texel ({}, {}) is negative or not finite",
+                        bad % w,
+                        bad / w
+                    ),
+                ));
+            }
+            Ok(Environment::LatLong(LatLong::new(
+                w,
+                h,
+                texels,
+                intensity as f32,
+                degrees as f32,
+            )))
+        }
+    }
 }
 
 fn find(materials: &[Material], name: &str) -> Option<usize> {

@@ -26,8 +26,11 @@
 //! ior = 1.5                     # inside (behind the front face) over outside
 //! roughness = 0.0               # 0: a perfectly smooth interface
 //!
-//! [environment]                # light from every direction where rays escape
-//! radiance = [0.2, 0.25, 0.3]
+//! [environment]                # light from every direction where rays escape:
+//! radiance = [0.2, 0.25, 0.3]   # a constant radiance, or
+//! # map = "sky.exr"             # a lat-long EXR (RGB), relative to the shot file; top row up,
+//! # intensity = 1.0             # middle column towards −Z; scaled by intensity and turned
+//! # rotation_degrees = 0.0      # about +Y
 //!
 //! [[object]]
 //! name = "room"
@@ -89,5 +92,8 @@ pub struct ObjectSection {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EnvironmentSection {
-    pub radiance: [f64; 3],
+    pub radiance: Option<[f64; 3]>,
+    pub map: Option<String>,
+    pub intensity: Option<f64>,
+    pub rotation_degrees: Option<f64>,
 }
