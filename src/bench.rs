@@ -52,6 +52,9 @@ pub struct ConvergenceArgs {
     /// Where to write the table as CSV.
     #[arg(long, default_value = "out/convergence.csv")]
     csv: PathBuf,
+    /// Where to write the log-log convergence plot.
+    #[arg(long, default_value = "out/convergence.png")]
+    plot: PathBuf,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -213,6 +216,7 @@ fn convergence(args: ConvergenceArgs) -> anyhow::Result<()> {
         "spp", "seconds", "relMSE", "efficiency", "Mpaths/s"
     );
     let mut csv = String::from("spp,seconds,rel_mse,efficiency,mpaths_per_s\n");
+    let mut points = Vec::new();
     for spp in counts {
         let t = Instant::now();
         let image = crate::with_threads(args.threads, || {
@@ -224,12 +228,24 @@ fn convergence(args: ConvergenceArgs) -> anyhow::Result<()> {
         let mpaths = (w as f64 * h as f64 * spp as f64) / seconds / 1e6;
         println!("{spp:>6} {seconds:>10.3} {rel:>12.4e} {efficiency:>12.1} {mpaths:>10.3}");
         csv.push_str(&format!("{spp},{seconds},{rel},{efficiency},{mpaths}\n"));
+        points.push((spp, rel));
     }
-    if let Some(dir) = args.csv.parent().filter(|d| !d.as_os_str().is_empty()) {
-        crate::fx_cmd::prepare_output_dir(dir)?;
+    for path in [&args.csv, &args.plot] {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            crate::fx_cmd::prepare_output_dir(dir)?;
+        }
     }
     rift_fx::export::atomic::write(&args.csv, |w| w.write_all(csv.as_bytes()))?;
-    println!("wrote {}", args.csv.display());
+    let title = format!(
+        "{} against {}",
+        args.shot.file_name().unwrap_or_default().to_string_lossy(),
+        args.reference
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+    );
+    crate::plot::convergence_png(&args.plot, &title, &points)?;
+    println!("wrote {} and {}", args.csv.display(), args.plot.display());
     Ok(())
 }
 

@@ -66,3 +66,51 @@ fn cornell_matches_the_reference_mean_and_converges_as_one_over_spp() {
         "relMSE {mse8:.3e} at 8 spp, {mse32:.3e} at 32 spp: falls by {fall:.2}"
     );
 }
+
+#[test]
+fn convergence_bench_writes_table_csv_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        root().join("examples/cornell.obj"),
+        dir.path().join("cornell.obj"),
+    )
+    .unwrap();
+    std::fs::copy(
+        root().join("examples/cornell.mtl"),
+        dir.path().join("cornell.mtl"),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(root().join("examples/cornell.toml")).unwrap();
+    std::fs::write(dir.path().join("shot.toml"), text).unwrap();
+    let reference = reference();
+    let r = rift(
+        dir.path(),
+        &[
+            "bench",
+            "convergence",
+            "shot.toml",
+            "--reference",
+            reference.to_str().unwrap(),
+            "--spp",
+            "1,2",
+            "--csv",
+            "out/c.csv",
+            "--plot",
+            "out/c.png",
+        ],
+    );
+    assert!(r.status.success(), "{}", stderr(&r));
+    let csv = std::fs::read_to_string(dir.path().join("out/c.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    assert!(
+        rows[1][2] < rows[0][2],
+        "relMSE falls with samples: {rows:?}"
+    );
+    let png = std::fs::read(dir.path().join("out/c.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+}

@@ -1,4 +1,4 @@
-//! Mesh files: OBJ (with its MTL, through tobj). Each OBJ object/group becomes one part with the
+//! Mesh files: OBJ (with its MTL, through tobj); PLY is in [`super::ply`]. Each OBJ object/group becomes one part with the
 //! name of its `usemtl` material and, when the MTL has it, that material's Kd and Ke.
 
 use crate::error::RenderError;

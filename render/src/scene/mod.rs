@@ -4,6 +4,7 @@
 //! sections: [`schema`].
 
 pub mod mesh;
+pub mod ply;
 pub mod schema;
 
 use crate::environment::{Environment, LatLong};
@@ -155,11 +156,12 @@ impl Scene {
             let mesh_path = base.join(&o.mesh);
             let mesh_parts = match mesh_path.extension().and_then(|e| e.to_str()) {
                 Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)?,
+                Some(ext) if ext.eq_ignore_ascii_case("ply") => ply::load_ply(&mesh_path)?,
                 _ => {
                     return Err(key_error(
                         file,
                         format!("{key}.mesh"),
-                        format!("{:?}: expected an .obj file", o.mesh),
+                        format!("{:?}: expected an .obj or .ply file", o.mesh),
                     ));
                 }
             };
