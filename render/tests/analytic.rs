@@ -1,8 +1,8 @@
 //! Analytic radiometry tests (in the spirit of pbrt's integrator tests): results known exactly.
 
+mod common;
+
 use glam::Vec3;
-use rift_render::Scene;
-use rift_render::rift_fx::Shot;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -93,11 +93,7 @@ position = [0.0, 0.0, 4.0]
 {extra}
 "#
     );
-    let path = dir.join("shot.toml");
-    std::fs::write(&path, &text).unwrap();
-    let shot = Shot::load(&path).unwrap();
-    let scene = Scene::build(&shot, 1).unwrap();
-    rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(spp))
+    common::render_shot(dir, "shot", &text, spp)
 }
 
 fn sphere_scene(reflectance: f32) -> String {
@@ -284,11 +280,7 @@ name = "floor"
 mesh = "floor.obj"
 material = "m"
 "#;
-    let path = dir.path().join("sky.toml");
-    std::fs::write(&path, text).unwrap();
-    let shot = Shot::load(&path).unwrap();
-    let scene = Scene::build(&shot, 1).unwrap();
-    let img = rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(64));
+    let img = common::render_shot(dir.path(), "sky", text, 64);
     let mean = img.rgb.iter().sum::<Vec3>() / img.rgb.len() as f32;
     assert!(
         (mean - Vec3::ONE).abs().max_element() < 0.01,

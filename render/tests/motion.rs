@@ -2,9 +2,9 @@
 //! coverage profile, a moving camera gives the same profile, and light sampling of a moving
 //! emitter at each ray's time is unbiased.
 
+mod common;
+
 use glam::Vec3;
-use rift_render::Scene;
-use rift_render::rift_fx::Shot;
 use std::path::Path;
 
 const QUAD: &str = "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\nf 1 2 3\nf 1 3 4\n";
@@ -31,12 +31,8 @@ fov_degrees = 40.0
 {body}
 "#
     );
-    let path = dir.join("shot.toml");
-    std::fs::write(&path, &text).unwrap();
     std::fs::write(dir.join("quad.obj"), QUAD).unwrap();
-    let shot = Shot::load(&path).unwrap();
-    let scene = Scene::build(&shot, 1).unwrap();
-    rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(spp))
+    common::render_shot(dir, "shot", &text, spp)
 }
 
 const LAMP: &str = r#"
@@ -46,6 +42,14 @@ type = "diffuse"
 reflectance = [0.0, 0.0, 0.0]
 emission = [1.0, 1.0, 1.0]
 two_sided_emission = true
+"#;
+
+/// The unit lamp quad as an object (its transform, if any, follows).
+const PANEL: &str = r#"
+[[object]]
+name = "panel"
+mesh = "quad.obj"
+material = "lamp"
 "#;
 
 /// Mean over the pixel's footprint (at z = 0) of the fraction of the shutter during which a unit
@@ -91,12 +95,7 @@ fn check_profile(img: &rift_render::film::Image, what: &str) {
 fn moving_emitter_covers_the_analytic_tent() {
     let dir = tempfile::tempdir().unwrap();
     let body = format!(
-        r#"{LAMP}
-[[object]]
-name = "panel"
-mesh = "quad.obj"
-material = "lamp"
-[object.transform]
+        r#"{LAMP}{PANEL}[object.transform]
 interpolation = "linear"
 keys = [{{ frame = 1, position = [-0.5, 0.0, 0.0] }}, {{ frame = 2, position = [0.5, 0.0, 0.0] }}]
 "#
@@ -108,14 +107,7 @@ keys = [{{ frame = 1, position = [-0.5, 0.0, 0.0] }}, {{ frame = 2, position = [
 #[test]
 fn moving_camera_blurs_like_a_moving_object() {
     let dir = tempfile::tempdir().unwrap();
-    let body = format!(
-        r#"{LAMP}
-[[object]]
-name = "panel"
-mesh = "quad.obj"
-material = "lamp"
-"#
-    );
+    let body = format!("{LAMP}{PANEL}");
     let camera = r#"interpolation = "linear"
 keys = [{ frame = 1, position = [0.5, 0.0, 4.0] }, { frame = 2, position = [-0.5, 0.0, 4.0] }]"#;
     let img = render(dir.path(), camera, &body, 64);

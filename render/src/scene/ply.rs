@@ -160,23 +160,21 @@ fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
                     .map_err(|_| at(&format!("bad element count {count:?}")))?,
                 properties: Vec::new(),
             }),
-            ["property", "list", count, value, name] => {
-                let property = Property {
-                    name: (*name).to_owned(),
-                    count: Some(Scalar::parse(count).ok_or_else(|| at("unknown type"))?),
-                    value: Scalar::parse(value).ok_or_else(|| at("unknown type"))?,
-                };
-                elements
-                    .last_mut()
-                    .ok_or_else(|| at("property before any element"))?
-                    .properties
-                    .push(property);
-            }
-            ["property", value, name] => {
-                let property = Property {
-                    name: (*name).to_owned(),
-                    count: None,
-                    value: Scalar::parse(value).ok_or_else(|| at("unknown type"))?,
+            ["property", rest @ ..] => {
+                let scalar =
+                    |t: &str| Scalar::parse(t).ok_or_else(|| at(&format!("unknown type {t:?}")));
+                let property = match rest {
+                    ["list", count, value, name] => Property {
+                        name: (*name).to_owned(),
+                        count: Some(scalar(count)?),
+                        value: scalar(value)?,
+                    },
+                    [value, name] => Property {
+                        name: (*name).to_owned(),
+                        count: None,
+                        value: scalar(value)?,
+                    },
+                    _ => return Err(at(&format!("cannot read {line:?}"))),
                 };
                 elements
                     .last_mut()
