@@ -107,7 +107,6 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
             })
         })
         .collect();
-    let forward = -still_lens.unwrap_or_else(|| Lens::at(camera, open)).back;
 
     // Samples `px` (the pixel at column x, row y) up to sample index `last` (exclusive).
     let sample_pixel = |x: usize, y: usize, px: &mut Pixel, last: u32| {
@@ -136,7 +135,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
                 px.hits += 1;
                 px.albedo += first.albedo;
                 px.normal += first.normal;
-                px.depth += (first.t * d.dot(forward)) as f64;
+                // Depth along the camera's viewing axis at this sample's time.
+                px.depth += (first.t * d.dot(-lens.back)) as f64;
             }
         }
         px.samples = px.samples.max(last);
