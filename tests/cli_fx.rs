@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{files_in, rift, root, stderr};
+use common::{files_in, fx_frames, rift, root, stderr};
 
 fn small_shot() -> String {
     std::fs::read_to_string(root().join("tests/data/small_shot.toml")).unwrap()
@@ -36,19 +36,7 @@ fn expect_failure(name: &str, text: Option<&str>, extra: &[&str], expect: &[&str
 fn writes_every_format_for_every_frame_and_ring() {
     let dir = tempfile::tempdir().unwrap();
     let shot = root().join("tests/data/small_shot.toml");
-    let out = rift(
-        dir.path(),
-        &[
-            "fx",
-            shot.to_str().unwrap(),
-            "--frames",
-            "1001-1003",
-            "-o",
-            "o",
-        ],
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
-    let names: Vec<String> = files_in(&dir.path().join("o"))
+    let names: Vec<String> = fx_frames(dir.path(), &shot, &[])
         .iter()
         .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
         .collect();

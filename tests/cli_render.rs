@@ -2,21 +2,7 @@
 
 mod common;
 
-use common::{files_in, rift, root, stderr};
-
-fn cornell_text() -> String {
-    std::fs::read_to_string(root().join("examples/cornell.toml")).unwrap()
-}
-
-/// Writes the Cornell shot (edited by `edit`) and its meshes into a temporary directory.
-fn scene_dir(edit: impl Fn(String) -> String) -> tempfile::TempDir {
-    let dir = tempfile::tempdir().unwrap();
-    for f in ["cornell.obj", "cornell.mtl"] {
-        std::fs::copy(root().join("examples").join(f), dir.path().join(f)).unwrap();
-    }
-    std::fs::write(dir.path().join("shot.toml"), edit(cornell_text())).unwrap();
-    dir
-}
+use common::{cornell_dir, files_in, rift, stderr};
 
 fn expect_failure(dir: &tempfile::TempDir, expect: &[&str]) {
     let out = rift(
@@ -37,7 +23,7 @@ fn expect_failure(dir: &tempfile::TempDir, expect: &[&str]) {
 
 #[test]
 fn same_seed_gives_identical_pixels_for_any_thread_count() {
-    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [64, 64]"));
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [64, 64]"));
     let mut images = Vec::new();
     for threads in ["1", "2", "3"] {
         let out = format!("img{threads}.exr");
@@ -85,13 +71,13 @@ fn same_seed_gives_identical_pixels_for_any_thread_count() {
 
 #[test]
 fn missing_mesh() {
-    let dir = scene_dir(|t| t.replace("mesh = \"cornell.obj\"", "mesh = \"nowhere.obj\""));
+    let dir = cornell_dir(|t| t.replace("mesh = \"cornell.obj\"", "mesh = \"nowhere.obj\""));
     expect_failure(&dir, &["nowhere.obj", "no such mesh file"]);
 }
 
 #[test]
 fn malformed_obj() {
-    let dir = scene_dir(|t| t);
+    let dir = cornell_dir(|t| t);
     std::fs::write(
         dir.path().join("cornell.obj"),
         "mtllib cornell.mtl\nv 0 0 0\nv 1 0 0\nf 1 2 9\n",
@@ -102,7 +88,7 @@ fn malformed_obj() {
 
 #[test]
 fn unknown_material() {
-    let dir = scene_dir(|t| {
+    let dir = cornell_dir(|t| {
         t.replace(
             "mesh = \"cornell.obj\"",
             "mesh = \"cornell.obj\"\nmaterial = \"chrome\"",
@@ -119,13 +105,13 @@ fn unknown_material() {
 
 #[test]
 fn unknown_render_key() {
-    let dir = scene_dir(|t| t.replace("spp = 64", "spp = 64\nsamples = 3"));
+    let dir = cornell_dir(|t| t.replace("spp = 64", "spp = 64\nsamples = 3"));
     expect_failure(&dir, &["shot.toml: render.samples", "unknown field"]);
 }
 
 #[test]
 fn bad_material_values() {
-    let dir = scene_dir(|t| {
+    let dir = cornell_dir(|t| {
         t + "\n[[material]]\nname = \"hot\"\ntype = \"diffuse\"\nreflectance = [1.5, 0.2, 0.2]\n"
     });
     expect_failure(&dir, &["shot.toml: material[0].reflectance", "above 1"]);
@@ -133,7 +119,7 @@ fn bad_material_values() {
 
 #[test]
 fn unwritable_output() {
-    let dir = scene_dir(|t| t);
+    let dir = cornell_dir(|t| t);
     std::fs::write(dir.path().join("blocker"), b"").unwrap();
     let out = rift(
         dir.path(),
@@ -145,7 +131,7 @@ fn unwritable_output() {
 
 #[test]
 fn nan_in_a_transform() {
-    let dir = scene_dir(|t| {
+    let dir = cornell_dir(|t| {
         t.replace(
             "mesh = \"cornell.obj\"",
             "mesh = \"cornell.obj\"\ntransform = { position = [nan, 0.0, 0.0] }",
@@ -156,7 +142,7 @@ fn nan_in_a_transform() {
 
 #[test]
 fn zero_resolution() {
-    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [0, 256]"));
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [0, 256]"));
     expect_failure(
         &dir,
         &["shot.toml: camera.resolution[0]", "positive integer"],
@@ -165,7 +151,7 @@ fn zero_resolution() {
 
 #[test]
 fn resolution_override_and_png_preview() {
-    let dir = scene_dir(|t| t);
+    let dir = cornell_dir(|t| t);
     let r = rift(
         dir.path(),
         &[
@@ -203,7 +189,7 @@ fn run_ok(dir: &tempfile::TempDir, args: &[&str]) {
 
 #[test]
 fn crop_renders_the_same_pixels_as_the_full_frame() {
-    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [40, 32]"));
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [40, 32]"));
     run_ok(
         &dir,
         &["render", "shot.toml", "--spp", "4", "-o", "full.exr"],
@@ -240,7 +226,7 @@ fn crop_renders_the_same_pixels_as_the_full_frame() {
 
 #[test]
 fn bad_crop_window() {
-    let dir = scene_dir(|t| t);
+    let dir = cornell_dir(|t| t);
     for (crop, expect) in [
         ("0.5,0.2,0,1", "empty"),
         ("0,1,0", "four numbers"),
@@ -273,7 +259,7 @@ fn bad_crop_window() {
 
 #[test]
 fn aovs_and_metadata() {
-    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [32, 32]"));
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [32, 32]"));
     run_ok(
         &dir,
         &[
@@ -317,7 +303,7 @@ fn aovs_and_metadata() {
 
 #[test]
 fn adaptive_sampling_spends_samples_where_the_error_is() {
-    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [32, 32]"));
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [32, 32]"));
     for threads in ["1", "2"] {
         run_ok(
             &dir,
@@ -366,7 +352,7 @@ fn adaptive_sampling_spends_samples_where_the_error_is() {
 
 #[test]
 fn time_limit_stops_early_and_still_writes_every_pixel() {
-    let dir = scene_dir(|t| t.replace("resolution = [256, 256]", "resolution = [64, 64]"));
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [64, 64]"));
     run_ok(
         &dir,
         &[
@@ -400,15 +386,15 @@ fn time_limit_stops_early_and_still_writes_every_pixel() {
 
 #[test]
 fn bad_environment_and_material_keys() {
-    let dir = scene_dir(|t| t + "\n[environment]\nmap = \"nosky.exr\"\n");
+    let dir = cornell_dir(|t| t + "\n[environment]\nmap = \"nosky.exr\"\n");
     expect_failure(&dir, &["shot.toml: environment.map", "nosky.exr"]);
-    let dir = scene_dir(|t| t + "\n[environment]\nradiance = [1.0, 1.0, 1.0]\nmap = \"a.exr\"\n");
+    let dir = cornell_dir(|t| t + "\n[environment]\nradiance = [1.0, 1.0, 1.0]\nmap = \"a.exr\"\n");
     expect_failure(&dir, &["shot.toml: environment.map", "not both"]);
-    let dir = scene_dir(|t| {
+    let dir = cornell_dir(|t| {
         t + "\n[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nreflectance = [1.0, 1.0, 1.0]\n"
     });
     expect_failure(&dir, &["shot.toml: material[0].reflectance", "dielectric"]);
-    let dir = scene_dir(|t| {
+    let dir = cornell_dir(|t| {
         t + "\n[[material]]\nname = \"metal\"\ntype = \"conductor\"\nroughness = 1.5\n"
     });
     expect_failure(&dir, &["shot.toml: material[0].roughness"]);

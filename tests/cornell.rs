@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{rift, root, stderr};
+use common::{cornell_dir, rift, root, stderr};
 use glam::DVec3;
 use rift_render::film::{channel_mean, read_exr_rgb, relative_mse};
 use std::path::PathBuf;
@@ -69,19 +69,7 @@ fn cornell_matches_the_reference_mean_and_converges_as_one_over_spp() {
 
 #[test]
 fn convergence_bench_writes_table_csv_and_plot() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(
-        root().join("examples/cornell.obj"),
-        dir.path().join("cornell.obj"),
-    )
-    .unwrap();
-    std::fs::copy(
-        root().join("examples/cornell.mtl"),
-        dir.path().join("cornell.mtl"),
-    )
-    .unwrap();
-    let text = std::fs::read_to_string(root().join("examples/cornell.toml")).unwrap();
-    std::fs::write(dir.path().join("shot.toml"), text).unwrap();
+    let dir = cornell_dir(|t| t);
     let reference = reference();
     let r = rift(
         dir.path(),

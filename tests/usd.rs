@@ -5,28 +5,14 @@
 
 mod common;
 
-use common::{files_in, rift, root, stderr};
+use common::{fx_frames, root};
 use std::process::Command;
 
 #[test]
 fn example_shot_usd_passes_usd_core_validators() {
     let dir = tempfile::tempdir().unwrap();
     let shot = root().join("examples/shots/portal_pair.toml");
-    let out = rift(
-        dir.path(),
-        &[
-            "fx",
-            shot.to_str().unwrap(),
-            "--frames",
-            "1001-1003",
-            "-o",
-            "o",
-            "--format",
-            "usd",
-        ],
-    );
-    assert!(out.status.success(), "{}", stderr(&out));
-    let usda: Vec<String> = files_in(&dir.path().join("o"))
+    let usda: Vec<String> = fx_frames(dir.path(), &shot, &["--format", "usd"])
         .iter()
         .map(|p| p.to_string_lossy().into_owned())
         .collect();

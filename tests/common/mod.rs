@@ -39,3 +39,32 @@ pub fn files_in(dir: &Path) -> Vec<PathBuf> {
     out.sort();
     out
 }
+
+/// Copies the Cornell example (its shot, edited by `edit`, as `shot.toml`, and its meshes) into a
+/// temporary directory.
+pub fn cornell_dir(edit: impl Fn(String) -> String) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for f in ["cornell.obj", "cornell.mtl"] {
+        std::fs::copy(root().join("examples").join(f), dir.path().join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(root().join("examples/cornell.toml")).unwrap();
+    std::fs::write(dir.path().join("shot.toml"), edit(text)).unwrap();
+    dir
+}
+
+/// Runs `rift fx SHOT --frames 1001-1003 -o o` plus `extra` in `dir`, asserts success and returns
+/// the files written.
+pub fn fx_frames(dir: &Path, shot: &Path, extra: &[&str]) -> Vec<PathBuf> {
+    let mut args = vec![
+        "fx",
+        shot.to_str().unwrap(),
+        "--frames",
+        "1001-1003",
+        "-o",
+        "o",
+    ];
+    args.extend_from_slice(extra);
+    let out = rift(dir, &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    files_in(&dir.join("o"))
+}
