@@ -16,6 +16,7 @@ pub mod microfacet;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod sobol;
 
 pub use error::RenderError;
 pub use rift_fx;

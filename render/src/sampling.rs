@@ -1,6 +1,7 @@
 //! Sampling helpers: orthonormal frames, warps from the unit square, alias tables, and the
 //! per-pixel Owen-scrambled Sobol sequence.
 
+use crate::sobol::SobolSample;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_4, PI};
 
@@ -147,8 +148,7 @@ impl AliasTable {
 pub const SOBOL_SETS: u32 = 4;
 
 pub struct SampleStream {
-    index: u32,
-    seed: u32,
+    sobol: SobolSample,
     set: u32,
     /// State of the hashed stream (SplitMix64).
     uniform: u64,
@@ -158,8 +158,7 @@ impl SampleStream {
     /// Sample `index` of the pixel whose decorrelation seed is `seed`.
     pub fn new(index: u32, seed: u32) -> Self {
         Self {
-            index,
-            seed,
+            sobol: SobolSample::new(index, seed),
             set: 0,
             uniform: ((seed as u64) << 32 | index as u64) ^ 0x5bd1_e995_9e37_79b9,
         }
@@ -170,7 +169,7 @@ impl SampleStream {
         let d = self.set;
         self.set += 1;
         if d < SOBOL_SETS {
-            sobol_burley::sample_4d(self.index, d, self.seed)
+            self.sobol.dimensions_4d(d as usize)
         } else {
             self.uniform_4d()
         }
@@ -179,7 +178,7 @@ impl SampleStream {
     /// The sample's time within the shutter, in [0, 1): a Sobol dimension of its own (the
     /// first one the bounces never reach), so motion blur is stratified too.
     pub fn time(&self) -> f32 {
-        sobol_burley::sample(self.index, 4 * SOBOL_SETS, self.seed)
+        self.sobol.dimensions_4d(SOBOL_SETS as usize)[0]
     }
 
     /// Four independent uniform numbers in [0, 1) from the hashed stream: two SplitMix64

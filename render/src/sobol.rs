@@ -1,0 +1,103 @@
+//! Owen-scrambled Sobol points, four dimensions at a time, bit-for-bit equal to
+//! `sobol_burley::sample_4d` but cheaper per call for the way the integrator draws them.
+//!
+//! Two costs of the library call repeat for every set of a path and are paid once here:
+//! - The shuffled sample index depends only on the pixel seed and the index, so it is computed
+//!   when the stream starts, not for every set.
+//! - A Sobol point is the XOR of the direction numbers of the set bits of its index (a linear
+//!   map over GF(2)). The library walks the 16 index bits one at a time; here the direction
+//!   numbers are pre-XORed four bits at a time into 16-entry tables, so a point costs four
+//!   loads and three XORs. This took about a tenth of the render time on the Cornell box before.
+
+use sobol_burley::parts::{Int4, hash, hash_int4, owen_scramble_int4_rev, owen_scramble_rev};
+use crate::sampling::SOBOL_SETS;
+use std::sync::OnceLock;
+
+/// Dimension sets covered by the tables: the path's sets and the one that holds the time.
+pub const TABLE_SETS: usize = SOBOL_SETS as usize + 1;
+
+/// Per set, per 4-bit group of the top 16 bits of the reversed index, the XOR of the direction
+/// numbers for each of the 16 values of that group.
+struct Tables {
+    groups: [[[Int4; 16]; 4]; TABLE_SETS],
+}
+
+fn tables() -> &'static Tables {
+    static TABLES: OnceLock<Tables> = OnceLock::new();
+    TABLES.get_or_init(|| {
+        let zero = Int4::from([0; 4]);
+        let mut groups = [[[zero; 16]; 4]; TABLE_SETS];
+        for (set, set_groups) in groups.iter_mut().enumerate() {
+            for (group, entries) in set_groups.iter_mut().enumerate() {
+                for (value, entry) in entries.iter_mut().enumerate() {
+                    // The group's bits sit at the top of the reversed index: group 0 holds bits
+                    // 31..28, whose most significant bit is the index's lowest bit.
+                    let rev_index = (value as u32) << (28 - 4 * group);
+                    *entry = sobol_burley::parts::sobol_int4_rev(rev_index, set as u32);
+                }
+            }
+        }
+        Tables { groups }
+    })
+}
+
+/// The Sobol points of one sample index in one pixel.
+#[derive(Clone, Copy)]
+pub struct SobolSample {
+    /// The index after the seed's Owen shuffle, bit-reversed.
+    shuffled_rev_index: u32,
+    seed: u32,
+    tables: &'static Tables,
+}
+
+impl SobolSample {
+    /// Sample `index` (below 2¹⁶) of the sequence decorrelated by `seed`.
+    pub fn new(index: u32, seed: u32) -> Self {
+        Self {
+            shuffled_rev_index: owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x79c6_8e4a)),
+            seed,
+            tables: tables(),
+        }
+    }
+
+    /// Dimensions 4·set … 4·set + 3, for `set` below [`TABLE_SETS`].
+    #[inline]
+    pub fn dimensions_4d(&self, set: usize) -> [f32; 4] {
+        let groups = &self.tables.groups[set];
+        let i = self.shuffled_rev_index;
+        let nibble = |g: usize| ((i >> (28 - 4 * g)) & 0xf) as usize;
+        let sobol = groups[0][nibble(0)]
+            ^ groups[1][nibble(1)]
+            ^ groups[2][nibble(2)]
+            ^ groups[3][nibble(3)];
+        // The per-dimension scramble keys, as the library derives them.
+        let seed = self.seed.wrapping_mul(0x9c8f_2d3b);
+        let scramble = Int4::from([seed; 4])
+            ^ Int4::from([set as u32; 4])
+            ^ Int4::from([0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8]);
+        owen_scramble_int4_rev(sobol, hash_int4(scramble))
+            .reverse_bits()
+            .to_f32_norm()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equals_the_library_bit_for_bit() {
+        for seed in [0u32, 1, 0xdead_beef, 77_777] {
+            for index in (0..300).chain([4095, 65_535]) {
+                let s = SobolSample::new(index, seed);
+                for set in 0..TABLE_SETS {
+                    assert_eq!(
+                        s.dimensions_4d(set),
+                        sobol_burley::sample_4d(index, set as u32, seed),
+                        "seed {seed} index {index} set {set}"
+                    );
+                }
+            }
+        }
+    }
+}
