@@ -30,6 +30,10 @@ pub struct RenderArgs {
     /// Seed (overrides the shot).
     #[arg(long)]
     seed: Option<u32>,
+    /// Teleports allowed in a row before the next scattering event (overrides
+    /// `[render] max_portal_depth`); an opening met past the limit shows black.
+    #[arg(long, value_name = "N")]
+    max_portal_depth: Option<u32>,
     /// Worker threads (default: all cores). The image is identical for any count.
     #[arg(long)]
     threads: Option<usize>,
@@ -114,6 +118,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         if let Some(seed) = args.seed {
             scene.settings.seed = seed;
+        }
+        if let Some(depth) = args.max_portal_depth {
+            scene.settings.max_portal_depth = depth;
         }
         let pattern = args
             .output

@@ -84,3 +84,63 @@ impl Lens {
         .inverse()
     }
 }
+
+/// Clipping of camera rays that have not passed a portal: a near and a far depth along the view
+/// axis and any number of camera-space half-spaces. Teleported rays are never clipped, so
+/// geometry culled in front of the camera stays visible through openings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Clip {
+    pub near: f32,
+    pub far: f32,
+    /// Camera-space planes [a, b, c, d]: a point is kept where a·x + b·y + c·z + d ≥ 0.
+    pub planes: Vec<Vec4>,
+}
+
+impl Default for Clip {
+    fn default() -> Self {
+        Self {
+            near: 0.0,
+            far: f32::INFINITY,
+            planes: Vec::new(),
+        }
+    }
+}
+
+impl Clip {
+    /// True when nothing is clipped.
+    pub fn is_none(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The interval of ray parameters of `origin + t·dir` (a camera ray of `lens`) that stays
+    /// visible, or `None` when the whole ray is clipped. The kept region is convex (an
+    /// intersection of half-spaces), so it is one interval.
+    pub fn interval(&self, lens: &Lens, origin: Vec3, dir: Vec3) -> Option<(f32, f32)> {
+        let local = |v: Vec3| Vec3::new(v.dot(lens.right), v.dot(lens.up), v.dot(lens.back));
+        let o = local(origin - lens.position);
+        let d = local(dir);
+        let (mut lo, mut hi) = (0.0f32, f32::INFINITY);
+        // Keeps a·(o + t·d) + w ≥ 0.
+        let mut keep = |a: Vec3, w: f32| {
+            let (at0, slope) = (a.dot(o) + w, a.dot(d));
+            if slope == 0.0 {
+                if at0 < 0.0 {
+                    hi = -1.0;
+                }
+            } else if slope > 0.0 {
+                lo = lo.max(-at0 / slope);
+            } else {
+                hi = hi.min(-at0 / slope);
+            }
+        };
+        // Depth is −z: near ≤ −z ≤ far.
+        keep(-Vec3::Z, -self.near);
+        if self.far.is_finite() {
+            keep(Vec3::Z, self.far);
+        }
+        for p in &self.planes {
+            keep(p.truncate(), p.w);
+        }
+        (lo < hi).then_some((lo, hi))
+    }
+}

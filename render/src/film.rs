@@ -106,6 +106,9 @@ pub struct Image {
     pub normal: Vec<Vec3>,
     /// Camera-space depth of the first hit, averaged over the samples that hit.
     pub depth: Vec<f32>,
+    /// Teleports the camera paths made before their first scattering event, averaged: 0 where
+    /// no opening is seen, k on the k-th nested level of a portal seen in itself.
+    pub portal_depth: Vec<f32>,
     /// Samples each pixel took (adaptive sampling and time limits make them differ).
     pub spp: Vec<u32>,
     /// Samples discarded for being NaN or infinite.
@@ -114,7 +117,7 @@ pub struct Image {
 }
 
 impl Image {
-    /// Writes a float EXR with R, G, B, A, albedo.R/G/B, N.X/Y/Z, Z and spp, the crop as the
+    /// Writes a float EXR with R, G, B, A, albedo.R/G/B, N.X/Y/Z, Z, portalDepth and spp, the crop as the
     /// data window, and the metadata as header attributes.
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
         use exr::prelude::*;
@@ -132,6 +135,7 @@ impl Image {
             channel("A", self.alpha.clone()),
             channel("Z", self.depth.clone()),
             channel("spp", self.spp.iter().map(|&n| n as f32).collect()),
+            channel("portalDepth", self.portal_depth.clone()),
         ];
         for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
             channels.push(channel(&format!("albedo.{suffix}"), split(&self.albedo, k)));

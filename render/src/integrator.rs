@@ -3,6 +3,17 @@
 //! third bounce on paths whose throughput has fallen low. Each bounce draws one stratified
 //! four-dimensional set (light choice and point, BSDF direction) and four hashed numbers
 //! (roulette, lobe choice), so the Sobol dimensions line up across paths.
+//!
+//! Portals: a ray that meets the front of an opening inside its teleport region continues from
+//! the there side (with the opening's opacity as the probability; otherwise it passes through).
+//! A teleport is not a bounce: it consumes no bounce depth and no bounce dimensions. Teleports
+//! in a row are limited by `max_portal_depth`; the count restarts at every scattering event, so
+//! a surface's lighting does not depend on how many openings the camera path crossed to reach
+//! it. An opening met past the limit ends the path: it shows black (with alpha 1).
+//!
+//! Shadow rays cannot follow a teleport yet, so a teleport region blocks them in proportion to
+//! its opacity, and light reached by BSDF sampling after a teleport gets the full MIS weight
+//! (light sampling could not have found it): the estimate stays unbiased, only noisier.
 
 use crate::geometry::offset_origin;
 use crate::lights::LightPlace;
@@ -23,30 +34,38 @@ const ROULETTE_THRESHOLD: f32 = 0.25;
 /// terminate (0.99 rather than 0.95 gained another 5% efficiency on the Cornell box).
 const ROULETTE_MAX_SURVIVAL: f32 = 0.99;
 
+/// A tie between an opening and a surface within this relative distance goes to the opening, so
+/// an opening placed flat on a wall works.
+const PORTAL_TIE: f32 = 1e-4;
+
 /// What one camera path returns.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathSample {
     pub radiance: Vec3,
     /// The camera ray's hit, for alpha and the AOVs.
     pub first: Option<FirstHit>,
+    /// Teleports before the camera path's first scattering event.
+    pub portal_depth: u32,
 }
 
-/// The surface a camera ray hit.
+/// The surface a camera ray hit (through any openings on the way).
 #[derive(Clone, Copy, Debug)]
 pub struct FirstHit {
-    /// Distance along the camera ray.
+    /// Distance along the camera ray to the first surface or opening.
     pub t: f32,
     /// World-space geometric normal, facing the camera.
     pub normal: Vec3,
     pub albedo: Vec3,
 }
 
-/// Traces one path from `origin` along unit `dir` at time `time` (seconds).
+/// Traces one path from `origin` along unit `dir` at time `time` (seconds). The camera ray
+/// sees only ray parameters within `camera_range` (its clipping interval).
 pub fn trace(
     scene: &Scene,
     mut origin: Vec3,
     mut dir: Vec3,
     time: f64,
+    camera_range: (f32, f32),
     s: &mut SampleStream,
 ) -> PathSample {
     let mut out = PathSample::default();
@@ -59,10 +78,57 @@ pub fn trace(
     // Product of η² over refractions, so roulette sees the throughput without the radiance
     // compression of entering or leaving glass.
     let mut eta_scale = 1.0f32;
-    loop {
-        let Some(hit) = scene.accel.intersect(origin, dir, f32::INFINITY, time) else {
+    // Ray parameters the current ray may hit (clipping applies to the camera ray only).
+    let mut range = camera_range;
+    // Teleports since the last scattering event, and the camera ray's distance to its first
+    // opening.
+    let mut chain = 0u32;
+    let mut opening_t: Option<f32> = None;
+    let portals = &scene.portals;
+    'path: loop {
+        let hit = intersect_range(scene, origin, dir, range, time);
+        if !portals.is_empty() {
+            // Openings before the surface: each teleports with its opacity's probability.
+            let limit = hit.map_or(range.1, |h| h.t * (1.0 + PORTAL_TIE));
+            let mut from = range.0;
+            while let Some(ph) = portals.intersect(origin, dir, from, limit, time) {
+                let look = portals.look(ph.opening);
+                if look.opacity < 1.0 && s.uniform() >= look.opacity {
+                    from = ph.t;
+                    continue;
+                }
+                if bounce == 0 && opening_t.is_none() {
+                    opening_t = Some(ph.t);
+                }
+                if chain >= scene.settings.max_portal_depth {
+                    if bounce == 0 {
+                        out.first = Some(FirstHit {
+                            t: opening_t.unwrap_or(ph.t),
+                            normal: -dir,
+                            albedo: Vec3::ZERO,
+                        });
+                    }
+                    break 'path;
+                }
+                let Some(next) = portals.teleport(&ph, dir, time) else {
+                    break 'path;
+                };
+                beta *= look.tint;
+                chain += 1;
+                if bounce == 0 {
+                    out.portal_depth += 1;
+                }
+                (origin, dir) = (next.origin, next.direction);
+                range = (0.0, f32::INFINITY);
+                continue 'path;
+            }
+        }
+        // Emission found by BSDF sampling gets the full weight when light sampling could not
+        // have found it: after a delta bounce, or through an opening.
+        let unweighted = prev_delta || chain > 0;
+        let Some(hit) = hit else {
             if let Some(env) = &scene.lights.environment {
-                let weight = if prev_delta {
+                let weight = if unweighted {
                     1.0
                 } else {
                     power_heuristic(prev_pdf, scene.lights.pdf_environment(dir))
@@ -77,7 +143,7 @@ pub fn trace(
         let cos_o = -dir.dot(ng);
         if bounce == 0 {
             out.first = Some(FirstHit {
-                t: hit.t,
+                t: opening_t.unwrap_or(hit.t),
                 normal: if cos_o >= 0.0 { ng } else { -ng },
                 albedo: material.bsdf.albedo(),
             });
@@ -86,7 +152,7 @@ pub fn trace(
         if material.emits() {
             let le = material.emitted(cos_o);
             if le != Vec3::ZERO {
-                let weight = if prev_delta {
+                let weight = if unweighted {
                     1.0
                 } else {
                     let pdf_light =
@@ -160,9 +226,16 @@ pub fn trace(
                     }
                     None => (wi_world, f32::INFINITY),
                 };
-                if f != Vec3::ZERO && !scene.accel.occluded(from, shadow_dir, dist, time) {
+                let through = if f == Vec3::ZERO {
+                    0.0
+                } else if portals.is_empty() {
+                    1.0
+                } else {
+                    portals.transmittance(from, shadow_dir, dist, time)
+                };
+                if through > 0.0 && !scene.accel.occluded(from, shadow_dir, dist, time) {
                     let weight = power_heuristic(pdf_light, bsdf.pdf(wo, wi, side));
-                    out.radiance += beta * f * light.radiance * (weight / pdf_light);
+                    out.radiance += beta * f * light.radiance * (weight * through / pdf_light);
                 }
             }
         }
@@ -175,6 +248,8 @@ pub fn trace(
         prev_delta = bs.delta;
         dir = frame.to_world(bs.wi).normalize();
         origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
+        range = (0.0, f32::INFINITY);
+        chain = 0;
         bounce += 1;
         if bounce >= ROULETTE_AFTER {
             let survive =
@@ -186,4 +261,23 @@ pub fn trace(
         }
     }
     out
+}
+
+/// The closest surface along `origin + t·dir` for t within `range`.
+#[inline]
+fn intersect_range(
+    scene: &Scene,
+    origin: Vec3,
+    dir: Vec3,
+    range: (f32, f32),
+    time: f64,
+) -> Option<crate::geometry::Hit> {
+    if range.0 <= 0.0 {
+        return scene.accel.intersect(origin, dir, range.1, time);
+    }
+    let mut hit = scene
+        .accel
+        .intersect(origin + dir * range.0, dir, range.1 - range.0, time)?;
+    hit.t += range.0;
+    Some(hit)
 }

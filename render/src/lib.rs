@@ -17,6 +17,7 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod sobol;
+pub mod portal;
 
 pub use error::RenderError;
 pub use rift_fx;

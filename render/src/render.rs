@@ -7,7 +7,7 @@
 
 use crate::camera::Lens;
 use crate::film::{BACKGROUND_DEPTH, Image, Metadata, Window};
-use crate::integrator::trace;
+use crate::integrator::{PathSample, trace};
 use crate::sampling::{SampleStream, hash32};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
@@ -59,6 +59,8 @@ struct Pixel {
     albedo: Vec3,
     normal: Vec3,
     depth: f64,
+    /// Sum of the camera paths' teleport counts.
+    portal_depth: u32,
     samples: u32,
     discarded: u32,
     converged: bool,
@@ -123,7 +125,15 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
                 (Vec2::new(x as f32, y as f32) + Vec2::new(jx, jy)) / Vec2::new(w as f32, h as f32);
             let lens = still_lens.unwrap_or_else(|| Lens::at(camera, time));
             let (o, d) = lens.ray(ndc, Vec2::new(lx, ly));
-            let sample = trace(scene, o, d, time, &mut s);
+            let range = if scene.clip.is_none() {
+                Some((0.0, f32::INFINITY))
+            } else {
+                scene.clip.interval(&lens, o, d)
+            };
+            let sample = match range {
+                Some(range) => trace(scene, o, d, time, range, &mut s),
+                None => PathSample::default(),
+            };
             if !sample.radiance.is_finite() {
                 px.discarded += 1;
                 continue;
@@ -131,6 +141,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
             let c = sample.radiance.as_dvec3();
             px.sum += c;
             px.lum_sq += luminance(c) * luminance(c);
+            px.portal_depth += sample.portal_depth;
             if let Some(first) = sample.first {
                 px.hits += 1;
                 px.albedo += first.albedo;
@@ -243,6 +254,10 @@ fn finish(
                     (p.depth / p.hits as f64) as f32
                 }
             })
+            .collect(),
+        portal_depth: pixels
+            .iter()
+            .map(|p| (p.portal_depth as f64 / kept(p)) as f32)
             .collect(),
         spp: pixels.iter().map(|p| p.samples).collect(),
         discarded: pixels.iter().map(|p| p.discarded as u64).sum(),

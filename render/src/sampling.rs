@@ -189,6 +189,11 @@ impl SampleStream {
         [unit(a), unit(a >> 32), unit(b), unit(b >> 32)]
     }
 
+    /// One uniform number in [0, 1) from the hashed stream.
+    pub fn uniform(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
     fn next_u64(&mut self) -> u64 {
         self.uniform = self.uniform.wrapping_add(0x9e37_79b9_7f4a_7c15);
         let mut z = self.uniform;

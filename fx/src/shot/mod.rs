@@ -87,6 +87,10 @@ pub struct RenderSections {
     pub environment: Option<toml::Table>,
     /// `portal[i].surface`, one entry per opening.
     pub portal_surfaces: Vec<Option<toml::Table>>,
+    /// `camera.clip`.
+    pub camera_clip: Option<toml::Table>,
+    /// `camera.stereo`.
+    pub camera_stereo: Option<toml::Table>,
 }
 
 /// A validated shot.
@@ -193,6 +197,8 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
         lights: raw.lights,
         environment: raw.environment,
         portal_surfaces: raw.portals.into_iter().map(|p| p.surface).collect(),
+        camera_clip: raw.camera.clip,
+        camera_stereo: raw.camera.stereo,
     };
     Ok(Shot {
         source: path.to_owned(),

@@ -65,8 +65,8 @@
 //! its −Z, an opening's front is its +Z), and a uniform `scale`; or a whole 4×4 `matrix`
 //! (row-major, column vectors, translation in the last column) that must be a similarity.
 //!
-//! The sections `render`, `object`, `material`, `light` and `environment`, and `portal.surface`,
-//! belong to the renderer: `rift fx` keeps them unread.
+//! The sections `render`, `object`, `material`, `light`, `environment`, `camera.clip`,
+//! `camera.stereo` and `portal.surface` belong to the renderer: `rift fx` keeps them unread.
 
 use serde::Deserialize;
 
@@ -119,6 +119,9 @@ pub struct CameraSection {
     pub aperture_radius: Option<f64>,
     pub focus_distance: Option<f64>,
     pub transform: PoseSpec,
+    /// `[camera.clip]` and `[camera.stereo]` belong to the renderer.
+    pub clip: Option<toml::Table>,
+    pub stereo: Option<toml::Table>,
 }
 
 /// Which image axis `fov_degrees` spans.

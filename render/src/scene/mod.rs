@@ -5,14 +5,17 @@
 
 pub mod mesh;
 pub mod ply;
+pub mod portals;
 pub mod schema;
 
+use crate::camera::Clip;
 use crate::environment::{Environment, LatLong};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{Accel, Hit, MovingInstance, STATIC, Triangle};
 use crate::lights::{Emitter, Lights};
 use crate::material::{Bsdf, Material};
 use crate::microfacet::Ggx;
+use crate::portal::Portals;
 use glam::Vec3;
 use rift_fx::rig::{AnimatedTransform, Camera};
 use rift_fx::shot::check;
@@ -29,6 +32,8 @@ pub struct Settings {
     pub seed: u32,
     /// `None`: unlimited (Russian roulette ends paths).
     pub max_bounces: Option<u32>,
+    /// Teleports allowed in a row before the next scattering event.
+    pub max_portal_depth: u32,
     /// Output path pattern; `#`s become the frame number.
     pub output: String,
 }
@@ -46,6 +51,10 @@ pub struct Scene {
     pub lights: Lights,
     pub settings: Settings,
     pub camera: Camera,
+    /// Clipping of camera rays that have not been teleported.
+    pub clip: Clip,
+    /// Portal openings (none: the integrator never tests for them).
+    pub portals: Portals,
     /// The frame rendered.
     pub frame: i64,
     /// Shutter open and close, seconds.
@@ -71,7 +80,7 @@ struct Part {
 }
 
 /// Deserialises one renderer-owned table, naming `key` in errors.
-fn parse<T: DeserializeOwned>(
+pub(crate) fn parse<T: DeserializeOwned>(
     file: &Path,
     key: &str,
     table: &toml::Table,
@@ -116,6 +125,17 @@ impl Scene {
                         .map_err(invalid)?,
                 ),
                 None => None,
+            },
+            max_portal_depth: match render.max_portal_depth {
+                Some(v) => check::integer(
+                    "render.max_portal_depth",
+                    v,
+                    0,
+                    1 << 16,
+                    "an integer ≥ 0",
+                )
+                .map_err(invalid)?,
+                None => portals::DEFAULT_MAX_PORTAL_DEPTH,
             },
             output: render
                 .output
@@ -274,6 +294,8 @@ impl Scene {
         };
         let lights = Lights::new(emitters, triangles.len(), environment);
         let accel = Accel::build(&triangles[..static_count], instances);
+        let portals = portals::portals(shot, shutter)?;
+        let clip = portals::clip(file, sections.camera_clip.as_ref())?;
         Ok(Self {
             triangles,
             normals,
@@ -283,6 +305,8 @@ impl Scene {
             lights,
             settings,
             camera: shot.camera.clone(),
+            clip,
+            portals,
             frame,
             shutter,
         })
@@ -334,7 +358,7 @@ impl Scene {
 
 /// True when `transform` is not the same at every time in `interval`. Sampled at the ends, at
 /// keys inside and at interior points, so a segment that leaves and comes back still counts.
-fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) -> bool {
+pub(crate) fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) -> bool {
     if transform.is_static() {
         return false;
     }

@@ -5,6 +5,8 @@
 //! spp = 64                      # samples per pixel
 //! seed = 0
 //! max_bounces = 16              # omit for unlimited (Russian roulette ends paths)
+//! max_portal_depth = 8          # teleports in a row before the next scattering event (default 8);
+//!                               # an opening met past the limit ends the path (black)
 //! output = "out/shot.####.exr"  # frame number replaces the #s; relative to the working directory
 //!
 //! [[material]]
@@ -41,6 +43,24 @@
 //! # transform = { keys = [{ frame = 1, position = [0, 0, 0] }, { frame = 2, position = [1, 0, 0] }] }
 //! # An object whose transform changes while the shutter is open is blurred along its motion
 //! # (rays meet it at their own time); any other object is baked into world space.
+//!
+//! [camera.clip]                 # culls only camera rays that have not passed a portal
+//! near = 0.1                    # depth along the view axis, meters
+//! far = 100.0
+//! planes = [[0.0, 0.0, -1.0, -2.0]]  # camera space [a, b, c, d]: keeps a·x + b·y + c·z + d ≥ 0
+//!
+//! [[portal]]                    # the opening itself: see rift-fx
+//! [portal.surface]              # how the opening shades (all optional)
+//! radius = 1.0                  # teleport region: disk radius in the opening's frame
+//!                               # (default: the ring's radius, else 1)
+//! tint = [1.0, 1.0, 1.0]        # scales what is seen through the opening
+//! opacity = 1.0                 # 1: every ray teleports; 0: every ray passes through untouched
+//! ior = 1.0                     # bends the teleported direction at the exit, like refraction
+//! [portal.surface.distortion]   # animated noise on the exit normal (bends only when ior ≠ 1)
+//! amplitude = 0.05              # largest slope of the normal
+//! frequency = 3.0               # features per unit of the opening's frame
+//! evolution = 0.5               # noise units per second
+//! seed = 0
 //! ```
 
 use serde::Deserialize;
@@ -52,6 +72,7 @@ pub struct RenderSection {
     pub spp: Option<i64>,
     pub seed: Option<i64>,
     pub max_bounces: Option<i64>,
+    pub max_portal_depth: Option<i64>,
     pub output: Option<String>,
 }
 
@@ -96,4 +117,34 @@ pub struct EnvironmentSection {
     pub map: Option<String>,
     pub intensity: Option<f64>,
     pub rotation_degrees: Option<f64>,
+}
+
+/// `[camera.clip]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClipSection {
+    pub near: Option<f64>,
+    pub far: Option<f64>,
+    pub planes: Option<Vec<[f64; 4]>>,
+}
+
+/// `[portal.surface]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PortalSurfaceSection {
+    pub radius: Option<f64>,
+    pub tint: Option<[f64; 3]>,
+    pub opacity: Option<f64>,
+    pub ior: Option<f64>,
+    pub distortion: Option<DistortionSection>,
+}
+
+/// `[portal.surface.distortion]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DistortionSection {
+    pub amplitude: f64,
+    pub frequency: Option<f64>,
+    pub evolution: Option<f64>,
+    pub seed: Option<i64>,
 }

@@ -1,0 +1,432 @@
+//! Portal openings as the integrator sees them: a ray that meets the front of a *here* opening
+//! inside its teleport region continues from the *there* side, with the frames evaluated at the
+//! ray's own time, so moving portals blur correctly and depth of field and motion blur work
+//! through them.
+//!
+//! The teleport is T = P_T · P_H⁻¹ (DESIGN.md, Portals), applied in f64 from the hit point in the
+//! here frame's own coordinates, with the local depth snapped to exactly zero: the exit point
+//! then lies on the there plane whatever the distance from the world origin, and a hall of
+//! mirrors does not drift.
+//!
+//! Shading signals of an opening ([`OpeningLook`]):
+//! - `tint` scales what is seen through it;
+//! - `opacity` is the probability of teleporting (the rest passes through untouched), which is
+//!   the blend of teleport and pass-through in expectation;
+//! - `ior` bends the teleported direction at the exit as refraction into a medium of that index
+//!   would (rays that would be totally reflected end there, black);
+//! - `distortion` perturbs the exit normal with animated Perlin noise, which only bends light
+//!   when `ior` is not 1 (a heat-haze look).
+
+use crate::geometry::offset_origin;
+use glam::{DVec2, DVec3, Vec3};
+use noise::{NoiseFn, Perlin};
+use rift_fx::rig::{Rig, Similarity};
+
+/// Where the teleport region of an opening ends. One interface, so the ring boundary can
+/// replace the disk without touching the integrator.
+#[derive(Clone, Debug)]
+pub enum Mask {
+    /// Inside a circle of this radius around the opening's centre, in its local units.
+    Disk { radius: f64 },
+}
+
+impl Mask {
+    /// True when the local point `p` (on the opening's plane) teleports at time `time`.
+    #[inline]
+    pub fn contains(&self, p: DVec2, _time: f64) -> bool {
+        match self {
+            Mask::Disk { radius } => p.length_squared() <= radius * radius,
+        }
+    }
+}
+
+/// Noise that tilts the exit normal.
+#[derive(Clone, Debug)]
+pub struct Distortion {
+    /// Largest tilt of the normal, as a slope.
+    pub amplitude: f64,
+    /// Features per local unit.
+    pub frequency: f64,
+    /// Noise units per second: how fast the pattern changes.
+    pub evolution: f64,
+    perlin: [Perlin; 2],
+}
+
+impl Distortion {
+    pub fn new(amplitude: f64, frequency: f64, evolution: f64, seed: u32) -> Self {
+        Self {
+            amplitude,
+            frequency,
+            evolution,
+            perlin: [Perlin::new(seed), Perlin::new(seed ^ 0x5bd1_e995)],
+        }
+    }
+
+    /// The perturbed unit normal (+Z unperturbed) at local point `p` and time `time`.
+    fn normal(&self, p: DVec2, time: f64) -> DVec3 {
+        let q = [
+            p.x * self.frequency,
+            p.y * self.frequency,
+            time * self.evolution,
+        ];
+        let slope = DVec2::new(self.perlin[0].get(q), self.perlin[1].get(q)) * self.amplitude;
+        DVec3::new(-slope.x, -slope.y, 1.0).normalize()
+    }
+}
+
+/// How an opening shades what passes it.
+#[derive(Clone, Debug)]
+pub struct OpeningLook {
+    pub tint: Vec3,
+    /// Probability of teleporting, in [0, 1].
+    pub opacity: f32,
+    /// Index of refraction at the exit (1: straight through).
+    pub ior: f64,
+    pub distortion: Option<Distortion>,
+}
+
+impl Default for OpeningLook {
+    fn default() -> Self {
+        Self {
+            tint: Vec3::ONE,
+            opacity: 1.0,
+            ior: 1.0,
+            distortion: None,
+        }
+    }
+}
+
+/// The frames of one opening at one time.
+#[derive(Clone, Copy, Debug)]
+pub struct Frames {
+    /// P_H⁻¹: world to here-local.
+    here_inverse: Similarity,
+    /// P_T: there-local to world.
+    there: Similarity,
+}
+
+/// A ray meeting the front of an opening inside its teleport region.
+#[derive(Clone, Copy, Debug)]
+pub struct PortalHit {
+    /// Ray parameter, in units of the ray direction's length.
+    pub t: f32,
+    pub opening: usize,
+    /// Hit point in the here frame's local coordinates (on its plane).
+    local: DVec2,
+    frames: Frames,
+}
+
+/// Where a teleported ray continues.
+#[derive(Clone, Copy, Debug)]
+pub struct Teleported {
+    pub origin: Vec3,
+    /// Unit direction.
+    pub direction: Vec3,
+}
+
+/// All openings of a scene.
+#[derive(Clone, Debug, Default)]
+pub struct Portals {
+    rig: Rig,
+    masks: Vec<Mask>,
+    looks: Vec<OpeningLook>,
+    /// Every opening's frames, when no frame moves while the shutter is open.
+    fixed: Option<Vec<Frames>>,
+}
+
+impl Portals {
+    /// `masks` and `looks` follow the rig's openings; `fixed_time` is a time inside the shutter,
+    /// used when `moving` is false to evaluate every frame once.
+    pub fn new(
+        rig: Rig,
+        masks: Vec<Mask>,
+        looks: Vec<OpeningLook>,
+        moving: bool,
+        fixed_time: f64,
+    ) -> Self {
+        let mut portals = Self {
+            rig,
+            masks,
+            looks,
+            fixed: None,
+        };
+        if !moving {
+            portals.fixed = Some(
+                (0..portals.len())
+                    .map(|i| portals.frames_at(i, fixed_time))
+                    .collect(),
+            );
+        }
+        portals
+    }
+
+    /// Number of openings.
+    pub fn len(&self) -> usize {
+        self.masks.len()
+    }
+
+    /// True when the scene has no opening (the integrator then skips every portal test).
+    pub fn is_empty(&self) -> bool {
+        self.masks.is_empty()
+    }
+
+    /// The look of opening `i`.
+    pub fn look(&self, i: usize) -> &OpeningLook {
+        &self.looks[i]
+    }
+
+    fn frames_at(&self, i: usize, time: f64) -> Frames {
+        Frames {
+            here_inverse: self.rig.here_at(i, time).inverse(),
+            there: self.rig.there_at(i, time),
+        }
+    }
+
+    #[inline]
+    fn frames(&self, i: usize, time: f64) -> Frames {
+        match &self.fixed {
+            Some(f) => f[i],
+            None => self.frames_at(i, time),
+        }
+    }
+
+    /// The nearest opening whose front `origin + t·dir` meets inside its teleport region, for t
+    /// in (t_min, t_max).
+    pub fn intersect(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_min: f32,
+        t_max: f32,
+        time: f64,
+    ) -> Option<PortalHit> {
+        let mut best: Option<PortalHit> = None;
+        for i in 0..self.len() {
+            let limit = best.map_or(t_max, |b| b.t);
+            if let Some(hit) = self.intersect_one(i, origin, dir, t_min, limit, time) {
+                best = Some(hit);
+            }
+        }
+        best
+    }
+
+    fn intersect_one(
+        &self,
+        i: usize,
+        origin: Vec3,
+        dir: Vec3,
+        t_min: f32,
+        t_max: f32,
+        time: f64,
+    ) -> Option<PortalHit> {
+        let frames = self.frames(i, time);
+        let o = frames.here_inverse.transform_point(origin.as_dvec3());
+        let d = frames.here_inverse.transform_vector(dir.as_dvec3());
+        // Only rays going into the front (towards local −Z) teleport.
+        if d.z >= 0.0 || o.z <= 0.0 {
+            return None;
+        }
+        let t = -o.z / d.z;
+        let t32 = t as f32;
+        if !(t32 > t_min && t32 < t_max) {
+            return None;
+        }
+        let local = DVec2::new(o.x + t * d.x, o.y + t * d.y);
+        self.masks[i].contains(local, time).then_some(PortalHit {
+            t: t32,
+            opening: i,
+            local,
+            frames,
+        })
+    }
+
+    /// The fraction of light that passes straight through the openings between `origin` and
+    /// `origin + t_max·dir`: a shadow ray cannot follow a teleport, so a teleport region blocks
+    /// it in proportion to its opacity.
+    pub fn transmittance(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> f32 {
+        let mut through = 1.0;
+        for i in 0..self.len() {
+            if self
+                .intersect_one(i, origin, dir, 0.0, t_max, time)
+                .is_some()
+            {
+                through *= 1.0 - self.looks[i].opacity;
+                if through == 0.0 {
+                    break;
+                }
+            }
+        }
+        through
+    }
+
+    /// Continues the ray of `hit` (direction `dir`, time `time`) from the there side, or `None`
+    /// when the exit refraction reflects it totally.
+    pub fn teleport(&self, hit: &PortalHit, dir: Vec3, time: f64) -> Option<Teleported> {
+        let look = &self.looks[hit.opening];
+        let frames = &hit.frames;
+        // The local frame is shared by here and there: T maps here-local to there-local as the
+        // identity, so the direction only needs rotating out and back in.
+        let mut d = frames.here_inverse.transform_direction(dir.as_dvec3()).normalize();
+        if look.ior != 1.0 {
+            let n = look
+                .distortion
+                .as_ref()
+                .map_or(DVec3::Z, |dist| dist.normal(hit.local, time));
+            d = refract(d, n, 1.0 / look.ior)?;
+        }
+        let point = frames
+            .there
+            .transform_point(DVec3::new(hit.local.x, hit.local.y, 0.0));
+        let direction = frames.there.transform_direction(d).normalize();
+        // The ray leaves towards the there frame's local −Z. It starts off the plane by the
+        // usual magnitude-scaled offset, moved along its own direction rather than the normal so
+        // the ray stays on its exact line: a normal offset would shift every hop of a hall of
+        // mirrors sideways by the same amount, and 64 hops would add it up.
+        let exit_side = frames.there.transform_direction(-DVec3::Z);
+        let lifted = offset_origin(point.as_vec3(), exit_side.as_vec3()).as_dvec3();
+        let clearance = (lifted - point).dot(exit_side);
+        let along = clearance / direction.dot(exit_side).max(1e-6);
+        Some(Teleported {
+            origin: (point + direction * along).as_vec3(),
+            direction: direction.as_vec3(),
+        })
+    }
+}
+
+/// Refraction of unit `d` through a surface with unit normal `n` facing against it, with
+/// `eta` = index before / index after; `None` on total internal reflection.
+fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
+    let cos_i = -d.dot(n);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    Some((d * eta + n * (eta * cos_i - (1.0 - sin2_t).sqrt())).normalize())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DQuat;
+    use rift_fx::rig::{AnimatedTransform, Opening, ThereFrame};
+
+    /// Two openings facing each other across `gap` meters: A at the origin facing +Z, B at
+    /// z = `gap` facing −Z, tilted by `tilt` radians about X and scaled by `scale`.
+    fn facing_pair(gap: f64, tilt: f64, scale: f64, offset: DVec3) -> Portals {
+        let a = Similarity::new(DQuat::IDENTITY, offset, 1.0);
+        let b = Similarity::new(
+            DQuat::from_rotation_y(std::f64::consts::PI) * DQuat::from_rotation_x(tilt),
+            offset + DVec3::new(0.0, 0.0, gap),
+            scale,
+        );
+        let rig = Rig {
+            openings: vec![
+                Opening {
+                    name: "A".into(),
+                    here: AnimatedTransform::constant(a),
+                    there: ThereFrame::Paired(1),
+                },
+                Opening {
+                    name: "B".into(),
+                    here: AnimatedTransform::constant(b),
+                    there: ThereFrame::Paired(0),
+                },
+            ],
+        };
+        Portals::new(
+            rig,
+            vec![Mask::Disk { radius: 1e3 }; 2],
+            vec![OpeningLook::default(); 2],
+            false,
+            0.0,
+        )
+    }
+
+    /// Follows a ray through `count` teleports; returns where it then meets an opening again.
+    fn bounce(portals: &Portals, mut o: Vec3, mut d: Vec3, count: usize) -> DVec3 {
+        for k in 0..=count {
+            let hit = portals
+                .intersect(o, d, 0.0, f32::INFINITY, 0.0)
+                .unwrap_or_else(|| panic!("teleport {k} missed"));
+            if k == count {
+                return o.as_dvec3() + d.as_dvec3() * hit.t as f64;
+            }
+            let out = portals.teleport(&hit, d, 0.0).unwrap();
+            (o, d) = (out.origin, out.direction);
+        }
+        unreachable!()
+    }
+
+    /// The same in f64, from the rig's similarities directly: the exact-arithmetic reference.
+    fn bounce_f64(portals: &Portals, mut o: DVec3, mut d: DVec3, count: usize) -> DVec3 {
+        for k in 0..=count {
+            let (i, t) = (0..2)
+                .filter_map(|i| {
+                    let inv = portals.rig.here_at(i, 0.0).inverse();
+                    let (lo, ld) = (inv.transform_point(o), inv.transform_vector(d));
+                    (ld.z < 0.0 && lo.z > 0.0).then(|| (i, -lo.z / ld.z))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap();
+            if k == count {
+                return o + d * t;
+            }
+            let teleport = portals.rig.teleport_at(i, 0.0);
+            o = teleport.transform_point(o + d * t);
+            d = teleport.transform_direction(d);
+        }
+        unreachable!()
+    }
+
+    #[test]
+    fn sixty_four_teleports_stay_within_1e5_relative() {
+        for (offset, tilt, scale) in [
+            (DVec3::ZERO, 0.0, 1.0),
+            (DVec3::ZERO, 0.005, 1.0),
+            (DVec3::new(1e4, 30.0, -1e4), 0.0, 1.0),
+        ] {
+            let portals = facing_pair(4.0, tilt, scale, offset);
+            let o = offset + DVec3::new(0.1, 0.2, 2.0);
+            let d = DVec3::new(0.01, -0.005, -1.0).normalize();
+            let got = bounce(&portals, o.as_vec3(), d.as_vec3(), 64);
+            let exact = bounce_f64(&portals, o, d, 64);
+            let error = (got - exact).length() / exact.length().max(1.0);
+            assert!(error < 1e-5, "offset {offset} tilt {tilt}: {got} vs {exact} ({error:e})");
+        }
+    }
+
+    #[test]
+    fn teleport_leaves_the_there_front_and_keeps_the_point() {
+        let portals = facing_pair(4.0, 0.0, 2.0, DVec3::ZERO);
+        let hit = portals
+            .intersect(Vec3::new(0.3, 0.1, 1.0), -Vec3::Z, 0.0, 10.0, 0.0)
+            .unwrap();
+        assert_eq!(hit.opening, 0);
+        assert!((hit.t - 1.0).abs() < 1e-6);
+        let out = portals.teleport(&hit, -Vec3::Z, 0.0).unwrap();
+        // A's there frame is B's here frame turned half a turn: the ray comes out of B's front
+        // (world −Z) at the mirrored point, scaled by 2.
+        assert!((out.direction - -Vec3::Z).length() < 1e-6);
+        assert!((out.origin - Vec3::new(0.6, 0.2, 4.0)).length() < 1e-4);
+        // From behind, or going away, nothing teleports.
+        assert!(
+            portals
+                .intersect(Vec3::new(0.3, 0.1, -1.0), -Vec3::Z, 0.0, 10.0, 0.0)
+                .is_none()
+        );
+        assert!(
+            portals
+                .intersect(Vec3::new(0.3, 0.1, 1.0), Vec3::Z, 0.0, 2.0, 0.0)
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn refraction_follows_snell_and_reflects_totally_past_the_critical_angle() {
+        let d = DVec3::new(0.6, 0.0, -0.8);
+        let t = refract(d, DVec3::Z, 1.0 / 1.5).unwrap();
+        assert!((t.x - 0.6 / 1.5).abs() < 1e-12 && t.z < 0.0);
+        assert!(refract(d, DVec3::Z, 2.0).is_none());
+        assert!((refract(d, DVec3::Z, 1.0).unwrap() - d).length() < 1e-12);
+    }
+}
