@@ -94,6 +94,8 @@ pub struct Clip {
     pub far: f32,
     /// Camera-space planes [a, b, c, d]: a point is kept where a·x + b·y + c·z + d ≥ 0.
     pub planes: Vec<Vec4>,
+    /// The same in world space (planes that stay put while the camera moves).
+    pub world_planes: Vec<Vec4>,
 }
 
 impl Default for Clip {
@@ -102,6 +104,7 @@ impl Default for Clip {
             near: 0.0,
             far: f32::INFINITY,
             planes: Vec::new(),
+            world_planes: Vec::new(),
         }
     }
 }
@@ -120,26 +123,26 @@ impl Clip {
         let o = local(origin - lens.position);
         let d = local(dir);
         let (mut lo, mut hi) = (0.0f32, f32::INFINITY);
-        // Keeps a·(o + t·d) + w ≥ 0.
-        let mut keep = |a: Vec3, w: f32| {
-            let (at0, slope) = (a.dot(o) + w, a.dot(d));
-            if slope == 0.0 {
-                if at0 < 0.0 {
-                    hi = -1.0;
-                }
-            } else if slope > 0.0 {
+        // Keeps the t where at0 + slope·t ≥ 0.
+        let mut keep = |at0: f32, slope: f32| {
+            if slope > 0.0 {
                 lo = lo.max(-at0 / slope);
-            } else {
+            } else if slope < 0.0 {
                 hi = hi.min(-at0 / slope);
+            } else if at0 < 0.0 {
+                hi = -1.0;
             }
         };
         // Depth is −z: near ≤ −z ≤ far.
-        keep(-Vec3::Z, -self.near);
+        keep(-o.z - self.near, -d.z);
         if self.far.is_finite() {
-            keep(Vec3::Z, self.far);
+            keep(o.z + self.far, d.z);
         }
         for p in &self.planes {
-            keep(p.truncate(), p.w);
+            keep(p.truncate().dot(o) + p.w, p.truncate().dot(d));
+        }
+        for p in &self.world_planes {
+            keep(p.truncate().dot(origin) + p.w, p.truncate().dot(dir));
         }
         (lo < hi).then_some((lo, hi))
     }

@@ -13,11 +13,11 @@ pub mod integrator;
 pub mod lights;
 pub mod material;
 pub mod microfacet;
+pub mod portal;
 pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod sobol;
-pub mod portal;
 
 pub use error::RenderError;
 pub use rift_fx;

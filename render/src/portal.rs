@@ -266,7 +266,10 @@ impl Portals {
         let frames = &hit.frames;
         // The local frame is shared by here and there: T maps here-local to there-local as the
         // identity, so the direction only needs rotating out and back in.
-        let mut d = frames.here_inverse.transform_direction(dir.as_dvec3()).normalize();
+        let mut d = frames
+            .here_inverse
+            .transform_direction(dir.as_dvec3())
+            .normalize();
         if look.ior != 1.0 {
             let n = look
                 .distortion
@@ -391,7 +394,10 @@ mod tests {
             let got = bounce(&portals, o.as_vec3(), d.as_vec3(), 64);
             let exact = bounce_f64(&portals, o, d, 64);
             let error = (got - exact).length() / exact.length().max(1.0);
-            assert!(error < 1e-5, "offset {offset} tilt {tilt}: {got} vs {exact} ({error:e})");
+            assert!(
+                error < 1e-5,
+                "offset {offset} tilt {tilt}: {got} vs {exact} ({error:e})"
+            );
         }
     }
 

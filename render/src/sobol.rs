@@ -9,8 +9,8 @@
 //!   numbers are pre-XORed four bits at a time into 16-entry tables, so a point costs four
 //!   loads and three XORs. This took about a tenth of the render time on the Cornell box before.
 
-use sobol_burley::parts::{Int4, hash, hash_int4, owen_scramble_int4_rev, owen_scramble_rev};
 use crate::sampling::SOBOL_SETS;
+use sobol_burley::parts::{Int4, hash, hash_int4, owen_scramble_int4_rev, owen_scramble_rev};
 use std::sync::OnceLock;
 
 /// Dimension sets covered by the tables: the path's sets and the one that holds the time.

@@ -71,6 +71,15 @@ impl Camera {
         local.y.abs() <= half_h * (1.0 + margin) && local.x.abs() <= half_w + half_h * margin
     }
 
+    /// The whole camera after a fixed teleport (the constraint solver's M_T = T·M_H at every
+    /// time), with projection lengths scaled so the image matches.
+    pub fn through(&self, teleport: &Similarity) -> Self {
+        Self {
+            transform: self.transform.then(teleport),
+            projection: self.projection.scaled(teleport.scale),
+        }
+    }
+
     /// The camera's frame and projection at time `t` after a teleport: the constraint solver's
     /// M_T = T·M_H, with projection lengths scaled by the teleport's scale so the image matches.
     pub fn frame_through(&self, teleport: &Similarity, t: f64) -> (Similarity, Projection) {

@@ -61,6 +61,23 @@ impl AnimatedTransform {
         &self.keys
     }
 
+    /// `applied` after this transform at every time: the keys mapped by `applied`, with the
+    /// same interpolation. This is exact: Hermite translation is linear in the keys, slerp is
+    /// unchanged by a fixed rotation applied first, and geometric scale by a fixed factor.
+    pub fn then(&self, applied: &Similarity) -> Self {
+        Self {
+            keys: self
+                .keys
+                .iter()
+                .map(|k| TransformKey {
+                    time: k.time,
+                    value: applied.compose(&k.value),
+                })
+                .collect(),
+            interpolation: self.interpolation,
+        }
+    }
+
     /// True when the transform is the same at every time: callers skip motion work then.
     pub fn is_static(&self) -> bool {
         self.keys.windows(2).all(|w| w[0].value == w[1].value)

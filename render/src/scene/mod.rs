@@ -127,14 +127,10 @@ impl Scene {
                 None => None,
             },
             max_portal_depth: match render.max_portal_depth {
-                Some(v) => check::integer(
-                    "render.max_portal_depth",
-                    v,
-                    0,
-                    1 << 16,
-                    "an integer ≥ 0",
-                )
-                .map_err(invalid)?,
+                Some(v) => {
+                    check::integer("render.max_portal_depth", v, 0, 1 << 16, "an integer ≥ 0")
+                        .map_err(invalid)?
+                }
                 None => portals::DEFAULT_MAX_PORTAL_DEPTH,
             },
             output: render

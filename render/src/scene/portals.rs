@@ -90,7 +90,9 @@ fn surface_look(
                     None => 0.5,
                 },
                 match d.seed {
-                    Some(v) => check::integer(&dk("seed"), v, 0, u32::MAX as i64, "an integer ≥ 0")?,
+                    Some(v) => {
+                        check::integer(&dk("seed"), v, 0, u32::MAX as i64, "an integer ≥ 0")?
+                    }
                     None => 0,
                 },
             ))
@@ -129,9 +131,26 @@ pub fn clip(file: &Path, table: Option<&toml::Table>) -> Result<Clip, RenderErro
             "the far plane must lie beyond the near plane",
         )));
     }
-    let mut planes = Vec::new();
-    for (i, p) in c.planes.iter().flatten().enumerate() {
-        let key = format!("camera.clip.planes[{i}]");
+    let planes = clip_planes(file, "camera.clip.planes", c.planes.as_deref())?;
+    let world_planes = clip_planes(file, "camera.clip.world_planes", c.world_planes.as_deref())?;
+    Ok(Clip {
+        near,
+        far,
+        planes,
+        world_planes,
+    })
+}
+
+/// Planes [a, b, c, d] with their normal made unit length.
+fn clip_planes(
+    file: &Path,
+    key: &str,
+    planes: Option<&[[f64; 4]]>,
+) -> Result<Vec<Vec4>, RenderError> {
+    let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
+    let mut out = Vec::new();
+    for (i, p) in planes.unwrap_or_default().iter().enumerate() {
+        let key = format!("{key}[{i}]");
         if p.iter().any(|v| !v.is_finite()) {
             return Err(invalid(Invalid::new(key, "expected four finite numbers")));
         }
@@ -143,7 +162,7 @@ pub fn clip(file: &Path, table: Option<&toml::Table>) -> Result<Clip, RenderErro
                 "the plane's normal [a, b, c] is zero",
             )));
         }
-        planes.push(Vec4::new(p[0] as f32, p[1] as f32, p[2] as f32, p[3] as f32) / length as f32);
+        out.push(Vec4::new(p[0] as f32, p[1] as f32, p[2] as f32, p[3] as f32) / length as f32);
     }
-    Ok(Clip { near, far, planes })
+    Ok(out)
 }

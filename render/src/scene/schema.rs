@@ -48,6 +48,7 @@
 //! near = 0.1                    # depth along the view axis, meters
 //! far = 100.0
 //! planes = [[0.0, 0.0, -1.0, -2.0]]  # camera space [a, b, c, d]: keeps a·x + b·y + c·z + d ≥ 0
+//! world_planes = [[0.0, 1.0, 0.0, 0.0]]  # the same in world space (stays put as the camera moves)
 //!
 //! [[portal]]                    # the opening itself: see rift-fx
 //! [portal.surface]              # how the opening shades (all optional)
@@ -126,6 +127,7 @@ pub struct ClipSection {
     pub near: Option<f64>,
     pub far: Option<f64>,
     pub planes: Option<Vec<[f64; 4]>>,
+    pub world_planes: Option<Vec<[f64; 4]>>,
 }
 
 /// `[portal.surface]`.
