@@ -1,0 +1,320 @@
+//! Portals in the path tracer: nested levels, identity and tinted openings, and the equivalence
+//! between looking through an opening and looking from the camera the constraint solver places
+//! on the other side.
+
+mod common;
+
+use common::render_shot;
+use glam::{DVec3, Vec3, Vec4};
+use rift_render::Scene;
+use rift_render::film::{Image, relative_mse};
+use rift_render::render::{RenderOptions, render};
+use rift_render::rift_fx::Shot;
+use rift_render::rift_fx::rig::AnimatedTransform;
+use std::path::Path;
+
+/// A square facing +Z at depth `z`, half size `h`, as OBJ text.
+fn square(z: f32, h: f32) -> String {
+    format!("v {h0} {h0} {z}\nv {h} {h0} {z}\nv {h} {h} {z}\nv {h0} {h} {z}\nf 1 2 3 4\n", h0 = -h)
+}
+
+/// A camera at z = 5 looking down −Z at an opening of radius 1 at the origin, in front of a grey
+/// wall at z = −3, under a uniform sky; `extra` adds keys and sections.
+fn tunnel_shot(dir: &Path, extra: &str) -> String {
+    std::fs::write(dir.join("wall.obj"), square(-3.0, 20.0)).unwrap();
+    format!(
+        r#"
+[shot]
+name = "tunnel"
+fps = 24.0
+frames = [1, 1]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [96, 96]
+fov_degrees = 30.0
+[camera.transform]
+position = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+[environment]
+radiance = [1.0, 1.0, 1.0]
+[[material]]
+name = "grey"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "grey"
+{extra}
+"#
+    )
+}
+
+/// An opening whose there frame sits 1.5 in front of its here frame: whatever enters comes out
+/// in front of it again, heading back in, so the camera sees it nested in itself.
+const NESTED_OPENING: &str = r#"
+[[portal]]
+name = "A"
+here = { position = [0.0, 0.0, 0.0] }
+there = { position = [0.0, 0.0, 1.5] }
+[portal.surface]
+radius = 1.0
+"#;
+
+fn render_at(dir: &Path, name: &str, text: &str, spp: u32, seed: u32) -> Image {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    let shot = Shot::load(&path).unwrap();
+    let mut scene = Scene::build(&shot, 1).unwrap();
+    scene.settings.seed = seed;
+    render(&scene, &RenderOptions::new(spp))
+}
+
+#[test]
+fn a_portal_seen_in_itself_shows_exactly_the_depth_limit_in_levels() {
+    let dir = tempfile::tempdir().unwrap();
+    for k in [1u32, 2, 4] {
+        let text = tunnel_shot(
+            dir.path(),
+            &format!("[render]\nmax_portal_depth = {k}\n{NESTED_OPENING}"),
+        );
+        let image = render_shot(dir.path(), &format!("nested{k}"), &text, 4);
+        let mut levels: Vec<u32> = image
+            .portal_depth
+            .iter()
+            .filter(|d| (*d - d.round()).abs() < 1e-6)
+            .map(|d| d.round() as u32)
+            .collect();
+        levels.sort();
+        levels.dedup();
+        assert_eq!(levels, (0..=k).collect::<Vec<_>>(), "limit {k}");
+        assert!(image.portal_depth.iter().all(|&d| d <= k as f32));
+        // Rays that reach the limit end on the opening: black, but covered.
+        let centre = 48 * 96 + 48;
+        assert_eq!(image.portal_depth[centre], k as f32);
+        assert_eq!(image.rgb[centre], Vec3::ZERO);
+        assert_eq!(image.alpha[centre], 1.0);
+        // One level less deep, the rays see the wall through the opening.
+        let ring = image
+            .portal_depth
+            .iter()
+            .zip(&image.rgb)
+            .filter(|(d, _)| **d == (k - 1) as f32);
+        assert!(ring.clone().count() > 0);
+        assert!(ring.clone().all(|(_, c)| c.min_element() > 0.0));
+    }
+}
+
+/// Asserts that two estimates of one image agree: channel means within 2%, and a relMSE between
+/// them no larger than their own noise explains. `a2` and `b2` are second renders with other
+/// seeds; for independent estimates E[relMSE(a, b)] ≈ (relMSE(a, a2) + relMSE(b, b2)) / 2.
+fn assert_statistically_equal(a: [&[Vec3]; 2], b: [&[Vec3]; 2], what: &str) {
+    let mean = |v: &[Vec3]| v.iter().fold(DVec3::ZERO, |s, c| s + c.as_dvec3()) / v.len() as f64;
+    let (ma, mb) = (mean(a[0]), mean(b[0]));
+    let rel = (ma - mb).abs() / mb;
+    assert!(rel.max_element() < 0.02, "{what}: means {ma} vs {mb}");
+    let noise = 0.5 * (relative_mse(a[1], a[0]) + relative_mse(b[1], b[0]));
+    let err = relative_mse(a[0], b[0]);
+    eprintln!("{what}: means {ma:.4} vs {mb:.4}; relMSE {err:.3e}, noise {noise:.3e}");
+    assert!(
+        err < 1.25 * noise,
+        "{what}: relMSE {err:e} against {noise:e} expected from the renders' own noise"
+    );
+}
+
+#[test]
+fn an_identity_opening_renders_like_no_opening() {
+    // A small lamp behind the opening lights a floor in front of it: light sampling from the
+    // floor is blocked by the opening's teleport region, so that light must be found by BSDF
+    // sampling through it at full weight, and the image must still match.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("floor.obj"),
+        "v -6 -1.2 -3\nv 6 -1.2 -3\nv 6 -1.2 6\nv -6 -1.2 6\nf 1 4 3 2\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("lamp.obj"), square(-1.0, 0.4)).unwrap();
+    let scene = r#"
+[render]
+spp = 64
+[[material]]
+name = "lamp"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [20.0, 16.0, 12.0]
+[[object]]
+name = "floor"
+mesh = "floor.obj"
+material = "grey"
+[[object]]
+name = "lamp"
+mesh = "lamp.obj"
+material = "lamp"
+"#;
+    let identity = r#"
+[[portal]]
+name = "A"
+here = { position = [0.0, 0.0, 0.0], rotation_degrees = [0.0, 10.0, 0.0] }
+there = { position = [0.0, 0.0, 0.0], rotation_degrees = [0.0, 10.0, 0.0] }
+[portal.surface]
+radius = 1.0
+"#;
+    let none = tunnel_shot(dir.path(), scene);
+    let with = tunnel_shot(dir.path(), &format!("{scene}{identity}"));
+    let spp = 64;
+    let a = render_at(dir.path(), "none", &none, spp, 1);
+    let b = render_at(dir.path(), "none2", &none, spp, 2);
+    let c = render_at(dir.path(), "identity", &with, spp, 3);
+    let d = render_at(dir.path(), "identity2", &with, spp, 4);
+    assert!(c.portal_depth.iter().any(|&d| d == 1.0));
+    assert_statistically_equal([&c.rgb, &d.rgb], [&a.rgb, &b.rgb], "identity opening");
+}
+
+#[test]
+fn a_tinted_opening_scales_what_is_seen_through_it_by_the_tint() {
+    // The opening at the origin leads 50 m away, to a lit wall; nothing on the camera's side
+    // but the camera, so only camera paths cross the tinted opening.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("far.obj"), square(-53.0, 6.0)).unwrap();
+    let pair = |tint: &str| {
+        format!(
+            r#"
+[[material]]
+name = "warm"
+type = "diffuse"
+reflectance = [0.7, 0.5, 0.3]
+[[object]]
+name = "far"
+mesh = "far.obj"
+material = "warm"
+[[portal]]
+name = "A"
+here = {{ position = [0.0, 0.0, 0.0] }}
+pair = "B"
+[portal.surface]
+radius = 1.0
+tint = {tint}
+[[portal]]
+name = "B"
+here = {{ position = [0.0, 0.0, -50.0], rotation_degrees = [0.0, 180.0, 0.0] }}
+pair = "A"
+"#
+        )
+    };
+    let tint = Vec3::new(0.5, 0.25, 1.0);
+    let plain = render_at(
+        dir.path(),
+        "plain",
+        &tunnel_shot(dir.path(), &pair("[1.0, 1.0, 1.0]")),
+        32,
+        0,
+    );
+    let tinted = render_at(
+        dir.path(),
+        "tinted",
+        &tunnel_shot(dir.path(), &pair("[0.5, 0.25, 1.0]")),
+        32,
+        0,
+    );
+    let region = |image: &Image| -> Vec<usize> {
+        (0..image.rgb.len())
+            .filter(|&i| image.portal_depth[i] == 1.0)
+            .collect()
+    };
+    assert_eq!(region(&plain), region(&tinted));
+    let pixels = region(&plain);
+    assert!(pixels.len() > 1000, "{} pixels see through", pixels.len());
+    let mean = |image: &Image| {
+        pixels
+            .iter()
+            .fold(DVec3::ZERO, |s, &i| s + image.rgb[i].as_dvec3())
+            / pixels.len() as f64
+    };
+    let ratio = mean(&tinted) / mean(&plain);
+    assert!(
+        (ratio - tint.as_dvec3()).abs().max_element() < 0.01 * ratio.max_element(),
+        "ratio {ratio} against tint {tint}"
+    );
+    // Outside the opening nothing changes.
+    let outside: Vec<usize> = (0..plain.rgb.len())
+        .filter(|&i| plain.portal_depth[i] == 0.0)
+        .collect();
+    assert!(outside.iter().all(|&i| plain.rgb[i] == tinted.rgb[i]));
+}
+
+/// The through_portal example seen through its room opening, against a direct render from the
+/// camera the constraint solver places behind the gallery opening, clipped at that opening.
+fn equivalence(variant: &str, adjust: impl Fn(&mut Shot)) {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/through_portal.toml");
+    let mut shot = Shot::load(&file).unwrap();
+    shot.camera.projection.resolution = [120, 68];
+    adjust(&mut shot);
+    let frame = 12;
+    let time = shot.time_of(frame as f64);
+    let (door, gallery_door) = (
+        shot.rig.find("room_door").unwrap(),
+        shot.rig.find("gallery_door").unwrap(),
+    );
+    assert!(shot.rig.is_static());
+    let teleport = shot.rig.teleport_at(door, time);
+
+    let mut direct_shot = shot.clone();
+    direct_shot.camera = shot.camera.through(&teleport);
+    let exit = shot.rig.here_at(gallery_door, time);
+    let normal = exit.transform_direction(DVec3::Z);
+    let keep_front = Vec4::new(
+        normal.x as f32,
+        normal.y as f32,
+        normal.z as f32,
+        -normal.dot(exit.translation) as f32,
+    );
+    let spp = 32;
+    let render_with = |shot: &Shot, seed: u32, clip: bool| {
+        let mut scene = Scene::build(shot, frame).unwrap();
+        scene.settings.seed = seed;
+        if clip {
+            scene.clip.world_planes.push(keep_front);
+        }
+        render(&scene, &RenderOptions::new(spp))
+    };
+    let through = render_with(&shot, 0, false);
+    let through_again = render_with(&shot, 3, false);
+    let direct = render_with(&direct_shot, 1, true);
+    let direct_again = render_with(&direct_shot, 2, true);
+
+    let region: Vec<usize> = (0..through.rgb.len())
+        .filter(|&i| through.portal_depth[i] == 1.0)
+        .collect();
+    assert!(region.len() > 1500, "{variant}: {} pixels", region.len());
+    let pick = |image: &Image| region.iter().map(|&i| image.rgb[i]).collect::<Vec<_>>();
+    assert_statistically_equal(
+        [&pick(&through), &pick(&through_again)],
+        [&pick(&direct), &pick(&direct_again)],
+        variant,
+    );
+}
+
+#[test]
+fn through_an_opening_equals_the_solved_camera_on_the_other_side_pinhole() {
+    equivalence("pinhole", |shot| {
+        let at = shot.camera.transform.at(shot.time_of(12.0));
+        shot.camera.transform = AnimatedTransform::constant(at);
+        shot.camera.projection.aperture_radius = 0.0;
+    });
+}
+
+#[test]
+fn through_an_opening_equals_the_solved_camera_on_the_other_side_thin_lens() {
+    equivalence("thin lens", |shot| {
+        let at = shot.camera.transform.at(shot.time_of(12.0));
+        shot.camera.transform = AnimatedTransform::constant(at);
+        assert!(shot.camera.projection.aperture_radius > 0.0);
+    });
+}
+
+#[test]
+fn through_an_opening_equals_the_solved_camera_on_the_other_side_moving() {
+    equivalence("moving thin lens", |shot| {
+        assert!(!shot.camera.transform.is_static());
+    });
+}
