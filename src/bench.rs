@@ -19,6 +19,28 @@ pub enum BenchCommand {
     Convergence(ConvergenceArgs),
     /// Closest-hit and occlusion ray throughput on a generated mesh.
     Rays(RaysArgs),
+    /// The cost of one teleport, and render time per extra portal level.
+    Portals(PortalsArgs),
+}
+
+/// Arguments of `rift bench portals`.
+#[derive(Args)]
+pub struct PortalsArgs {
+    /// A shot with openings, seen in each other by its camera.
+    #[arg(default_value = "examples/shots/hall_of_mirrors.toml")]
+    shot: PathBuf,
+    /// Portal depth limits to render at, comma-separated.
+    #[arg(long, default_value = "0,1,2,4,8,16")]
+    depths: String,
+    /// Samples per pixel of each render.
+    #[arg(long, default_value_t = 8)]
+    spp: u32,
+    /// Timed repeats (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    repeats: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 /// Arguments of `rift bench rays`.
@@ -83,6 +105,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Fx(args) => fx(args),
         BenchCommand::Convergence(args) => convergence(args),
         BenchCommand::Rays(args) => rays(args),
+        BenchCommand::Portals(args) => portals(args),
     }
 }
 
@@ -337,6 +360,119 @@ fn rays(args: RaysArgs) -> anyhow::Result<()> {
             "{name:<12} {secs:>10.3} {:>10.2}",
             args.rays as f64 / secs / 1e6
         );
+    }
+    Ok(())
+}
+
+fn portals(args: PortalsArgs) -> anyhow::Result<()> {
+    use rift_render::render::{RenderOptions, render};
+    anyhow::ensure!(args.repeats > 0 && args.spp > 0, "expected positive counts");
+    let depths: Vec<u32> = args
+        .depths
+        .split(',')
+        .map(|d| d.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .context("--depths: expected comma-separated integers")?;
+    let shot = Shot::load(&args.shot)?;
+    let mut scene = rift_render::Scene::build(&shot, shot.frames.first)?;
+    anyhow::ensure!(
+        !scene.portals.is_empty(),
+        "{}: the shot has no opening",
+        args.shot.display()
+    );
+    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
+
+    // One teleport: finding the opening along a camera ray, then moving the ray through it.
+    // Camera rays over the image, kept where they meet an opening.
+    let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
+    let time = scene.shutter[0];
+    let lens = rift_render::camera::Lens::at(&scene.camera, time);
+    let rays: Vec<_> = (0..w * h)
+        .map(|i| {
+            let ndc = glam::Vec2::new(
+                ((i % w) as f32 + 0.5) / w as f32,
+                ((i / w) as f32 + 0.5) / h as f32,
+            );
+            lens.ray(ndc, glam::Vec2::splat(0.5))
+        })
+        .filter(|&(o, d)| {
+            scene
+                .portals
+                .intersect(o, d, 0.0, f32::INFINITY, time)
+                .is_some()
+        })
+        .collect();
+    anyhow::ensure!(!rays.is_empty(), "the camera sees no opening");
+    let rounds = (4_000_000 / rays.len()).max(1);
+    let timed = |f: &dyn Fn(glam::Vec3, glam::Vec3) -> f32| {
+        median(
+            (0..args.repeats)
+                .map(|_| {
+                    let t = Instant::now();
+                    let mut sink = 0.0f32;
+                    for _ in 0..rounds {
+                        for &(o, d) in &rays {
+                            sink += f(o, d);
+                        }
+                    }
+                    std::hint::black_box(sink);
+                    t.elapsed().as_secs_f64() / (rounds * rays.len()) as f64
+                })
+                .collect(),
+        )
+    };
+    let portals = &scene.portals;
+    let teleport_ns = 1e9
+        * timed(&|o, d| {
+            let hit = portals.intersect(o, d, 0.0, f32::INFINITY, time);
+            hit.and_then(|hit| portals.teleport(&hit, d, time))
+                .map_or(0.0, |t| t.origin.x)
+        });
+    let accel = &scene.accel;
+    let ray_ns = 1e9
+        * timed(&|o, d| {
+            accel
+                .intersect(o, d, f32::INFINITY, time)
+                .map_or(0.0, |hit| hit.t)
+        });
+    println!(
+        "rift bench portals: {} ({} openings, {} triangles), {threads} threads, median of {}",
+        args.shot.display(),
+        portals.len(),
+        scene.triangles.len(),
+        args.repeats
+    );
+    println!(
+        "one teleport (find the opening + move the ray, one thread): {teleport_ns:.1} ns; one closest-hit ray in this scene: {ray_ns:.1} ns"
+    );
+
+    // Render time against the depth limit.
+    println!(
+        "{:>6} {:>10} {:>12} {:>16}",
+        "depth", "seconds", "mean level", "s per level"
+    );
+    let mut first: Option<(f64, f64)> = None;
+    for depth in depths {
+        scene.settings.max_portal_depth = depth;
+        let mut times = Vec::new();
+        let mut image = None;
+        for _ in 0..args.repeats {
+            let t = Instant::now();
+            image = Some(crate::with_threads(args.threads, || {
+                render(&scene, &RenderOptions::new(args.spp))
+            })?);
+            times.push(t.elapsed().as_secs_f64());
+        }
+        let secs = median(times);
+        let image = image.expect("at least one repeat");
+        let level = image.portal_depth.iter().map(|&d| d as f64).sum::<f64>()
+            / image.portal_depth.len() as f64;
+        let per_level = match first {
+            Some((s0, l0)) if level > l0 => format!("{:.4}", (secs - s0) / (level - l0)),
+            _ => "-".to_owned(),
+        };
+        first.get_or_insert((secs, level));
+        println!("{depth:>6} {secs:>10.3} {level:>12.3} {per_level:>16}");
     }
     Ok(())
 }

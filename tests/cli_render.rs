@@ -399,3 +399,65 @@ fn bad_environment_and_material_keys() {
     });
     expect_failure(&dir, &["shot.toml: material[0].roughness"]);
 }
+
+/// The Cornell shot with `portals` appended.
+fn cornell_with(portals: &str) -> tempfile::TempDir {
+    let portals = portals.to_owned();
+    cornell_dir(move |t| t + &portals)
+}
+
+#[test]
+fn bad_portal_frames_pairings_and_limits() {
+    // A singular here frame and a sheared there frame.
+    let dir = cornell_with(
+        "\n[[portal]]\nname = \"A\"\nhere = { matrix = [[1, 0, 0, 0], [0, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] }\nthere = { position = [0, 0, 0] }\n",
+    );
+    expect_failure(&dir, &["shot.toml", "portal[0].here", "singular"]);
+    let dir = cornell_with(
+        "\n[[portal]]\nname = \"A\"\nhere = { position = [0, 0, 0] }\nthere = { matrix = [[1, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]] }\n",
+    );
+    expect_failure(&dir, &["shot.toml", "portal[0].there", "not a similarity"]);
+    let dir =
+        cornell_with("\n[[portal]]\nname = \"A\"\nhere = { position = [0, 0, 0] }\nscale = 2\n");
+    expect_failure(&dir, &["shot.toml", "portal[0]"]);
+    // A pairing to an opening that does not exist.
+    let dir =
+        cornell_with("\n[[portal]]\nname = \"A\"\nhere = { position = [0, 0, 0] }\npair = \"B\"\n");
+    expect_failure(&dir, &["shot.toml", "portal[0].pair", "\"B\""]);
+    // A negative portal depth limit, in the shot and on the command line.
+    let dir = cornell_dir(|t| t.replace("seed = 0", "seed = 0\nmax_portal_depth = -1"));
+    expect_failure(&dir, &["shot.toml", "render.max_portal_depth"]);
+    let out = rift(
+        dir.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--max-portal-depth=-1",
+            "-o",
+            "x.exr",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("--max-portal-depth"));
+    // Surface values out of range.
+    for (key, value) in [
+        ("opacity", "1.5"),
+        ("ior", "0"),
+        ("radius", "-1"),
+        ("tint", "[1, -1, 0]"),
+    ] {
+        let dir = cornell_with(&format!(
+            "\n[[portal]]\nname = \"A\"\nhere = {{ position = [0, 0, 0] }}\nthere = {{ position = [0, 0, 1] }}\n[portal.surface]\n{key} = {value}\n"
+        ));
+        expect_failure(&dir, &["shot.toml", &format!("portal[0].surface.{key}")]);
+    }
+    let dir = cornell_with(
+        "\n[[portal]]\nname = \"A\"\nhere = { position = [0, 0, 0] }\nthere = { position = [0, 0, 1] }\n[portal.surface]\nglow = 1\n",
+    );
+    expect_failure(&dir, &["shot.toml", "portal[0].surface", "glow"]);
+    // Clipping planes that cannot work.
+    let dir = cornell_with("\n[camera.clip]\nnear = 2.0\nfar = 1.0\n");
+    expect_failure(&dir, &["shot.toml", "camera.clip.far"]);
+    let dir = cornell_with("\n[camera.clip]\nplanes = [[0.0, 0.0, 0.0, 1.0]]\n");
+    expect_failure(&dir, &["shot.toml", "camera.clip.planes[0]"]);
+}

@@ -15,7 +15,10 @@ use std::path::Path;
 
 /// A square facing +Z at depth `z`, half size `h`, as OBJ text.
 fn square(z: f32, h: f32) -> String {
-    format!("v {h0} {h0} {z}\nv {h} {h0} {z}\nv {h} {h} {z}\nv {h0} {h} {z}\nf 1 2 3 4\n", h0 = -h)
+    format!(
+        "v {h0} {h0} {z}\nv {h} {h0} {z}\nv {h} {h} {z}\nv {h0} {h} {z}\nf 1 2 3 4\n",
+        h0 = -h
+    )
 }
 
 /// A camera at z = 5 looking down −Z at an opening of radius 1 at the origin, in front of a grey
@@ -317,4 +320,114 @@ fn through_an_opening_equals_the_solved_camera_on_the_other_side_moving() {
     equivalence("moving thin lens", |shot| {
         assert!(!shot.camera.transform.is_static());
     });
+}
+
+#[test]
+fn clipping_culls_only_camera_rays_that_have_not_been_teleported() {
+    // A world plane keeps z ≥ −1: the wall at z = −3 disappears around the opening, while the
+    // wall at z = −53 stays visible through it.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("far.obj"), square(-53.0, 6.0)).unwrap();
+    let extra = r#"
+[camera.clip]
+world_planes = [[0.0, 0.0, 1.0, 1.0]]
+[[object]]
+name = "far"
+mesh = "far.obj"
+material = "grey"
+[[portal]]
+name = "A"
+here = { position = [0.0, 0.0, 0.0] }
+pair = "B"
+[[portal]]
+name = "B"
+here = { position = [0.0, 0.0, -50.0], rotation_degrees = [0.0, 180.0, 0.0] }
+pair = "A"
+"#;
+    let image = render_shot(dir.path(), "clipped", &tunnel_shot(dir.path(), extra), 4);
+    let (mut inside, mut outside) = (0, 0);
+    for i in 0..image.rgb.len() {
+        match image.portal_depth[i] {
+            0.0 => {
+                outside += 1;
+                assert_eq!(image.alpha[i], 0.0, "pixel {i} sees the clipped wall");
+                assert_eq!(image.rgb[i], Vec3::ONE);
+            }
+            1.0 => {
+                inside += 1;
+                assert_eq!(image.alpha[i], 1.0, "pixel {i} lost the far wall");
+            }
+            _ => {}
+        }
+    }
+    assert!(inside > 1000 && outside > 1000, "{inside} / {outside}");
+}
+
+#[test]
+fn an_opening_10_km_from_the_origin_teleports_without_seams() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("near.obj"), square(-3.0, 20.0)).unwrap();
+    std::fs::write(dir.path().join("far.obj"), square(-53.0, 6.0)).unwrap();
+    // The tinted-opening layout, with everything moved by `o`.
+    let shot = |o: [f64; 3]| {
+        let at = |x: f64, y: f64, z: f64| format!("[{}, {}, {}]", x + o[0], y + o[1], z + o[2]);
+        format!(
+            r#"
+[shot]
+name = "far_away"
+fps = 24.0
+frames = [1, 1]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [64, 64]
+fov_degrees = 30.0
+[camera.transform]
+position = {camera}
+look_at = {target}
+[environment]
+radiance = [1.0, 1.0, 1.0]
+[[material]]
+name = "grey"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+[[object]]
+name = "near"
+mesh = "near.obj"
+material = "grey"
+transform = {{ position = {origin} }}
+[[object]]
+name = "far"
+mesh = "far.obj"
+material = "grey"
+transform = {{ position = {origin} }}
+[[portal]]
+name = "A"
+here = {{ position = {origin}, rotation_degrees = [0.0, 0.0, 0.0] }}
+pair = "B"
+[[portal]]
+name = "B"
+here = {{ position = {b}, rotation_degrees = [0.0, 180.0, 0.0] }}
+pair = "A"
+"#,
+            camera = at(0.3, 0.2, 5.0),
+            target = at(0.0, 0.0, 0.0),
+            origin = at(0.0, 0.0, 0.0),
+            b = at(0.0, 0.0, -50.0),
+        )
+    };
+    let near = render_at(dir.path(), "near", &shot([0.0; 3]), 16, 1);
+    let near2 = render_at(dir.path(), "near2", &shot([0.0; 3]), 16, 2);
+    let far = render_at(dir.path(), "far", &shot([1e4, 30.0, -1e4]), 16, 3);
+    let far2 = render_at(dir.path(), "far2", &shot([1e4, 30.0, -1e4]), 16, 4);
+    // The same pixels teleport, none escapes, and the images agree within their noise.
+    let region = |image: &Image| {
+        (0..image.rgb.len())
+            .filter(|&i| image.portal_depth[i] == 1.0)
+            .count()
+    };
+    let (n, f) = (region(&near), region(&far));
+    assert!(n > 500 && n.abs_diff(f) <= n / 100, "{n} vs {f}");
+    assert!(far.alpha.iter().all(|&a| a == 1.0));
+    assert!(far.rgb.iter().all(|c| c.is_finite()) && far.discarded == 0);
+    assert_statistically_equal([&far.rgb, &far2.rgb], [&near.rgb, &near2.rgb], "10 km away");
 }
