@@ -431,3 +431,24 @@ pair = "A"
     assert!(far.rgb.iter().all(|c| c.is_finite()) && far.discarded == 0);
     assert_statistically_equal([&far.rgb, &far2.rgb], [&near.rgb, &near2.rgb], "10 km away");
 }
+
+#[test]
+fn the_hall_of_mirrors_example_recurses_deeply() {
+    let file =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/hall_of_mirrors.toml");
+    let mut shot = Shot::load(&file).unwrap();
+    shot.camera.projection.resolution = [96, 54];
+    let scene = Scene::build(&shot, 1).unwrap();
+    let image = render(&scene, &RenderOptions::new(4));
+    // Levels shrink towards the vanishing point, so at this size only the first few cover whole
+    // pixels; each of them must appear.
+    for level in 0..=4 {
+        assert!(
+            image.portal_depth.contains(&(level as f32)),
+            "no pixel at level {level}"
+        );
+    }
+    let deepest = image.portal_depth.iter().fold(0.0f32, |a, &b| a.max(b));
+    assert!(deepest <= scene.settings.max_portal_depth as f32);
+    assert!(image.rgb.iter().all(|c| c.is_finite()) && image.discarded == 0);
+}
