@@ -17,7 +17,7 @@
 
 use crate::geometry::offset_origin;
 use crate::lights::LightPlace;
-use crate::material::Side;
+use crate::material::{Bsdf, Side};
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -181,63 +181,16 @@ pub fn trace(
         let wo = frame.to_local(-dir);
         let bsdf = &material.bsdf;
 
-        let light = if bsdf.is_delta() {
-            None
-        } else {
-            scene.lights.sample(u_light, |e| {
-                scene.world_triangle(e.triangle, e.instance, time)
-            })
-        };
-        if let Some(light) = light {
-            // Direction, the point the shadow ray must reach (None: infinitely far) and the
-            // solid-angle pdf of the light sample.
-            let towards = match light.place {
-                LightPlace::Direction(d) => Some((d, None, light.pdf)),
-                LightPlace::Point {
-                    point,
-                    normal,
-                    two_sided,
-                } => {
-                    let cos_raw = (p - point).dot(normal);
-                    (cos_raw > 0.0 || (two_sided && cos_raw < 0.0)).then(|| {
-                        let light_side = if cos_raw > 0.0 { normal } else { -normal };
-                        let to = point - p;
-                        let dist2 = to.length_squared();
-                        let wi = to / dist2.sqrt();
-                        let target = offset_origin(point, light_side);
-                        (
-                            wi,
-                            Some(target),
-                            light.pdf * dist2 / wi.dot(light_side).abs(),
-                        )
-                    })
-                }
+        if !bsdf.is_delta() {
+            let shading = Shading {
+                p,
+                ng,
+                frame: &frame,
+                wo,
+                bsdf,
+                side,
             };
-            if let Some((wi_world, target, pdf_light)) = towards {
-                let wi = frame.to_local(wi_world);
-                let f = bsdf.eval(wo, wi, side);
-                // The shadow ray leaves from the side of the surface it goes to.
-                let from = offset_origin(p, if wi_world.dot(ng) > 0.0 { ng } else { -ng });
-                let (shadow_dir, dist) = match target {
-                    Some(t) => {
-                        let d = t - from;
-                        let len = d.length();
-                        (d / len, len)
-                    }
-                    None => (wi_world, f32::INFINITY),
-                };
-                let through = if f == Vec3::ZERO {
-                    0.0
-                } else if portals.is_empty() {
-                    1.0
-                } else {
-                    portals.transmittance(from, shadow_dir, dist, time)
-                };
-                if through > 0.0 && !scene.accel.occluded(from, shadow_dir, dist, time) {
-                    let weight = power_heuristic(pdf_light, bsdf.pdf(wo, wi, side));
-                    out.radiance += beta * f * light.radiance * (weight * through / pdf_light);
-                }
-            }
+            out.radiance += beta * next_event(scene, &shading, u_light, time);
         }
         let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
             break;
@@ -261,6 +214,81 @@ pub fn trace(
         }
     }
     out
+}
+
+/// A surface point being shaded, as next-event estimation needs it.
+struct Shading<'a> {
+    p: Vec3,
+    /// Geometric normal.
+    ng: Vec3,
+    /// Shading frame (around the normal on the side the path arrived from).
+    frame: &'a Frame,
+    /// Direction towards where the path came from, local.
+    wo: Vec3,
+    bsdf: &'a Bsdf,
+    side: Side,
+}
+
+/// Next-event estimation: light arriving at `at` from one light sample drawn with `u`, MIS
+/// weighted against BSDF sampling (power heuristic), before the path throughput.
+fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2, time: f64) -> Vec3 {
+    let Some(light) = scene
+        .lights
+        .sample(u, |e| scene.world_triangle(e.triangle, e.instance, time))
+    else {
+        return Vec3::ZERO;
+    };
+    let p = at.p;
+    // Direction, the point the shadow ray must reach (None: infinitely far) and the solid-angle
+    // pdf of the light sample.
+    let (wi_world, target, pdf_light) = match light.place {
+        LightPlace::Direction(d) => (d, None, light.pdf),
+        LightPlace::Point {
+            point,
+            normal,
+            two_sided,
+        } => {
+            let cos_raw = (p - point).dot(normal);
+            if !(cos_raw > 0.0 || (two_sided && cos_raw < 0.0)) {
+                return Vec3::ZERO;
+            }
+            let light_side = if cos_raw > 0.0 { normal } else { -normal };
+            let to = point - p;
+            let dist2 = to.length_squared();
+            let wi = to / dist2.sqrt();
+            (
+                wi,
+                Some(offset_origin(point, light_side)),
+                light.pdf * dist2 / wi.dot(light_side).abs(),
+            )
+        }
+    };
+    let wi = at.frame.to_local(wi_world);
+    let f = at.bsdf.eval(at.wo, wi, at.side);
+    if f == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    // The shadow ray leaves from the side of the surface it goes to.
+    let ng = at.ng;
+    let from = offset_origin(p, if wi_world.dot(ng) > 0.0 { ng } else { -ng });
+    let (shadow_dir, dist) = match target {
+        Some(t) => {
+            let d = t - from;
+            let len = d.length();
+            (d / len, len)
+        }
+        None => (wi_world, f32::INFINITY),
+    };
+    let through = if scene.portals.is_empty() {
+        1.0
+    } else {
+        scene.portals.transmittance(from, shadow_dir, dist, time)
+    };
+    if through == 0.0 || scene.accel.occluded(from, shadow_dir, dist, time) {
+        return Vec3::ZERO;
+    }
+    let weight = power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side));
+    f * light.radiance * (weight * through / pdf_light)
 }
 
 /// The closest surface along `origin + t·dir` for t within `range`.
