@@ -434,8 +434,7 @@ pair = "A"
 
 #[test]
 fn the_hall_of_mirrors_example_recurses_deeply() {
-    let file =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/hall_of_mirrors.toml");
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/hall_of_mirrors.toml");
     let mut shot = Shot::load(&file).unwrap();
     shot.camera.projection.resolution = [96, 54];
     let scene = Scene::build(&shot, 1).unwrap();
