@@ -24,7 +24,20 @@ fn square(z: f32, h: f32) -> String {
 /// A camera at z = 5 looking down −Z at an opening of radius 1 at the origin, in front of a grey
 /// wall at z = −3, under a uniform sky; `extra` adds keys and sections.
 fn tunnel_shot(dir: &Path, extra: &str) -> String {
+    tunnel_shot_at(dir, [0.0; 3], extra)
+}
+
+/// [`tunnel_shot`] with the camera and wall moved by `offset` (`extra` places its own).
+fn tunnel_shot_at(dir: &Path, offset: [f64; 3], extra: &str) -> String {
     std::fs::write(dir.join("wall.obj"), square(-3.0, 20.0)).unwrap();
+    let at = |p: [f64; 3]| {
+        format!(
+            "[{}, {}, {}]",
+            p[0] + offset[0],
+            p[1] + offset[1],
+            p[2] + offset[2]
+        )
+    };
     format!(
         r#"
 [shot]
@@ -36,8 +49,8 @@ shutter = [0.0, 0.0]
 resolution = [96, 96]
 fov_degrees = 30.0
 [camera.transform]
-position = [0.0, 0.0, 5.0]
-look_at = [0.0, 0.0, 0.0]
+position = {camera}
+look_at = {origin}
 [environment]
 radiance = [1.0, 1.0, 1.0]
 [[material]]
@@ -48,8 +61,11 @@ reflectance = [0.5, 0.5, 0.5]
 name = "wall"
 mesh = "wall.obj"
 material = "grey"
+transform = {{ position = {origin} }}
 {extra}
-"#
+"#,
+        camera = at([0.3, 0.2, 5.0]),
+        origin = at([0.0; 3]),
     )
 }
 
@@ -366,35 +382,12 @@ pair = "A"
 #[test]
 fn an_opening_10_km_from_the_origin_teleports_without_seams() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("near.obj"), square(-3.0, 20.0)).unwrap();
     std::fs::write(dir.path().join("far.obj"), square(-53.0, 6.0)).unwrap();
     // The tinted-opening layout, with everything moved by `o`.
     let shot = |o: [f64; 3]| {
-        let at = |x: f64, y: f64, z: f64| format!("[{}, {}, {}]", x + o[0], y + o[1], z + o[2]);
-        format!(
+        let at = |z: f64| format!("[{}, {}, {}]", o[0], o[1], z + o[2]);
+        let extra = format!(
             r#"
-[shot]
-name = "far_away"
-fps = 24.0
-frames = [1, 1]
-shutter = [0.0, 0.0]
-[camera]
-resolution = [64, 64]
-fov_degrees = 30.0
-[camera.transform]
-position = {camera}
-look_at = {target}
-[environment]
-radiance = [1.0, 1.0, 1.0]
-[[material]]
-name = "grey"
-type = "diffuse"
-reflectance = [0.5, 0.5, 0.5]
-[[object]]
-name = "near"
-mesh = "near.obj"
-material = "grey"
-transform = {{ position = {origin} }}
 [[object]]
 name = "far"
 mesh = "far.obj"
@@ -402,18 +395,17 @@ material = "grey"
 transform = {{ position = {origin} }}
 [[portal]]
 name = "A"
-here = {{ position = {origin}, rotation_degrees = [0.0, 0.0, 0.0] }}
+here = {{ position = {origin} }}
 pair = "B"
 [[portal]]
 name = "B"
 here = {{ position = {b}, rotation_degrees = [0.0, 180.0, 0.0] }}
 pair = "A"
 "#,
-            camera = at(0.3, 0.2, 5.0),
-            target = at(0.0, 0.0, 0.0),
-            origin = at(0.0, 0.0, 0.0),
-            b = at(0.0, 0.0, -50.0),
-        )
+            origin = at(0.0),
+            b = at(-50.0),
+        );
+        tunnel_shot_at(dir.path(), o, &extra)
     };
     let near = render_at(dir.path(), "near", &shot([0.0; 3]), 16, 1);
     let near2 = render_at(dir.path(), "near2", &shot([0.0; 3]), 16, 2);
