@@ -98,7 +98,7 @@ impl Default for OpeningLook {
 
 /// The frames of one opening at one time.
 #[derive(Clone, Copy, Debug)]
-pub struct Frames {
+struct Frames {
     /// P_H⁻¹: world to here-local.
     here_inverse: Similarity,
     /// P_T: there-local to world.
@@ -113,7 +113,8 @@ pub struct PortalHit {
     pub opening: usize,
     /// Hit point in the here frame's local coordinates (on its plane).
     local: DVec2,
-    frames: Frames,
+    /// P_H⁻¹ at the ray's time.
+    here_inverse: Similarity,
 }
 
 /// Where a teleported ray continues.
@@ -153,7 +154,10 @@ impl Portals {
         if !moving {
             portals.fixed = Some(
                 (0..portals.len())
-                    .map(|i| portals.frames_at(i, fixed_time))
+                    .map(|i| Frames {
+                        here_inverse: portals.rig.here_at(i, fixed_time).inverse(),
+                        there: portals.rig.there_at(i, fixed_time),
+                    })
                     .collect(),
             );
         }
@@ -175,18 +179,22 @@ impl Portals {
         &self.looks[i]
     }
 
-    fn frames_at(&self, i: usize, time: f64) -> Frames {
-        Frames {
-            here_inverse: self.rig.here_at(i, time).inverse(),
-            there: self.rig.there_at(i, time),
+    /// P_H⁻¹ of opening `i` at `time`. A moving rig evaluates only this for every opening a
+    /// ray is tested against; the there frame waits for a teleport.
+    #[inline]
+    fn here_inverse(&self, i: usize, time: f64) -> Similarity {
+        match &self.fixed {
+            Some(f) => f[i].here_inverse,
+            None => self.rig.here_at(i, time).inverse(),
         }
     }
 
+    /// P_T of opening `i` at `time`.
     #[inline]
-    fn frames(&self, i: usize, time: f64) -> Frames {
+    fn there(&self, i: usize, time: f64) -> Similarity {
         match &self.fixed {
-            Some(f) => f[i],
-            None => self.frames_at(i, time),
+            Some(f) => f[i].there,
+            None => self.rig.there_at(i, time),
         }
     }
 
@@ -219,9 +227,9 @@ impl Portals {
         t_max: f32,
         time: f64,
     ) -> Option<PortalHit> {
-        let frames = self.frames(i, time);
-        let o = frames.here_inverse.transform_point(origin.as_dvec3());
-        let d = frames.here_inverse.transform_vector(dir.as_dvec3());
+        let here_inverse = self.here_inverse(i, time);
+        let o = here_inverse.transform_point(origin.as_dvec3());
+        let d = here_inverse.transform_vector(dir.as_dvec3());
         // Only rays going into the front (towards local −Z) teleport.
         if d.z >= 0.0 || o.z <= 0.0 {
             return None;
@@ -236,7 +244,7 @@ impl Portals {
             t: t32,
             opening: i,
             local,
-            frames,
+            here_inverse,
         })
     }
 
@@ -263,10 +271,10 @@ impl Portals {
     /// when the exit refraction reflects it totally.
     pub fn teleport(&self, hit: &PortalHit, dir: Vec3, time: f64) -> Option<Teleported> {
         let look = &self.looks[hit.opening];
-        let frames = &hit.frames;
+        let there = self.there(hit.opening, time);
         // The local frame is shared by here and there: T maps here-local to there-local as the
         // identity, so the direction only needs rotating out and back in.
-        let mut d = frames
+        let mut d = hit
             .here_inverse
             .transform_direction(dir.as_dvec3())
             .normalize();
@@ -277,15 +285,13 @@ impl Portals {
                 .map_or(DVec3::Z, |dist| dist.normal(hit.local, time));
             d = refract(d, n, 1.0 / look.ior)?;
         }
-        let point = frames
-            .there
-            .transform_point(DVec3::new(hit.local.x, hit.local.y, 0.0));
-        let direction = frames.there.transform_direction(d).normalize();
+        let point = there.transform_point(DVec3::new(hit.local.x, hit.local.y, 0.0));
+        let direction = there.transform_direction(d).normalize();
         // The ray leaves towards the there frame's local −Z. It starts off the plane by the
         // usual magnitude-scaled offset, moved along its own direction rather than the normal so
         // the ray stays on its exact line: a normal offset would shift every hop of a hall of
         // mirrors sideways by the same amount, and 64 hops would add it up.
-        let exit_side = frames.there.transform_direction(-DVec3::Z);
+        let exit_side = there.transform_direction(-DVec3::Z);
         let lifted = offset_origin(point.as_vec3(), exit_side.as_vec3()).as_dvec3();
         let clearance = (lifted - point).dot(exit_side);
         let along = clearance / direction.dot(exit_side).max(1e-6);

@@ -92,6 +92,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
     let [open, close] = scene.shutter;
     let still_lens = (!scene.camera_moves()).then(|| Lens::at(camera, open));
     let seed = hash32(scene.settings.seed.wrapping_add(0x9e37_79b9));
+    let clipped = !scene.clip.is_none();
 
     // Each tile owns its pixels (row-major within the tile), so passes can run tiles in
     // parallel and carry their sums from pass to pass.
@@ -125,10 +126,10 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
                 (Vec2::new(x as f32, y as f32) + Vec2::new(jx, jy)) / Vec2::new(w as f32, h as f32);
             let lens = still_lens.unwrap_or_else(|| Lens::at(camera, time));
             let (o, d) = lens.ray(ndc, Vec2::new(lx, ly));
-            let range = if scene.clip.is_none() {
-                Some((0.0, f32::INFINITY))
-            } else {
+            let range = if clipped {
                 scene.clip.interval(&lens, o, d)
+            } else {
+                Some((0.0, f32::INFINITY))
             };
             let sample = match range {
                 Some(range) => trace(scene, o, d, time, range, &mut s),

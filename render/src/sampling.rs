@@ -185,13 +185,12 @@ impl SampleStream {
     /// outputs, 24 bits per number.
     pub fn uniform_4d(&mut self) -> [f32; 4] {
         let (a, b) = (self.next_u64(), self.next_u64());
-        let unit = |bits: u64| (bits & 0xff_ffff) as f32 * (1.0 / (1u32 << 24) as f32);
         [unit(a), unit(a >> 32), unit(b), unit(b >> 32)]
     }
 
-    /// One uniform number in [0, 1) from the hashed stream.
+    /// One uniform number in [0, 1) from the hashed stream (its top 24 bits).
     pub fn uniform(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u32 << 24) as f32)
+        unit(self.next_u64() >> 40)
     }
 
     fn next_u64(&mut self) -> u64 {
@@ -201,6 +200,11 @@ impl SampleStream {
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^ (z >> 31)
     }
+}
+
+/// The low 24 bits of `bits` as a number in [0, 1).
+fn unit(bits: u64) -> f32 {
+    (bits & 0xff_ffff) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
 /// A 32-bit integer hash (lowbias32).

@@ -80,13 +80,9 @@ there = { position = [0.0, 0.0, 1.5] }
 radius = 1.0
 "#;
 
+/// [`common::render_shot_with`] at a given seed.
 fn render_at(dir: &Path, name: &str, text: &str, spp: u32, seed: u32) -> Image {
-    let path = dir.join(format!("{name}.toml"));
-    std::fs::write(&path, text).unwrap();
-    let shot = Shot::load(&path).unwrap();
-    let mut scene = Scene::build(&shot, 1).unwrap();
-    scene.settings.seed = seed;
-    render(&scene, &RenderOptions::new(spp))
+    common::render_shot_with(dir, name, text, spp, Some(seed))
 }
 
 #[test]
