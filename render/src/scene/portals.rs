@@ -7,7 +7,7 @@ use super::{moves_during, parse};
 use crate::camera::Clip;
 use crate::error::RenderError;
 use crate::portal::{Distortion, Mask, OpeningLook, Portals};
-use glam::{Vec3, Vec4};
+use glam::Vec4;
 use rift_fx::rig::ThereFrame;
 use rift_fx::shot::check;
 use rift_fx::{Invalid, Shot};
@@ -24,20 +24,12 @@ pub fn portals(shot: &Shot, shutter: [f64; 2]) -> Result<Portals, RenderError> {
     let mut looks = Vec::new();
     for (i, surface) in shot.render.portal_surfaces.iter().enumerate() {
         let key = format!("portal[{i}].surface");
-        let s: Option<PortalSurfaceSection> = match surface {
-            Some(t) => Some(parse(file, &key, t)?),
-            None => None,
+        let s: PortalSurfaceSection = match surface {
+            Some(t) => parse(file, &key, t)?,
+            None => PortalSurfaceSection::default(),
         };
         let ring_radius = shot.rings.get(i).and_then(|r| r.as_ref()).map(|r| r.radius);
-        let (mask, look) = match s {
-            Some(s) => surface_look(&key, &s, ring_radius).map_err(invalid)?,
-            None => (
-                Mask::Disk {
-                    radius: ring_radius.unwrap_or(1.0),
-                },
-                OpeningLook::default(),
-            ),
-        };
+        let (mask, look) = surface_look(&key, &s, ring_radius).map_err(invalid)?;
         masks.push(mask);
         looks.push(look);
     }
@@ -64,50 +56,36 @@ fn surface_look(
         Some(r) => check::positive(&k("radius"), r)?,
         None => ring_radius.unwrap_or(1.0),
     };
-    let tint = match s.tint {
-        Some(c) => check::color(&k("tint"), c)?.as_vec3(),
-        None => Vec3::ONE,
-    };
-    let opacity = match s.opacity {
-        Some(v) => check::within(&k("opacity"), v, 0.0, 1.0, false)? as f32,
-        None => 1.0,
-    };
-    let ior = match s.ior {
-        Some(v) => check::within(&k("ior"), v, 1e-3, 1e3, false)?,
-        None => 1.0,
-    };
-    let distortion = match &s.distortion {
-        Some(d) => {
-            let dk = |name: &str| format!("{key}.distortion.{name}");
-            Some(Distortion::new(
-                check::non_negative(&dk("amplitude"), d.amplitude)?,
-                match d.frequency {
-                    Some(f) => check::positive(&dk("frequency"), f)?,
-                    None => 3.0,
-                },
-                match d.evolution {
-                    Some(e) => check::non_negative(&dk("evolution"), e)?,
-                    None => 0.5,
-                },
-                match d.seed {
-                    Some(v) => {
-                        check::integer(&dk("seed"), v, 0, u32::MAX as i64, "an integer ≥ 0")?
-                    }
-                    None => 0,
-                },
-            ))
-        }
-        None => None,
-    };
-    Ok((
-        Mask::Disk { radius },
-        OpeningLook {
-            tint,
-            opacity,
-            ior,
-            distortion,
-        },
-    ))
+    // Unset keys keep the defaults of [`OpeningLook`].
+    let mut look = OpeningLook::default();
+    if let Some(c) = s.tint {
+        look.tint = check::color(&k("tint"), c)?.as_vec3();
+    }
+    if let Some(v) = s.opacity {
+        look.opacity = check::within(&k("opacity"), v, 0.0, 1.0, false)? as f32;
+    }
+    if let Some(v) = s.ior {
+        look.ior = check::within(&k("ior"), v, 1e-3, 1e3, false)?;
+    }
+    if let Some(d) = &s.distortion {
+        let dk = |name: &str| format!("{key}.distortion.{name}");
+        look.distortion = Some(Distortion::new(
+            check::non_negative(&dk("amplitude"), d.amplitude)?,
+            match d.frequency {
+                Some(f) => check::positive(&dk("frequency"), f)?,
+                None => 3.0,
+            },
+            match d.evolution {
+                Some(e) => check::non_negative(&dk("evolution"), e)?,
+                None => 0.5,
+            },
+            match d.seed {
+                Some(v) => check::integer(&dk("seed"), v, 0, u32::MAX as i64, "an integer ≥ 0")?,
+                None => 0,
+            },
+        ));
+    }
+    Ok((Mask::Disk { radius }, look))
 }
 
 /// `[camera.clip]`, or no clipping.

@@ -131,7 +131,7 @@ pub struct ClipSection {
 }
 
 /// `[portal.surface]`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct PortalSurfaceSection {
     pub radius: Option<f64>,
