@@ -7,6 +7,8 @@ use rayon::prelude::*;
 use rift_fx::Shot;
 use rift_fx::export::{self, Format};
 use rift_fx::ring::RingGenerator;
+use rift_render::geometry::every_triangle;
+use rift_render::visibility::RayClass;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -325,7 +327,9 @@ fn rays(args: RaysArgs) -> anyhow::Result<()> {
                 .into_par_iter()
                 .filter(|&i| {
                     let (o, d) = ray(i);
-                    accel.intersect(o, d, f32::INFINITY).is_some()
+                    accel
+                        .intersect(o, d, f32::INFINITY, &every_triangle)
+                        .is_some()
                 })
                 .count()
         })?;
@@ -336,7 +340,7 @@ fn rays(args: RaysArgs) -> anyhow::Result<()> {
                 .into_par_iter()
                 .filter(|&i| {
                     let (o, d) = ray(i);
-                    accel.occluded(o, d, 3.0)
+                    accel.occluded(o, d, 3.0, &every_triangle)
                 })
                 .count()
         })?;
@@ -428,11 +432,10 @@ fn portals(args: PortalsArgs) -> anyhow::Result<()> {
             hit.and_then(|hit| portals.teleport(&hit, d, time))
                 .map_or(0.0, |t| t.origin.x)
         });
-    let accel = &scene.accel;
     let ray_ns = 1e9
         * timed(&|o, d| {
-            accel
-                .intersect(o, d, f32::INFINITY, time)
+            scene
+                .intersect(o, d, f32::INFINITY, time, RayClass::Camera)
                 .map_or(0.0, |hit| hit.t)
         });
     println!(

@@ -7,6 +7,7 @@ use clap::Args;
 use rift_fx::{FrameRange, Shot};
 use rift_render::Scene;
 use rift_render::render::RenderOptions;
+use rift_render::scene::Overrides;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -111,17 +112,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Some(s) => bail!("--time-limit: expected a positive number of seconds, got {s}"),
         None => None,
     };
+    let overrides = Overrides {
+        spp: args.spp,
+        seed: args.seed,
+        max_portal_depth: args.max_portal_depth,
+    };
     for frame in frames.iter() {
-        let mut scene = Scene::build(&shot, frame)?;
-        if let Some(spp) = args.spp {
-            scene.settings.spp = spp;
-        }
-        if let Some(seed) = args.seed {
-            scene.settings.seed = seed;
-        }
-        if let Some(depth) = args.max_portal_depth {
-            scene.settings.max_portal_depth = depth;
-        }
+        let scene = Scene::build_with(&shot, frame, &overrides)?;
         let pattern = args
             .output
             .clone()

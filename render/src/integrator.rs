@@ -11,6 +11,13 @@
 //! a surface's lighting does not depend on how many openings the camera path crossed to reach
 //! it. An opening met past the limit ends the path: it shows black (with alpha 1).
 //!
+//! An opening with a time offset shifts the path's time: the there side, and everything the
+//! path meets after, is evaluated at the shifted time.
+//!
+//! Visibility: each ray has a [`RayClass`] (camera, through a portal, indirect, shadow) that the
+//! objects' flags and cull volumes filter. An emitter that indirect rays do not see can only be
+//! found by light sampling, which then gets the full MIS weight.
+//!
 //! Shadow rays cannot follow a teleport yet, so a teleport region blocks them in proportion to
 //! its opacity, and light reached by BSDF sampling after a teleport gets the full MIS weight
 //! (light sampling could not have found it): the estimate stays unbiased, only noisier.
@@ -20,6 +27,7 @@ use crate::lights::LightPlace;
 use crate::material::{Bsdf, Side};
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::Scene;
+use crate::visibility::RayClass;
 use glam::Vec3;
 
 /// Roulette starts after this many bounces.
@@ -64,7 +72,7 @@ pub fn trace(
     scene: &Scene,
     mut origin: Vec3,
     mut dir: Vec3,
-    time: f64,
+    mut time: f64,
     camera_range: (f32, f32),
     s: &mut SampleStream,
 ) -> PathSample {
@@ -86,7 +94,12 @@ pub fn trace(
     let mut opening_t: Option<f32> = None;
     let portals = &scene.portals;
     'path: loop {
-        let hit = intersect_range(scene, origin, dir, range, time);
+        let class = match (bounce, chain) {
+            (0, 0) => RayClass::Camera,
+            (0, _) => RayClass::ThroughPortal,
+            _ => RayClass::Indirect,
+        };
+        let hit = intersect_range(scene, origin, dir, range, time, class);
         if !portals.is_empty() {
             // Openings before the surface: each teleports with its opacity's probability.
             let limit = hit.map_or(range.1, |h| h.t * (1.0 + PORTAL_TIE));
@@ -110,6 +123,7 @@ pub fn trace(
                     }
                     break 'path;
                 }
+                time = portals.exit_time(ph.opening, time);
                 let Some(next) = portals.teleport(&ph, dir, time) else {
                     break 'path;
                 };
@@ -247,7 +261,11 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2, time: f64) -> Vec3 {
             point,
             normal,
             two_sided,
+            triangle,
         } => {
+            if scene.visibility.culled(triangle, point, time) {
+                return Vec3::ZERO;
+            }
             let cos_raw = (p - point).dot(normal);
             if !(cos_raw > 0.0 || (two_sided && cos_raw < 0.0)) {
                 return Vec3::ZERO;
@@ -284,14 +302,23 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2, time: f64) -> Vec3 {
     } else {
         scene.portals.transmittance(from, shadow_dir, dist, time)
     };
-    if through == 0.0 || scene.accel.occluded(from, shadow_dir, dist, time) {
+    if through == 0.0 || scene.occluded(from, shadow_dir, dist, time) {
         return Vec3::ZERO;
     }
-    let weight = power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side));
+    // An emitter hidden from indirect rays cannot be found by BSDF sampling.
+    let bsdf_can_find = match light.place {
+        LightPlace::Point { triangle, .. } => scene.visibility.sees(triangle, RayClass::Indirect),
+        LightPlace::Direction(_) => true,
+    };
+    let weight = if bsdf_can_find {
+        power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side))
+    } else {
+        1.0
+    };
     f * light.radiance * (weight * through / pdf_light)
 }
 
-/// The closest surface along `origin + t·dir` for t within `range`.
+/// The closest surface a ray of `class` sees along `origin + t·dir` for t within `range`.
 #[inline]
 fn intersect_range(
     scene: &Scene,
@@ -299,13 +326,12 @@ fn intersect_range(
     dir: Vec3,
     range: (f32, f32),
     time: f64,
+    class: RayClass,
 ) -> Option<crate::geometry::Hit> {
     if range.0 <= 0.0 {
-        return scene.accel.intersect(origin, dir, range.1, time);
+        return scene.intersect(origin, dir, range.1, time, class);
     }
-    let mut hit = scene
-        .accel
-        .intersect(origin + dir * range.0, dir, range.1 - range.0, time)?;
+    let mut hit = scene.intersect(origin + dir * range.0, dir, range.1 - range.0, time, class)?;
     hit.t += range.0;
     Some(hit)
 }

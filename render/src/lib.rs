@@ -18,6 +18,7 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod sobol;
+pub mod visibility;
 
 pub use error::RenderError;
 pub use rift_fx;

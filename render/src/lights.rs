@@ -33,6 +33,8 @@ pub enum LightPlace {
         point: Vec3,
         normal: Vec3,
         two_sided: bool,
+        /// The scene triangle it lies on.
+        triangle: u32,
     },
     /// A direction towards the environment, infinitely far.
     Direction(Vec3),
@@ -147,6 +149,7 @@ impl Lights {
                 point: tri.point(b1, b2),
                 normal,
                 two_sided: e.two_sided,
+                triangle: e.triangle,
             },
             radiance: e.radiance,
             pdf: (1.0 - p_env) * self.table.pmf(i) / area,

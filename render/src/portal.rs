@@ -15,7 +15,13 @@
 //! - `ior` bends the teleported direction at the exit as refraction into a medium of that index
 //!   would (rays that would be totally reflected end there, black);
 //! - `distortion` perturbs the exit normal with animated Perlin noise, which only bends light
-//!   when `ior` is not 1 (a heat-haze look).
+//!   when `ior` is not 1 (a heat-haze look);
+//! - `time_offset` shifts the time of rays that pass: they see the there side that much later
+//!   (earlier when negative), and everything they meet after is evaluated at the shifted time.
+//!   Shifted times are kept within the window the scene's motion was built for
+//!   ([`Portals::times`]); only a path that crosses delaying openings more often than the
+//!   portal depth limit allows in a row can reach its edge, and it then sees the scene as it is
+//!   at the edge.
 
 use crate::geometry::offset_origin;
 use glam::{DVec2, DVec3, Vec3};
@@ -83,6 +89,8 @@ pub struct OpeningLook {
     /// Index of refraction at the exit (1: straight through).
     pub ior: f64,
     pub distortion: Option<Distortion>,
+    /// Seconds added to the time of rays that teleport.
+    pub time_offset: f64,
 }
 
 impl Default for OpeningLook {
@@ -92,6 +100,7 @@ impl Default for OpeningLook {
             opacity: 1.0,
             ior: 1.0,
             distortion: None,
+            time_offset: 0.0,
         }
     }
 }
@@ -131,25 +140,29 @@ pub struct Portals {
     rig: Rig,
     masks: Vec<Mask>,
     looks: Vec<OpeningLook>,
-    /// Every opening's frames, when no frame moves while the shutter is open.
+    /// Every opening's frames, when no frame moves at any time a ray can have.
     fixed: Option<Vec<Frames>>,
+    /// The times rays can have: the shutter, widened by the time offsets.
+    times: [f64; 2],
 }
 
 impl Portals {
-    /// `masks` and `looks` follow the rig's openings; `fixed_time` is a time inside the shutter,
-    /// used when `moving` is false to evaluate every frame once.
+    /// `masks` and `looks` follow the rig's openings; `times` is the interval ray times stay
+    /// in. When `moving` is false every frame is evaluated once.
     pub fn new(
         rig: Rig,
         masks: Vec<Mask>,
         looks: Vec<OpeningLook>,
+        times: [f64; 2],
         moving: bool,
-        fixed_time: f64,
     ) -> Self {
+        let fixed_time = times[0];
         let mut portals = Self {
             rig,
             masks,
             looks,
             fixed: None,
+            times,
         };
         if !moving {
             portals.fixed = Some(
@@ -177,6 +190,27 @@ impl Portals {
     /// The look of opening `i`.
     pub fn look(&self, i: usize) -> &OpeningLook {
         &self.looks[i]
+    }
+
+    /// True when some opening's frames change over [`Self::times`].
+    pub fn moving(&self) -> bool {
+        self.fixed.is_none()
+    }
+
+    /// The interval ray times stay in: the shutter, widened by what the time offsets can add.
+    pub fn times(&self) -> [f64; 2] {
+        self.times
+    }
+
+    /// The time of a ray at `time` after it teleports through opening `i`.
+    #[inline]
+    pub fn exit_time(&self, i: usize, time: f64) -> f64 {
+        let offset = self.looks[i].time_offset;
+        if offset == 0.0 {
+            time
+        } else {
+            (time + offset).clamp(self.times[0], self.times[1])
+        }
     }
 
     /// P_H⁻¹ of opening `i` at `time`. A moving rig evaluates only this for every opening a
@@ -267,8 +301,8 @@ impl Portals {
         through
     }
 
-    /// Continues the ray of `hit` (direction `dir`, time `time`) from the there side, or `None`
-    /// when the exit refraction reflects it totally.
+    /// Continues the ray of `hit` (direction `dir`) from the there side as it is at `time` (the
+    /// exit time), or `None` when the exit refraction reflects it totally.
     pub fn teleport(&self, hit: &PortalHit, dir: Vec3, time: f64) -> Option<Teleported> {
         let look = &self.looks[hit.opening];
         let there = self.there(hit.opening, time);
@@ -346,8 +380,8 @@ mod tests {
             rig,
             vec![Mask::Disk { radius: 1e3 }; 2],
             vec![OpeningLook::default(); 2],
+            [0.0, 0.0],
             false,
-            0.0,
         )
     }
 

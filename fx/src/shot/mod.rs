@@ -87,6 +87,8 @@ pub struct RenderSections {
     pub environment: Option<toml::Table>,
     /// `portal[i].surface`, one entry per opening.
     pub portal_surfaces: Vec<Option<toml::Table>>,
+    /// `portal[i].cull`, one list per opening.
+    pub portal_culls: Vec<Vec<toml::Table>>,
     /// `camera.clip`.
     pub camera_clip: Option<toml::Table>,
     /// `camera.stereo`.
@@ -196,7 +198,8 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
         materials: raw.materials,
         lights: raw.lights,
         environment: raw.environment,
-        portal_surfaces: raw.portals.into_iter().map(|p| p.surface).collect(),
+        portal_surfaces: raw.portals.iter().map(|p| p.surface.clone()).collect(),
+        portal_culls: raw.portals.into_iter().map(|p| p.cull).collect(),
         camera_clip: raw.camera.clip,
         camera_stereo: raw.camera.stereo,
     };

@@ -66,7 +66,7 @@
 //! (row-major, column vectors, translation in the last column) that must be a similarity.
 //!
 //! The sections `render`, `object`, `material`, `light`, `environment`, `camera.clip`,
-//! `camera.stereo` and `portal.surface` belong to the renderer: `rift fx` keeps them unread.
+//! `camera.stereo`, `portal.surface` and `portal.cull` belong to the renderer: `rift fx` keeps them unread.
 
 use serde::Deserialize;
 
@@ -179,8 +179,10 @@ pub struct PortalSection {
     pub there: Option<PoseSpec>,
     pub pair: Option<String>,
     pub ring: Option<RingSection>,
-    /// Renderer-owned shading signals.
+    /// Renderer-owned: shading signals and cull volumes.
     pub surface: Option<toml::Table>,
+    #[serde(default)]
+    pub cull: Vec<toml::Table>,
 }
 
 /// `[portal.ring]`.

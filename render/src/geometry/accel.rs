@@ -14,6 +14,12 @@ use obvhs::ray::{Ray, RayHit};
 /// Marks a hit on static geometry.
 pub const STATIC: u32 = u32::MAX;
 
+/// The filter that admits every triangle.
+#[inline(always)]
+pub fn every_triangle(_triangle: u32, _t: f32) -> bool {
+    true
+}
+
 /// A closest hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -63,11 +69,19 @@ impl Accel {
         self.instances[instance as usize].placement(t)
     }
 
-    /// Closest hit along `origin + t·dir` (unit `dir`) for t in (0, t_max) at time `time`.
-    pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> Option<Hit> {
+    /// Closest hit along `origin + t·dir` (unit `dir`) for t in (0, t_max) at time `time`,
+    /// among the triangles `accept(triangle, t)` admits ([`every_triangle`] for all).
+    pub fn intersect(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> Option<Hit> {
         let mut best = self
             .statics
-            .intersect(origin, dir, t_max)
+            .intersect(origin, dir, t_max, accept)
             .map(|h| lift(h, STATIC));
         if let Some(top) = &self.top {
             let nearest = best.map_or(t_max, |h| h.t);
@@ -75,7 +89,7 @@ impl Accel {
             let mut top_hit = RayHit::none();
             top.ray_traverse(ray, &mut top_hit, |r, leaf| {
                 let i = top.primitive_indices[leaf];
-                match self.instances[i as usize].intersect(origin, dir, r.tmax, time) {
+                match self.instances[i as usize].intersect(origin, dir, r.tmax, time, accept) {
                     Some(h) => {
                         best = Some(lift(h, i));
                         h.t
@@ -87,9 +101,17 @@ impl Accel {
         best
     }
 
-    /// True when anything lies along `origin + t·dir` for t in (0, t_max) at time `time`.
-    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
-        if self.statics.occluded(origin, dir, t_max) {
+    /// True when an admitted triangle lies along `origin + t·dir` for t in (0, t_max) at time
+    /// `time`.
+    pub fn occluded(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> bool {
+        if self.statics.occluded(origin, dir, t_max, accept) {
             return true;
         }
         let Some(top) = &self.top else {
@@ -98,7 +120,7 @@ impl Accel {
         let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
         !top.ray_traverse_miss(ray, |_, leaf| {
             let i = top.primitive_indices[leaf] as usize;
-            if self.instances[i].occluded(origin, dir, t_max, time) {
+            if self.instances[i].occluded(origin, dir, t_max, time, accept) {
                 0.0
             } else {
                 f32::INFINITY

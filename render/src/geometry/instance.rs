@@ -2,18 +2,19 @@
 //! keyframed similarity that is evaluated at each ray's time. Rays are taken into object space
 //! rather than the triangles into world space, so motion blur costs one transform per visit.
 
+use super::motion::ObjectMotion;
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
-use rift_fx::rig::{AnimatedTransform, Similarity};
+use rift_fx::rig::Similarity;
 
 /// Times at which the world bounds are sampled across the time interval rays may have.
 const BOUND_STEPS: usize = 64;
 
 /// An object with a time-varying placement.
 pub struct MovingInstance {
-    transform: AnimatedTransform,
+    transform: ObjectMotion,
     bvh: TriangleBvh,
     /// World bounds over every time a ray can have.
     pub bounds: Aabb,
@@ -45,7 +46,7 @@ impl MovingInstance {
     pub fn new(
         triangles: &[Triangle],
         first_id: u32,
-        transform: AnimatedTransform,
+        transform: ObjectMotion,
         times: [f64; 2],
     ) -> Self {
         let corners = object_corners(triangles);
@@ -68,9 +69,9 @@ impl MovingInstance {
             }
             previous = now;
         }
-        for key in transform.keys() {
-            if key.time > times[0] && key.time < times[1] {
-                for c in placed_corners(key.time) {
+        for key in transform.key_times() {
+            if key > times[0] && key < times[1] {
+                for c in placed_corners(key) {
                     bounds.extend(Vec3A::from(c));
                 }
             }
@@ -89,24 +90,42 @@ impl MovingInstance {
         Placement::new(&self.transform.at(t))
     }
 
-    /// Closest hit of the world-space ray `origin + t·dir` at time `time`; t is in world units
-    /// because the object-space direction is not renormalised.
-    pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> Option<TriangleHit> {
+    /// Closest hit of the world-space ray `origin + t·dir` at time `time` among the triangles
+    /// `accept(triangle, t)` admits; t is in world units because the object-space direction is
+    /// not renormalised.
+    pub fn intersect(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> Option<TriangleHit> {
         let p = self.placement(time);
         self.bvh.intersect(
             p.to_object.transform_point3(origin),
             p.to_object.transform_vector3(dir),
             t_max,
+            accept,
         )
     }
 
-    /// True when the object blocks `origin + t·dir`, t in (0, t_max), at time `time`.
-    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
+    /// True when an admitted triangle of the object blocks `origin + t·dir`, t in (0, t_max),
+    /// at time `time`.
+    pub fn occluded(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> bool {
         let p = self.placement(time);
         self.bvh.occluded(
             p.to_object.transform_point3(origin),
             p.to_object.transform_vector3(dir),
             t_max,
+            accept,
         )
     }
 }

@@ -3,12 +3,14 @@
 
 pub mod accel;
 pub mod instance;
+pub mod motion;
 pub mod offset;
 pub mod triangle;
 pub mod triangle_bvh;
 
-pub use accel::{Accel, Hit, STATIC};
+pub use accel::{Accel, Hit, STATIC, every_triangle};
 pub use instance::{MovingInstance, Placement};
+pub use motion::{ObjectMotion, changes_during};
 pub use offset::offset_origin;
 pub use triangle::{Triangle, intersect_watertight};
 pub use triangle_bvh::{TriangleBvh, TriangleHit};

@@ -71,8 +71,15 @@ impl TriangleBvh {
         }
     }
 
-    /// Closest hit along `origin + t·dir` for t in (0, t_max).
-    pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<TriangleHit> {
+    /// Closest hit along `origin + t·dir` for t in (0, t_max) among the triangles that
+    /// `accept(scene-wide index, t)` admits (the others are looked through).
+    pub fn intersect(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> Option<TriangleHit> {
         let bvh = self.bvh.as_ref()?;
         let sheared = ShearedRay::new(origin, dir);
         let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
@@ -81,12 +88,12 @@ impl TriangleBvh {
         let mut best = t_max;
         let found = bvh.ray_traverse(ray, &mut hit, |_, id| {
             match intersect_watertight(&sheared, &self.leaf_triangles[id], best) {
-                Some((t, b1, b2)) => {
+                Some((t, b1, b2)) if accept(self.leaf_ids[id], t) => {
                     best = t;
                     bary = (b1, b2);
                     t
                 }
-                None => f32::INFINITY,
+                _ => f32::INFINITY,
             }
         });
         found.then(|| TriangleHit {
@@ -97,16 +104,24 @@ impl TriangleBvh {
         })
     }
 
-    /// True when anything lies along `origin + t·dir` for t in (0, t_max).
-    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+    /// True when an admitted triangle lies along `origin + t·dir` for t in (0, t_max).
+    pub fn occluded(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> bool {
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
         let sheared = ShearedRay::new(origin, dir);
         let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
         !bvh.ray_traverse_miss(ray, |_, id| {
-            intersect_watertight(&sheared, &self.leaf_triangles[id], t_max)
-                .map_or(f32::INFINITY, |h| h.0)
+            match intersect_watertight(&sheared, &self.leaf_triangles[id], t_max) {
+                Some((t, ..)) if accept(self.leaf_ids[id], t) => t,
+                _ => f32::INFINITY,
+            }
         })
     }
 }
@@ -114,6 +129,8 @@ impl TriangleBvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const ALL: fn(u32, f32) -> bool = |_, _| true;
 
     fn grid(n: usize) -> Vec<Triangle> {
         let mut out = Vec::new();
@@ -156,7 +173,7 @@ mod tests {
                     intersect_watertight(&sheared, t, f32::INFINITY).map(|h| (h.0, i))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0));
-            let hit = accel.intersect(origin, dir, f32::INFINITY);
+            let hit = accel.intersect(origin, dir, f32::INFINITY, &ALL);
             assert_eq!(
                 hit.map(|h| h.triangle as usize),
                 brute.map(|b| b.1),
@@ -164,13 +181,13 @@ mod tests {
             );
             if let (Some(h), Some(b)) = (hit, brute) {
                 assert!((h.t - b.0).abs() < 1e-5);
-                assert!(accel.occluded(origin, dir, h.t * 1.001));
-                assert!(!accel.occluded(origin, dir, h.t * 0.999));
+                assert!(accel.occluded(origin, dir, h.t * 1.001, &ALL));
+                assert!(!accel.occluded(origin, dir, h.t * 0.999, &ALL));
             }
         }
         assert!(
             TriangleBvh::build(&[], 0)
-                .intersect(Vec3::ZERO, Vec3::X, 1.0)
+                .intersect(Vec3::ZERO, Vec3::X, 1.0, &ALL)
                 .is_none()
         );
     }

@@ -11,11 +11,14 @@ pub mod schema;
 use crate::camera::Clip;
 use crate::environment::{Environment, LatLong};
 use crate::error::{RenderError, key_error};
-use crate::geometry::{Accel, Hit, MovingInstance, STATIC, Triangle};
+use crate::geometry::{
+    Accel, Hit, MovingInstance, ObjectMotion, STATIC, Triangle, changes_during, every_triangle,
+};
 use crate::lights::{Emitter, Lights};
 use crate::material::{Bsdf, Material};
 use crate::microfacet::Ggx;
 use crate::portal::Portals;
+use crate::visibility::{Flags, RayClass, Visibility};
 use glam::Vec3;
 use rift_fx::rig::{AnimatedTransform, Camera};
 use rift_fx::shot::check;
@@ -24,6 +27,7 @@ use rift_fx::{Invalid, Shot};
 use schema::{EnvironmentSection, MaterialKind, MaterialSection, ObjectSection, RenderSection};
 use serde::de::DeserializeOwned;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Render settings from `[render]` (command-line flags override them).
 #[derive(Clone, Debug, PartialEq)]
@@ -36,6 +40,15 @@ pub struct Settings {
     pub max_portal_depth: u32,
     /// Output path pattern; `#`s become the frame number.
     pub output: String,
+}
+
+/// Settings given outside the shot (the command line), applied before the scene is built
+/// because some shape it: the portal depth limit bounds the times rays can reach.
+#[derive(Clone, Debug, Default)]
+pub struct Overrides {
+    pub spp: Option<u32>,
+    pub seed: Option<u32>,
+    pub max_portal_depth: Option<u32>,
 }
 
 /// Everything the integrator needs.
@@ -55,6 +68,8 @@ pub struct Scene {
     pub clip: Clip,
     /// Portal openings (none: the integrator never tests for them).
     pub portals: Portals,
+    /// Per-object visibility flags and cull volumes.
+    pub visibility: Visibility,
     /// The frame rendered.
     pub frame: i64,
     /// Shutter open and close, seconds.
@@ -73,10 +88,12 @@ pub struct SurfacePoint {
 
 /// One object's triangles on their way into the scene.
 struct Part {
+    /// Index of the `[[object]]`.
+    object: u32,
     triangles: Vec<Triangle>,
     materials: Vec<u32>,
     /// `None`: baked to world space.
-    motion: Option<AnimatedTransform>,
+    motion: Option<ObjectMotion>,
 }
 
 /// Deserialises one renderer-owned table, naming `key` in errors.
@@ -99,6 +116,11 @@ pub(crate) fn parse<T: DeserializeOwned>(
 impl Scene {
     /// Builds the scene of `shot` at `frame`.
     pub fn build(shot: &Shot, frame: i64) -> Result<Self, RenderError> {
+        Self::build_with(shot, frame, &Overrides::default())
+    }
+
+    /// Builds the scene of `shot` at `frame`, with `overrides` replacing the shot's settings.
+    pub fn build_with(shot: &Shot, frame: i64, overrides: &Overrides) -> Result<Self, RenderError> {
         let file = &shot.source;
         let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
         let base = file.parent().unwrap_or(Path::new("."));
@@ -137,6 +159,14 @@ impl Scene {
                 .output
                 .unwrap_or_else(|| format!("out/{}.####.exr", shot.name)),
         };
+        let settings = Settings {
+            spp: overrides.spp.unwrap_or(settings.spp),
+            seed: overrides.seed.unwrap_or(settings.seed),
+            max_portal_depth: overrides
+                .max_portal_depth
+                .unwrap_or(settings.max_portal_depth),
+            ..settings
+        };
 
         let mut materials = Vec::new();
         for (i, table) in sections.materials.iter().enumerate() {
@@ -155,10 +185,15 @@ impl Scene {
         let shutter = shot
             .shutter_seconds()
             .map(|s| s + shot.time_of(frame as f64));
+        let portals = portals::portals(shot, shutter, settings.max_portal_depth)?;
+        // Every time a ray can have: objects that move within it are blurred, the rest baked.
+        let times = portals.times();
+        let rig = Arc::new(shot.rig.clone());
+        let objects = object_sections(file, &sections.objects)?;
         let mut parts = Vec::new();
-        for (i, table) in sections.objects.iter().enumerate() {
+        let mut flags = Vec::new();
+        for (i, o) in objects.iter().enumerate() {
             let key = format!("object[{i}]");
-            let o: ObjectSection = parse(file, &key, table)?;
             let transform = match &o.transform {
                 Some(spec) => pose::animated(
                     &format!("{key}.transform"),
@@ -169,7 +204,36 @@ impl Scene {
                 .map_err(invalid)?,
                 None => AnimatedTransform::constant(rift_fx::rig::Similarity::IDENTITY),
             };
-            let mesh_path = base.join(&o.mesh);
+            let motion = match &o.through {
+                None => ObjectMotion::new(transform),
+                Some(name) => {
+                    let opening = shot.rig.find(name).ok_or_else(|| {
+                        key_error(
+                            file,
+                            format!("{key}.through"),
+                            format!("no portal opening is called {name:?}"),
+                        )
+                    })?;
+                    let delay = portals.look(opening).time_offset;
+                    ObjectMotion::through(transform, rig.clone(), opening, delay)
+                }
+            };
+            flags.push(o.visibility.map_or(Flags::ALL, |v| {
+                Flags::new(
+                    v.camera.unwrap_or(true),
+                    v.through_portal.unwrap_or(true),
+                    v.indirect.unwrap_or(true),
+                    v.shadow.unwrap_or(true),
+                )
+            }));
+            let Some(mesh_name) = &o.mesh else {
+                return Err(key_error(
+                    file,
+                    format!("{key}.mesh"),
+                    "missing: give `mesh`, or `copy_of` another object",
+                ));
+            };
+            let mesh_path = base.join(mesh_name);
             let mesh_parts = match mesh_path.extension().and_then(|e| e.to_str()) {
                 Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)?,
                 Some(ext) if ext.eq_ignore_ascii_case("ply") => ply::load_ply(&mesh_path)?,
@@ -177,16 +241,17 @@ impl Scene {
                     return Err(key_error(
                         file,
                         format!("{key}.mesh"),
-                        format!("{:?}: expected an .obj or .ply file", o.mesh),
+                        format!("{mesh_name:?}: expected an .obj or .ply file"),
                     ));
                 }
             };
-            let moves = moves_during(&transform, shutter);
-            let placed = transform.at(shutter[0]);
+            let moves = motion.moves_during(times);
+            let placed = motion.at(times[0]);
             let mut part = Part {
+                object: i as u32,
                 triangles: Vec::new(),
                 materials: Vec::new(),
-                motion: moves.then_some(transform),
+                motion: moves.then_some(motion),
             };
             for mesh_part in mesh_parts {
                 let index = match (&o.material, &mesh_part.material) {
@@ -217,8 +282,8 @@ impl Scene {
                             file,
                             format!("{key}.material"),
                             format!(
-                                "part {:?} of {} names no material; set `material`",
-                                mesh_part.name, o.mesh
+                                "part {:?} of {mesh_name} names no material; set `material`",
+                                mesh_part.name
                             ),
                         ));
                     }
@@ -241,6 +306,7 @@ impl Scene {
         let mut triangles = Vec::new();
         let mut triangle_material = Vec::new();
         let mut triangle_instance = Vec::new();
+        let mut triangle_object = Vec::new();
         let mut instances = Vec::new();
         let mut static_count = 0;
         for part in parts {
@@ -251,11 +317,12 @@ impl Scene {
                     STATIC
                 }
                 Some(motion) => {
-                    instances.push(MovingInstance::new(&part.triangles, first, motion, shutter));
+                    instances.push(MovingInstance::new(&part.triangles, first, motion, times));
                     instances.len() as u32 - 1
                 }
             };
             triangle_instance.extend(std::iter::repeat_n(instance, part.triangles.len()));
+            triangle_object.extend(std::iter::repeat_n(part.object, part.triangles.len()));
             triangles.extend(part.triangles);
             triangle_material.extend(part.materials);
         }
@@ -290,7 +357,16 @@ impl Scene {
         };
         let lights = Lights::new(emitters, triangles.len(), environment);
         let accel = Accel::build(&triangles[..static_count], instances);
-        let portals = portals::portals(shot, shutter)?;
+        let names: Vec<String> = objects.into_iter().map(|o| o.name).collect();
+        let volumes = portals::cull_volumes(shot, &names)?;
+        let visibility = Visibility::new(
+            triangle_object,
+            flags,
+            volumes,
+            &shot.rig,
+            portals.moving(),
+            times[0],
+        );
         let clip = portals::clip(file, sections.camera_clip.as_ref())?;
         Ok(Self {
             triangles,
@@ -303,9 +379,48 @@ impl Scene {
             camera: shot.camera.clone(),
             clip,
             portals,
+            visibility,
             frame,
             shutter,
         })
+    }
+
+    /// The closest surface a ray of `class` sees along `origin + t·dir` (unit `dir`), t in
+    /// (0, t_max), at time `time`.
+    #[inline]
+    pub fn intersect(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+        class: RayClass,
+    ) -> Option<Hit> {
+        if !self.visibility.hides_anything() {
+            return self
+                .accel
+                .intersect(origin, dir, t_max, time, &every_triangle);
+        }
+        let admits = |triangle, t| {
+            self.visibility
+                .admits(triangle, class, origin + dir * t, time)
+        };
+        self.accel.intersect(origin, dir, t_max, time, &admits)
+    }
+
+    /// True when a surface that shadow rays see blocks `origin + t·dir`, t in (0, t_max).
+    #[inline]
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
+        if !self.visibility.hides_anything() {
+            return self
+                .accel
+                .occluded(origin, dir, t_max, time, &every_triangle);
+        }
+        let admits = |triangle, t| {
+            self.visibility
+                .admits(triangle, RayClass::Shadow, origin + dir * t, time)
+        };
+        self.accel.occluded(origin, dir, t_max, time, &admits)
     }
 
     /// The world-space point and normal of `hit` at time `time`.
@@ -352,22 +467,41 @@ impl Scene {
     }
 }
 
-/// True when `transform` is not the same at every time in `interval`. Sampled at the ends, at
-/// keys inside and at interior points, so a segment that leaves and comes back still counts.
+/// True when `transform` is not the same at every time in `interval`.
 pub(crate) fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) -> bool {
-    if transform.is_static() {
-        return false;
+    let keys: Vec<f64> = transform.keys().iter().map(|k| k.time).collect();
+    !transform.is_static() && changes_during(|t| transform.at(t), &keys, interval)
+}
+
+/// The `[[object]]` sections, with names checked unique and each `copy_of` filled in from the
+/// earlier object it names (mesh, material and transform, where the copy gives none).
+fn object_sections(file: &Path, tables: &[toml::Table]) -> Result<Vec<ObjectSection>, RenderError> {
+    let mut out: Vec<ObjectSection> = Vec::new();
+    for (i, table) in tables.iter().enumerate() {
+        let key = format!("object[{i}]");
+        let mut o: ObjectSection = parse(file, &key, table)?;
+        if out.iter().any(|x| x.name == o.name) {
+            return Err(key_error(
+                file,
+                format!("{key}.name"),
+                format!("another object is already called {:?}", o.name),
+            ));
+        }
+        if let Some(source) = &o.copy_of {
+            let Some(from) = out.iter().find(|x| &x.name == source) else {
+                return Err(key_error(
+                    file,
+                    format!("{key}.copy_of"),
+                    format!("no earlier object is called {source:?}"),
+                ));
+            };
+            o.mesh = o.mesh.or_else(|| from.mesh.clone());
+            o.material = o.material.or_else(|| from.material.clone());
+            o.transform = o.transform.or_else(|| from.transform.clone());
+        }
+        out.push(o);
     }
-    let first = transform.at(interval[0]);
-    let keys_inside = transform
-        .keys()
-        .iter()
-        .map(|k| k.time)
-        .filter(|&t| t > interval[0] && t < interval[1]);
-    (1..=8)
-        .map(|i| interval[0] + (interval[1] - interval[0]) * i as f64 / 8.0)
-        .chain(keys_inside)
-        .any(|t| transform.at(t) != first)
+    Ok(out)
 }
 
 /// The environment light of `[environment]`: a constant or a lat-long map.

@@ -1,12 +1,13 @@
 //! The renderer's side of a shot's openings: `[portal.surface]` (mask radius, tint, opacity,
-//! ior, distortion), the portal depth limit, and the camera's `[camera.clip]`. Syntax:
-//! [`super::schema`].
+//! ior, distortion, time offset), `[[portal.cull]]`, the portal depth limit, and the camera's
+//! `[camera.clip]`. Syntax: [`super::schema`].
 
-use super::schema::{ClipSection, PortalSurfaceSection};
+use super::schema::{ClipSection, CullSection, CullSide, PortalSurfaceSection};
 use super::{moves_during, parse};
 use crate::camera::Clip;
 use crate::error::RenderError;
 use crate::portal::{Distortion, Mask, OpeningLook, Portals};
+use crate::visibility::{CullVolume, Side};
 use glam::Vec4;
 use rift_fx::rig::ThereFrame;
 use rift_fx::shot::check;
@@ -16,8 +17,13 @@ use std::path::Path;
 /// Teleports in a row allowed when the shot does not say.
 pub const DEFAULT_MAX_PORTAL_DEPTH: u32 = 8;
 
-/// The openings of `shot` over the shutter `[open, close]` (seconds).
-pub fn portals(shot: &Shot, shutter: [f64; 2]) -> Result<Portals, RenderError> {
+/// The openings of `shot` over the shutter `[open, close]` (seconds), with chains of up to
+/// `max_portal_depth` teleports in a row.
+pub fn portals(
+    shot: &Shot,
+    shutter: [f64; 2],
+    max_portal_depth: u32,
+) -> Result<Portals, RenderError> {
     let file = &shot.source;
     let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
     let mut masks = Vec::new();
@@ -29,27 +35,87 @@ pub fn portals(shot: &Shot, shutter: [f64; 2]) -> Result<Portals, RenderError> {
             None => PortalSurfaceSection::default(),
         };
         let ring_radius = shot.rings.get(i).and_then(|r| r.as_ref()).map(|r| r.radius);
-        let (mask, look) = surface_look(&key, &s, ring_radius).map_err(invalid)?;
+        let (mask, look) = surface_look(&key, &s, ring_radius, shot.fps).map_err(invalid)?;
         masks.push(mask);
         looks.push(look);
     }
+    let times = reachable_times(shutter, &looks, max_portal_depth);
     let moving = shot.rig.openings.iter().any(|o| {
-        moves_during(&o.here, shutter)
-            || matches!(&o.there, ThereFrame::Explicit(t) if moves_during(t, shutter))
+        moves_during(&o.here, times)
+            || matches!(&o.there, ThereFrame::Explicit(t) if moves_during(t, times))
     });
-    Ok(Portals::new(
-        shot.rig.clone(),
-        masks,
-        looks,
-        moving,
-        shutter[0],
-    ))
+    Ok(Portals::new(shot.rig.clone(), masks, looks, times, moving))
+}
+
+/// The times rays can have: the shutter widened by a chain of `depth` teleports through the
+/// openings with the largest offset each way. Only when some opening has an offset does the
+/// scene's motion have to cover more than the shutter.
+fn reachable_times(shutter: [f64; 2], looks: &[OpeningLook], depth: u32) -> [f64; 2] {
+    let offsets = looks.iter().map(|l| l.time_offset);
+    let later = offsets.clone().fold(0.0f64, f64::max);
+    let earlier = offsets.fold(0.0f64, f64::min);
+    [
+        shutter[0] + earlier * depth as f64,
+        shutter[1] + later * depth as f64,
+    ]
+}
+
+/// The cull volumes of every opening (`[[portal.cull]]`), linked to objects by name.
+pub fn cull_volumes(shot: &Shot, objects: &[String]) -> Result<Vec<CullVolume>, RenderError> {
+    let file = &shot.source;
+    let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
+    let mut volumes = Vec::new();
+    for (i, tables) in shot.render.portal_culls.iter().enumerate() {
+        for (j, table) in tables.iter().enumerate() {
+            let key = format!("portal[{i}].cull[{j}]");
+            let c: CullSection = parse(file, &key, table)?;
+            let linked = c
+                .objects
+                .iter()
+                .enumerate()
+                .map(|(k, name)| {
+                    objects
+                        .iter()
+                        .position(|o| o == name)
+                        .map(|o| o as u32)
+                        .ok_or_else(|| {
+                            invalid(Invalid::new(
+                                format!("{key}.objects[{k}]"),
+                                format!("no object is called {name:?}"),
+                            ))
+                        })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            if linked.is_empty() {
+                return Err(invalid(Invalid::new(
+                    format!("{key}.objects"),
+                    "name at least one object to hide",
+                )));
+            }
+            let limit = |name: &str, v: Option<f64>| match v {
+                Some(v) => check::positive(&format!("{key}.{name}"), v),
+                None => Ok(f64::INFINITY),
+            };
+            volumes.push(CullVolume {
+                opening: i,
+                side: match c.side {
+                    Some(CullSide::There) => Side::There,
+                    Some(CullSide::Here) | None => Side::Here,
+                },
+                depth: limit("depth", c.depth).map_err(invalid)?,
+                radius: limit("radius", c.radius).map_err(invalid)?,
+                objects: linked,
+            });
+        }
+    }
+    Ok(volumes)
 }
 
 fn surface_look(
     key: &str,
     s: &PortalSurfaceSection,
     ring_radius: Option<f64>,
+    fps: f64,
 ) -> Result<(Mask, OpeningLook), Invalid> {
     let k = |name: &str| format!("{key}.{name}");
     let radius = match s.radius {
@@ -66,6 +132,9 @@ fn surface_look(
     }
     if let Some(v) = s.ior {
         look.ior = check::within(&k("ior"), v, 1e-3, 1e3, false)?;
+    }
+    if let Some(frames) = s.time_offset {
+        look.time_offset = check::finite(&k("time_offset"), frames)? / fps;
     }
     if let Some(d) = &s.distortion {
         let dk = |name: &str| format!("{key}.distortion.{name}");

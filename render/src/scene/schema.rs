@@ -44,6 +44,21 @@
 //! # An object whose transform changes while the shutter is open is blurred along its motion
 //! # (rays meet it at their own time); any other object is baked into world space.
 //!
+//! [[object]]
+//! name = "ball_there"
+//! copy_of = "ball"              # mesh, material and transform of an earlier object, unless given
+//! through = "room_door"         # placed through this opening by the constraint solver: T·transform
+//!                               # (an opening with a time offset shows it that much earlier)
+//! [object.visibility]           # which rays see the object (each defaults to true)
+//! camera = true                 # camera rays that have not passed an opening
+//! through_portal = true         # camera rays after one or more openings, before any scattering
+//! indirect = true               # rays after a scattering event
+//! shadow = true                 # shadow rays: false casts no shadows
+//!
+//! [camera.stereo]               # renders a left and a right image: off-axis (parallel) eyes
+//! interaxial = 0.065            # meters between the eyes, along the camera's X
+//! convergence = 4.0             # meters to the plane of zero parallax
+//!
 //! [camera.clip]                 # culls only camera rays that have not passed a portal
 //! near = 0.1                    # depth along the view axis, meters
 //! far = 100.0
@@ -57,11 +72,18 @@
 //! tint = [1.0, 1.0, 1.0]        # scales what is seen through the opening
 //! opacity = 1.0                 # 1: every ray teleports; 0: every ray passes through untouched
 //! ior = 1.0                     # bends the teleported direction at the exit, like refraction
+//! time_offset = 0.0             # frames: rays that pass see the there side this much later
 //! [portal.surface.distortion]   # animated noise on the exit normal (bends only when ior ≠ 1)
 //! amplitude = 0.05              # largest slope of the normal
 //! frequency = 3.0               # features per unit of the opening's frame
 //! evolution = 0.5               # noise units per second
 //! seed = 0
+//!
+//! [[portal.cull]]               # hides linked objects where they poke out behind the opening
+//! objects = ["ball"]            # [[object]] names
+//! side = "here"                 # "here": behind the here opening; "there": behind its exit
+//! depth = 2.0                   # how far behind, in the opening's units (default: no limit)
+//! radius = 1.5                  # distance from the opening's axis (default: no limit)
 //! ```
 
 use serde::Deserialize;
@@ -101,13 +123,46 @@ pub enum MaterialKind {
 }
 
 /// One `[[object]]`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectSection {
     pub name: String,
-    pub mesh: String,
+    pub mesh: Option<String>,
     pub material: Option<String>,
     pub transform: Option<rift_fx::shot::schema::PoseSpec>,
+    pub copy_of: Option<String>,
+    pub through: Option<String>,
+    pub visibility: Option<VisibilitySection>,
+}
+
+/// `[object.visibility]`: which rays see the object (each defaults to true).
+#[derive(Debug, Deserialize, Clone, Copy)]
+#[serde(deny_unknown_fields)]
+pub struct VisibilitySection {
+    pub camera: Option<bool>,
+    pub through_portal: Option<bool>,
+    pub indirect: Option<bool>,
+    pub shadow: Option<bool>,
+}
+
+/// One `[[portal.cull]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CullSection {
+    pub objects: Vec<String>,
+    pub side: Option<CullSide>,
+    pub depth: Option<f64>,
+    pub radius: Option<f64>,
+}
+
+/// Which side of an opening a cull volume lies behind.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum CullSide {
+    /// Behind the here opening (local −Z).
+    Here,
+    /// Behind the exit (the there frame's local +Z).
+    There,
 }
 
 /// `[environment]`.
@@ -118,6 +173,14 @@ pub struct EnvironmentSection {
     pub map: Option<String>,
     pub intensity: Option<f64>,
     pub rotation_degrees: Option<f64>,
+}
+
+/// `[camera.stereo]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StereoSection {
+    pub interaxial: f64,
+    pub convergence: f64,
 }
 
 /// `[camera.clip]`.
@@ -139,6 +202,7 @@ pub struct PortalSurfaceSection {
     pub opacity: Option<f64>,
     pub ior: Option<f64>,
     pub distortion: Option<DistortionSection>,
+    pub time_offset: Option<f64>,
 }
 
 /// `[portal.surface.distortion]`.

@@ -1,0 +1,91 @@
+//! Where an object is at each time: its own keyed transform, or that transform carried through a
+//! portal opening by the constraint solver (M_T = T·M_H), for the there-side copy of an object
+//! passing through. An opening that delays rays shows the copy as the object was that much
+//! earlier, which is what a ray crossing the opening at that time would see.
+
+use rift_fx::rig::{AnimatedTransform, Rig, Similarity, ThereFrame};
+use std::sync::Arc;
+
+/// An object's placement over time.
+#[derive(Clone, Debug)]
+pub struct ObjectMotion {
+    own: AnimatedTransform,
+    through: Option<Carried>,
+}
+
+/// The opening a copy is carried through.
+#[derive(Clone, Debug)]
+struct Carried {
+    rig: Arc<Rig>,
+    opening: usize,
+    /// The opening's time offset, seconds.
+    delay: f64,
+}
+
+impl ObjectMotion {
+    /// The object at its own transform.
+    pub fn new(own: AnimatedTransform) -> Self {
+        Self { own, through: None }
+    }
+
+    /// The object's there-side copy through `opening` of `rig`, whose rays are shifted later by
+    /// `delay` seconds.
+    pub fn through(own: AnimatedTransform, rig: Arc<Rig>, opening: usize, delay: f64) -> Self {
+        Self {
+            own,
+            through: Some(Carried {
+                rig,
+                opening,
+                delay,
+            }),
+        }
+    }
+
+    /// The placement at time `t` (seconds).
+    pub fn at(&self, t: f64) -> Similarity {
+        match &self.through {
+            None => self.own.at(t),
+            Some(c) => c
+                .rig
+                .teleport_at(c.opening, t)
+                .compose(&self.own.at(t - c.delay)),
+        }
+    }
+
+    /// Times where the placement may bend (keys of the transform and of the rig's frames).
+    pub fn key_times(&self) -> Vec<f64> {
+        let mut times: Vec<f64> = match &self.through {
+            None => self.own.keys().iter().map(|k| k.time).collect(),
+            Some(c) => self.own.keys().iter().map(|k| k.time + c.delay).collect(),
+        };
+        if let Some(c) = &self.through {
+            for o in &c.rig.openings {
+                times.extend(o.here.keys().iter().map(|k| k.time));
+                if let ThereFrame::Explicit(t) = &o.there {
+                    times.extend(t.keys().iter().map(|k| k.time));
+                }
+            }
+        }
+        times
+    }
+
+    /// True when the placement is not the same at every time in `interval`.
+    pub fn moves_during(&self, interval: [f64; 2]) -> bool {
+        let still = self.own.is_static() && self.through.as_ref().is_none_or(|c| c.rig.is_static());
+        !still && changes_during(|t| self.at(t), &self.key_times(), interval)
+    }
+}
+
+/// True when `at` is not the same at every time in `interval`. Sampled at the ends, at `keys`
+/// inside and at interior points, so a segment that leaves and comes back still counts.
+pub fn changes_during(at: impl Fn(f64) -> Similarity, keys: &[f64], interval: [f64; 2]) -> bool {
+    let first = at(interval[0]);
+    let keys_inside = keys
+        .iter()
+        .copied()
+        .filter(|&t| t > interval[0] && t < interval[1]);
+    (1..=8)
+        .map(|i| interval[0] + (interval[1] - interval[0]) * i as f64 / 8.0)
+        .chain(keys_inside)
+        .any(|t| at(t) != first)
+}
