@@ -461,3 +461,43 @@ fn bad_portal_frames_pairings_and_limits() {
     let dir = cornell_with("\n[camera.clip]\nplanes = [[0.0, 0.0, 0.0, 1.0]]\n");
     expect_failure(&dir, &["shot.toml", "camera.clip.planes[0]"]);
 }
+
+#[test]
+fn bad_cull_volumes_copies_visibility_and_time_offsets() {
+    const OPENING: &str = "\n[[portal]]\nname = \"A\"\nhere = { position = [0, 0, 0] }\nthere = { position = [0, 0, 1] }\n";
+    // A cull volume linked to an object that does not exist, or to none.
+    let dir = cornell_with(&format!(
+        "{OPENING}[[portal.cull]]\nobjects = [\"box\", \"ghost\"]\n"
+    ));
+    expect_failure(
+        &dir,
+        &["shot.toml", "portal[0].cull[0].objects[1]", "\"ghost\""],
+    );
+    let dir = cornell_with(&format!("{OPENING}[[portal.cull]]\nobjects = []\n"));
+    expect_failure(&dir, &["shot.toml", "portal[0].cull[0].objects"]);
+    for (key, value) in [("depth", "0"), ("radius", "-2"), ("side", "\"front\"")] {
+        let dir = cornell_with(&format!(
+            "{OPENING}[[portal.cull]]\nobjects = [\"box\"]\n{key} = {value}\n"
+        ));
+        expect_failure(&dir, &["shot.toml", &format!("portal[0].cull[0].{key}")]);
+    }
+    // Copies of objects that do not exist (or come later), through an unknown opening, and
+    // objects that share a name or have no mesh.
+    let dir = cornell_with("\n[[object]]\nname = \"copy\"\ncopy_of = \"later\"\n");
+    expect_failure(&dir, &["shot.toml", "object[1].copy_of", "\"later\""]);
+    let dir = cornell_with(&format!(
+        "{OPENING}[[object]]\nname = \"copy\"\ncopy_of = \"box\"\nthrough = \"B\"\n"
+    ));
+    expect_failure(&dir, &["shot.toml", "object[1].through", "\"B\""]);
+    let dir = cornell_with("\n[[object]]\nname = \"box\"\nmesh = \"cornell.obj\"\n");
+    expect_failure(&dir, &["shot.toml", "object[1].name", "\"box\""]);
+    let dir = cornell_with("\n[[object]]\nname = \"empty\"\n");
+    expect_failure(&dir, &["shot.toml", "object[1].mesh"]);
+    let dir = cornell_with(
+        "\n[[object]]\nname = \"copy\"\ncopy_of = \"box\"\n[object.visibility]\nmirror = false\n",
+    );
+    expect_failure(&dir, &["shot.toml", "object[1].visibility", "mirror"]);
+    // A time offset that is not a number of frames.
+    let dir = cornell_with(&format!("{OPENING}[portal.surface]\ntime_offset = nan\n"));
+    expect_failure(&dir, &["shot.toml", "portal[0].surface.time_offset"]);
+}

@@ -4,70 +4,16 @@
 
 mod common;
 
-use common::render_shot;
+use common::{
+    assert_statistically_equal, render_at, render_shot, square, tunnel_shot, tunnel_shot_at,
+};
 use glam::{DVec3, Vec3, Vec4};
 use rift_render::Scene;
-use rift_render::film::{Image, relative_mse};
+use rift_render::film::Image;
 use rift_render::render::{RenderOptions, render};
 use rift_render::rift_fx::Shot;
 use rift_render::rift_fx::rig::AnimatedTransform;
 use std::path::Path;
-
-/// A square facing +Z at depth `z`, half size `h`, as OBJ text.
-fn square(z: f32, h: f32) -> String {
-    format!(
-        "v {h0} {h0} {z}\nv {h} {h0} {z}\nv {h} {h} {z}\nv {h0} {h} {z}\nf 1 2 3 4\n",
-        h0 = -h
-    )
-}
-
-/// A camera at z = 5 looking down −Z at an opening of radius 1 at the origin, in front of a grey
-/// wall at z = −3, under a uniform sky; `extra` adds keys and sections.
-fn tunnel_shot(dir: &Path, extra: &str) -> String {
-    tunnel_shot_at(dir, [0.0; 3], extra)
-}
-
-/// [`tunnel_shot`] with the camera and wall moved by `offset` (`extra` places its own).
-fn tunnel_shot_at(dir: &Path, offset: [f64; 3], extra: &str) -> String {
-    std::fs::write(dir.join("wall.obj"), square(-3.0, 20.0)).unwrap();
-    let at = |p: [f64; 3]| {
-        format!(
-            "[{}, {}, {}]",
-            p[0] + offset[0],
-            p[1] + offset[1],
-            p[2] + offset[2]
-        )
-    };
-    format!(
-        r#"
-[shot]
-name = "tunnel"
-fps = 24.0
-frames = [1, 1]
-shutter = [0.0, 0.0]
-[camera]
-resolution = [96, 96]
-fov_degrees = 30.0
-[camera.transform]
-position = {camera}
-look_at = {origin}
-[environment]
-radiance = [1.0, 1.0, 1.0]
-[[material]]
-name = "grey"
-type = "diffuse"
-reflectance = [0.5, 0.5, 0.5]
-[[object]]
-name = "wall"
-mesh = "wall.obj"
-material = "grey"
-transform = {{ position = {origin} }}
-{extra}
-"#,
-        camera = at([0.3, 0.2, 5.0]),
-        origin = at([0.0; 3]),
-    )
-}
 
 /// An opening whose there frame sits 1.5 in front of its here frame: whatever enters comes out
 /// in front of it again, heading back in, so the camera sees it nested in itself.
@@ -79,11 +25,6 @@ there = { position = [0.0, 0.0, 1.5] }
 [portal.surface]
 radius = 1.0
 "#;
-
-/// [`common::render_shot_with`] at a given seed.
-fn render_at(dir: &Path, name: &str, text: &str, spp: u32, seed: u32) -> Image {
-    common::render_shot_with(dir, name, text, spp, Some(seed))
-}
 
 #[test]
 fn a_portal_seen_in_itself_shows_exactly_the_depth_limit_in_levels() {
@@ -118,23 +59,6 @@ fn a_portal_seen_in_itself_shows_exactly_the_depth_limit_in_levels() {
         assert!(ring.clone().count() > 0);
         assert!(ring.clone().all(|(_, c)| c.min_element() > 0.0));
     }
-}
-
-/// Asserts that two estimates of one image agree: channel means within 2%, and a relMSE between
-/// them no larger than their own noise explains. `a2` and `b2` are second renders with other
-/// seeds; for independent estimates E[relMSE(a, b)] ≈ (relMSE(a, a2) + relMSE(b, b2)) / 2.
-fn assert_statistically_equal(a: [&[Vec3]; 2], b: [&[Vec3]; 2], what: &str) {
-    let mean = |v: &[Vec3]| v.iter().fold(DVec3::ZERO, |s, c| s + c.as_dvec3()) / v.len() as f64;
-    let (ma, mb) = (mean(a[0]), mean(b[0]));
-    let rel = (ma - mb).abs() / mb;
-    assert!(rel.max_element() < 0.02, "{what}: means {ma} vs {mb}");
-    let noise = 0.5 * (relative_mse(a[1], a[0]) + relative_mse(b[1], b[0]));
-    let err = relative_mse(a[0], b[0]);
-    eprintln!("{what}: means {ma:.4} vs {mb:.4}; relMSE {err:.3e}, noise {noise:.3e}");
-    assert!(
-        err < 1.25 * noise,
-        "{what}: relMSE {err:e} against {noise:e} expected from the renders' own noise"
-    );
 }
 
 #[test]

@@ -89,3 +89,57 @@ pub fn changes_during(at: impl Fn(f64) -> Similarity, keys: &[f64], interval: [f
         .chain(keys_inside)
         .any(|t| at(t) != first)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+    use rift_fx::rig::{Interpolation, Opening, TransformKey};
+
+    fn keyed(points: &[(f64, DVec3)]) -> AnimatedTransform {
+        AnimatedTransform::new(
+            points
+                .iter()
+                .map(|&(time, p)| TransformKey {
+                    time,
+                    value: Similarity::from_translation(p),
+                })
+                .collect(),
+            Interpolation::Linear,
+        )
+    }
+
+    fn rig(there: AnimatedTransform) -> Arc<Rig> {
+        Arc::new(Rig {
+            openings: vec![Opening {
+                name: "A".into(),
+                here: AnimatedTransform::constant(Similarity::IDENTITY),
+                there: ThereFrame::Explicit(there),
+            }],
+        })
+    }
+
+    #[test]
+    fn a_carried_copy_is_the_solved_frame_of_the_object_a_delay_earlier() {
+        let own = keyed(&[(0.0, DVec3::ZERO), (1.0, DVec3::new(1.0, 0.0, 0.0))]);
+        let there = keyed(&[
+            (0.0, DVec3::new(0.0, 5.0, 0.0)),
+            (1.0, DVec3::new(0.0, 7.0, 0.0)),
+        ]);
+        let copy = ObjectMotion::through(own.clone(), rig(there.clone()), 0, 0.25);
+        for t in [0.3, 0.5, 0.9] {
+            let expected = there.at(t).compose(&own.at(t - 0.25));
+            assert!(copy.at(t).distance(&expected, 1.0) < 1e-12, "t = {t}");
+        }
+        assert!(copy.moves_during([0.4, 0.6]));
+        // Still object, still rig: nothing moves; a moving rig alone moves the copy.
+        let still = AnimatedTransform::constant(Similarity::IDENTITY);
+        let fixed_there = AnimatedTransform::constant(Similarity::from_translation(DVec3::Y));
+        assert!(
+            !ObjectMotion::through(still.clone(), rig(fixed_there), 0, 0.25)
+                .moves_during([0.0, 1.0])
+        );
+        assert!(ObjectMotion::through(still.clone(), rig(there), 0, 0.0).moves_during([0.4, 0.6]));
+        assert!(!ObjectMotion::new(still).moves_during([0.0, 1.0]));
+    }
+}

@@ -180,6 +180,27 @@ mod tests {
                 "ray {k}"
             );
             if let (Some(h), Some(b)) = (hit, brute) {
+                // A filter that rejects the nearest triangle reveals the one behind it.
+                let behind = tris
+                    .iter()
+                    .enumerate()
+                    .filter(|&(i, _)| i != b.1)
+                    .filter_map(|(i, t)| {
+                        intersect_watertight(&sheared, t, f32::INFINITY).map(|h| (h.0, i))
+                    })
+                    .min_by(|a, b| a.0.total_cmp(&b.0));
+                let skip_nearest = |tri: u32, _: f32| tri as usize != b.1;
+                assert_eq!(
+                    accel
+                        .intersect(origin, dir, f32::INFINITY, &skip_nearest)
+                        .map(|h| h.triangle as usize),
+                    behind.map(|b| b.1),
+                    "ray {k} behind its nearest hit"
+                );
+                assert_eq!(
+                    accel.occluded(origin, dir, f32::INFINITY, &skip_nearest),
+                    behind.is_some()
+                );
                 assert!((h.t - b.0).abs() < 1e-5);
                 assert!(accel.occluded(origin, dir, h.t * 1.001, &ALL));
                 assert!(!accel.occluded(origin, dir, h.t * 0.999, &ALL));

@@ -1,7 +1,9 @@
-//! Helpers shared by the renderer's integration tests.
+//! Helpers shared by the renderer's integration tests (each test binary uses some of them).
+#![allow(dead_code)]
 
+use glam::{DVec3, Vec3};
 use rift_render::Scene;
-use rift_render::film::Image;
+use rift_render::film::{Image, relative_mse};
 use rift_render::render::{RenderOptions, render};
 use rift_render::rift_fx::Shot;
 use std::path::Path;
@@ -21,4 +23,119 @@ pub fn render_shot_with(dir: &Path, name: &str, text: &str, spp: u32, seed: Opti
         scene.settings.seed = seed;
     }
     render(&scene, &RenderOptions::new(spp))
+}
+
+/// A square facing +Z at depth `z`, half size `h`, as OBJ text.
+pub fn square(z: f32, h: f32) -> String {
+    format!(
+        "v {h0} {h0} {z}\nv {h} {h0} {z}\nv {h} {h} {z}\nv {h0} {h} {z}\nf 1 2 3 4\n",
+        h0 = -h
+    )
+}
+
+/// A camera at z = 5 looking down −Z at an opening of radius 1 at the origin, in front of a grey
+/// wall at z = −3, under a uniform sky; `extra` adds keys and sections.
+pub fn tunnel_shot(dir: &Path, extra: &str) -> String {
+    tunnel_shot_at(dir, [0.0; 3], extra)
+}
+
+/// [`tunnel_shot`] with the camera and wall moved by `offset` (`extra` places its own).
+pub fn tunnel_shot_at(dir: &Path, offset: [f64; 3], extra: &str) -> String {
+    std::fs::write(dir.join("wall.obj"), square(-3.0, 20.0)).unwrap();
+    let at = |p: [f64; 3]| {
+        format!(
+            "[{}, {}, {}]",
+            p[0] + offset[0],
+            p[1] + offset[1],
+            p[2] + offset[2]
+        )
+    };
+    format!(
+        r#"
+[shot]
+name = "tunnel"
+fps = 24.0
+frames = [1, 1]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [96, 96]
+fov_degrees = 30.0
+[camera.transform]
+position = {camera}
+look_at = {origin}
+[environment]
+radiance = [1.0, 1.0, 1.0]
+[[material]]
+name = "grey"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "grey"
+transform = {{ position = {origin} }}
+{extra}
+"#,
+        camera = at([0.3, 0.2, 5.0]),
+        origin = at([0.0; 3]),
+    )
+}
+
+/// [`render_shot_with`] at a given seed.
+pub fn render_at(dir: &Path, name: &str, text: &str, spp: u32, seed: u32) -> Image {
+    render_shot_with(dir, name, text, spp, Some(seed))
+}
+
+/// Asserts that two estimates of one image agree: channel means within 2%, and a relMSE between
+/// them no larger than their own noise explains. `a2` and `b2` are second renders with other
+/// seeds; for independent estimates E[relMSE(a, b)] ≈ (relMSE(a, a2) + relMSE(b, b2)) / 2.
+pub fn assert_statistically_equal(a: [&[Vec3]; 2], b: [&[Vec3]; 2], what: &str) {
+    let mean = |v: &[Vec3]| v.iter().fold(DVec3::ZERO, |s, c| s + c.as_dvec3()) / v.len() as f64;
+    let (ma, mb) = (mean(a[0]), mean(b[0]));
+    let rel = (ma - mb).abs() / mb;
+    assert!(rel.max_element() < 0.02, "{what}: means {ma} vs {mb}");
+    let noise = 0.5 * (relative_mse(a[1], a[0]) + relative_mse(b[1], b[0]));
+    let err = relative_mse(a[0], b[0]);
+    eprintln!("{what}: means {ma:.4} vs {mb:.4}; relMSE {err:.3e}, noise {noise:.3e}");
+    assert!(
+        err < 1.25 * noise,
+        "{what}: relMSE {err:e} against {noise:e} expected from the renders' own noise"
+    );
+}
+
+/// An axis-aligned box from `lo` to `hi` as OBJ text, with faces wound outwards; `skip` leaves
+/// out faces by name ("-x", "+x", "-y", "+y", "-z", "+z"), for an open box.
+pub fn box_obj(lo: [f32; 3], hi: [f32; 3], skip: &[&str]) -> String {
+    let corner = |c: usize| {
+        Vec3::new(
+            if c & 1 == 0 { lo[0] } else { hi[0] },
+            if c & 2 == 0 { lo[1] } else { hi[1] },
+            if c & 4 == 0 { lo[2] } else { hi[2] },
+        )
+    };
+    let mut text: String = (0..8)
+        .map(|c| {
+            let p = corner(c);
+            format!("v {} {} {}\n", p.x, p.y, p.z)
+        })
+        .collect();
+    for (axis, name) in [(0, "x"), (1, "y"), (2, "z")] {
+        for (high, sign) in [(false, "-"), (true, "+")] {
+            if skip.contains(&format!("{sign}{name}").as_str()) {
+                continue;
+            }
+            let bit = 1 << axis;
+            let (a, b) = (1 << ((axis + 1) % 3), 1 << ((axis + 2) % 3));
+            let base = if high { bit } else { 0 };
+            let mut quad = [base, base | a, base | a | b, base | b];
+            let normal =
+                (corner(quad[1]) - corner(quad[0])).cross(corner(quad[2]) - corner(quad[0]));
+            if (normal[axis] > 0.0) != high {
+                quad.reverse();
+            }
+            let [q0, q1, q2, q3] = quad.map(|c| c + 1);
+            text += &format!("f {q0} {q1} {q2} {q3}\n");
+        }
+    }
+    text
 }
