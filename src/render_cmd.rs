@@ -1,15 +1,17 @@
-//! `rift render`: render frames of a shot to EXR.
+//! `rift render`: render frames of a shot to EXR (both eyes of a stereo shot).
 
 use crate::fx_cmd::prepare_output_dir;
 use crate::progress::Progress;
 use anyhow::bail;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use rift_fx::{FrameRange, Shot};
 use rift_render::Scene;
+use rift_render::camera::Eye;
+use rift_render::film::Window;
 use rift_render::render::RenderOptions;
 use rift_render::scene::Overrides;
-use std::path::PathBuf;
-use std::time::Instant;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// Arguments of `rift render`.
 #[derive(Args)]
@@ -56,6 +58,26 @@ pub struct RenderArgs {
     /// Also write an sRGB PNG preview beside each EXR.
     #[arg(long)]
     png: bool,
+    /// Render only this eye of a stereo shot (`[camera.stereo]`); by default both are
+    /// rendered, named by `%v` in the output (or `.left` / `.right` before the frame number).
+    #[arg(long, value_enum)]
+    eye: Option<EyeArg>,
+}
+
+/// `--eye`.
+#[derive(Clone, Copy, ValueEnum)]
+enum EyeArg {
+    Left,
+    Right,
+}
+
+impl From<EyeArg> for Eye {
+    fn from(e: EyeArg) -> Self {
+        match e {
+            EyeArg::Left => Eye::Left,
+            EyeArg::Right => Eye::Right,
+        }
+    }
 }
 
 /// Replaces the run of `#` in `pattern` with `frame`, zero-padded to the run's length.
@@ -96,10 +118,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
     let crop = match &args.crop {
-        Some(text) => Some(
-            rift_render::film::Window::from_fractions(text, w, h)
-                .map_err(|e| anyhow::anyhow!("--crop: {e}"))?,
-        ),
+        Some(text) => {
+            Some(Window::from_fractions(text, w, h).map_err(|e| anyhow::anyhow!("--crop: {e}"))?)
+        }
         None => None,
     };
     if let Some(e) = args.target_error
@@ -108,7 +129,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("--target-error: expected a positive relative error such as 0.01, got {e}");
     }
     let time_limit = match args.time_limit {
-        Some(s) if s.is_finite() && s > 0.0 => Some(std::time::Duration::from_secs_f64(s)),
+        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
         Some(s) => bail!("--time-limit: expected a positive number of seconds, got {s}"),
         None => None,
     };
@@ -119,6 +140,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     for frame in frames.iter() {
         let scene = Scene::build_with(&shot, frame, &overrides)?;
+        let eyes: Vec<Option<Eye>> = match (&scene.stereo, args.eye) {
+            (None, Some(_)) => bail!("--eye: {} has no [camera.stereo]", args.shot.display()),
+            (None, None) => vec![None],
+            (Some(_), Some(eye)) => vec![Some(eye.into())],
+            (Some(_), None) => Eye::BOTH.map(Some).to_vec(),
+        };
         let pattern = args
             .output
             .clone()
@@ -126,57 +153,106 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         if frames.len() > 1 && !pattern.contains('#') {
             bail!("{pattern}: several frames need a `#` frame token in the output name");
         }
-        let path = PathBuf::from(frame_path(&pattern, frame));
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            prepare_output_dir(dir)?;
+        for eye in eyes {
+            let pattern = match eye {
+                Some(eye) => eye_path(&pattern, eye.name()),
+                None => pattern.clone(),
+            };
+            let path = PathBuf::from(frame_path(&pattern, frame));
+            render_one(&scene, &args, eye, crop, time_limit, frame, &path)?;
         }
-        let started = Instant::now();
-        let spp = scene.settings.spp;
-        let pixels = crop.map_or(w * h, |c| c.area());
-        let progress = Progress::new(&format!("frame {frame}"), pixels * spp as usize);
-        let advance = |n: u64| progress.advance(n);
-        let options = RenderOptions {
-            spp,
-            crop,
-            target_error: args.target_error,
-            time_limit,
-            progress: Some(&advance),
-        };
-        let image = crate::with_threads(args.threads, || {
-            rift_render::render::render(&scene, &options)
-        })?;
-        progress.finish();
-        let seconds = started.elapsed().as_secs_f64();
-        let samples: u64 = image.spp.iter().map(|&n| n as u64).sum();
-        image.write_exr(&path)?;
-        if args.png {
-            image.write_png(&path.with_extension("png"))?;
-        }
-        eprintln!(
-            "rift render: frame {frame}: {}x{} at {:.1} spp (mean; at most {spp}) in {seconds:.2} s ({:.2} Mpaths/s) -> {}{}",
-            image.window.width(),
-            image.window.height(),
-            samples as f64 / image.spp.len() as f64,
-            samples as f64 / seconds / 1e6,
-            path.display(),
-            if image.discarded > 0 {
-                format!(" ({} non-finite samples discarded)", image.discarded)
-            } else {
-                String::new()
-            }
-        );
     }
     Ok(())
 }
 
+/// Renders one image of `scene` (one eye, if `eye` is given) to `path`.
+fn render_one(
+    scene: &Scene,
+    args: &RenderArgs,
+    eye: Option<Eye>,
+    crop: Option<Window>,
+    time_limit: Option<Duration>,
+    frame: i64,
+    path: &Path,
+) -> anyhow::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        prepare_output_dir(dir)?;
+    }
+    let started = Instant::now();
+    let spp = scene.settings.spp;
+    let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
+    let pixels = crop.map_or(w * h, |c| c.area());
+    let label = match eye {
+        Some(eye) => format!("frame {frame} {}", eye.name()),
+        None => format!("frame {frame}"),
+    };
+    let progress = Progress::new(&label, pixels * spp as usize);
+    let advance = |n: u64| progress.advance(n);
+    let options = RenderOptions {
+        spp,
+        crop,
+        target_error: args.target_error,
+        time_limit,
+        progress: Some(&advance),
+        eye,
+    };
+    let image = crate::with_threads(args.threads, || {
+        rift_render::render::render(scene, &options)
+    })?;
+    progress.finish();
+    let seconds = started.elapsed().as_secs_f64();
+    let samples: u64 = image.spp.iter().map(|&n| n as u64).sum();
+    image.write_exr(path)?;
+    if args.png {
+        image.write_png(&path.with_extension("png"))?;
+    }
+    eprintln!(
+        "rift render: {label}: {}x{} at {:.1} spp (mean; at most {spp}) in {seconds:.2} s ({:.2} Mpaths/s) -> {}{}",
+        image.window.width(),
+        image.window.height(),
+        samples as f64 / image.spp.len() as f64,
+        samples as f64 / seconds / 1e6,
+        path.display(),
+        if image.discarded > 0 {
+            format!(" ({} non-finite samples discarded)", image.discarded)
+        } else {
+            String::new()
+        }
+    );
+    Ok(())
+}
+
+/// The output pattern of one stereo eye: `%v` becomes the eye's name; without one, `.<name>`
+/// goes before the frame token (or, without a frame token, before the extension).
+pub fn eye_path(pattern: &str, name: &str) -> String {
+    if pattern.contains("%v") {
+        return pattern.replace("%v", name);
+    }
+    let file_start = pattern.rfind('/').map_or(0, |i| i + 1);
+    let file = &pattern[file_start..];
+    match (file.find('#'), file.rfind('.')) {
+        (Some(i), _) => format!("{}{name}.{}", &pattern[..file_start + i], &file[i..]),
+        (None, Some(i)) if i > 0 => format!("{}.{name}{}", &pattern[..file_start + i], &file[i..]),
+        _ => format!("{pattern}.{name}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::frame_path;
+    use super::{eye_path, frame_path};
 
     #[test]
     fn frame_tokens() {
         assert_eq!(frame_path("out/a.####.exr", 7), "out/a.0007.exr");
         assert_eq!(frame_path("out/a.#.exr", 1001), "out/a.1001.exr");
         assert_eq!(frame_path("out/a.exr", 3), "out/a.exr");
+    }
+
+    #[test]
+    fn eye_tokens() {
+        assert_eq!(eye_path("out/a.####.exr", "left"), "out/a.left.####.exr");
+        assert_eq!(eye_path("out/%v/a.#.exr", "right"), "out/right/a.#.exr");
+        assert_eq!(eye_path("out.d/a.exr", "left"), "out.d/a.left.exr");
+        assert_eq!(eye_path("out/a", "right"), "out/a.right");
     }
 }

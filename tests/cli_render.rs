@@ -501,3 +501,54 @@ fn bad_cull_volumes_copies_visibility_and_time_offsets() {
     let dir = cornell_with(&format!("{OPENING}[portal.surface]\ntime_offset = nan\n"));
     expect_failure(&dir, &["shot.toml", "portal[0].surface.time_offset"]);
 }
+
+#[test]
+fn a_stereo_shot_renders_both_eyes_in_one_command() {
+    let dir = cornell_with("\n[camera.stereo]\ninteraxial = 0.1\nconvergence = 3.0\n");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["render", "shot.toml", "--spp", "2", "--res", "32", "18"];
+        args.extend_from_slice(extra);
+        let out = rift(dir.path(), &args);
+        assert!(out.status.success(), "{}", stderr(&out));
+    };
+    run(&["-o", "out/img.####.exr"]);
+    let names: Vec<String> = files_in(&dir.path().join("out"))
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["img.left.0001.exr", "img.right.0001.exr"]);
+    let view = |name: &str| {
+        let meta =
+            exr::meta::MetaData::read_from_file(dir.path().join("out").join(name), false).unwrap();
+        meta.headers[0]
+            .own_attributes
+            .view_name
+            .as_ref()
+            .map(|t| t.to_string())
+    };
+    assert_eq!(view("img.left.0001.exr").as_deref(), Some("left"));
+    assert_eq!(view("img.right.0001.exr").as_deref(), Some("right"));
+    let read = |name: &str| rift_render::film::read_exr_rgb(&dir.path().join("out").join(name));
+    assert_ne!(
+        read("img.left.0001.exr").unwrap().2,
+        read("img.right.0001.exr").unwrap().2
+    );
+    // One eye on request, named by %v.
+    run(&["--eye", "right", "-o", "out/%v/img.exr"]);
+    assert!(dir.path().join("out/right/img.exr").exists());
+    assert!(!dir.path().join("out/left").exists());
+
+    // Asking for an eye of a mono shot, and stereo settings that cannot work.
+    let mono = cornell_dir(|t| t);
+    let out = rift(
+        mono.path(),
+        &["render", "shot.toml", "--eye", "left", "-o", "out/x.exr"],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("--eye") && stderr(&out).contains("camera.stereo"));
+    assert!(files_in(&mono.path().join("out")).is_empty());
+    let dir = cornell_with("\n[camera.stereo]\ninteraxial = 0.0\nconvergence = 3.0\n");
+    expect_failure(&dir, &["shot.toml", "camera.stereo.interaxial"]);
+    let dir = cornell_with("\n[camera.stereo]\ninteraxial = 0.06\n");
+    expect_failure(&dir, &["shot.toml", "camera.stereo", "convergence"]);
+}

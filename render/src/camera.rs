@@ -1,4 +1,11 @@
-//! The render camera: a pinhole or thin lens at the shot camera's pose, generating primary rays.
+//! The render camera: a pinhole or thin lens at the shot camera's pose, generating primary rays,
+//! and the stereo eye pair derived from it.
+//!
+//! Stereo eyes are off-axis (parallel) cameras: each sits half the interaxial distance to one
+//! side along the camera's X and looks the same way, with its film shifted so that both frame
+//! the same rectangle on the convergence plane. Points on that plane have zero parallax, nearer
+//! points come out of the screen and farther points go into it, and there is no keystone
+//! distortion (which toed-in eyes would add).
 
 use crate::sampling::concentric_disk;
 use glam::{Mat4, Vec2, Vec3, Vec4};
@@ -16,6 +23,36 @@ pub struct Lens {
     pub aspect: f32,
     pub aperture_radius: f32,
     pub focus_distance: f32,
+    /// Horizontal film shift, in units of the tangent of the view angle (stereo eyes).
+    pub shift: f32,
+}
+
+/// A left/right eye pair.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stereo {
+    /// Distance between the eyes, meters.
+    pub interaxial: f32,
+    /// Distance to the plane of zero parallax, meters.
+    pub convergence: f32,
+}
+
+/// One eye of a stereo pair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Eye {
+    Left,
+    Right,
+}
+
+impl Eye {
+    pub const BOTH: [Eye; 2] = [Eye::Left, Eye::Right];
+
+    /// The view name images carry ("left", "right").
+    pub fn name(self) -> &'static str {
+        match self {
+            Eye::Left => "left",
+            Eye::Right => "right",
+        }
+    }
 }
 
 impl Lens {
@@ -33,13 +70,26 @@ impl Lens {
             aspect: p.aspect() as f32,
             aperture_radius: p.aperture_radius as f32,
             focus_distance: p.focus_distance as f32,
+            shift: 0.0,
         }
+    }
+
+    /// This camera as `eye` of `stereo`: moved half the interaxial distance along its X, with
+    /// the film shifted to converge on the convergence plane.
+    pub fn eye(mut self, stereo: &Stereo, eye: Eye) -> Self {
+        let offset = match eye {
+            Eye::Left => -0.5 * stereo.interaxial,
+            Eye::Right => 0.5 * stereo.interaxial,
+        };
+        self.position += self.right * offset;
+        self.shift = -offset / stereo.convergence;
+        self
     }
 
     /// A primary ray through film position `ndc` (x, y in [0, 1], y down) using `lens_u` for the
     /// aperture: (origin, unit direction).
     pub fn ray(&self, ndc: Vec2, lens_u: Vec2) -> (Vec3, Vec3) {
-        let x = (2.0 * ndc.x - 1.0) * self.tan_half_fov_y * self.aspect;
+        let x = (2.0 * ndc.x - 1.0) * self.tan_half_fov_y * self.aspect + self.shift;
         let y = (1.0 - 2.0 * ndc.y) * self.tan_half_fov_y;
         let dir = (self.right * x + self.up * y - self.back).normalize();
         if self.aperture_radius <= 0.0 {
@@ -64,10 +114,11 @@ impl Lens {
     pub fn world_to_ndc(&self) -> [f32; 16] {
         let sx = 1.0 / (self.tan_half_fov_y * self.aspect);
         let sy = 1.0 / self.tan_half_fov_y;
+        // The film shift moves x/w by −shift·sx (w = −z).
         let projection = Mat4::from_cols(
             Vec4::new(sx, 0.0, 0.0, 0.0),
             Vec4::new(0.0, sy, 0.0, 0.0),
-            Vec4::new(0.0, 0.0, 0.0, -1.0),
+            Vec4::new(sx * self.shift, 0.0, 0.0, -1.0),
             Vec4::new(0.0, 0.0, 1.0, 0.0),
         );
         (projection * self.view()).to_cols_array()

@@ -83,6 +83,8 @@ pub struct Metadata {
     pub world_to_camera: [f32; 16],
     /// Row-major world-to-NDC matrix (perspective) at the frame.
     pub world_to_ndc: [f32; 16],
+    /// The stereo view ("left", "right"), if the image is one eye of a pair.
+    pub view: Option<String>,
 }
 
 /// Depth written where a camera ray hit nothing (a large finite value, as compositing
@@ -148,6 +150,7 @@ impl Image {
             software_name: Some(Text::from(concat!("rift ", env!("CARGO_PKG_VERSION")))),
             world_to_camera: Some(self.metadata.world_to_camera),
             world_to_normalized_device: Some(self.metadata.world_to_ndc),
+            view_name: self.metadata.view.as_deref().map(Text::from),
             ..Default::default()
         };
         let m = &self.metadata;

@@ -5,7 +5,7 @@
 //! samples, so it keeps that property; only a wall-clock time limit makes output depend on the
 //! machine.
 
-use crate::camera::Lens;
+use crate::camera::{Eye, Lens};
 use crate::film::{BACKGROUND_DEPTH, Image, Metadata, Window};
 use crate::integrator::{PathSample, trace};
 use crate::sampling::{SampleStream, hash32};
@@ -34,6 +34,9 @@ pub struct RenderOptions<'a> {
     pub time_limit: Option<Duration>,
     /// Called with the number of samples just finished, from worker threads.
     pub progress: Option<&'a (dyn Fn(u64) + Sync)>,
+    /// Which eye of the scene's stereo pair to render; `None` (or a scene without stereo):
+    /// the shot camera itself.
+    pub eye: Option<Eye>,
 }
 
 impl RenderOptions<'_> {
@@ -45,6 +48,7 @@ impl RenderOptions<'_> {
             target_error: None,
             time_limit: None,
             progress: None,
+            eye: None,
         }
     }
 }
@@ -90,7 +94,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
     let [w, h] = camera.projection.resolution.map(|v| v as usize);
     let window = options.crop.unwrap_or(Window::full(w, h));
     let [open, close] = scene.shutter;
-    let still_lens = (!scene.camera_moves()).then(|| Lens::at(camera, open));
+    let lens_at = |t: f64| scene_lens(scene, options.eye, t);
+    let still_lens = (!scene.camera_moves()).then(|| lens_at(open));
     let seed = hash32(scene.settings.seed.wrapping_add(0x9e37_79b9));
     let clipped = !scene.clip.is_none();
 
@@ -124,7 +129,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
             };
             let ndc =
                 (Vec2::new(x as f32, y as f32) + Vec2::new(jx, jy)) / Vec2::new(w as f32, h as f32);
-            let lens = still_lens.unwrap_or_else(|| Lens::at(camera, time));
+            let lens = still_lens.unwrap_or_else(|| lens_at(time));
             let (o, d) = lens.ray(ndc, Vec2::new(lx, ly));
             let range = if clipped {
                 scene.clip.interval(&lens, o, d)
@@ -219,22 +224,35 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
             pixels[(y - window.y0) * window.width() + (x - window.x0)] = *px;
         }
     }
-    finish(scene, window, w, h, &pixels, options.spp, started)
+    finish(scene, options, window, (w, h), &pixels, started)
+}
+
+/// The camera of `scene` at time `t`, as `eye` of its stereo pair when it has one.
+fn scene_lens(scene: &Scene, eye: Option<Eye>, t: f64) -> Lens {
+    let lens = Lens::at(&scene.camera, t);
+    match (&scene.stereo, eye) {
+        (Some(stereo), Some(eye)) => lens.eye(stereo, eye),
+        _ => lens,
+    }
 }
 
 /// Means of the accumulated sums, as an image with metadata.
 fn finish(
     scene: &Scene,
+    options: &RenderOptions,
     window: Window,
-    w: usize,
-    h: usize,
+    (w, h): (usize, usize),
     pixels: &[Pixel],
-    spp: u32,
     started: Instant,
 ) -> Image {
+    let spp = options.spp;
     let kept = |p: &Pixel| (p.samples - p.discarded).max(1) as f64;
     let per_hit = |p: &Pixel| p.hits.max(1) as f32;
-    let lens = Lens::at(&scene.camera, scene.shutter[0]);
+    let lens = scene_lens(scene, options.eye, scene.shutter[0]);
+    let view = scene
+        .stereo
+        .and(options.eye)
+        .map(|eye| eye.name().to_owned());
     Image {
         width: w,
         height: h,
@@ -268,6 +286,7 @@ fn finish(
             spp,
             world_to_camera: lens.world_to_camera(),
             world_to_ndc: lens.world_to_ndc(),
+            view,
         },
     }
 }

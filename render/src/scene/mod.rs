@@ -3,12 +3,13 @@
 //! structure, emitters, the camera, the shutter and render settings. Syntax of the renderer's shot
 //! sections: [`schema`].
 
+pub mod camera;
 pub mod mesh;
 pub mod ply;
 pub mod portals;
 pub mod schema;
 
-use crate::camera::Clip;
+use crate::camera::{Clip, Stereo};
 use crate::environment::{Environment, LatLong};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{
@@ -66,6 +67,8 @@ pub struct Scene {
     pub camera: Camera,
     /// Clipping of camera rays that have not been teleported.
     pub clip: Clip,
+    /// The left/right eye pair, when the shot asks for stereo.
+    pub stereo: Option<Stereo>,
     /// Portal openings (none: the integrator never tests for them).
     pub portals: Portals,
     /// Per-object visibility flags and cull volumes.
@@ -367,7 +370,8 @@ impl Scene {
             portals.moving(),
             times[0],
         );
-        let clip = portals::clip(file, sections.camera_clip.as_ref())?;
+        let clip = camera::clip(file, sections.camera_clip.as_ref())?;
+        let stereo = camera::stereo(file, sections.camera_stereo.as_ref())?;
         Ok(Self {
             triangles,
             normals,
@@ -378,6 +382,7 @@ impl Scene {
             settings,
             camera: shot.camera.clone(),
             clip,
+            stereo,
             portals,
             visibility,
             frame,

@@ -1,18 +1,14 @@
 //! The renderer's side of a shot's openings: `[portal.surface]` (mask radius, tint, opacity,
-//! ior, distortion, time offset), `[[portal.cull]]`, the portal depth limit, and the camera's
-//! `[camera.clip]`. Syntax: [`super::schema`].
+//! ior, distortion, time offset), `[[portal.cull]]` and the portal depth limit. Syntax: [`super::schema`].
 
-use super::schema::{ClipSection, CullSection, CullSide, PortalSurfaceSection};
+use super::schema::{CullSection, CullSide, PortalSurfaceSection};
 use super::{moves_during, parse};
-use crate::camera::Clip;
 use crate::error::RenderError;
 use crate::portal::{Distortion, Mask, OpeningLook, Portals};
 use crate::visibility::{CullVolume, Side};
-use glam::Vec4;
 use rift_fx::rig::ThereFrame;
 use rift_fx::shot::check;
 use rift_fx::{Invalid, Shot};
-use std::path::Path;
 
 /// Teleports in a row allowed when the shot does not say.
 pub const DEFAULT_MAX_PORTAL_DEPTH: u32 = 8;
@@ -155,61 +151,4 @@ fn surface_look(
         ));
     }
     Ok((Mask::Disk { radius }, look))
-}
-
-/// `[camera.clip]`, or no clipping.
-pub fn clip(file: &Path, table: Option<&toml::Table>) -> Result<Clip, RenderError> {
-    let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
-    let Some(table) = table else {
-        return Ok(Clip::default());
-    };
-    let c: ClipSection = parse(file, "camera.clip", table)?;
-    let near = match c.near {
-        Some(v) => check::non_negative("camera.clip.near", v).map_err(invalid)? as f32,
-        None => 0.0,
-    };
-    let far = match c.far {
-        Some(v) => check::positive("camera.clip.far", v).map_err(invalid)? as f32,
-        None => f32::INFINITY,
-    };
-    if far <= near {
-        return Err(invalid(Invalid::new(
-            "camera.clip.far",
-            "the far plane must lie beyond the near plane",
-        )));
-    }
-    let planes = clip_planes(file, "camera.clip.planes", c.planes.as_deref())?;
-    let world_planes = clip_planes(file, "camera.clip.world_planes", c.world_planes.as_deref())?;
-    Ok(Clip {
-        near,
-        far,
-        planes,
-        world_planes,
-    })
-}
-
-/// Planes [a, b, c, d] with their normal made unit length.
-fn clip_planes(
-    file: &Path,
-    key: &str,
-    planes: Option<&[[f64; 4]]>,
-) -> Result<Vec<Vec4>, RenderError> {
-    let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
-    let mut out = Vec::new();
-    for (i, p) in planes.unwrap_or_default().iter().enumerate() {
-        let key = format!("{key}[{i}]");
-        if p.iter().any(|v| !v.is_finite()) {
-            return Err(invalid(Invalid::new(key, "expected four finite numbers")));
-        }
-        let normal = glam::DVec3::new(p[0], p[1], p[2]);
-        let length = normal.length();
-        if length < 1e-12 {
-            return Err(invalid(Invalid::new(
-                key,
-                "the plane's normal [a, b, c] is zero",
-            )));
-        }
-        out.push(Vec4::new(p[0] as f32, p[1] as f32, p[2] as f32, p[3] as f32) / length as f32);
-    }
-    Ok(out)
 }
