@@ -378,7 +378,7 @@ fn portals(args: PortalsArgs) -> anyhow::Result<()> {
         .collect::<Result<_, _>>()
         .context("--depths: expected comma-separated integers")?;
     let shot = Shot::load(&args.shot)?;
-    let mut scene = rift_render::Scene::build(&shot, shot.frames.first)?;
+    let scene = rift_render::Scene::build(&shot, shot.frames.first)?;
     anyhow::ensure!(
         !scene.portals.is_empty(),
         "{}: the shot has no opening",
@@ -456,7 +456,12 @@ fn portals(args: PortalsArgs) -> anyhow::Result<()> {
     );
     let mut first: Option<(f64, f64)> = None;
     for depth in depths {
-        scene.settings.max_portal_depth = depth;
+        // Built anew: the depth limit bounds the times rays can reach.
+        let overrides = rift_render::scene::Overrides {
+            max_portal_depth: Some(depth),
+            ..Default::default()
+        };
+        let scene = rift_render::Scene::build_with(&shot, shot.frames.first, &overrides)?;
         let mut times = Vec::new();
         let mut image = None;
         for _ in 0..args.repeats {
