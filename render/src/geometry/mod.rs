@@ -5,6 +5,7 @@ pub mod accel;
 pub mod instance;
 pub mod motion;
 pub mod offset;
+pub mod round_cone;
 pub mod triangle;
 pub mod triangle_bvh;
 
@@ -12,5 +13,6 @@ pub use accel::{Accel, Hit, STATIC, every_triangle};
 pub use instance::{MovingInstance, Placement};
 pub use motion::{ObjectMotion, changes_during};
 pub use offset::offset_origin;
+pub use round_cone::{RoundCone, RoundConeHit};
 pub use triangle::{Triangle, intersect_watertight};
 pub use triangle_bvh::{TriangleBvh, TriangleHit};
