@@ -90,6 +90,16 @@ impl MovingInstance {
         Placement::new(&self.transform.at(t))
     }
 
+    /// A world-space ray in object space at time `time` (direction not renormalised, so ray
+    /// parameters stay in world units).
+    fn object_ray(&self, origin: Vec3, dir: Vec3, time: f64) -> (Vec3, Vec3) {
+        let to_object = self.placement(time).to_object;
+        (
+            to_object.transform_point3(origin),
+            to_object.transform_vector3(dir),
+        )
+    }
+
     /// Closest hit of the world-space ray `origin + t·dir` at time `time` among the triangles
     /// `accept(triangle, t)` admits; t is in world units because the object-space direction is
     /// not renormalised.
@@ -101,13 +111,8 @@ impl MovingInstance {
         time: f64,
         accept: &impl Fn(u32, f32) -> bool,
     ) -> Option<TriangleHit> {
-        let p = self.placement(time);
-        self.bvh.intersect(
-            p.to_object.transform_point3(origin),
-            p.to_object.transform_vector3(dir),
-            t_max,
-            accept,
-        )
+        let (o, d) = self.object_ray(origin, dir, time);
+        self.bvh.intersect(o, d, t_max, accept)
     }
 
     /// True when an admitted triangle of the object blocks `origin + t·dir`, t in (0, t_max),
@@ -120,13 +125,8 @@ impl MovingInstance {
         time: f64,
         accept: &impl Fn(u32, f32) -> bool,
     ) -> bool {
-        let p = self.placement(time);
-        self.bvh.occluded(
-            p.to_object.transform_point3(origin),
-            p.to_object.transform_vector3(dir),
-            t_max,
-            accept,
-        )
+        let (o, d) = self.object_ray(origin, dir, time);
+        self.bvh.occluded(o, d, t_max, accept)
     }
 }
 
