@@ -12,6 +12,7 @@
 
 use glam::{Affine3A, DVec3, Vec3};
 use rift_fx::rig::{Rig, Similarity};
+use std::sync::Arc;
 
 /// The kind of ray looking, for the per-object flags. Every ray is exactly one of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,7 +104,7 @@ pub struct Visibility {
     volumes: Vec<CullVolume>,
     /// World to each volume's local frame, when no opening moves.
     fixed: Option<Vec<Affine3A>>,
-    rig: Rig,
+    rig: Arc<Rig>,
 }
 
 impl Visibility {
@@ -114,7 +115,7 @@ impl Visibility {
         triangle_object: Vec<u32>,
         flags: Vec<Flags>,
         volumes: Vec<CullVolume>,
-        rig: &Rig,
+        rig: Arc<Rig>,
         moving: bool,
         fixed_time: f64,
     ) -> Self {
@@ -131,7 +132,7 @@ impl Visibility {
             volumes
                 .iter()
                 .map(|v| {
-                    let to_local = v.frame(rig, fixed_time).inverse();
+                    let to_local = v.frame(&rig, fixed_time).inverse();
                     Affine3A::from_mat4(to_local.to_mat4().as_mat4())
                 })
                 .collect()
@@ -142,7 +143,7 @@ impl Visibility {
             culls,
             volumes,
             fixed,
-            rig: rig.clone(),
+            rig,
         }
     }
 
@@ -198,16 +199,16 @@ mod tests {
     use super::*;
     use rift_fx::rig::{AnimatedTransform, Opening, ThereFrame};
 
-    fn rig() -> Rig {
+    fn rig() -> Arc<Rig> {
         let here = Similarity::from_translation(DVec3::new(0.0, 0.0, -3.0));
         let there = Similarity::from_translation(DVec3::new(40.0, 0.0, 0.0));
-        Rig {
+        Arc::new(Rig {
             openings: vec![Opening {
                 name: "door".into(),
                 here: AnimatedTransform::constant(here),
                 there: ThereFrame::Explicit(AnimatedTransform::constant(there)),
             }],
-        }
+        })
     }
 
     #[test]
@@ -246,7 +247,7 @@ mod tests {
                     volume(Side::Here, 1.0, 2.0),
                     volume(Side::There, f64::INFINITY, f64::INFINITY),
                 ],
-                &rig(),
+                rig(),
                 moving,
                 0.0,
             );
@@ -264,7 +265,7 @@ mod tests {
             assert!(!vis.culled(1, Vec3::new(45.0, 3.0, -0.5), 0.0));
             assert!(!vis.admits(1, RayClass::Camera, behind_here, 0.0));
         }
-        let nothing = Visibility::new(vec![0, 0], vec![Flags::ALL], vec![], &rig(), false, 0.0);
+        let nothing = Visibility::new(vec![0, 0], vec![Flags::ALL], vec![], rig(), false, 0.0);
         assert!(!nothing.hides_anything());
         assert!(nothing.admits(1, RayClass::Shadow, Vec3::ZERO, 0.0));
     }

@@ -54,10 +54,8 @@ impl ObjectMotion {
 
     /// Times where the placement may bend (keys of the transform and of the rig's frames).
     pub fn key_times(&self) -> Vec<f64> {
-        let mut times: Vec<f64> = match &self.through {
-            None => self.own.keys().iter().map(|k| k.time).collect(),
-            Some(c) => self.own.keys().iter().map(|k| k.time + c.delay).collect(),
-        };
+        let delay = self.through.as_ref().map_or(0.0, |c| c.delay);
+        let mut times: Vec<f64> = self.own.keys().iter().map(|k| k.time + delay).collect();
         if let Some(c) = &self.through {
             for o in &c.rig.openings {
                 times.extend(o.here.keys().iter().map(|k| k.time));

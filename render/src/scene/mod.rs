@@ -193,6 +193,12 @@ impl Scene {
         let times = portals.times();
         let rig = Arc::new(shot.rig.clone());
         let objects = object_sections(file, &sections.objects)?;
+        // The remaining sections are read before any mesh is loaded, so their mistakes are
+        // reported at once.
+        let names: Vec<&str> = objects.iter().map(|o| o.name.as_str()).collect();
+        let volumes = portals::cull_volumes(shot, &names)?;
+        let clip = camera::clip(file, sections.camera_clip.as_ref())?;
+        let stereo = camera::stereo(file, sections.camera_stereo.as_ref())?;
         let mut parts = Vec::new();
         let mut flags = Vec::new();
         for (i, o) in objects.iter().enumerate() {
@@ -360,18 +366,14 @@ impl Scene {
         };
         let lights = Lights::new(emitters, triangles.len(), environment);
         let accel = Accel::build(&triangles[..static_count], instances);
-        let names: Vec<String> = objects.into_iter().map(|o| o.name).collect();
-        let volumes = portals::cull_volumes(shot, &names)?;
         let visibility = Visibility::new(
             triangle_object,
             flags,
             volumes,
-            &shot.rig,
+            rig,
             portals.moving(),
             times[0],
         );
-        let clip = camera::clip(file, sections.camera_clip.as_ref())?;
-        let stereo = camera::stereo(file, sections.camera_stereo.as_ref())?;
         Ok(Self {
             triangles,
             normals,

@@ -57,7 +57,7 @@ fn reachable_times(shutter: [f64; 2], looks: &[OpeningLook], depth: u32) -> [f64
 }
 
 /// The cull volumes of every opening (`[[portal.cull]]`), linked to objects by name.
-pub fn cull_volumes(shot: &Shot, objects: &[String]) -> Result<Vec<CullVolume>, RenderError> {
+pub fn cull_volumes(shot: &Shot, objects: &[&str]) -> Result<Vec<CullVolume>, RenderError> {
     let file = &shot.source;
     let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
     let mut volumes = Vec::new();
