@@ -50,34 +50,13 @@ impl MovingInstance {
         times: [f64; 2],
     ) -> Self {
         let corners = object_corners(triangles);
-        let placed_corners = |t: f64| {
-            let s = transform.at(t);
-            corners.map(|c| s.transform_point(c.as_dvec3()).as_vec3())
-        };
-        // Bounds of the corners at sampled times (a similarity maps the box to one whose corners
-        // bound the object), padded by twice the largest step a corner makes between samples, so
-        // the curved motion between samples stays inside.
-        let mut bounds = Aabb::empty();
-        let mut previous = placed_corners(times[0]);
-        let mut pad = 0.0f32;
-        for i in 0..=BOUND_STEPS {
-            let t = times[0] + (times[1] - times[0]) * i as f64 / BOUND_STEPS as f64;
-            let now = placed_corners(t);
-            for (a, b) in now.iter().zip(&previous) {
-                bounds.extend(Vec3A::from(*a));
-                pad = pad.max(2.0 * a.distance(*b));
-            }
-            previous = now;
-        }
-        for key in transform.key_times() {
-            if key > times[0] && key < times[1] {
-                for c in placed_corners(key) {
-                    bounds.extend(Vec3A::from(c));
-                }
-            }
-        }
-        bounds.min -= Vec3A::splat(pad);
-        bounds.max += Vec3A::splat(pad);
+        let bounds = swept_bounds(
+            &corners,
+            |t| transform.at(t),
+            &transform.key_times(),
+            times,
+            BOUND_STEPS,
+        );
         Self {
             transform,
             bvh: TriangleBvh::build(triangles, first_id),
@@ -130,6 +109,47 @@ impl MovingInstance {
     }
 }
 
+/// World bounds of `points` (object space) placed by `at(t)` for every t in `times`: the
+/// points at `steps + 1` sampled times and at the keys inside, padded by twice the largest step
+/// a point makes between samples, so the curved motion between samples stays inside. Given the
+/// corners of an object-space box, a similarity maps it to a box whose corners bound the
+/// object, so the result bounds the object too.
+pub(crate) fn swept_bounds(
+    points: &[Vec3],
+    at: impl Fn(f64) -> Similarity,
+    key_times: &[f64],
+    times: [f64; 2],
+    steps: usize,
+) -> Aabb {
+    let placed = |t: f64| {
+        let s = at(t);
+        points
+            .iter()
+            .map(move |c| s.transform_point(c.as_dvec3()).as_vec3())
+    };
+    let mut bounds = Aabb::empty();
+    let mut previous: Vec<Vec3> = placed(times[0]).collect();
+    let mut pad = 0.0f32;
+    for i in 0..=steps {
+        let t = times[0] + (times[1] - times[0]) * i as f64 / steps as f64;
+        for (a, b) in placed(t).zip(previous.iter_mut()) {
+            bounds.extend(Vec3A::from(a));
+            pad = pad.max(2.0 * a.distance(*b));
+            *b = a;
+        }
+    }
+    for &key in key_times {
+        if key > times[0] && key < times[1] {
+            for c in placed(key) {
+                bounds.extend(Vec3A::from(c));
+            }
+        }
+    }
+    bounds.min -= Vec3A::splat(pad);
+    bounds.max += Vec3A::splat(pad);
+    bounds
+}
+
 /// The eight corners of the triangles' object-space box.
 fn object_corners(triangles: &[Triangle]) -> [Vec3; 8] {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
@@ -137,6 +157,11 @@ fn object_corners(triangles: &[Triangle]) -> [Vec3; 8] {
         lo = lo.min(v);
         hi = hi.max(v);
     }
+    box_corners(lo, hi)
+}
+
+/// The eight corners of the box [lo, hi].
+pub(crate) fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
     std::array::from_fn(|i| {
         Vec3::new(
             if i & 1 == 0 { lo.x } else { hi.x },

@@ -6,6 +6,7 @@ pub mod instance;
 pub mod motion;
 pub mod offset;
 pub mod round_cone;
+pub mod strands;
 pub mod triangle;
 pub mod triangle_bvh;
 
@@ -14,5 +15,6 @@ pub use instance::{MovingInstance, Placement};
 pub use motion::{ObjectMotion, changes_during};
 pub use offset::offset_origin;
 pub use round_cone::{RoundCone, RoundConeHit};
+pub use strands::{Ring, RingFrame, Segment, StrandHit, Strands};
 pub use triangle::{Triangle, intersect_watertight};
 pub use triangle_bvh::{TriangleBvh, TriangleHit};

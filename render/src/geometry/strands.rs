@@ -1,0 +1,570 @@
+//! The rings' strands as render geometry: round curve segments ([`RoundCone`]) in each
+//! opening's local frame, where fx baked them, under one BVH per ring.
+//!
+//! Two motions combine. Each vertex follows its baked quadratic P + vΔ + ½aΔ² (Δ from the frame's
+//! time), which carries the curved blur of the spinning strands; the whole ring follows the
+//! opening's here frame P_H(t). A ray is taken into the ring's local frame at its own time
+//! (one similarity, direction not renormalised so ray parameters stay in world units) and meets
+//! the segments as they are at that time. Segment bounds cover every time a ray can have, found
+//! in closed form from each vertex's quadratic. A ring whose vertices do not move (no velocity
+//! and acceleration, or an instant of time) stores positions only and evaluates nothing per
+//! test; a ring whose opening does not move keeps its frame precomputed.
+
+use super::instance::{box_corners, swept_bounds};
+use super::round_cone::RoundCone;
+use glam::{Vec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::builder::build_cwbvh;
+use obvhs::ray::{Ray, RayHit};
+use rift_fx::rig::Similarity;
+use rift_fx::ring::RingCurves;
+
+/// Times sampled across the ray time interval when bounding a segment under a moving frame.
+const FRAME_BOUND_STEPS: usize = 8;
+
+/// One segment in its ring's local frame: each end's position at the frame's time, velocity,
+/// acceleration and radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    pub p: [Vec3; 2],
+    pub v: [Vec3; 2],
+    pub a: [Vec3; 2],
+    pub radius: [f32; 2],
+}
+
+impl Segment {
+    /// The segment `delta` seconds after the frame's time, in the ring's local frame.
+    #[inline]
+    pub fn at(&self, delta: f32, moving: bool) -> RoundCone {
+        let place = |i: usize| {
+            if moving {
+                self.p[i] + delta * (self.v[i] + 0.5 * delta * self.a[i])
+            } else {
+                self.p[i]
+            }
+        };
+        RoundCone {
+            a: place(0),
+            b: place(1),
+            radius_a: self.radius[0],
+            radius_b: self.radius[1],
+        }
+    }
+
+    /// Local bounds over Δ in `deltas`: each end's quadratic per axis reaches its extremes at
+    /// the interval's ends or where its derivative vanishes.
+    fn bounds(&self, deltas: [f32; 2], moving: bool) -> (Vec3, Vec3) {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for i in 0..2 {
+            let r = Vec3::splat(self.radius[i]);
+            let mut include = |d: f32| {
+                let p = if moving {
+                    self.p[i] + d * (self.v[i] + 0.5 * d * self.a[i])
+                } else {
+                    self.p[i]
+                };
+                lo = lo.min(p - r);
+                hi = hi.max(p + r);
+            };
+            include(deltas[0]);
+            include(deltas[1]);
+            if moving {
+                for axis in 0..3 {
+                    let (v, a) = (self.v[i][axis], self.a[i][axis]);
+                    if a != 0.0 {
+                        let d = -v / a;
+                        if d > deltas[0] && d < deltas[1] {
+                            let p = self.p[i][axis] + d * (v + 0.5 * d * a);
+                            lo[axis] = lo[axis].min(p - self.radius[i]);
+                            hi[axis] = hi[axis].max(p + self.radius[i]);
+                        }
+                    }
+                }
+            }
+        }
+        // Rounding in the evaluation at ray time must stay inside.
+        let pad = (lo.abs().max(hi.abs())).max_element() * 4.0 * f32::EPSILON;
+        (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
+    }
+}
+
+/// Where a ring sits: its opening's here frame, fixed or evaluated at each ray's time.
+pub enum RingFrame {
+    Fixed {
+        to_world: Similarity,
+        to_local: Similarity,
+    },
+    /// P_H(t).
+    Moving(Box<dyn Fn(f64) -> Similarity + Send + Sync>),
+}
+
+impl RingFrame {
+    /// Local to world at `time`.
+    #[inline]
+    pub fn to_world(&self, time: f64) -> Similarity {
+        match self {
+            RingFrame::Fixed { to_world, .. } => *to_world,
+            RingFrame::Moving(at) => at(time),
+        }
+    }
+
+    #[inline]
+    fn to_local(&self, time: f64) -> Similarity {
+        match self {
+            RingFrame::Fixed { to_local, .. } => *to_local,
+            RingFrame::Moving(at) => at(time).inverse(),
+        }
+    }
+}
+
+/// One opening's strands.
+pub struct Ring {
+    /// Index of the opening.
+    pub opening: usize,
+    frame: RingFrame,
+    /// Seconds the baked positions belong to (Δ = ray time − this).
+    frame_time: f64,
+    /// False when no vertex moves over the rays' times: positions are used as stored.
+    moving: bool,
+    bvh: Option<CwBvh>,
+    /// Segments in the BVH's leaf order, and their scene-wide indices.
+    leaf_segments: Vec<Segment>,
+    leaf_ids: Vec<u32>,
+    /// World bounds over every time a ray can have.
+    pub bounds: Aabb,
+}
+
+/// A ray meeting a strand.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StrandHit {
+    /// Ray parameter in world units.
+    pub t: f32,
+    /// Scene-wide segment index.
+    pub segment: u32,
+    /// Position along the segment, 0 to 1 (for interpolating per-vertex data).
+    pub s: f32,
+    /// Unit world-space outward normal.
+    pub normal: Vec3,
+}
+
+/// Every ring of a scene, with per-segment data for shading and light sampling.
+#[derive(Default)]
+pub struct Strands {
+    pub rings: Vec<Ring>,
+    /// Every segment, scene-wide order (ring after ring).
+    pub segments: Vec<Segment>,
+    /// The ring of each segment.
+    pub segment_ring: Vec<u32>,
+    /// Emitted radiance at each end of each segment (Cd · intensity · scale).
+    pub radiance: Vec<[Vec3; 2]>,
+}
+
+impl Strands {
+    /// Adds the strands of `curves` (closed polylines in the opening's local frame) placed by
+    /// `frame`, baked at `frame_time`; rays have times in `times`; `intensity` scales the
+    /// emission. Segments of zero length are skipped.
+    pub fn add_ring(
+        &mut self,
+        opening: usize,
+        curves: &RingCurves,
+        frame: RingFrame,
+        frame_time: f64,
+        times: [f64; 2],
+        intensity: f32,
+    ) {
+        let deltas = [(times[0] - frame_time) as f32, (times[1] - frame_time) as f32];
+        let moving = deltas[0] != deltas[1]
+            && curves
+                .velocities
+                .iter()
+                .chain(&curves.accelerations)
+                .any(|v| *v != Vec3::ZERO);
+        let first = self.segments.len() as u32;
+        let ring_index = self.rings.len() as u32;
+        let mut local = Vec::new();
+        for range in curves.strand_ranges() {
+            let n = range.len();
+            for k in 0..n {
+                let (i, j) = (range.start + k, range.start + (k + 1) % n);
+                if n < 2 || (n == 2 && k == 1) {
+                    continue;
+                }
+                let mut segment = Segment {
+                    p: [curves.points[i], curves.points[j]],
+                    v: [curves.velocities[i], curves.velocities[j]],
+                    a: [curves.accelerations[i], curves.accelerations[j]],
+                    radius: [0.5 * curves.widths[i], 0.5 * curves.widths[j]],
+                };
+                if !moving {
+                    // Positions at the one time rays have (the frame's own when no vertex moves).
+                    let at = segment.at(deltas[0], deltas[0] != 0.0);
+                    segment.p = [at.a, at.b];
+                }
+                if segment.p[0] == segment.p[1] && !moving {
+                    continue;
+                }
+                local.push(segment);
+                let radiance = |i: usize| curves.colors[i] * (curves.intensities[i] * intensity);
+                self.radiance.push([radiance(i), radiance(j)]);
+                self.segment_ring.push(ring_index);
+            }
+        }
+        let boxes: Vec<Aabb> = local
+            .iter()
+            .map(|s| {
+                let (lo, hi) = s.bounds(deltas, moving);
+                Aabb::new(lo.into(), hi.into())
+            })
+            .collect();
+        let mut all = Aabb::empty();
+        for b in &boxes {
+            all = all.union(b);
+        }
+        let bounds = if boxes.is_empty() {
+            Aabb::empty()
+        } else {
+            let corners = box_corners(all.min.into(), all.max.into());
+            swept_bounds(
+                &corners,
+                |t| frame.to_world(t),
+                &[],
+                times,
+                FRAME_BOUND_STEPS,
+            )
+        };
+        let bvh = (!boxes.is_empty()).then(|| {
+            build_cwbvh(
+                &boxes,
+                BvhBuildParams::medium_build(),
+                &mut Default::default(),
+            )
+        });
+        let (leaf_segments, leaf_ids) = match &bvh {
+            Some(b) => b
+                .primitive_indices
+                .iter()
+                .map(|&i| (local[i as usize], first + i))
+                .unzip(),
+            None => (Vec::new(), Vec::new()),
+        };
+        self.segments.extend(local);
+        self.rings.push(Ring {
+            opening,
+            frame,
+            frame_time,
+            moving,
+            bvh,
+            leaf_segments,
+            leaf_ids,
+            bounds,
+        });
+    }
+
+    /// True when there are no segments.
+    pub fn is_empty(&self) -> bool {
+        self.segments.is_empty()
+    }
+
+    /// The first strand along `origin + t·dir` for t in (0, t_max) at time `time`, among the
+    /// rings `admit(ring)` accepts.
+    pub fn intersect(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+        admit: impl Fn(usize) -> bool,
+    ) -> Option<StrandHit> {
+        let mut best: Option<StrandHit> = None;
+        for (index, ring) in self.rings.iter().enumerate() {
+            let limit = best.map_or(t_max, |b| b.t);
+            if !admit(index) || !ray_meets(&ring.bounds, origin, dir, limit) {
+                continue;
+            }
+            if let Some(hit) = ring.intersect(origin, dir, limit, time) {
+                best = Some(hit);
+            }
+        }
+        best
+    }
+
+    /// True when a strand of an admitted ring lies along `origin + t·dir`, t in (0, t_max).
+    pub fn occluded(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+        admit: impl Fn(usize) -> bool,
+    ) -> bool {
+        self.rings.iter().enumerate().any(|(index, ring)| {
+            admit(index)
+                && ray_meets(&ring.bounds, origin, dir, t_max)
+                && ring.occluded(origin, dir, t_max, time)
+        })
+    }
+
+    /// Segment `i` in world space at `time`.
+    pub fn world_segment(&self, i: u32, time: f64) -> RoundCone {
+        let ring = &self.rings[self.segment_ring[i as usize] as usize];
+        let local = self.segments[i as usize].at(ring.delta(time), ring.moving);
+        let to_world = ring.frame.to_world(time);
+        let scale = to_world.scale as f32;
+        RoundCone {
+            a: to_world.transform_point(local.a.as_dvec3()).as_vec3(),
+            b: to_world.transform_point(local.b.as_dvec3()).as_vec3(),
+            radius_a: local.radius_a * scale,
+            radius_b: local.radius_b * scale,
+        }
+    }
+
+    /// World bounds of segment `i` over every time a ray can have.
+    pub fn segment_bounds(&self, i: u32, times: [f64; 2]) -> Aabb {
+        let ring = &self.rings[self.segment_ring[i as usize] as usize];
+        let deltas = [ring.delta(times[0]), ring.delta(times[1])];
+        let (lo, hi) = self.segments[i as usize].bounds(deltas, ring.moving);
+        let corners = box_corners(lo, hi);
+        match &ring.frame {
+            RingFrame::Fixed { to_world, .. } => {
+                let mut b = Aabb::empty();
+                for c in corners {
+                    b.extend(to_world.transform_point(c.as_dvec3()).as_vec3().into());
+                }
+                b
+            }
+            RingFrame::Moving(_) => swept_bounds(
+                &corners,
+                |t| ring.frame.to_world(t),
+                &[],
+                times,
+                FRAME_BOUND_STEPS,
+            ),
+        }
+    }
+
+    /// Radiance emitted at position `s` along segment `i`.
+    #[inline]
+    pub fn radiance(&self, i: u32, s: f32) -> Vec3 {
+        let [a, b] = self.radiance[i as usize];
+        a.lerp(b, s)
+    }
+}
+
+impl Ring {
+    #[inline]
+    fn delta(&self, time: f64) -> f32 {
+        (time - self.frame_time) as f32
+    }
+
+    /// The ray in the ring's local frame at `time`; parameters stay in world units.
+    #[inline]
+    fn local_ray(&self, origin: Vec3, dir: Vec3, time: f64) -> (Vec3, Vec3, Similarity) {
+        let to_local = self.frame.to_local(time);
+        (
+            to_local.transform_point(origin.as_dvec3()).as_vec3(),
+            to_local.transform_vector(dir.as_dvec3()).as_vec3(),
+            to_local,
+        )
+    }
+
+    fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> Option<StrandHit> {
+        let bvh = self.bvh.as_ref()?;
+        let (o, d, to_local) = self.local_ray(origin, dir, time);
+        let delta = self.delta(time);
+        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
+        let mut hit = RayHit::none();
+        let mut found = None;
+        bvh.ray_traverse(ray, &mut hit, |r, id| {
+            match self.leaf_segments[id]
+                .at(delta, self.moving)
+                .intersect(o, d, 0.0, r.tmax)
+            {
+                Some(h) => {
+                    found = Some((h, self.leaf_ids[id]));
+                    h.t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        let (h, segment) = found?;
+        // Normals are covectors: under a similarity the inverse's rotation maps them back.
+        let normal = to_local
+            .inverse()
+            .transform_direction(h.normal.as_dvec3())
+            .normalize()
+            .as_vec3();
+        Some(StrandHit {
+            t: h.t,
+            segment,
+            s: h.s,
+            normal,
+        })
+    }
+
+    fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return false;
+        };
+        let (o, d, _) = self.local_ray(origin, dir, time);
+        let delta = self.delta(time);
+        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
+        !bvh.ray_traverse_miss(ray, |_, id| {
+            match self.leaf_segments[id]
+                .at(delta, self.moving)
+                .intersect(o, d, 0.0, t_max)
+            {
+                Some(h) => h.t,
+                None => f32::INFINITY,
+            }
+        })
+    }
+}
+
+/// True when `origin + t·dir`, t in [0, t_max], meets `bounds`.
+#[inline]
+fn ray_meets(bounds: &Aabb, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+    let inv = dir.recip();
+    let t0 = (Vec3::from(bounds.min) - origin) * inv;
+    let t1 = (Vec3::from(bounds.max) - origin) * inv;
+    let near = t0.min(t1).max_element().max(0.0);
+    let far = t0.max(t1).min_element().min(t_max);
+    near <= far
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DQuat, DVec3};
+    use std::f32::consts::TAU;
+
+    /// A ring of `strands` circles spinning about +Z at `omega` rad/s, baked as fx bakes them:
+    /// velocity ω×p, acceleration ω×(ω×p).
+    pub(crate) fn spinning_ring(strands: usize, vertices: usize, omega: f32) -> RingCurves {
+        let mut c = RingCurves {
+            opening: "a".into(),
+            ..Default::default()
+        };
+        let w = Vec3::Z * omega;
+        for s in 0..strands {
+            let radius = 1.0 + 0.02 * s as f32;
+            c.vertex_counts.push(vertices as u32);
+            c.directions.push(1);
+            for k in 0..vertices {
+                let u = TAU * k as f32 / vertices as f32 + s as f32;
+                let p = Vec3::new(radius * u.cos(), radius * u.sin(), 0.01 * (3.0 * u).sin());
+                c.points.push(p);
+                c.velocities.push(w.cross(p));
+                c.accelerations.push(w.cross(w.cross(p)));
+                c.widths.push(0.01 + 0.004 * (k % 3) as f32);
+                c.colors.push(Vec3::new(1.0, 0.5, 0.25));
+                c.intensities.push(2.0);
+            }
+        }
+        c
+    }
+
+    fn sliding_frame() -> RingFrame {
+        RingFrame::Moving(Box::new(|t| {
+            Similarity::new(
+                DQuat::from_rotation_y(0.3 + t),
+                DVec3::new(2.0 + 3.0 * t, 1.0, -4.0),
+                1.5,
+            )
+        }))
+    }
+
+    fn brute_force(strands: &Strands, o: Vec3, d: Vec3, time: f64) -> Option<(f32, u32)> {
+        (0..strands.segments.len() as u32)
+            .filter_map(|i| {
+                strands
+                    .world_segment(i, time)
+                    .intersect(o, d, 0.0, f32::INFINITY)
+                    .map(|h| (h.t, i))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    #[test]
+    fn the_bvh_finds_what_testing_every_segment_at_the_ray_time_finds() {
+        let times = [-0.1, 0.1];
+        let mut strands = Strands::default();
+        strands.add_ring(0, &spinning_ring(6, 64, 2.0), sliding_frame(), 0.0, times, 1.0);
+        assert!(strands.rings[0].moving);
+        let mut hits = 0;
+        for k in 0..3000 {
+            let f = k as f32;
+            let time = times[0] + (times[1] - times[0]) * ((f * 0.618).fract() as f64);
+            let frame = strands.rings[0].frame.to_world(time);
+            // Aim at a point near the ring so many rays graze strands.
+            let angle = f * 2.39;
+            let target = Vec3::new(angle.cos(), angle.sin(), 0.0) * (1.0 + 0.12 * (f * 0.77).sin());
+            let target = frame.transform_point(target.as_dvec3()).as_vec3();
+            let origin = target
+                + Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.31).sin() + 0.2) * 3.0;
+            let dir = (target - origin).normalize();
+            let got = strands.intersect(origin, dir, f32::INFINITY, time, |_| true);
+            let want = brute_force(&strands, origin, dir, time);
+            // Neighbours share the sphere at their joint, so a tie may go either way.
+            assert_eq!(got.is_some(), want.is_some(), "ray {k}");
+            if let (Some(g), Some(w)) = (got, want) {
+                hits += 1;
+                assert!((g.t - w.0).abs() <= 1e-5 * w.0.max(1.0), "ray {k}");
+                assert!(g.normal.dot(dir) < 0.0, "ray {k}: the normal faces the ray");
+                assert!(strands.occluded(origin, dir, g.t * 1.0001, time, |_| true));
+                assert!(!strands.occluded(origin, dir, g.t * 0.9999, time, |_| true));
+                assert!(strands.intersect(origin, dir, f32::INFINITY, time, |_| false).is_none());
+            }
+        }
+        assert!(hits > 300, "only {hits} rays met a strand");
+    }
+
+    #[test]
+    fn bounds_hold_every_segment_at_every_time() {
+        let times = [-0.05, 0.2];
+        let mut strands = Strands::default();
+        strands.add_ring(0, &spinning_ring(3, 24, 9.0), sliding_frame(), 0.02, times, 1.0);
+        let ring_bounds = strands.rings[0].bounds;
+        for i in 0..strands.segments.len() as u32 {
+            let b = strands.segment_bounds(i, times);
+            for k in 0..=40 {
+                let time = times[0] + (times[1] - times[0]) * k as f64 / 40.0;
+                let (lo, hi) = strands.world_segment(i, time).bounds();
+                for (box_, name) in [(b, "segment"), (ring_bounds, "ring")] {
+                    assert!(
+                        box_.contains_point(lo.into()) && box_.contains_point(hi.into()),
+                        "{name} bounds miss segment {i} at {time}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn still_strands_store_positions_only() {
+        let mut curves = spinning_ring(2, 16, 0.0);
+        let fixed = Similarity::new(DQuat::IDENTITY, DVec3::new(0.0, 0.0, 5.0), 1.0);
+        let frame = || RingFrame::Fixed {
+            to_world: fixed,
+            to_local: fixed.inverse(),
+        };
+        let mut strands = Strands::default();
+        strands.add_ring(0, &curves, frame(), 0.0, [-0.1, 0.1], 1.0);
+        assert!(!strands.rings[0].moving);
+        // Spinning strands seen at one instant only are still too, baked at that instant.
+        curves = spinning_ring(2, 16, 3.0);
+        strands.add_ring(1, &curves, frame(), 0.0, [0.05, 0.05], 1.0);
+        assert!(!strands.rings[1].moving);
+        let mut spinning = Strands::default();
+        spinning.add_ring(1, &curves, frame(), 0.0, [-0.1, 0.1], 1.0);
+        let first = strands.rings[0].leaf_segments.len() as u32;
+        for i in 0..spinning.segments.len() as u32 {
+            let a = strands.world_segment(first + i, 0.05);
+            let b = spinning.world_segment(i, 0.05);
+            assert!(a.a.distance(b.a) < 1e-6 && a.b.distance(b.b) < 1e-6);
+        }
+        // Emission is Cd · intensity · scale, interpolated along the segment.
+        assert_eq!(strands.radiance(0, 0.5), Vec3::new(2.0, 1.0, 0.5));
+    }
+}
