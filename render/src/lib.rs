@@ -11,6 +11,7 @@ pub mod film;
 pub mod geometry;
 pub mod integrator;
 pub mod lights;
+pub mod mask;
 pub mod material;
 pub mod microfacet;
 pub mod portal;

@@ -24,27 +24,10 @@
 //!   at the edge.
 
 use crate::geometry::offset_origin;
+pub use crate::mask::Mask;
 use glam::{DVec2, DVec3, Vec3};
 use noise::{NoiseFn, Perlin};
 use rift_fx::rig::{Rig, Similarity};
-
-/// Where the teleport region of an opening ends. One interface, so the ring boundary can
-/// replace the disk without touching the integrator.
-#[derive(Clone, Debug)]
-pub enum Mask {
-    /// Inside a circle of this radius around the opening's centre, in its local units.
-    Disk { radius: f64 },
-}
-
-impl Mask {
-    /// True when the local point `p` (on the opening's plane) teleports at time `time`.
-    #[inline]
-    pub fn contains(&self, p: DVec2, _time: f64) -> bool {
-        match self {
-            Mask::Disk { radius } => p.length_squared() <= radius * radius,
-        }
-    }
-}
 
 /// Noise that tilts the exit normal.
 #[derive(Clone, Debug)]
