@@ -436,7 +436,7 @@ fn portals(args: PortalsArgs) -> anyhow::Result<()> {
         * timed(&|o, d| {
             scene
                 .intersect(o, d, f32::INFINITY, time, RayClass::Camera)
-                .map_or(0.0, |hit| hit.t)
+                .map_or(0.0, |hit| hit.t())
         });
     println!(
         "rift bench portals: {} ({} openings, {} triangles), {threads} threads, median of {}",

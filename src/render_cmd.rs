@@ -10,6 +10,7 @@ use rift_render::camera::Eye;
 use rift_render::film::Window;
 use rift_render::render::RenderOptions;
 use rift_render::scene::Overrides;
+use rift_render::scene::rings::frame_path;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -58,6 +59,10 @@ pub struct RenderArgs {
     /// Also write an sRGB PNG preview beside each EXR.
     #[arg(long)]
     png: bool,
+    /// Ring caches written by `rift fx` (`#`s become the frame number), replacing
+    /// `[render] rings`; without either the rings are generated in memory.
+    #[arg(long, value_name = "PATTERN")]
+    rings: Option<PathBuf>,
     /// Render only this eye of a stereo shot (`[camera.stereo]`); by default both are
     /// rendered, named by `%v` in the output (or `.left` / `.right` before the frame number).
     #[arg(long, value_enum)]
@@ -76,22 +81,6 @@ impl From<EyeArg> for Eye {
         match e {
             EyeArg::Left => Eye::Left,
             EyeArg::Right => Eye::Right,
-        }
-    }
-}
-
-/// Replaces the run of `#` in `pattern` with `frame`, zero-padded to the run's length.
-pub fn frame_path(pattern: &str, frame: i64) -> String {
-    match pattern.find('#') {
-        None => pattern.to_owned(),
-        Some(start) => {
-            let len = pattern[start..].chars().take_while(|&c| c == '#').count();
-            format!(
-                "{}{:0len$}{}",
-                &pattern[..start],
-                frame,
-                &pattern[start + len..]
-            )
         }
     }
 }
@@ -137,6 +126,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         spp: args.spp,
         seed: args.seed,
         max_portal_depth: args.max_portal_depth,
+        rings: args.rings.clone(),
     };
     for frame in frames.iter() {
         let scene = Scene::build_with(&shot, frame, &overrides)?;

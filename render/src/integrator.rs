@@ -22,11 +22,12 @@
 //! its opacity, and light reached by BSDF sampling after a teleport gets the full MIS weight
 //! (light sampling could not have found it): the estimate stays unbiased, only noisier.
 
+use crate::geometry::StrandHit;
 use crate::geometry::offset_origin;
 use crate::lights::LightPlace;
 use crate::material::{Bsdf, Side};
 use crate::sampling::{Frame, SampleStream, power_heuristic};
-use crate::scene::Scene;
+use crate::scene::{Scene, SceneHit};
 use crate::visibility::RayClass;
 use glam::Vec3;
 
@@ -102,7 +103,7 @@ pub fn trace(
         let hit = intersect_range(scene, origin, dir, range, time, class);
         if !portals.is_empty() {
             // Openings before the surface: each teleports with its opacity's probability.
-            let limit = hit.map_or(range.1, |h| h.t * (1.0 + PORTAL_TIE));
+            let limit = hit.map_or(range.1, |h| h.t() * (1.0 + PORTAL_TIE));
             let mut from = range.0;
             while let Some(ph) = portals.intersect(origin, dir, from, limit, time) {
                 let look = portals.look(ph.opening);
@@ -150,6 +151,30 @@ pub fn trace(
                 out.radiance += beta * env.radiance(dir) * weight;
             }
             break;
+        };
+        let hit = match hit {
+            SceneHit::Surface(h) => h,
+            SceneHit::Strand(h) => {
+                // Strands glow and absorb: their emission ends the path.
+                let weight = if unweighted {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, strand_light_pdf(scene, &h, origin, dir, time))
+                };
+                out.radiance += beta * scene.strands.radiance(h.segment, h.s) * weight;
+                if bounce == 0 {
+                    out.first = Some(FirstHit {
+                        t: opening_t.unwrap_or(h.t),
+                        normal: if h.normal.dot(dir) <= 0.0 {
+                            h.normal
+                        } else {
+                            -h.normal
+                        },
+                        albedo: Vec3::ZERO,
+                    });
+                }
+                break;
+            }
         };
         let surface = scene.surface(&hit, time);
         let (p, ng) = (surface.p, surface.ng);
@@ -318,7 +343,8 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2, time: f64) -> Vec3 {
     f * light.radiance * (weight * through / pdf_light)
 }
 
-/// The closest surface a ray of `class` sees along `origin + t·dir` for t within `range`.
+/// The closest surface or strand a ray of `class` sees along `origin + t·dir` for t within
+/// `range`.
 #[inline]
 fn intersect_range(
     scene: &Scene,
@@ -327,11 +353,25 @@ fn intersect_range(
     range: (f32, f32),
     time: f64,
     class: RayClass,
-) -> Option<crate::geometry::Hit> {
+) -> Option<SceneHit> {
     if range.0 <= 0.0 {
         return scene.intersect(origin, dir, range.1, time, class);
     }
-    let mut hit = scene.intersect(origin + dir * range.0, dir, range.1 - range.0, time, class)?;
-    hit.t += range.0;
-    Some(hit)
+    let hit = scene.intersect(origin + dir * range.0, dir, range.1 - range.0, time, class)?;
+    Some(match hit {
+        SceneHit::Surface(mut h) => {
+            h.t += range.0;
+            SceneHit::Surface(h)
+        }
+        SceneHit::Strand(mut h) => {
+            h.t += range.0;
+            SceneHit::Strand(h)
+        }
+    })
+}
+
+/// Solid-angle pdf with which light sampling from `origin` would have picked the point of
+/// strand hit `h` (0 until strands are light-sampled).
+fn strand_light_pdf(_scene: &Scene, _h: &StrandHit, _origin: Vec3, _dir: Vec3, _time: f64) -> f32 {
+    0.0
 }

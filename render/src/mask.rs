@@ -124,7 +124,8 @@ impl RingBoundary {
 fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
     let mut radii = vec![f32::INFINITY; ANGLE_BINS];
     let at = |i: usize| {
-        let p = curves.points[i] + delta * (curves.velocities[i] + 0.5 * delta * curves.accelerations[i]);
+        let p = curves.points[i]
+            + delta * (curves.velocities[i] + 0.5 * delta * curves.accelerations[i]);
         Vec2::new(p.x, p.y).as_dvec2()
     };
     let bin = TAU / ANGLE_BINS as f64;
@@ -229,8 +230,14 @@ mod tests {
                 analytic_envelope(theta, t1, omega),
             );
             for (r, t) in [(r0, t0), (r1, t1)] {
-                assert!(mask.contains(direction * r * 0.995, t), "angle {theta} time {t}");
-                assert!(!mask.contains(direction * r * 1.005, t), "angle {theta} time {t}");
+                assert!(
+                    mask.contains(direction * r * 0.995, t),
+                    "angle {theta} time {t}"
+                );
+                assert!(
+                    !mask.contains(direction * r * 1.005, t),
+                    "angle {theta} time {t}"
+                );
             }
             // Where the boundary moved by more than the tolerance, a point between its two
             // positions changes sides.

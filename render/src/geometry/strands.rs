@@ -174,7 +174,10 @@ impl Strands {
         times: [f64; 2],
         intensity: f32,
     ) {
-        let deltas = [(times[0] - frame_time) as f32, (times[1] - frame_time) as f32];
+        let deltas = [
+            (times[0] - frame_time) as f32,
+            (times[1] - frame_time) as f32,
+        ];
         let moving = deltas[0] != deltas[1]
             && curves
                 .velocities
@@ -490,7 +493,14 @@ mod tests {
     fn the_bvh_finds_what_testing_every_segment_at_the_ray_time_finds() {
         let times = [-0.1, 0.1];
         let mut strands = Strands::default();
-        strands.add_ring(0, &spinning_ring(6, 64, 2.0), sliding_frame(), 0.0, times, 1.0);
+        strands.add_ring(
+            0,
+            &spinning_ring(6, 64, 2.0),
+            sliding_frame(),
+            0.0,
+            times,
+            1.0,
+        );
         assert!(strands.rings[0].moving);
         let mut hits = 0;
         for k in 0..3000 {
@@ -501,8 +511,8 @@ mod tests {
             let angle = f * 2.39;
             let target = Vec3::new(angle.cos(), angle.sin(), 0.0) * (1.0 + 0.12 * (f * 0.77).sin());
             let target = frame.transform_point(target.as_dvec3()).as_vec3();
-            let origin = target
-                + Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.31).sin() + 0.2) * 3.0;
+            let origin =
+                target + Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.31).sin() + 0.2) * 3.0;
             let dir = (target - origin).normalize();
             let got = strands.intersect(origin, dir, f32::INFINITY, time, |_| true);
             let want = brute_force(&strands, origin, dir, time);
@@ -514,7 +524,11 @@ mod tests {
                 assert!(g.normal.dot(dir) < 0.0, "ray {k}: the normal faces the ray");
                 assert!(strands.occluded(origin, dir, g.t * 1.0001, time, |_| true));
                 assert!(!strands.occluded(origin, dir, g.t * 0.9999, time, |_| true));
-                assert!(strands.intersect(origin, dir, f32::INFINITY, time, |_| false).is_none());
+                assert!(
+                    strands
+                        .intersect(origin, dir, f32::INFINITY, time, |_| false)
+                        .is_none()
+                );
             }
         }
         assert!(hits > 300, "only {hits} rays met a strand");
@@ -524,7 +538,14 @@ mod tests {
     fn bounds_hold_every_segment_at_every_time() {
         let times = [-0.05, 0.2];
         let mut strands = Strands::default();
-        strands.add_ring(0, &spinning_ring(3, 24, 9.0), sliding_frame(), 0.02, times, 1.0);
+        strands.add_ring(
+            0,
+            &spinning_ring(3, 24, 9.0),
+            sliding_frame(),
+            0.02,
+            times,
+            1.0,
+        );
         let ring_bounds = strands.rings[0].bounds;
         for i in 0..strands.segments.len() as u32 {
             let b = strands.segment_bounds(i, times);

@@ -7,13 +7,15 @@ pub mod camera;
 pub mod mesh;
 pub mod ply;
 pub mod portals;
+pub mod rings;
 pub mod schema;
 
 use crate::camera::{Clip, Stereo};
 use crate::environment::{Environment, LatLong};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{
-    Accel, Hit, MovingInstance, ObjectMotion, STATIC, Triangle, changes_during, every_triangle,
+    Accel, Hit, MovingInstance, ObjectMotion, RingFrame, STATIC, StrandHit, Strands, Triangle,
+    changes_during, every_triangle,
 };
 use crate::lights::{Emitter, Lights};
 use crate::material::{Bsdf, Material};
@@ -25,9 +27,13 @@ use rift_fx::rig::{AnimatedTransform, Camera};
 use rift_fx::shot::check;
 use rift_fx::shot::pose::{self, Facing};
 use rift_fx::{Invalid, Shot};
-use schema::{EnvironmentSection, MaterialKind, MaterialSection, ObjectSection, RenderSection};
+use rings::RingSource;
+use schema::{
+    EnvironmentSection, MaterialKind, MaterialSection, ObjectSection, RenderSection,
+    VisibilitySection,
+};
 use serde::de::DeserializeOwned;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// Render settings from `[render]` (command-line flags override them).
@@ -50,6 +56,26 @@ pub struct Overrides {
     pub spp: Option<u32>,
     pub seed: Option<u32>,
     pub max_portal_depth: Option<u32>,
+    /// A ring cache path pattern (`#` frame tokens) replacing `[render] rings`.
+    pub rings: Option<PathBuf>,
+}
+
+/// What a ray met: a triangle or a ring's strand.
+#[derive(Clone, Copy, Debug)]
+pub enum SceneHit {
+    Surface(Hit),
+    Strand(StrandHit),
+}
+
+impl SceneHit {
+    /// Distance along the ray.
+    #[inline]
+    pub fn t(&self) -> f32 {
+        match self {
+            SceneHit::Surface(h) => h.t,
+            SceneHit::Strand(h) => h.t,
+        }
+    }
 }
 
 /// Everything the integrator needs.
@@ -73,6 +99,10 @@ pub struct Scene {
     pub portals: Portals,
     /// Per-object visibility flags and cull volumes.
     pub visibility: Visibility,
+    /// The rings' strands (emissive round curves).
+    pub strands: Strands,
+    /// Which rays see each ring's strands (by ring of [`Self::strands`]).
+    pub strand_flags: Vec<Flags>,
     /// The frame rendered.
     pub frame: i64,
     /// Shutter open and close, seconds.
@@ -188,7 +218,20 @@ impl Scene {
         let shutter = shot
             .shutter_seconds()
             .map(|s| s + shot.time_of(frame as f64));
-        let portals = portals::portals(shot, shutter, settings.max_portal_depth)?;
+        let ring_source = match &overrides.rings {
+            Some(pattern) => RingSource::Cache {
+                pattern: pattern.clone(),
+                key: None,
+            },
+            None => rings::shot_source(shot, render.rings.as_deref()),
+        };
+        let ring_frame = rings::load(shot, frame, &ring_source)?;
+        let (portals, strand_looks) = portals::portals(
+            shot,
+            shutter,
+            settings.max_portal_depth,
+            ring_frame.as_ref(),
+        )?;
         // Every time a ray can have: objects that move within it are blurred, the rest baked.
         let times = portals.times();
         let rig = Arc::new(shot.rig.clone());
@@ -227,14 +270,7 @@ impl Scene {
                     ObjectMotion::through(transform, rig.clone(), opening, delay)
                 }
             };
-            flags.push(o.visibility.map_or(Flags::ALL, |v| {
-                Flags::new(
-                    v.camera.unwrap_or(true),
-                    v.through_portal.unwrap_or(true),
-                    v.indirect.unwrap_or(true),
-                    v.shadow.unwrap_or(true),
-                )
-            }));
+            flags.push(self::flags(o.visibility));
             let Some(mesh_name) = &o.mesh else {
                 return Err(key_error(
                     file,
@@ -364,6 +400,34 @@ impl Scene {
             )?),
             None => None,
         };
+        let mut strands = Strands::default();
+        let mut strand_flags = Vec::new();
+        for curves in ring_frame.iter().flat_map(|f| &f.rings) {
+            let opening = shot
+                .rig
+                .find(&curves.opening)
+                .expect("rings::load checks every ring names an opening");
+            let frame = if moves_during(&shot.rig.openings[opening].here, times) {
+                let rig = rig.clone();
+                RingFrame::Moving(Box::new(move |t| rig.here_at(opening, t)))
+            } else {
+                let to_world = shot.rig.here_at(opening, times[0]);
+                RingFrame::Fixed {
+                    to_world,
+                    to_local: to_world.inverse(),
+                }
+            };
+            let look = strand_looks[opening];
+            strands.add_ring(
+                opening,
+                curves,
+                frame,
+                ring_frame.as_ref().map_or(0.0, |f| f.time),
+                times,
+                look.intensity,
+            );
+            strand_flags.push(look.flags);
+        }
         let lights = Lights::new(emitters, triangles.len(), environment);
         let accel = Accel::build(&triangles[..static_count], instances);
         let visibility = Visibility::new(
@@ -387,13 +451,15 @@ impl Scene {
             stereo,
             portals,
             visibility,
+            strands,
+            strand_flags,
             frame,
             shutter,
         })
     }
 
-    /// The closest surface a ray of `class` sees along `origin + t·dir` (unit `dir`), t in
-    /// (0, t_max), at time `time`.
+    /// The closest surface or strand a ray of `class` sees along `origin + t·dir` (unit
+    /// `dir`), t in (0, t_max), at time `time`.
     #[inline]
     pub fn intersect(
         &self,
@@ -402,32 +468,49 @@ impl Scene {
         t_max: f32,
         time: f64,
         class: RayClass,
-    ) -> Option<Hit> {
-        if !self.visibility.hides_anything() {
-            return self
-                .accel
-                .intersect(origin, dir, t_max, time, &every_triangle);
-        }
-        let admits = |triangle, t| {
-            self.visibility
-                .admits(triangle, class, origin + dir * t, time)
+    ) -> Option<SceneHit> {
+        let surface = if !self.visibility.hides_anything() {
+            self.accel
+                .intersect(origin, dir, t_max, time, &every_triangle)
+        } else {
+            let admits = |triangle, t| {
+                self.visibility
+                    .admits(triangle, class, origin + dir * t, time)
+            };
+            self.accel.intersect(origin, dir, t_max, time, &admits)
         };
-        self.accel.intersect(origin, dir, t_max, time, &admits)
+        if self.strands.is_empty() {
+            return surface.map(SceneHit::Surface);
+        }
+        let limit = surface.map_or(t_max, |h| h.t);
+        let strand = self.strands.intersect(origin, dir, limit, time, |ring| {
+            self.strand_flags[ring].sees(class)
+        });
+        match strand {
+            Some(h) => Some(SceneHit::Strand(h)),
+            None => surface.map(SceneHit::Surface),
+        }
     }
 
-    /// True when a surface that shadow rays see blocks `origin + t·dir`, t in (0, t_max).
+    /// True when a surface or strand that shadow rays see blocks `origin + t·dir`, t in
+    /// (0, t_max).
     #[inline]
     pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
-        if !self.visibility.hides_anything() {
-            return self
-                .accel
-                .occluded(origin, dir, t_max, time, &every_triangle);
-        }
-        let admits = |triangle, t| {
-            self.visibility
-                .admits(triangle, RayClass::Shadow, origin + dir * t, time)
+        let blocked = if !self.visibility.hides_anything() {
+            self.accel
+                .occluded(origin, dir, t_max, time, &every_triangle)
+        } else {
+            let admits = |triangle, t| {
+                self.visibility
+                    .admits(triangle, RayClass::Shadow, origin + dir * t, time)
+            };
+            self.accel.occluded(origin, dir, t_max, time, &admits)
         };
-        self.accel.occluded(origin, dir, t_max, time, &admits)
+        blocked
+            || (!self.strands.is_empty()
+                && self.strands.occluded(origin, dir, t_max, time, |ring| {
+                    self.strand_flags[ring].sees(RayClass::Shadow)
+                }))
     }
 
     /// The world-space point and normal of `hit` at time `time`.
@@ -472,6 +555,18 @@ impl Scene {
     pub fn material(&self, triangle: u32) -> &Material {
         &self.materials[self.triangle_material[triangle as usize] as usize]
     }
+}
+
+/// Visibility flags from an optional `visibility` table (each flag defaults to true).
+pub(crate) fn flags(v: Option<VisibilitySection>) -> Flags {
+    v.map_or(Flags::ALL, |v| {
+        Flags::new(
+            v.camera.unwrap_or(true),
+            v.through_portal.unwrap_or(true),
+            v.indirect.unwrap_or(true),
+            v.shadow.unwrap_or(true),
+        )
+    })
 }
 
 /// True when `transform` is not the same at every time in `interval`.

@@ -1,46 +1,94 @@
-//! The renderer's side of a shot's openings: `[portal.surface]` (mask radius, tint, opacity,
-//! ior, distortion, time offset), `[[portal.cull]]` and the portal depth limit. Syntax: [`super::schema`].
+//! The renderer's side of a shot's openings: `[portal.surface]` (teleport mask, tint, opacity,
+//! ior, distortion, time offset, strand look), `[[portal.cull]]` and the portal depth limit. Syntax: [`super::schema`].
 
-use super::schema::{CullSection, CullSide, PortalSurfaceSection};
-use super::{moves_during, parse};
+use super::schema::{CullSection, CullSide, PortalSurfaceSection, StrandsSection};
+use super::{flags, moves_during, parse};
 use crate::error::RenderError;
-use crate::portal::{Distortion, Mask, OpeningLook, Portals};
-use crate::visibility::{CullVolume, Side};
+use crate::mask::{Mask, RingBoundary};
+use crate::portal::{Distortion, OpeningLook, Portals};
+use crate::visibility::{CullVolume, Flags, Side};
 use rift_fx::rig::ThereFrame;
+use rift_fx::ring::RingFrame;
 use rift_fx::shot::check;
 use rift_fx::{Invalid, Shot};
 
 /// Teleports in a row allowed when the shot does not say.
 pub const DEFAULT_MAX_PORTAL_DEPTH: u32 = 8;
 
+/// How one opening's ring strands render (`[portal.surface.strands]`).
+#[derive(Clone, Copy, Debug)]
+pub struct StrandLook {
+    /// Scales the baked Cd · intensity.
+    pub intensity: f32,
+    pub flags: Flags,
+}
+
 /// The openings of `shot` over the shutter `[open, close]` (seconds), with chains of up to
-/// `max_portal_depth` teleports in a row.
+/// `max_portal_depth` teleports in a row; `rings` are the frame's baked rings, whose boundaries
+/// become the teleport masks. Also returns each opening's strand look.
 pub fn portals(
     shot: &Shot,
     shutter: [f64; 2],
     max_portal_depth: u32,
-) -> Result<Portals, RenderError> {
+    rings: Option<&RingFrame>,
+) -> Result<(Portals, Vec<StrandLook>), RenderError> {
     let file = &shot.source;
     let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
-    let mut masks = Vec::new();
+    let mut radii = Vec::new();
     let mut looks = Vec::new();
+    let mut strand_looks = Vec::new();
     for (i, surface) in shot.render.portal_surfaces.iter().enumerate() {
         let key = format!("portal[{i}].surface");
         let s: PortalSurfaceSection = match surface {
             Some(t) => parse(file, &key, t)?,
             None => PortalSurfaceSection::default(),
         };
-        let ring_radius = shot.rings.get(i).and_then(|r| r.as_ref()).map(|r| r.radius);
-        let (mask, look) = surface_look(&key, &s, ring_radius, shot.fps).map_err(invalid)?;
-        masks.push(mask);
+        let (radius, look) = surface_look(&key, &s, shot.fps).map_err(invalid)?;
+        radii.push(radius);
         looks.push(look);
+        strand_looks.push(strand_look(&key, s.strands.as_ref()).map_err(invalid)?);
     }
     let times = reachable_times(shutter, &looks, max_portal_depth);
+    let masks = shot
+        .rig
+        .openings
+        .iter()
+        .zip(radii)
+        .map(|(opening, radius)| {
+            let ring = rings.and_then(|f| {
+                f.rings
+                    .iter()
+                    .find(|r| r.opening == opening.name)
+                    .map(|r| (r, f.time))
+            });
+            match (radius, ring) {
+                (Some(radius), _) => Mask::Disk { radius },
+                (None, Some((curves, frame_time))) => {
+                    Mask::Ring(RingBoundary::new(curves, frame_time, times))
+                }
+                (None, None) => Mask::Disk { radius: 1.0 },
+            }
+        })
+        .collect();
     let moving = shot.rig.openings.iter().any(|o| {
         moves_during(&o.here, times)
             || matches!(&o.there, ThereFrame::Explicit(t) if moves_during(t, times))
     });
-    Ok(Portals::new(shot.rig.clone(), masks, looks, times, moving))
+    Ok((
+        Portals::new(shot.rig.clone(), masks, looks, times, moving),
+        strand_looks,
+    ))
+}
+
+fn strand_look(key: &str, s: Option<&StrandsSection>) -> Result<StrandLook, Invalid> {
+    let intensity = match s.and_then(|s| s.intensity) {
+        Some(v) => check::non_negative(&format!("{key}.strands.intensity"), v)? as f32,
+        None => 1.0,
+    };
+    Ok(StrandLook {
+        intensity,
+        flags: flags(s.and_then(|s| s.visibility)),
+    })
 }
 
 /// The times rays can have: the shutter widened by a chain of `depth` teleports through the
@@ -107,17 +155,17 @@ pub fn cull_volumes(shot: &Shot, objects: &[&str]) -> Result<Vec<CullVolume>, Re
     Ok(volumes)
 }
 
+/// The look of one opening, and the disk radius it asks for instead of its ring's boundary.
 fn surface_look(
     key: &str,
     s: &PortalSurfaceSection,
-    ring_radius: Option<f64>,
     fps: f64,
-) -> Result<(Mask, OpeningLook), Invalid> {
+) -> Result<(Option<f64>, OpeningLook), Invalid> {
     let k = |name: &str| format!("{key}.{name}");
-    let radius = match s.radius {
-        Some(r) => check::positive(&k("radius"), r)?,
-        None => ring_radius.unwrap_or(1.0),
-    };
+    let radius = s
+        .radius
+        .map(|r| check::positive(&k("radius"), r))
+        .transpose()?;
     // Unset keys keep the defaults of [`OpeningLook`].
     let mut look = OpeningLook::default();
     if let Some(c) = s.tint {
@@ -150,5 +198,5 @@ fn surface_look(
             },
         ));
     }
-    Ok((Mask::Disk { radius }, look))
+    Ok((radius, look))
 }

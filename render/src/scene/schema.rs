@@ -8,6 +8,8 @@
 //! max_portal_depth = 8          # teleports in a row before the next scattering event (default 8);
 //!                               # an opening met past the limit ends the path (black)
 //! output = "out/shot.####.exr"  # frame number replaces the #s; relative to the working directory
+//! rings = "cache/shot.####.ringcache"  # ring caches written by `rift fx` (relative to the shot
+//!                               # file); omit to generate the rings in memory
 //!
 //! [[material]]
 //! name = "white"
@@ -67,8 +69,9 @@
 //!
 //! [[portal]]                    # the opening itself: see rift-fx
 //! [portal.surface]              # how the opening shades (all optional)
-//! radius = 1.0                  # teleport region: disk radius in the opening's frame
-//!                               # (default: the ring's radius, else 1)
+//! radius = 1.0                  # teleport region: a disk of this radius in the opening's frame
+//!                               # (default: inside the ring's boundary at each ray's time, the
+//!                               # strands' inner envelope; a disk of radius 1 without a ring)
 //! tint = [1.0, 1.0, 1.0]        # scales what is seen through the opening
 //! opacity = 1.0                 # 1: every ray teleports; 0: every ray passes through untouched
 //! ior = 1.0                     # bends the teleported direction at the exit, like refraction
@@ -78,6 +81,9 @@
 //! frequency = 3.0               # features per unit of the opening's frame
 //! evolution = 0.5               # noise units per second
 //! seed = 0
+//! [portal.surface.strands]      # the ring's strands: round curves emitting Cd · intensity
+//! intensity = 1.0               # scales their emission (0: dark strands that still block)
+//! visibility = { camera = true, through_portal = true, indirect = true, shadow = true }
 //!
 //! [[portal.cull]]               # hides linked objects where they poke out behind the opening
 //! objects = ["ball"]            # [[object]] names
@@ -97,6 +103,7 @@ pub struct RenderSection {
     pub max_bounces: Option<i64>,
     pub max_portal_depth: Option<i64>,
     pub output: Option<String>,
+    pub rings: Option<String>,
 }
 
 /// One `[[material]]`.
@@ -203,6 +210,15 @@ pub struct PortalSurfaceSection {
     pub ior: Option<f64>,
     pub distortion: Option<DistortionSection>,
     pub time_offset: Option<f64>,
+    pub strands: Option<StrandsSection>,
+}
+
+/// `[portal.surface.strands]`: how the ring's strands render.
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct StrandsSection {
+    pub intensity: Option<f64>,
+    pub visibility: Option<VisibilitySection>,
 }
 
 /// `[portal.surface.distortion]`.
