@@ -10,6 +10,7 @@ pub mod error;
 pub mod film;
 pub mod geometry;
 pub mod integrator;
+pub mod light_tree;
 pub mod lights;
 pub mod mask;
 pub mod material;
