@@ -8,6 +8,7 @@ use rift_fx::{FrameRange, Shot};
 use rift_render::Scene;
 use rift_render::camera::Eye;
 use rift_render::film::Window;
+use rift_render::lights::LightSelection;
 use rift_render::render::RenderOptions;
 use rift_render::scene::Overrides;
 use rift_render::scene::rings::frame_path;
@@ -63,10 +64,30 @@ pub struct RenderArgs {
     /// `[render] rings`; without either the rings are generated in memory.
     #[arg(long, value_name = "PATTERN")]
     rings: Option<PathBuf>,
+    /// How light sampling picks emitters: `tree` (by what each can send to the shaded point,
+    /// the default) or `power` (by power alone; for comparison).
+    #[arg(long, value_enum)]
+    light_selection: Option<SelectionArg>,
     /// Render only this eye of a stereo shot (`[camera.stereo]`); by default both are
     /// rendered, named by `%v` in the output (or `.left` / `.right` before the frame number).
     #[arg(long, value_enum)]
     eye: Option<EyeArg>,
+}
+
+/// `--light-selection`.
+#[derive(Clone, Copy, ValueEnum)]
+enum SelectionArg {
+    Tree,
+    Power,
+}
+
+impl From<SelectionArg> for LightSelection {
+    fn from(s: SelectionArg) -> Self {
+        match s {
+            SelectionArg::Tree => LightSelection::Tree,
+            SelectionArg::Power => LightSelection::Power,
+        }
+    }
 }
 
 /// `--eye`.
@@ -127,6 +148,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         seed: args.seed,
         max_portal_depth: args.max_portal_depth,
         rings: args.rings.clone(),
+        light_selection: args.light_selection.map(Into::into),
     };
     for frame in frames.iter() {
         let scene = Scene::build_with(&shot, frame, &overrides)?;

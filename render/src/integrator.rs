@@ -22,9 +22,8 @@
 //! its opacity, and light reached by BSDF sampling after a teleport gets the full MIS weight
 //! (light sampling could not have found it): the estimate stays unbiased, only noisier.
 
-use crate::geometry::StrandHit;
 use crate::geometry::offset_origin;
-use crate::lights::LightPlace;
+use crate::lights::{LightPlace, LightSource, Receiver};
 use crate::material::{Bsdf, Side};
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::{Scene, SceneHit};
@@ -83,6 +82,9 @@ pub fn trace(
     // camera rays and specular bounces count as delta.
     let mut prev_pdf = 0.0f32;
     let mut prev_delta = true;
+    // The last scattering point, as light selection saw it (for the MIS weight of emitters
+    // that BSDF sampling finds).
+    let mut prev_receiver = Receiver { p: origin, n: None };
     let mut bounce = 0u32;
     // Product of η² over refractions, so roulette sees the throughput without the radiance
     // compression of entering or leaving glass.
@@ -159,7 +161,15 @@ pub fn trace(
                 let weight = if unweighted {
                     1.0
                 } else {
-                    power_heuristic(prev_pdf, strand_light_pdf(scene, &h, origin, dir, time))
+                    let pdf_area = scene.lights.pdf_strand(
+                        h.segment,
+                        h.s,
+                        h.normal,
+                        &prev_receiver,
+                        &scene.strands,
+                        time,
+                    );
+                    power_heuristic(prev_pdf, pdf_area * h.t * h.t / h.normal.dot(dir).abs())
                 };
                 out.radiance += beta * scene.strands.radiance(h.segment, h.s) * weight;
                 if bounce == 0 {
@@ -195,7 +205,11 @@ pub fn trace(
                     1.0
                 } else {
                     let pdf_light =
-                        scene.lights.pdf_area(hit.triangle, surface.area_scale) * hit.t * hit.t
+                        scene
+                            .lights
+                            .pdf_triangle(hit.triangle, surface.area_scale, &prev_receiver)
+                            * hit.t
+                            * hit.t
                             / cos_o.abs();
                     power_heuristic(prev_pdf, pdf_light)
                 };
@@ -219,10 +233,14 @@ pub fn trace(
         let frame = Frame::new(n);
         let wo = frame.to_local(-dir);
         let bsdf = &material.bsdf;
+        let receiver = Receiver {
+            p,
+            n: (!bsdf.transmits()).then_some(n),
+        };
 
         if !bsdf.is_delta() {
             let shading = Shading {
-                p,
+                receiver,
                 ng,
                 frame: &frame,
                 wo,
@@ -238,6 +256,7 @@ pub fn trace(
         eta_scale *= bs.eta * bs.eta;
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
+        prev_receiver = receiver;
         dir = frame.to_world(bs.wi).normalize();
         origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
         range = (0.0, f32::INFINITY);
@@ -257,7 +276,8 @@ pub fn trace(
 
 /// A surface point being shaded, as next-event estimation needs it.
 struct Shading<'a> {
-    p: Vec3,
+    /// The point, with its normal when it only reflects.
+    receiver: Receiver,
     /// Geometric normal.
     ng: Vec3,
     /// Shading frame (around the normal on the side the path arrived from).
@@ -271,13 +291,16 @@ struct Shading<'a> {
 /// Next-event estimation: light arriving at `at` from one light sample drawn with `u`, MIS
 /// weighted against BSDF sampling (power heuristic), before the path throughput.
 fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2, time: f64) -> Vec3 {
-    let Some(light) = scene
-        .lights
-        .sample(u, |e| scene.world_triangle(e.triangle, e.instance, time))
-    else {
+    let Some(light) = scene.lights.sample(
+        u,
+        &at.receiver,
+        |e| scene.world_triangle(e.triangle, e.instance, time),
+        &scene.strands,
+        time,
+    ) else {
         return Vec3::ZERO;
     };
-    let p = at.p;
+    let p = at.receiver.p;
     // Direction, the point the shadow ray must reach (None: infinitely far) and the solid-angle
     // pdf of the light sample.
     let (wi_world, target, pdf_light) = match light.place {
@@ -286,9 +309,11 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2, time: f64) -> Vec3 {
             point,
             normal,
             two_sided,
-            triangle,
+            source,
         } => {
-            if scene.visibility.culled(triangle, point, time) {
+            if let LightSource::Triangle(triangle) = source
+                && scene.visibility.culled(triangle, point, time)
+            {
                 return Vec3::ZERO;
             }
             let cos_raw = (p - point).dot(normal);
@@ -332,7 +357,14 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2, time: f64) -> Vec3 {
     }
     // An emitter hidden from indirect rays cannot be found by BSDF sampling.
     let bsdf_can_find = match light.place {
-        LightPlace::Point { triangle, .. } => scene.visibility.sees(triangle, RayClass::Indirect),
+        LightPlace::Point {
+            source: LightSource::Triangle(triangle),
+            ..
+        } => scene.visibility.sees(triangle, RayClass::Indirect),
+        LightPlace::Point {
+            source: LightSource::Strand(segment),
+            ..
+        } => scene.strand_sees(segment, RayClass::Indirect),
         LightPlace::Direction(_) => true,
     };
     let weight = if bsdf_can_find {
@@ -368,10 +400,4 @@ fn intersect_range(
             SceneHit::Strand(h)
         }
     })
-}
-
-/// Solid-angle pdf with which light sampling from `origin` would have picked the point of
-/// strand hit `h` (0 until strands are light-sampled).
-fn strand_light_pdf(_scene: &Scene, _h: &StrandHit, _origin: Vec3, _dir: Vec3, _time: f64) -> f32 {
-    0.0
 }

@@ -85,10 +85,7 @@ impl LightBounds {
             // Emitter side: angle from the cone's nearest normal to the point, less the
             // sphere's angle.
             let cos_theta = self.axis.dot(w).clamp(-1.0, 1.0);
-            let cos_reduced = cos_minus(
-                cos_minus(cos_theta, self.cos_spread),
-                cos_u,
-            );
+            let cos_reduced = cos_minus(cos_minus(cos_theta, self.cos_spread), cos_u);
             if cos_reduced <= 0.0 {
                 return 0.0;
             }
@@ -177,7 +174,13 @@ impl LightTree {
         tree
     }
 
-    fn build(&mut self, emitters: &[LightBounds], order: &mut [u32], path: u64, depth: u32) -> usize {
+    fn build(
+        &mut self,
+        emitters: &[LightBounds],
+        order: &mut [u32],
+        path: u64,
+        depth: u32,
+    ) -> usize {
         let at = self.nodes.len();
         if order.len() == 1 {
             let e = order[0] as usize;
@@ -298,7 +301,11 @@ mod tests {
         (0..300)
             .map(|i| {
                 let f = i as f32;
-                let c = Vec3::new((f * 0.37).sin() * 4.0, (f * 0.11).cos() * 2.0, (f * 0.23).sin() * 3.0);
+                let c = Vec3::new(
+                    (f * 0.37).sin() * 4.0,
+                    (f * 0.11).cos() * 2.0,
+                    (f * 0.23).sin() * 3.0,
+                );
                 let h = Vec3::splat(0.05 + 0.1 * (f * 0.7).sin().abs());
                 let one_sided = i % 3 != 0;
                 LightBounds {
@@ -331,19 +338,31 @@ mod tests {
         let tree = LightTree::new(&lights);
         for k in 0..40 {
             let f = k as f32;
-            let p = Vec3::new((f * 0.7).sin() * 5.0, (f * 1.1).cos() * 3.0, (f * 0.3).cos() * 4.0);
+            let p = Vec3::new(
+                (f * 0.7).sin() * 5.0,
+                (f * 1.1).cos() * 3.0,
+                (f * 0.3).cos() * 4.0,
+            );
             let n = Vec3::new((f * 0.5).cos(), (f * 0.9).sin(), 0.4).normalize();
             let receiver = if k % 4 == 0 { None } else { Some(n) };
-            let pmf: Vec<f32> = (0..lights.len()).map(|i| tree.pmf(i, p, receiver)).collect();
+            let pmf: Vec<f32> = (0..lights.len())
+                .map(|i| tree.pmf(i, p, receiver))
+                .collect();
             // A node whose children both turn out unreachable (their union reaches corners or
             // directions neither does) loses its share: the sample is then empty, which is
             // unbiased since nothing below can contribute.
             let total: f32 = pmf.iter().sum();
-            assert!(total <= 1.0 + 1e-4, "point {k}: probabilities sum to {total}");
+            assert!(
+                total <= 1.0 + 1e-4,
+                "point {k}: probabilities sum to {total}"
+            );
             if let Some(n) = receiver {
                 for (i, e) in lights.iter().enumerate() {
                     if can_contribute(e, p, n) {
-                        assert!(pmf[i] > 0.0, "point {k}: emitter {i} contributes but is never picked");
+                        assert!(
+                            pmf[i] > 0.0,
+                            "point {k}: emitter {i} contributes but is never picked"
+                        );
                     }
                 }
             }
@@ -357,12 +376,18 @@ mod tests {
                     empty += 1;
                     continue;
                 };
-                assert!((prob - pmf[i]).abs() <= 1e-5 * pmf[i].max(1e-3), "point {k} emitter {i}");
+                assert!(
+                    (prob - pmf[i]).abs() <= 1e-5 * pmf[i].max(1e-3),
+                    "point {k} emitter {i}"
+                );
                 assert!((0.0..1.0).contains(&rest));
                 counts[i] += 1;
             }
             let lost = (1.0 - total) * draws as f32;
-            assert!((empty as f32 - lost).abs() <= 2.0 + 1e-3 * draws as f32, "point {k}");
+            assert!(
+                (empty as f32 - lost).abs() <= 2.0 + 1e-3 * draws as f32,
+                "point {k}"
+            );
             for (i, &c) in counts.iter().enumerate() {
                 let expected = pmf[i] * draws as f32;
                 assert!(

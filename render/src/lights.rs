@@ -1,12 +1,44 @@
-//! Emitters and how next-event estimation picks them: every emissive triangle, chosen in
-//! proportion to its power with an alias table (O(1) per sample whatever the count), then a
-//! uniform point on it; and the environment, sampled by its own distribution. When both
-//! exist each is picked half the time.
+//! Emitters and how next-event estimation picks them. Emitters are emissive triangles and the
+//! rings' strand segments; a light BVH ([`LightTree`]) picks one in proportion to what it can
+//! send to the shading point (or, for comparison, an alias table in proportion to power alone),
+//! then a point on it: uniform on a triangle; on a strand segment, uniform along its length and
+//! cosine-distributed around the half of its circumference that faces the point. The
+//! environment is sampled by its own distribution; when it and emitters both exist each is
+//! picked half the time.
 
 use crate::environment::Environment;
-use crate::geometry::{STATIC, Triangle};
+use crate::geometry::{RoundCone, STATIC, Strands, Triangle};
+use crate::light_tree::{LightBounds, LightTree};
 use crate::sampling::{AliasTable, uniform_triangle};
 use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// How next-event estimation picks an emitter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightSelection {
+    /// By what each can send to the shading point (the light BVH).
+    #[default]
+    Tree,
+    /// By power alone, wherever the shading point is.
+    Power,
+}
+
+/// The emitter a light sample or a hit lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSource {
+    /// A scene triangle.
+    Triangle(u32),
+    /// A strand segment.
+    Strand(u32),
+}
+
+/// The point being lit, as emitter selection sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Receiver {
+    pub p: Vec3,
+    /// Unit normal on the side light can arrive from, when the surface only reflects.
+    pub n: Option<Vec3>,
+}
 
 /// One emissive triangle.
 #[derive(Clone, Copy, Debug)]
@@ -28,13 +60,12 @@ pub struct Emitter {
 /// Where a light sample lies.
 #[derive(Clone, Copy, Debug)]
 pub enum LightPlace {
-    /// A point on an emissive triangle, with its unit geometric normal (front side).
+    /// A point on an emitter, with its unit geometric normal (front side).
     Point {
         point: Vec3,
         normal: Vec3,
         two_sided: bool,
-        /// The scene triangle it lies on.
-        triangle: u32,
+        source: LightSource,
     },
     /// A direction towards the environment, infinitely far.
     Direction(Vec3),
@@ -49,16 +80,32 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
-/// All emitters of a scene.
+/// Picks emitters: the tree, or power-proportional.
+#[derive(Clone, Debug)]
+enum Picker {
+    Tree(LightTree),
+    Power(AliasTable),
+}
+
+impl Default for Picker {
+    fn default() -> Self {
+        Picker::Power(AliasTable::default())
+    }
+}
+
+/// All emitters of a scene. Emitter indices run over the triangles first, then the strand
+/// segments in scene order.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
     pub emitters: Vec<Emitter>,
-    table: AliasTable,
+    /// Strand segments that emit.
+    strand_count: usize,
+    picker: Picker,
     /// Emitter index per scene triangle (u32::MAX: not an emitter).
     by_triangle: Vec<u32>,
     /// Light from where rays escape, if any.
     pub environment: Option<Environment>,
-    /// Probability of sampling the environment rather than a triangle.
+    /// Probability of sampling the environment rather than an emitter.
     environment_probability: f32,
 }
 
@@ -66,38 +113,95 @@ fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
+/// The selection bounds of one emissive triangle. `swept` gives a moving instance's world
+/// bounds over the rays' times (its triangles may turn, so they count as facing everywhere).
+fn triangle_bounds(e: &Emitter, swept: &impl Fn(u32) -> (Vec3, Vec3)) -> LightBounds {
+    let sides = if e.two_sided { 2.0 } else { 1.0 };
+    let power = PI * luminance(e.radiance).max(1e-6) * e.area * sides;
+    if e.instance == STATIC {
+        let [a, b, c] = e.vertices.v;
+        LightBounds {
+            min: a.min(b).min(c),
+            max: a.max(b).max(c),
+            power,
+            axis: e.normal,
+            cos_spread: if e.two_sided { -1.0 } else { 1.0 },
+        }
+    } else {
+        let (min, max) = swept(e.instance);
+        LightBounds {
+            min,
+            max,
+            power,
+            axis: Vec3::Z,
+            cos_spread: -1.0,
+        }
+    }
+}
+
+/// The selection bounds of strand segment `i`: round, so it emits every way.
+fn segment_bounds(strands: &Strands, i: u32, times: [f64; 2]) -> LightBounds {
+    let b = strands.segment_bounds(i, times);
+    let s = strands.world_segment(i, times[0]);
+    let [l0, l1] = strands.radiance[i as usize];
+    LightBounds {
+        min: b.min.into(),
+        max: b.max.into(),
+        power: PI * luminance(0.5 * (l0 + l1)) * lateral_area(&s),
+        axis: Vec3::Z,
+        cos_spread: -1.0,
+    }
+}
+
+/// The side area of a segment seen as a cylinder of its mean radius (what light sampling
+/// spreads its points over).
+fn lateral_area(s: &RoundCone) -> f32 {
+    2.0 * PI * 0.5 * (s.radius_a + s.radius_b) * s.a.distance(s.b)
+}
+
 impl Lights {
-    /// Collects emitters; `triangle_count` is the scene's triangle count.
+    /// Collects emitters: emissive triangles (`triangle_count` is the scene's triangle count;
+    /// `swept` gives a moving instance's world bounds) and every strand segment that emits;
+    /// rays have times in `times`.
     pub fn new(
         emitters: Vec<Emitter>,
         triangle_count: usize,
+        strands: &Strands,
+        times: [f64; 2],
+        swept: impl Fn(u32) -> (Vec3, Vec3),
         environment: Option<Environment>,
+        selection: LightSelection,
     ) -> Self {
-        let weights: Vec<f64> = emitters
+        let mut bounds: Vec<LightBounds> = emitters
             .iter()
-            .map(|e| {
-                (luminance(e.radiance).max(1e-6) * e.area * if e.two_sided { 2.0 } else { 1.0 })
-                    as f64
-            })
+            .map(|e| triangle_bounds(e, &swept))
             .collect();
-        let table = if weights.is_empty() {
-            AliasTable::default()
-        } else {
-            AliasTable::new(&weights)
+        let strand_count = strands.segments.len();
+        bounds.extend((0..strand_count as u32).map(|i| segment_bounds(strands, i, times)));
+        let picker = match selection {
+            LightSelection::Tree => Picker::Tree(LightTree::new(&bounds)),
+            LightSelection::Power if bounds.is_empty() => Picker::Power(AliasTable::default()),
+            LightSelection::Power => Picker::Power(AliasTable::new(
+                &bounds
+                    .iter()
+                    .map(|b| b.power.max(1e-12) as f64)
+                    .collect::<Vec<_>>(),
+            )),
         };
         let mut by_triangle = vec![u32::MAX; triangle_count];
         for (i, e) in emitters.iter().enumerate() {
             by_triangle[e.triangle as usize] = i as u32;
         }
         let environment = environment.filter(|e| !e.is_black());
-        let environment_probability = match (environment.is_some(), emitters.is_empty()) {
+        let environment_probability = match (environment.is_some(), bounds.is_empty()) {
             (false, _) => 0.0,
             (true, true) => 1.0,
             (true, false) => 0.5,
         };
         Self {
             emitters,
-            table,
+            strand_count,
+            picker,
             by_triangle,
             environment,
             environment_probability,
@@ -106,14 +210,42 @@ impl Lights {
 
     /// True when there is nothing to sample.
     pub fn is_empty(&self) -> bool {
-        self.emitters.is_empty() && self.environment.is_none()
+        self.emitters.is_empty() && self.strand_count == 0 && self.environment.is_none()
     }
 
-    /// Picks a light and a point (or direction) on it from one stratified 2-D sample: `u.x`
-    /// chooses the light and is then rescaled to be reused for the point, so the light samples
-    /// of a pixel stay stratified across the emitters' surface. `moving` gives the world-space
-    /// triangle of an emitter on a moving object at the ray's time.
-    pub fn sample(&self, u: Vec2, moving: impl Fn(&Emitter) -> Triangle) -> Option<LightSample> {
+    /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
+    fn pick(&self, u: f32, at: &Receiver) -> Option<(usize, f32, f32)> {
+        match &self.picker {
+            Picker::Tree(tree) => tree.sample(u, at.p, at.n),
+            Picker::Power(table) if table.is_empty() => None,
+            Picker::Power(table) => {
+                let (i, rest) = table.sample(u.clamp(0.0, 1.0 - f32::EPSILON));
+                Some((i, table.pmf(i), rest))
+            }
+        }
+    }
+
+    /// Probability that [`Self::pick`] chooses emitter `i` for `at`.
+    fn pick_pmf(&self, i: usize, at: &Receiver) -> f32 {
+        match &self.picker {
+            Picker::Tree(tree) => tree.pmf(i, at.p, at.n),
+            Picker::Power(table) => table.pmf(i),
+        }
+    }
+
+    /// Picks a light and a point (or direction) on it for the point `at`, from one stratified
+    /// 2-D sample: `u.x` chooses the light and is then rescaled to be reused for the point, so
+    /// the light samples of a pixel stay stratified across the emitters' surface. `moving`
+    /// gives the world-space triangle of an emitter on a moving object at the ray's time;
+    /// strands are taken at `time`.
+    pub fn sample(
+        &self,
+        u: Vec2,
+        at: &Receiver,
+        moving: impl Fn(&Emitter) -> Triangle,
+        strands: &Strands,
+        time: f64,
+    ) -> Option<LightSample> {
         let p_env = self.environment_probability;
         let on_environment = u.x < p_env;
         let u_point = if on_environment {
@@ -129,11 +261,13 @@ impl Lights {
                 pdf: p_env * s.pdf,
             });
         }
-        if self.emitters.is_empty() {
-            return None;
-        }
-        let (i, u_rest) = self.table.sample(u_point.x.clamp(0.0, 1.0 - f32::EPSILON));
+        let (i, pmf, u_rest) = self.pick(u_point.x, at)?;
         let u_point = Vec2::new(u_rest, u_point.y);
+        let pick = (1.0 - p_env) * pmf;
+        if i >= self.emitters.len() {
+            let segment = (i - self.emitters.len()) as u32;
+            return sample_segment(strands, segment, at.p, u_point, time, pick);
+        }
         let e = &self.emitters[i];
         let (tri, normal, area) = if e.instance == STATIC {
             (e.vertices, e.normal, e.area)
@@ -149,10 +283,10 @@ impl Lights {
                 point: tri.point(b1, b2),
                 normal,
                 two_sided: e.two_sided,
-                triangle: e.triangle,
+                source: LightSource::Triangle(e.triangle),
             },
             radiance: e.radiance,
-            pdf: (1.0 - p_env) * self.table.pmf(i) / area,
+            pdf: pick / area,
         })
     }
 
@@ -163,16 +297,119 @@ impl Lights {
             .map_or(0.0, |env| self.environment_probability * env.pdf(dir))
     }
 
-    /// Area-measure pdf with which [`Lights::sample`] picks a point on `triangle`, whose world
-    /// area is `area_scale` times its stored area.
-    pub fn pdf_area(&self, triangle: u32, area_scale: f32) -> f32 {
+    /// Area-measure pdf with which [`Lights::sample`] picks a point on `triangle` for `at`,
+    /// when the triangle's world area is `area_scale` times its stored area.
+    pub fn pdf_triangle(&self, triangle: u32, area_scale: f32, at: &Receiver) -> f32 {
         match self.by_triangle.get(triangle as usize) {
             Some(&i) if i != u32::MAX => {
                 let e = &self.emitters[i as usize];
-                (1.0 - self.environment_probability) * self.table.pmf(i as usize)
+                (1.0 - self.environment_probability) * self.pick_pmf(i as usize, at)
                     / (e.area * area_scale)
             }
             _ => 0.0,
         }
     }
+
+    /// Area-measure pdf with which [`Lights::sample`] picks the point of strand `segment` at
+    /// position `s` with outward `normal`, for `at`, at `time`.
+    pub fn pdf_strand(
+        &self,
+        segment: u32,
+        s: f32,
+        normal: Vec3,
+        at: &Receiver,
+        strands: &Strands,
+        time: f64,
+    ) -> f32 {
+        if segment as usize >= self.strand_count {
+            return 0.0;
+        }
+        let pick = (1.0 - self.environment_probability)
+            * self.pick_pmf(self.emitters.len() + segment as usize, at);
+        if pick == 0.0 {
+            return 0.0;
+        }
+        let seg = strands.world_segment(segment, time);
+        let Some(cylinder) = Cylinder::new(&seg, s, at.p) else {
+            return 0.0;
+        };
+        pick * cylinder.area_pdf(normal)
+    }
+}
+
+/// A strand segment as light sampling models it: a cylinder of the radius at one position
+/// along it, and the frame around its axis that faces the shading point.
+struct Cylinder {
+    centre: Vec3,
+    radius: f32,
+    length: f32,
+    axis: Vec3,
+    /// Unit vector from the axis towards the shading point, perpendicular to the axis.
+    facing: Vec3,
+}
+
+impl Cylinder {
+    fn new(seg: &RoundCone, s: f32, p: Vec3) -> Option<Self> {
+        let along = seg.b - seg.a;
+        let length = along.length();
+        if length.is_nan() || length <= 0.0 {
+            return None;
+        }
+        let axis = along / length;
+        let centre = seg.a + along * s;
+        let radius = seg.radius_a + (seg.radius_b - seg.radius_a) * s;
+        let off = p - centre;
+        let facing = (off - axis * off.dot(axis))
+            .try_normalize()
+            .unwrap_or_else(|| axis.any_orthonormal_vector());
+        Some(Self {
+            centre,
+            radius,
+            length,
+            axis,
+            facing,
+        })
+    }
+
+    /// Density per unit area of a point with outward `normal`: 1/length along the axis, and
+    /// cos φ / 2 around it (φ from the facing direction), per radius.
+    fn area_pdf(&self, normal: Vec3) -> f32 {
+        let radial = (normal - self.axis * normal.dot(self.axis)).normalize_or_zero();
+        let cos_phi = radial.dot(self.facing);
+        if cos_phi <= 0.0 || self.radius <= 0.0 {
+            return 0.0;
+        }
+        cos_phi / (2.0 * self.radius * self.length)
+    }
+}
+
+/// A point on strand `segment` (world, at `time`) for the shading point `p`, picked with
+/// probability `pick`.
+fn sample_segment(
+    strands: &Strands,
+    segment: u32,
+    p: Vec3,
+    u: Vec2,
+    time: f64,
+    pick: f32,
+) -> Option<LightSample> {
+    let seg = strands.world_segment(segment, time);
+    let s = u.x.min(1.0 - f32::EPSILON);
+    let cylinder = Cylinder::new(&seg, s, p)?;
+    // sin φ uniform in [−1, 1]: cos φ-distributed over the facing half.
+    let sin_phi = 2.0 * u.y - 1.0;
+    let cos_phi = (1.0 - sin_phi * sin_phi).max(0.0).sqrt();
+    let side = cylinder.axis.cross(cylinder.facing);
+    let normal = cylinder.facing * cos_phi + side * sin_phi;
+    let pdf = pick * cylinder.area_pdf(normal);
+    (pdf > 0.0).then(|| LightSample {
+        place: LightPlace::Point {
+            point: cylinder.centre + normal * cylinder.radius,
+            normal,
+            two_sided: false,
+            source: LightSource::Strand(segment),
+        },
+        radiance: strands.radiance(segment, s),
+        pdf,
+    })
 }

@@ -72,6 +72,11 @@ impl Material {
 }
 
 impl Bsdf {
+    /// True when light can pass through the surface (so light from behind it matters).
+    pub fn transmits(&self) -> bool {
+        matches!(self, Bsdf::Dielectric { .. })
+    }
+
     /// True when every lobe is a Dirac delta: light sampling cannot help and is skipped.
     pub fn is_delta(&self) -> bool {
         match self {

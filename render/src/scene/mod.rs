@@ -17,7 +17,7 @@ use crate::geometry::{
     Accel, Hit, MovingInstance, ObjectMotion, RingFrame, STATIC, StrandHit, Strands, Triangle,
     changes_during, every_triangle,
 };
-use crate::lights::{Emitter, Lights};
+use crate::lights::{Emitter, LightSelection, Lights};
 use crate::material::{Bsdf, Material};
 use crate::microfacet::Ggx;
 use crate::portal::Portals;
@@ -58,6 +58,8 @@ pub struct Overrides {
     pub max_portal_depth: Option<u32>,
     /// A ring cache path pattern (`#` frame tokens) replacing `[render] rings`.
     pub rings: Option<PathBuf>,
+    /// How light sampling picks emitters (default: the light tree).
+    pub light_selection: Option<LightSelection>,
 }
 
 /// What a ray met: a triangle or a ring's strand.
@@ -218,6 +220,7 @@ impl Scene {
         let shutter = shot
             .shutter_seconds()
             .map(|s| s + shot.time_of(frame as f64));
+        let light_selection = overrides.light_selection.unwrap_or_default();
         let ring_source = match &overrides.rings {
             Some(pattern) => RingSource::Cache {
                 pattern: pattern.clone(),
@@ -428,7 +431,19 @@ impl Scene {
             );
             strand_flags.push(look.flags);
         }
-        let lights = Lights::new(emitters, triangles.len(), environment);
+        let instance_bounds: Vec<(Vec3, Vec3)> = instances
+            .iter()
+            .map(|i| (i.bounds.min.into(), i.bounds.max.into()))
+            .collect();
+        let lights = Lights::new(
+            emitters,
+            triangles.len(),
+            &strands,
+            times,
+            |instance| instance_bounds[instance as usize],
+            environment,
+            light_selection,
+        );
         let accel = Accel::build(&triangles[..static_count], instances);
         let visibility = Visibility::new(
             triangle_object,
@@ -549,6 +564,12 @@ impl Scene {
     /// True when the camera moves while the shutter is open.
     pub fn camera_moves(&self) -> bool {
         moves_during(&self.camera.transform, self.shutter)
+    }
+
+    /// True when rays of `class` see strand segment `segment`.
+    #[inline]
+    pub fn strand_sees(&self, segment: u32, class: RayClass) -> bool {
+        self.strand_flags[self.strands.segment_ring[segment as usize] as usize].sees(class)
     }
 
     /// The material of triangle `i`.

@@ -37,7 +37,9 @@ pub fn frame_path(pattern: &str, frame: i64) -> String {
     }
 }
 
-/// The rings of `shot` at `frame`, or `None` when no opening has a ring look.
+/// The rings of `shot` at `frame`: those of a named cache (which must hold one for every
+/// opening with a ring look, and none for an unknown opening), else those generated from the
+/// ring looks (`None` when no opening has one).
 pub fn load(
     shot: &Shot,
     frame: i64,
@@ -46,10 +48,8 @@ pub fn load(
     let wanted: Vec<usize> = (0..shot.rig.openings.len())
         .filter(|&i| shot.rings.get(i).is_some_and(|r| r.is_some()))
         .collect();
-    if wanted.is_empty() {
-        return Ok(None);
-    }
     let (pattern, key) = match source {
+        RingSource::Generate if wanted.is_empty() => return Ok(None),
         RingSource::Generate => {
             let generator = RingGenerator::new(
                 shot,
