@@ -47,6 +47,15 @@ impl RoundCone {
         t_min: f32,
         t_max: f32,
     ) -> Option<RoundConeHit> {
+        // Early out in f32: the hull lies within the larger radius of the segment, so a ray
+        // piece that passes farther from it misses (most candidates a BVH hands over end
+        // here). The margin covers f32 rounding at the coordinates' magnitude.
+        let magnitude = origin.abs().max_element() + self.a.abs().max_element();
+        let reach = self.radius_a.max(self.radius_b) + 1e-5 * magnitude;
+        let (e, q) = (self.b - self.a, origin - self.a);
+        if ray_segment_distance_squared(q, dir, e, t_min, t_max) > reach * reach {
+            return None;
+        }
         let d = dir.as_dvec3();
         let dd = d.length_squared();
         if dd == 0.0 {
@@ -58,9 +67,9 @@ impl RoundCone {
         let shift = (0.5 * (a + b) - origin.as_dvec3()).dot(d) / dd;
         let o = origin.as_dvec3() + d * shift;
         let axis = b - a;
+        let (lo, hi) = (t_min as f64 - shift, t_max as f64 - shift);
         let length = axis.length();
         let mut best: Option<(f64, DVec3, f64)> = None;
-        let (lo, hi) = (t_min as f64 - shift, t_max as f64 - shift);
         let mut consider = |t: f64, normal: DVec3, s: f64| {
             if t > lo && t < hi && best.is_none_or(|b| t < b.0) {
                 best = Some((t, normal, s));
@@ -126,6 +135,47 @@ impl RoundCone {
             (self.a + ra).max(self.b + rb),
         )
     }
+}
+
+/// Squared distance between the ray piece `q + t·d`, t in [lo, hi] (q relative to the
+/// segment's start), and the segment from 0 to `e`. The squared distance is convex in (t, s):
+/// the free line's nearest point to the clamped segment is the answer when its t lies in
+/// range; otherwise the minimum lies on the edge t = lo or t = hi.
+#[inline]
+fn ray_segment_distance_squared(q: Vec3, d: Vec3, e: Vec3, lo: f32, hi: f32) -> f32 {
+    let (dd, de, ee) = (d.dot(d), d.dot(e), e.dot(e));
+    let (dq, eq) = (d.dot(q), e.dot(q));
+    let denominator = dd * ee - de * de;
+    if denominator <= 1e-6 * dd * ee {
+        // Nearly parallel: no early out rather than a rounded distance.
+        return 0.0;
+    }
+    let s = ((dd * eq - de * dq) / denominator).clamp(0.0, 1.0);
+    let t = (de * s - dq) / dd;
+    if t >= lo && t <= hi {
+        return (q + d * t - e * s).length_squared();
+    }
+    // The segment's nearest point to one end of the ray piece.
+    let to_point = |t: f32| {
+        let p = q + d * t;
+        let s = if ee > 0.0 {
+            (p.dot(e) / ee).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (p - e * s).length_squared()
+    };
+    let at_lo = if lo.is_finite() {
+        to_point(lo)
+    } else {
+        f32::INFINITY
+    };
+    let at_hi = if hi.is_finite() {
+        to_point(hi)
+    } else {
+        f32::INFINITY
+    };
+    at_lo.min(at_hi)
 }
 
 /// The roots of |q + t·d|² = r².
