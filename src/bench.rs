@@ -23,6 +23,53 @@ pub enum BenchCommand {
     Rays(RaysArgs),
     /// The cost of one teleport, and render time per extra portal level.
     Portals(PortalsArgs),
+    /// Round-curve ray throughput on many moving strand segments (and the same held still).
+    Strands(StrandsArgs),
+    /// Light selection on a ring-lit shot: the light tree against power-proportional choice.
+    Lights(LightsArgs),
+}
+
+/// Arguments of `rift bench strands`.
+#[derive(Args)]
+pub struct StrandsArgs {
+    /// Strands in the generated ring.
+    #[arg(long, default_value_t = 100)]
+    strands: usize,
+    /// Segments per strand.
+    #[arg(long, default_value_t = 1000)]
+    segments: usize,
+    /// Rays per measurement.
+    #[arg(long, default_value_t = 2_000_000)]
+    rays: usize,
+    /// Timed repeats (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    repeats: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+/// Arguments of `rift bench lights`.
+#[derive(Args)]
+pub struct LightsArgs {
+    /// A shot lit only by its rings.
+    #[arg(default_value = "examples/shots/ring_wall.toml")]
+    shot: PathBuf,
+    /// Samples per pixel of the measured renders.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Samples per pixel of the reference (rendered with the light tree).
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+    /// Image width (the height follows the shot's aspect).
+    #[arg(long, default_value_t = 160)]
+    width: u32,
+    /// Timed repeats (the median is reported), each with its own seed.
+    #[arg(long, default_value_t = 3)]
+    repeats: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 /// Arguments of `rift bench portals`.
@@ -108,6 +155,8 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Convergence(args) => convergence(args),
         BenchCommand::Rays(args) => rays(args),
         BenchCommand::Portals(args) => portals(args),
+        BenchCommand::Strands(args) => strands(args),
+        BenchCommand::Lights(args) => lights(args),
     }
 }
 
@@ -482,5 +531,204 @@ fn portals(args: PortalsArgs) -> anyhow::Result<()> {
         first.get_or_insert((secs, level));
         println!("{depth:>6} {secs:>10.3} {level:>12.3} {per_level:>16}");
     }
+    Ok(())
+}
+
+/// A ring of `strands` closed strands of `segments` segments around +Z, radius near 1 with a
+/// wave on it, spinning both ways at up to 2 turns per second: velocity ω×p and acceleration
+/// ω×(ω×p) per vertex, as fx bakes them.
+fn spinning_ring(strands: usize, segments: usize) -> rift_fx::ring::RingCurves {
+    use glam::Vec3;
+    let mut c = rift_fx::ring::RingCurves {
+        opening: "bench".into(),
+        ..Default::default()
+    };
+    for s in 0..strands {
+        let spin =
+            if s % 2 == 0 { 1.0 } else { -1.0 } * (6.0 + 6.0 * (s as f32 * 0.37).sin().abs());
+        let w = Vec3::Z * spin;
+        c.vertex_counts.push(segments as u32);
+        c.directions.push(if s % 2 == 0 { 1 } else { -1 });
+        for k in 0..segments {
+            let u = std::f32::consts::TAU * k as f32 / segments as f32;
+            let r = 1.0 + 0.07 * (s as f32 / strands as f32) + 0.02 * (7.0 * u + s as f32).sin();
+            let p = Vec3::new(
+                r * u.cos(),
+                r * u.sin(),
+                0.03 * (5.0 * u + 2.0 * s as f32).sin(),
+            );
+            c.points.push(p);
+            c.velocities.push(w.cross(p));
+            c.accelerations.push(w.cross(w.cross(p)));
+            c.widths.push(0.004);
+            c.colors.push(Vec3::ONE);
+            c.intensities.push(1.0);
+        }
+    }
+    c
+}
+
+fn strands(args: StrandsArgs) -> anyhow::Result<()> {
+    use rift_fx::rig::Similarity;
+    use rift_render::geometry::{RingFrame, Strands};
+    anyhow::ensure!(
+        args.strands > 0 && args.segments > 2 && args.rays > 0 && args.repeats > 0,
+        "expected positive counts (and at least 3 segments per strand)"
+    );
+    let ring = spinning_ring(args.strands, args.segments);
+    let fixed = || RingFrame::Fixed {
+        to_world: Similarity::IDENTITY,
+        to_local: Similarity::IDENTITY,
+    };
+    // Shutter of half a frame at 24 fps around the frame.
+    let shutter = [-1.0 / 96.0, 1.0 / 96.0];
+    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
+    // Rays from all around towards random points of the ring's band, at random shutter times.
+    let ray = |i: usize| {
+        let h = |k: u32| {
+            rift_render::sampling::hash32((i as u32).wrapping_mul(8).wrapping_add(k)) as f32
+                / u32::MAX as f32
+        };
+        let angle = std::f32::consts::TAU * h(0);
+        let target = glam::Vec3::new(angle.cos(), angle.sin(), 0.0) * (0.98 + 0.12 * h(1));
+        let from = glam::Vec3::new(h(2) - 0.5, h(3) - 0.5, h(4) - 0.5).normalize_or_zero() * 3.0
+            + glam::Vec3::Z * 0.5;
+        let time = shutter[0] + (shutter[1] - shutter[0]) * h(5) as f64;
+        (from, (target - from).normalize(), time)
+    };
+    println!(
+        "rift bench strands: {} segments ({} strands), {} rays aimed at the band, {threads} threads, median of {}",
+        args.strands * args.segments,
+        args.strands,
+        args.rays,
+        args.repeats
+    );
+    println!(
+        "{:<28} {:>9} {:>8} {:>10} {:>10}",
+        "strands", "build s", "hit %", "closest", "occlusion"
+    );
+    for (name, times) in [
+        ("moving (half-frame shutter)", shutter),
+        ("still (shutter closed)", [0.0, 0.0]),
+    ] {
+        let t = Instant::now();
+        let mut set = Strands::default();
+        set.add_ring(0, &ring, fixed(), 0.0, times, 1.0);
+        let build = t.elapsed().as_secs_f64();
+        let at = |time: f64| time.clamp(times[0], times[1]);
+        let mut closest = Vec::new();
+        let mut occlusion = Vec::new();
+        let mut hits = 0;
+        for _ in 0..args.repeats {
+            let t = Instant::now();
+            hits = crate::with_threads(args.threads, || {
+                (0..args.rays)
+                    .into_par_iter()
+                    .filter(|&i| {
+                        let (o, d, time) = ray(i);
+                        set.intersect(o, d, f32::INFINITY, at(time), |_| true)
+                            .is_some()
+                    })
+                    .count()
+            })?;
+            closest.push(t.elapsed().as_secs_f64());
+            let t = Instant::now();
+            let blocked = crate::with_threads(args.threads, || {
+                (0..args.rays)
+                    .into_par_iter()
+                    .filter(|&i| {
+                        let (o, d, time) = ray(i);
+                        set.occluded(o, d, f32::INFINITY, at(time), |_| true)
+                    })
+                    .count()
+            })?;
+            occlusion.push(t.elapsed().as_secs_f64());
+            anyhow::ensure!(
+                blocked == hits,
+                "occlusion and closest-hit queries disagree"
+            );
+        }
+        let rate = |v: Vec<f64>| args.rays as f64 / median(v) / 1e6;
+        println!(
+            "{name:<28} {build:>9.3} {:>8.1} {:>7.2} Mr/s {:>5.2} Mr/s",
+            100.0 * hits as f64 / args.rays as f64,
+            rate(closest),
+            rate(occlusion)
+        );
+    }
+    Ok(())
+}
+
+fn lights(args: LightsArgs) -> anyhow::Result<()> {
+    use rift_render::film::relative_mse;
+    use rift_render::lights::LightSelection;
+    use rift_render::render::{RenderOptions, render};
+    use rift_render::scene::Overrides;
+    anyhow::ensure!(
+        args.spp > 0 && args.reference_spp > 0 && args.repeats > 0 && args.width > 0,
+        "expected positive counts"
+    );
+    let mut shot = Shot::load(&args.shot)?;
+    let [w, h] = shot.camera.projection.resolution;
+    let height = ((args.width as f64 * h as f64 / w as f64).round() as u32).max(1);
+    shot.camera.projection.resolution = [args.width, height];
+    let build = |selection, seed| {
+        rift_render::Scene::build_with(
+            &shot,
+            shot.frames.first,
+            &Overrides {
+                light_selection: Some(selection),
+                seed: Some(seed),
+                ..Default::default()
+            },
+        )
+    };
+    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
+    let t = Instant::now();
+    let reference_scene = build(LightSelection::Tree, 9_999)?;
+    let reference = crate::with_threads(args.threads, || {
+        render(&reference_scene, &RenderOptions::new(args.reference_spp))
+    })?;
+    let emitters = build(LightSelection::Tree, 0)?.strands.segments.len();
+    println!(
+        "rift bench lights: {} ({}x{height}, {emitters} strand segments), reference {} spp in {:.1} s, {threads} threads, median of {}",
+        args.shot.display(),
+        args.width,
+        args.reference_spp,
+        t.elapsed().as_secs_f64(),
+        args.repeats
+    );
+    println!(
+        "{:<8} {:>5} {:>10} {:>10} {:>14}",
+        "choice", "spp", "seconds", "relMSE", "relMSE·s"
+    );
+    let mut products = Vec::new();
+    for (name, selection) in [
+        ("tree", LightSelection::Tree),
+        ("power", LightSelection::Power),
+    ] {
+        let mut seconds = Vec::new();
+        let mut errors = Vec::new();
+        for seed in 0..args.repeats as u32 {
+            let scene = build(selection, seed)?;
+            let t = Instant::now();
+            let image = crate::with_threads(args.threads, || {
+                render(&scene, &RenderOptions::new(args.spp))
+            })?;
+            seconds.push(t.elapsed().as_secs_f64());
+            errors.push(relative_mse(&image.rgb, &reference.rgb));
+        }
+        let (s, e) = (median(seconds), median(errors));
+        products.push(s * e);
+        println!(
+            "{name:<8} {:>5} {s:>10.3} {e:>10.3e} {:>14.3e}",
+            args.spp,
+            s * e
+        );
+    }
+    println!(
+        "power-proportional needs {:.1}x the time of the light tree for the same error",
+        products[1] / products[0]
+    );
     Ok(())
 }

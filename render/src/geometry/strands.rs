@@ -23,6 +23,8 @@ use rift_fx::ring::RingCurves;
 
 /// Times sampled across the ray time interval when bounding a segment under a moving frame.
 const FRAME_BOUND_STEPS: usize = 8;
+/// Most time slices a moving ring's segments are bounded over.
+const MAX_TIME_SLICES: usize = 16;
 
 /// One segment in its ring's local frame: each end's position at the frame's time, velocity,
 /// acceleration and radius.
@@ -128,12 +130,23 @@ pub struct Ring {
     frame_time: f64,
     /// False when no vertex moves over the rays' times: positions are used as stored.
     moving: bool,
-    bvh: Option<CwBvh>,
+    /// Δ at the start of the rays' times, and slices per second of Δ.
+    slice_start: f32,
+    slices_per_second: f32,
+    /// One BVH per equal slice of the rays' times, each bounding the segments over its slice
+    /// only: a fast strand sweeps many times its own length in a shutter, and one set of
+    /// bounds over all of it would hand every ray hundreds of candidates.
+    slices: Vec<Slice>,
+    /// World bounds over every time a ray can have.
+    pub bounds: Aabb,
+}
+
+/// The segments' BVH over one slice of time.
+struct Slice {
+    bvh: CwBvh,
     /// Segments in the BVH's leaf order, and their scene-wide indices.
     leaf_segments: Vec<Segment>,
     leaf_ids: Vec<u32>,
-    /// World bounds over every time a ray can have.
-    pub bounds: Aabb,
 }
 
 /// A ray meeting a strand.
@@ -214,18 +227,53 @@ impl Strands {
                 self.segment_ring.push(ring_index);
             }
         }
-        let boxes: Vec<Aabb> = local
-            .iter()
-            .map(|s| {
-                let (lo, hi) = s.bounds(deltas, moving);
-                Aabb::new(lo.into(), hi.into())
-            })
-            .collect();
+        let slice_count = if moving {
+            time_slices(&local, deltas)
+        } else {
+            1
+        };
+        let slice_length = (deltas[1] - deltas[0]) / slice_count as f32;
         let mut all = Aabb::empty();
-        for b in &boxes {
-            all = all.union(b);
+        let mut slices = Vec::new();
+        for k in 0..slice_count {
+            let window = [
+                deltas[0] + slice_length * k as f32,
+                if k + 1 == slice_count {
+                    deltas[1]
+                } else {
+                    deltas[0] + slice_length * (k + 1) as f32
+                },
+            ];
+            let boxes: Vec<Aabb> = local
+                .iter()
+                .map(|s| {
+                    let (lo, hi) = s.bounds(window, moving);
+                    Aabb::new(lo.into(), hi.into())
+                })
+                .collect();
+            if boxes.is_empty() {
+                break;
+            }
+            for b in &boxes {
+                all = all.union(b);
+            }
+            let bvh = build_cwbvh(
+                &boxes,
+                BvhBuildParams::medium_build(),
+                &mut Default::default(),
+            );
+            let (leaf_segments, leaf_ids) = bvh
+                .primitive_indices
+                .iter()
+                .map(|&i| (local[i as usize], first + i))
+                .unzip();
+            slices.push(Slice {
+                bvh,
+                leaf_segments,
+                leaf_ids,
+            });
         }
-        let bounds = if boxes.is_empty() {
+        let bounds = if slices.is_empty() {
             Aabb::empty()
         } else {
             let corners = box_corners(all.min.into(), all.max.into());
@@ -237,30 +285,19 @@ impl Strands {
                 FRAME_BOUND_STEPS,
             )
         };
-        let bvh = (!boxes.is_empty()).then(|| {
-            build_cwbvh(
-                &boxes,
-                BvhBuildParams::medium_build(),
-                &mut Default::default(),
-            )
-        });
-        let (leaf_segments, leaf_ids) = match &bvh {
-            Some(b) => b
-                .primitive_indices
-                .iter()
-                .map(|&i| (local[i as usize], first + i))
-                .unzip(),
-            None => (Vec::new(), Vec::new()),
-        };
         self.segments.extend(local);
         self.rings.push(Ring {
             opening,
             frame,
             frame_time,
             moving,
-            bvh,
-            leaf_segments,
-            leaf_ids,
+            slice_start: deltas[0],
+            slices_per_second: if slice_length > 0.0 {
+                1.0 / slice_length
+            } else {
+                0.0
+            },
+            slices,
             bounds,
         });
     }
@@ -361,6 +398,13 @@ impl Ring {
         (time - self.frame_time) as f32
     }
 
+    /// The time slice holding Δ = `delta`.
+    #[inline]
+    fn slice(&self, delta: f32) -> Option<&Slice> {
+        let k = ((delta - self.slice_start) * self.slices_per_second) as usize;
+        self.slices.get(k.min(self.slices.len().saturating_sub(1)))
+    }
+
     /// The ray in the ring's local frame at `time`; parameters stay in world units.
     #[inline]
     fn local_ray(&self, origin: Vec3, dir: Vec3, time: f64) -> (Vec3, Vec3, Similarity) {
@@ -373,19 +417,19 @@ impl Ring {
     }
 
     fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> Option<StrandHit> {
-        let bvh = self.bvh.as_ref()?;
-        let (o, d, to_local) = self.local_ray(origin, dir, time);
         let delta = self.delta(time);
+        let slice = self.slice(delta)?;
+        let (o, d, to_local) = self.local_ray(origin, dir, time);
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
         let mut hit = RayHit::none();
         let mut found = None;
-        bvh.ray_traverse(ray, &mut hit, |r, id| {
-            match self.leaf_segments[id]
+        slice.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            match slice.leaf_segments[id]
                 .at(delta, self.moving)
                 .intersect(o, d, 0.0, r.tmax)
             {
                 Some(h) => {
-                    found = Some((h, self.leaf_ids[id]));
+                    found = Some((h, slice.leaf_ids[id]));
                     h.t
                 }
                 None => f32::INFINITY,
@@ -407,14 +451,14 @@ impl Ring {
     }
 
     fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
+        let delta = self.delta(time);
+        let Some(slice) = self.slice(delta) else {
             return false;
         };
         let (o, d, _) = self.local_ray(origin, dir, time);
-        let delta = self.delta(time);
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
-        !bvh.ray_traverse_miss(ray, |_, id| {
-            match self.leaf_segments[id]
+        !slice.bvh.ray_traverse_miss(ray, |_, id| {
+            match slice.leaf_segments[id]
                 .at(delta, self.moving)
                 .intersect(o, d, 0.0, t_max)
             {
@@ -423,6 +467,28 @@ impl Ring {
             }
         })
     }
+}
+
+/// Time slices for `segments` moving over Δ in `deltas`: about as many as the farthest vertex
+/// travels mean segment lengths (between 1 and [`MAX_TIME_SLICES`]).
+fn time_slices(segments: &[Segment], deltas: [f32; 2]) -> usize {
+    if segments.is_empty() {
+        return 1;
+    }
+    let span = deltas[1] - deltas[0];
+    let reach = deltas[0].abs().max(deltas[1].abs());
+    let (mut travel, mut length) = (0.0f32, 0.0f32);
+    for s in segments {
+        for i in 0..2 {
+            travel = travel.max(s.v[i].length() * span + s.a[i].length() * reach * span);
+        }
+        length += s.p[0].distance(s.p[1]);
+    }
+    let mean = length / segments.len() as f32;
+    if !(mean > 0.0) {
+        return 1;
+    }
+    ((travel / mean).ceil() as usize).clamp(1, MAX_TIME_SLICES)
 }
 
 /// True when `origin + t·dir`, t in [0, t_max], meets `bounds`.
@@ -579,7 +645,7 @@ mod tests {
         assert!(!strands.rings[1].moving);
         let mut spinning = Strands::default();
         spinning.add_ring(1, &curves, frame(), 0.0, [-0.1, 0.1], 1.0);
-        let first = strands.rings[0].leaf_segments.len() as u32;
+        let first = strands.rings[0].slices[0].leaf_segments.len() as u32;
         for i in 0..spinning.segments.len() as u32 {
             let a = strands.world_segment(first + i, 0.05);
             let b = spinning.world_segment(i, 0.05);
