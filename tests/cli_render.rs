@@ -552,3 +552,44 @@ fn a_stereo_shot_renders_both_eyes_in_one_command() {
     let dir = cornell_with("\n[camera.stereo]\ninteraxial = 0.06\n");
     expect_failure(&dir, &["shot.toml", "camera.stereo", "convergence"]);
 }
+
+#[test]
+fn ring_caches_that_are_missing_corrupt_or_for_another_frame() {
+    let ringed = |t: &str| {
+        t.to_owned()
+            + "\n[[portal]]\nname = \"a\"\nhere = { position = [0.0, 1.0, 0.0] }\npair = \"b\"\n[portal.ring]\nradius = 0.3\nstrands = 4\n\
+               [[portal]]\nname = \"b\"\nhere = { position = [30.0, 1.0, 0.0] }\npair = \"a\"\n"
+    };
+    // Named in the shot but absent.
+    let dir = cornell_dir(|t| {
+        ringed(&t).replace("[render]", "[render]\nrings = \"cache/r.####.ringcache\"")
+    });
+    expect_failure(&dir, &["r.0001.ringcache", "cannot read"]);
+    // Not a cache at all.
+    std::fs::create_dir_all(dir.path().join("cache")).unwrap();
+    std::fs::write(dir.path().join("cache/r.0001.ringcache"), b"not a cache").unwrap();
+    expect_failure(&dir, &["r.0001.ringcache", "ring cache"]);
+    // A cache of another frame: written by `rift fx` for frame 2.
+    let fx = rift(
+        dir.path(),
+        &[
+            "fx",
+            "shot.toml",
+            "--frames",
+            "2",
+            "-o",
+            "cache",
+            "--format",
+            "cache",
+        ],
+    );
+    assert!(fx.status.success(), "{}", stderr(&fx));
+    let written = files_in(&dir.path().join("cache"));
+    let name = written
+        .iter()
+        .find(|p| p.to_string_lossy().contains("0002"))
+        .unwrap()
+        .clone();
+    std::fs::rename(&name, dir.path().join("cache/r.0001.ringcache")).unwrap();
+    expect_failure(&dir, &["render.rings", "holds frame 2, not frame 1"]);
+}
