@@ -485,7 +485,7 @@ fn time_slices(segments: &[Segment], deltas: [f32; 2]) -> usize {
         length += s.p[0].distance(s.p[1]);
     }
     let mean = length / segments.len() as f32;
-    if !(mean > 0.0) {
+    if mean.is_nan() || mean <= 0.0 {
         return 1;
     }
     ((travel / mean).ceil() as usize).clamp(1, MAX_TIME_SLICES)
