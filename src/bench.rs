@@ -613,7 +613,7 @@ fn strands(args: StrandsArgs) -> anyhow::Result<()> {
     ] {
         let t = Instant::now();
         let mut set = Strands::default();
-        set.add_ring(0, &ring, fixed(), 0.0, times, 1.0);
+        set.add_ring(&ring, fixed(), 0.0, times, 1.0);
         let build = t.elapsed().as_secs_f64();
         let at = |time: f64| time.clamp(times[0], times[1]);
         let mut closest = Vec::new();

@@ -124,40 +124,33 @@ impl RingBoundary {
 fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
     let mut radii = vec![f32::INFINITY; ANGLE_BINS];
     let at = |i: usize| {
-        let p = curves.points[i]
-            + delta * (curves.velocities[i] + 0.5 * delta * curves.accelerations[i]);
+        let p = curves.position_at(i, delta);
         Vec2::new(p.x, p.y).as_dvec2()
     };
     let bin = TAU / ANGLE_BINS as f64;
-    for range in curves.strand_ranges() {
-        let n = range.len();
-        if n < 2 {
-            continue;
-        }
-        for k in 0..n {
-            let (a, b) = (at(range.start + k), at(range.start + (k + 1) % n));
-            let (from, sweep) = (a.y.atan2(a.x), wrap(b.y.atan2(b.x) - a.y.atan2(a.x)));
-            // Bins whose central angle the segment's angular span covers.
-            let (lo, hi) = if sweep >= 0.0 {
-                (from, from + sweep)
-            } else {
-                (from + sweep, from)
-            };
-            let first = (lo / bin - 0.5).ceil() as i64;
-            let last = (hi / bin - 0.5).floor() as i64;
-            let e = b - a;
-            for j in first..=last {
-                let theta = (j as f64 + 0.5) * bin;
-                let u = DVec2::new(theta.cos(), theta.sin());
-                let denominator = u.perp_dot(e);
-                if denominator == 0.0 {
-                    continue;
-                }
-                let r = a.perp_dot(e) / denominator;
-                let slot = &mut radii[j.rem_euclid(ANGLE_BINS as i64) as usize];
-                if r > 0.0 {
-                    *slot = slot.min(r as f32);
-                }
+    for (i, j) in curves.segments() {
+        let (a, b) = (at(i), at(j));
+        let (from, sweep) = (a.y.atan2(a.x), wrap(b.y.atan2(b.x) - a.y.atan2(a.x)));
+        // Bins whose central angle the segment's angular span covers.
+        let (lo, hi) = if sweep >= 0.0 {
+            (from, from + sweep)
+        } else {
+            (from + sweep, from)
+        };
+        let first = (lo / bin - 0.5).ceil() as i64;
+        let last = (hi / bin - 0.5).floor() as i64;
+        let e = b - a;
+        for k in first..=last {
+            let theta = (k as f64 + 0.5) * bin;
+            let u = DVec2::new(theta.cos(), theta.sin());
+            let denominator = u.perp_dot(e);
+            if denominator == 0.0 {
+                continue;
+            }
+            let r = a.perp_dot(e) / denominator;
+            let slot = &mut radii[k.rem_euclid(ANGLE_BINS as i64) as usize];
+            if r > 0.0 {
+                *slot = slot.min(r as f32);
             }
         }
     }

@@ -52,6 +52,31 @@ impl RingCurves {
         })
     }
 
+    /// Vertex `i` `delta` seconds after the frame, by its baked motion.
+    #[inline]
+    pub fn position_at(&self, i: usize, delta: f32) -> Vec3 {
+        moved(
+            self.points[i],
+            self.velocities[i],
+            self.accelerations[i],
+            delta,
+        )
+    }
+
+    /// The vertex index pairs of every strand's segments, each strand closed back to its first
+    /// vertex; a two-vertex strand is one segment, and a lone vertex none.
+    pub fn segments(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.strand_ranges().flat_map(|range| {
+            let n = range.len();
+            let count = match n {
+                0 | 1 => 0,
+                2 => 1,
+                _ => n,
+            };
+            (0..count).map(move |k| (range.start + k, range.start + (k + 1) % n))
+        })
+    }
+
     /// Axis-aligned bounds of the positions grown by half the largest width, as USD computes the
     /// extent of curves: (min, max).
     pub fn extent(&self) -> (Vec3, Vec3) {
@@ -65,6 +90,13 @@ impl RingCurves {
         );
         (lo - pad, hi + pad)
     }
+}
+
+/// Where a baked vertex (position `p`, velocity `v`, acceleration `a` at the frame) is `delta`
+/// seconds after the frame: P + vΔ + ½aΔ².
+#[inline]
+pub fn moved(p: Vec3, v: Vec3, a: Vec3, delta: f32) -> Vec3 {
+    p + delta * (v + 0.5 * delta * a)
 }
 
 /// Every opening's rings at one frame.

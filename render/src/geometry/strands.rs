@@ -20,6 +20,7 @@ use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::ray::{Ray, RayHit};
 use rift_fx::rig::Similarity;
 use rift_fx::ring::RingCurves;
+use rift_fx::ring::curves::moved;
 
 /// Times sampled across the ray time interval when bounding a segment under a moving frame.
 const FRAME_BOUND_STEPS: usize = 8;
@@ -42,7 +43,7 @@ impl Segment {
     pub fn at(&self, delta: f32, moving: bool) -> RoundCone {
         let place = |i: usize| {
             if moving {
-                self.p[i] + delta * (self.v[i] + 0.5 * delta * self.a[i])
+                moved(self.p[i], self.v[i], self.a[i], delta)
             } else {
                 self.p[i]
             }
@@ -63,7 +64,7 @@ impl Segment {
             let r = Vec3::splat(self.radius[i]);
             let mut include = |d: f32| {
                 let p = if moving {
-                    self.p[i] + d * (self.v[i] + 0.5 * d * self.a[i])
+                    moved(self.p[i], self.v[i], self.a[i], d)
                 } else {
                     self.p[i]
                 };
@@ -123,8 +124,6 @@ impl RingFrame {
 
 /// One opening's strands.
 pub struct Ring {
-    /// Index of the opening.
-    pub opening: usize,
     frame: RingFrame,
     /// Seconds the baked positions belong to (Δ = ray time − this).
     frame_time: f64,
@@ -180,7 +179,6 @@ impl Strands {
     /// emission. Segments of zero length are skipped.
     pub fn add_ring(
         &mut self,
-        opening: usize,
         curves: &RingCurves,
         frame: RingFrame,
         frame_time: f64,
@@ -200,32 +198,25 @@ impl Strands {
         let first = self.segments.len() as u32;
         let ring_index = self.rings.len() as u32;
         let mut local = Vec::new();
-        for range in curves.strand_ranges() {
-            let n = range.len();
-            for k in 0..n {
-                let (i, j) = (range.start + k, range.start + (k + 1) % n);
-                if n < 2 || (n == 2 && k == 1) {
-                    continue;
-                }
-                let mut segment = Segment {
-                    p: [curves.points[i], curves.points[j]],
-                    v: [curves.velocities[i], curves.velocities[j]],
-                    a: [curves.accelerations[i], curves.accelerations[j]],
-                    radius: [0.5 * curves.widths[i], 0.5 * curves.widths[j]],
-                };
-                if !moving {
-                    // Positions at the one time rays have (the frame's own when no vertex moves).
-                    let at = segment.at(deltas[0], deltas[0] != 0.0);
-                    segment.p = [at.a, at.b];
-                }
-                if segment.p[0] == segment.p[1] && !moving {
-                    continue;
-                }
-                local.push(segment);
-                let radiance = |i: usize| curves.colors[i] * (curves.intensities[i] * intensity);
-                self.radiance.push([radiance(i), radiance(j)]);
-                self.segment_ring.push(ring_index);
+        for (i, j) in curves.segments() {
+            let mut segment = Segment {
+                p: [curves.points[i], curves.points[j]],
+                v: [curves.velocities[i], curves.velocities[j]],
+                a: [curves.accelerations[i], curves.accelerations[j]],
+                radius: [0.5 * curves.widths[i], 0.5 * curves.widths[j]],
+            };
+            if !moving {
+                // Positions at the one time rays have (the frame's own when no vertex moves).
+                let at = segment.at(deltas[0], deltas[0] != 0.0);
+                segment.p = [at.a, at.b];
             }
+            if segment.p[0] == segment.p[1] && !moving {
+                continue;
+            }
+            local.push(segment);
+            let radiance = |i: usize| curves.colors[i] * (curves.intensities[i] * intensity);
+            self.radiance.push([radiance(i), radiance(j)]);
+            self.segment_ring.push(ring_index);
         }
         let slice_count = if moving {
             time_slices(&local, deltas)
@@ -287,7 +278,6 @@ impl Strands {
         };
         self.segments.extend(local);
         self.rings.push(Ring {
-            opening,
             frame,
             frame_time,
             moving,
@@ -320,7 +310,7 @@ impl Strands {
         let mut best: Option<StrandHit> = None;
         for (index, ring) in self.rings.iter().enumerate() {
             let limit = best.map_or(t_max, |b| b.t);
-            if !admit(index) || !ray_meets(&ring.bounds, origin, dir, limit) {
+            if !admit(index) || !meets(&ring.bounds, origin, dir, limit) {
                 continue;
             }
             if let Some(hit) = ring.intersect(origin, dir, limit, time) {
@@ -341,7 +331,7 @@ impl Strands {
     ) -> bool {
         self.rings.iter().enumerate().any(|(index, ring)| {
             admit(index)
-                && ray_meets(&ring.bounds, origin, dir, t_max)
+                && meets(&ring.bounds, origin, dir, t_max)
                 && ring.occluded(origin, dir, t_max, time)
         })
     }
@@ -493,13 +483,8 @@ fn time_slices(segments: &[Segment], deltas: [f32; 2]) -> usize {
 
 /// True when `origin + t·dir`, t in [0, t_max], meets `bounds`.
 #[inline]
-fn ray_meets(bounds: &Aabb, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
-    let inv = dir.recip();
-    let t0 = (Vec3::from(bounds.min) - origin) * inv;
-    let t1 = (Vec3::from(bounds.max) - origin) * inv;
-    let near = t0.min(t1).max_element().max(0.0);
-    let far = t0.max(t1).min_element().min(t_max);
-    near <= far
+fn meets(bounds: &Aabb, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+    bounds.intersect_ray(&Ray::new(origin.into(), dir.into(), 0.0, t_max)) <= t_max
 }
 
 #[cfg(test)]
@@ -559,14 +544,7 @@ mod tests {
     fn the_bvh_finds_what_testing_every_segment_at_the_ray_time_finds() {
         let times = [-0.1, 0.1];
         let mut strands = Strands::default();
-        strands.add_ring(
-            0,
-            &spinning_ring(6, 64, 2.0),
-            sliding_frame(),
-            0.0,
-            times,
-            1.0,
-        );
+        strands.add_ring(&spinning_ring(6, 64, 2.0), sliding_frame(), 0.0, times, 1.0);
         assert!(strands.rings[0].moving);
         let mut hits = 0;
         for k in 0..3000 {
@@ -605,7 +583,6 @@ mod tests {
         let times = [-0.05, 0.2];
         let mut strands = Strands::default();
         strands.add_ring(
-            0,
             &spinning_ring(3, 24, 9.0),
             sliding_frame(),
             0.02,
@@ -637,14 +614,14 @@ mod tests {
             to_local: fixed.inverse(),
         };
         let mut strands = Strands::default();
-        strands.add_ring(0, &curves, frame(), 0.0, [-0.1, 0.1], 1.0);
+        strands.add_ring(&curves, frame(), 0.0, [-0.1, 0.1], 1.0);
         assert!(!strands.rings[0].moving);
         // Spinning strands seen at one instant only are still too, baked at that instant.
         curves = spinning_ring(2, 16, 3.0);
-        strands.add_ring(1, &curves, frame(), 0.0, [0.05, 0.05], 1.0);
+        strands.add_ring(&curves, frame(), 0.0, [0.05, 0.05], 1.0);
         assert!(!strands.rings[1].moving);
         let mut spinning = Strands::default();
-        spinning.add_ring(1, &curves, frame(), 0.0, [-0.1, 0.1], 1.0);
+        spinning.add_ring(&curves, frame(), 0.0, [-0.1, 0.1], 1.0);
         let first = strands.rings[0].slices[0].leaf_segments.len() as u32;
         for i in 0..spinning.segments.len() as u32 {
             let a = strands.world_segment(first + i, 0.05);

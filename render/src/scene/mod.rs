@@ -422,7 +422,6 @@ impl Scene {
             };
             let look = strand_looks[opening];
             strands.add_ring(
-                opening,
                 curves,
                 frame,
                 ring_frame.as_ref().map_or(0.0, |f| f.time),
