@@ -62,7 +62,7 @@ pub struct LightsArgs {
     #[arg(long, default_value_t = 1024)]
     reference_spp: u32,
     /// Image width (the height follows the shot's aspect).
-    #[arg(long, default_value_t = 160)]
+    #[arg(long, default_value_t = 320)]
     width: u32,
     /// Timed repeats (the median is reported), each with its own seed.
     #[arg(long, default_value_t = 3)]
