@@ -53,7 +53,7 @@ pub struct StrandsArgs {
 #[derive(Args)]
 pub struct LightsArgs {
     /// A shot lit only by its rings.
-    #[arg(default_value = "examples/shots/ring_wall.toml")]
+    #[arg(default_value = "examples/shots/ring_on_wall.toml")]
     shot: PathBuf,
     /// Samples per pixel of the measured renders.
     #[arg(long, default_value_t = 16)]
