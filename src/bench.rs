@@ -65,8 +65,12 @@ pub struct LightsArgs {
     #[arg(long, default_value_t = 320)]
     width: u32,
     /// Timed repeats (the median is reported), each with its own seed.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 5)]
     repeats: usize,
+    /// Let shadow rays pass through strands, so the light reaching a point no longer depends
+    /// on which strands hide others: what is left is what light selection controls.
+    #[arg(long)]
+    no_strand_shadows: bool,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -672,8 +676,8 @@ fn lights(args: LightsArgs) -> anyhow::Result<()> {
     let [w, h] = shot.camera.projection.resolution;
     let height = ((args.width as f64 * h as f64 / w as f64).round() as u32).max(1);
     shot.camera.projection.resolution = [args.width, height];
-    let build = |selection, seed| {
-        rift_render::Scene::build_with(
+    let build = |selection, seed| -> anyhow::Result<rift_render::Scene> {
+        let mut scene = rift_render::Scene::build_with(
             &shot,
             shot.frames.first,
             &Overrides {
@@ -681,7 +685,13 @@ fn lights(args: LightsArgs) -> anyhow::Result<()> {
                 seed: Some(seed),
                 ..Default::default()
             },
-        )
+        )?;
+        if args.no_strand_shadows {
+            for flags in &mut scene.strand_flags {
+                *flags = flags.without(rift_render::visibility::RayClass::Shadow);
+            }
+        }
+        Ok(scene)
     };
     let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
     let t = Instant::now();
@@ -691,8 +701,13 @@ fn lights(args: LightsArgs) -> anyhow::Result<()> {
     })?;
     let emitters = build(LightSelection::Tree, 0)?.strands.segments.len();
     println!(
-        "rift bench lights: {} ({}x{height}, {emitters} strand segments), reference {} spp in {:.1} s, {threads} threads, median of {}",
+        "rift bench lights: {}{} ({}x{height}, {emitters} strand segments), reference {} spp in {:.1} s, {threads} threads, median of {}",
         args.shot.display(),
+        if args.no_strand_shadows {
+            " without strand shadows"
+        } else {
+            ""
+        },
         args.width,
         args.reference_spp,
         t.elapsed().as_secs_f64(),
@@ -702,23 +717,31 @@ fn lights(args: LightsArgs) -> anyhow::Result<()> {
         "{:<8} {:>5} {:>10} {:>10} {:>14}",
         "choice", "spp", "seconds", "relMSE", "relMSE·s"
     );
-    let mut products = Vec::new();
-    for (name, selection) in [
+    // The two choices take turns, so a change in the machine's load between runs falls on
+    // both alike.
+    let choices = [
         ("tree", LightSelection::Tree),
         ("power", LightSelection::Power),
-    ] {
-        let mut seconds = Vec::new();
-        let mut errors = Vec::new();
-        for seed in 0..args.repeats as u32 {
+    ];
+    let mut seconds = [Vec::new(), Vec::new()];
+    let mut errors = [Vec::new(), Vec::new()];
+    for seed in 0..args.repeats as u32 {
+        for (k, &(_, selection)) in choices.iter().enumerate() {
             let scene = build(selection, seed)?;
             let t = Instant::now();
             let image = crate::with_threads(args.threads, || {
                 render(&scene, &RenderOptions::new(args.spp))
             })?;
-            seconds.push(t.elapsed().as_secs_f64());
-            errors.push(relative_mse(&image.rgb, &reference.rgb));
+            seconds[k].push(t.elapsed().as_secs_f64());
+            errors[k].push(relative_mse(&image.rgb, &reference.rgb));
         }
-        let (s, e) = (median(seconds), median(errors));
+    }
+    let mut products = Vec::new();
+    for (k, (name, _)) in choices.iter().enumerate() {
+        let (s, e) = (
+            median(std::mem::take(&mut seconds[k])),
+            median(std::mem::take(&mut errors[k])),
+        );
         products.push(s * e);
         println!(
             "{name:<8} {:>5} {s:>10.3} {e:>10.3e} {:>14.3e}",

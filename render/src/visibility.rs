@@ -49,6 +49,11 @@ impl Flags {
     pub fn sees(self, class: RayClass) -> bool {
         self.0 & (1 << class as u8) != 0
     }
+
+    /// These flags with rays of `class` no longer seeing the object.
+    pub fn without(self, class: RayClass) -> Self {
+        Self(self.0 & !(1 << class as u8))
+    }
 }
 
 /// Which side of an opening a cull volume lies behind.
