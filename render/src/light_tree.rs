@@ -83,9 +83,7 @@ impl Cluster {
             cos_spread: bounds.cos_spread,
         }
     }
-}
 
-impl Cluster {
     /// What the node can send to `p` (with unit surface normal `n`, when the point only
     /// reflects), up to a constant; zero only when nothing in it can reach the point.
     #[inline(always)]
@@ -109,13 +107,12 @@ impl Cluster {
         // than the whole radius: a point inside a big node then still prefers the child whose
         // emitters are nearer, which is what finds the few strands beside a wall point
         // (clamping at the radius made both halves of a ring look alike from anywhere near it).
-        let value = self.power / dist2.max(radius2 / 16.0).max(f32::MIN_POSITIVE);
+        let mut value = self.power / dist2.max(radius2 / 16.0).max(f32::MIN_POSITIVE);
         if dist2 <= radius2 {
             // Inside the sphere: every direction is possible.
             return value;
         }
         let dist = dist2.sqrt();
-        let mut value = value;
         if self.cos_spread > -1.0 {
             // Emitter side: angle from the cone's nearest normal to the point, less the angle
             // the sphere subtends.
@@ -203,6 +200,7 @@ impl LightTree {
         };
         if !emitters.is_empty() {
             let mut order: Vec<u32> = (0..emitters.len() as u32).collect();
+            // The root's slot; `build` fills it.
             tree.nodes.push(Node {
                 bounds: Cluster::new(emitters[0], emitters[0].centroid()),
                 index: 0,
