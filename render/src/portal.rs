@@ -345,22 +345,8 @@ mod tests {
             offset + DVec3::new(0.0, 0.0, gap),
             scale,
         );
-        let rig = Rig {
-            openings: vec![
-                Opening {
-                    name: "A".into(),
-                    here: AnimatedTransform::constant(a),
-                    there: ThereFrame::Paired(1),
-                },
-                Opening {
-                    name: "B".into(),
-                    here: AnimatedTransform::constant(b),
-                    there: ThereFrame::Paired(0),
-                },
-            ],
-        };
         Portals::new(
-            rig,
+            Rig::still_pair(a, b),
             vec![Mask::Disk { radius: 1e3 }; 2],
             vec![OpeningLook::default(); 2],
             [0.0, 0.0],

@@ -35,6 +35,18 @@ pub struct Rig {
 }
 
 impl Rig {
+    /// Two still openings, "A" at `a` and "B" at `b`, each the other's way out.
+    pub fn still_pair(a: Similarity, b: Similarity) -> Self {
+        let opening = |name: &str, frame, pair| Opening {
+            name: name.into(),
+            here: AnimatedTransform::constant(frame),
+            there: ThereFrame::Paired(pair),
+        };
+        Self {
+            openings: vec![opening("A", a, 1), opening("B", b, 0)],
+        }
+    }
+
     /// Index of the opening called `name`.
     pub fn find(&self, name: &str) -> Option<usize> {
         self.openings.iter().position(|o| o.name == name)
@@ -92,20 +104,7 @@ mod tests {
             DVec3::new(5.0, 1.5, -3.0),
             2.0,
         );
-        Rig {
-            openings: vec![
-                Opening {
-                    name: "A".into(),
-                    here: AnimatedTransform::constant(a),
-                    there: ThereFrame::Paired(1),
-                },
-                Opening {
-                    name: "B".into(),
-                    here: AnimatedTransform::constant(b),
-                    there: ThereFrame::Paired(0),
-                },
-            ],
-        }
+        Rig::still_pair(a, b)
     }
 
     #[test]
