@@ -737,11 +737,8 @@ fn lights(args: LightsArgs) -> anyhow::Result<()> {
         }
     }
     let mut products = Vec::new();
-    for (k, (name, _)) in choices.iter().enumerate() {
-        let (s, e) = (
-            median(std::mem::take(&mut seconds[k])),
-            median(std::mem::take(&mut errors[k])),
-        );
+    for ((name, _), (seconds, errors)) in choices.iter().zip(seconds.into_iter().zip(errors)) {
+        let (s, e) = (median(seconds), median(errors));
         products.push(s * e);
         println!(
             "{name:<8} {:>5} {s:>10.3} {e:>10.3e} {:>14.3e}",
