@@ -84,7 +84,11 @@ pub fn trace(
     let mut prev_delta = true;
     // The last scattering point, as light selection saw it (for the MIS weight of emitters
     // that BSDF sampling finds).
-    let mut prev_receiver = Receiver { p: origin, n: None };
+    let mut prev_receiver = Receiver {
+        p: origin,
+        n: None,
+        time,
+    };
     let mut bounce = 0u32;
     // Product of η² over refractions, so roulette sees the throughput without the radiance
     // compression of entering or leaving glass.
@@ -167,7 +171,6 @@ pub fn trace(
                         h.normal,
                         &prev_receiver,
                         &scene.strands,
-                        time,
                     );
                     power_heuristic(prev_pdf, pdf_area * h.t * h.t / h.normal.dot(dir).abs())
                 };
@@ -236,6 +239,7 @@ pub fn trace(
         let receiver = Receiver {
             p,
             n: (!bsdf.transmits()).then_some(n),
+            time,
         };
 
         if !bsdf.is_delta() {
@@ -247,7 +251,7 @@ pub fn trace(
                 bsdf,
                 side,
             };
-            out.radiance += beta * next_event(scene, &shading, u_light, time);
+            out.radiance += beta * next_event(scene, &shading, u_light);
         }
         let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
             break;
@@ -288,15 +292,15 @@ struct Shading<'a> {
     side: Side,
 }
 
-/// Next-event estimation: light arriving at `at` from one light sample drawn with `u`, MIS
-/// weighted against BSDF sampling (power heuristic), before the path throughput.
-fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2, time: f64) -> Vec3 {
+/// Next-event estimation: light arriving at `at` (at its time) from one light sample drawn
+/// with `u`, MIS weighted against BSDF sampling (power heuristic), before the path throughput.
+fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2) -> Vec3 {
+    let time = at.receiver.time;
     let Some(light) = scene.lights.sample(
         u,
         &at.receiver,
         |e| scene.world_triangle(e.triangle, e.instance, time),
         &scene.strands,
-        time,
     ) else {
         return Vec3::ZERO;
     };

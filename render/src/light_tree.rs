@@ -10,6 +10,13 @@
 //! off the arc) and is clamped at a quarter of the node's radius, not the whole radius, so a
 //! point inside a big node still prefers the child whose emitters are nearer.
 //!
+//! Emitters that move (strands spinning over the shutter) are bounded twice: a box over every
+//! time a ray can have, for the exact test of what lies behind a surface, and a sphere whose
+//! centre follows a [`Path`] across the time range, for distance and angle. A ray at one time
+//! then sees each node where it is at that time. The box alone is not enough: a fast ring's
+//! strand can sweep 30 cm over the shutter, three times the distance from a wall to the strands
+//! that light it.
+//!
 //! The probability of a chosen emitter is the product of the choices on its root path, so the
 //! same product can be recomputed for multiple importance sampling by replaying the path
 //! (stored as one bit per level).
@@ -23,11 +30,72 @@ use glam::Vec3;
 /// Deepest tree the path bits can describe.
 const MAX_DEPTH: u32 = 64;
 
+/// Times across the range at which a node's sphere is checked to hold its members' spheres.
+const RADIUS_STEPS: usize = 8;
+
+/// Where a point is over the time range, τ from 0 at its start to 1 at its end: the parabola
+/// through where it is at the start, the middle and the end. Exact for uniformly accelerated
+/// motion; for a point turning a twentieth of a circle it strays a thousandth of the circle's
+/// radius, where the chord would stray a hundredth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Path {
+    start: Vec3,
+    /// c(τ) = start + τ·(velocity + τ·acceleration).
+    velocity: Vec3,
+    acceleration: Vec3,
+}
+
+impl Path {
+    /// A point that does not move.
+    pub fn still(p: Vec3) -> Self {
+        Self {
+            start: p,
+            velocity: Vec3::ZERO,
+            acceleration: Vec3::ZERO,
+        }
+    }
+
+    /// The path through `p[0]`, `p[1]`, `p[2]` at τ = 0, ½, 1.
+    pub fn through(p: [Vec3; 3]) -> Self {
+        Self {
+            start: p[0],
+            velocity: 4.0 * p[1] - 3.0 * p[0] - p[2],
+            acceleration: 2.0 * (p[0] + p[2]) - 4.0 * p[1],
+        }
+    }
+
+    #[inline(always)]
+    pub fn at(&self, tau: f32) -> Vec3 {
+        self.start + tau * (self.velocity + tau * self.acceleration)
+    }
+
+    /// The power-weighted mean of `paths` (their coefficients average like their points).
+    fn mean(paths: impl Iterator<Item = (f32, Path)>) -> Option<Self> {
+        let (mut sum, mut weight) = (Self::still(Vec3::ZERO), 0.0f32);
+        for (w, p) in paths {
+            sum.start += w * p.start;
+            sum.velocity += w * p.velocity;
+            sum.acceleration += w * p.acceleration;
+            weight += w;
+        }
+        (weight > 0.0).then(|| Self {
+            start: sum.start / weight,
+            velocity: sum.velocity / weight,
+            acceleration: sum.acceleration / weight,
+        })
+    }
+}
+
 /// What the tree needs of one emitter.
 #[derive(Clone, Copy, Debug)]
 pub struct LightBounds {
+    /// Box holding the emitter at every time.
     pub min: Vec3,
     pub max: Vec3,
+    /// Where the emitter's centre is over the time range.
+    pub centre: Path,
+    /// Radius of the sphere around that moving centre that holds the emitter at every time.
+    pub reach: f32,
     /// Emitted power (any consistent scale).
     pub power: f32,
     /// Unit axis of the cone of normals.
@@ -39,16 +107,14 @@ pub struct LightBounds {
 }
 
 impl LightBounds {
-    fn centroid(&self) -> Vec3 {
-        0.5 * (self.min + self.max)
-    }
-
-    fn union(&self, o: &Self) -> Self {
-        let (axis, cos_spread) = merge_cones(self.axis, self.cos_spread, o.axis, o.cos_spread);
+    /// An emitter that stays within the box from `min` to `max` at every time.
+    pub fn still(min: Vec3, max: Vec3, power: f32, axis: Vec3, cos_spread: f32) -> Self {
         Self {
-            min: self.min.min(o.min),
-            max: self.max.max(o.max),
-            power: self.power + o.power,
+            min,
+            max,
+            centre: Path::still(0.5 * (min + max)),
+            reach: 0.5 * (max - min).length(),
+            power,
             axis,
             cos_spread,
         }
@@ -56,12 +122,12 @@ impl LightBounds {
 }
 
 /// A node's bounds as the descent reads them: the box for the exact behind-the-surface test,
-/// its bounding sphere (precomputed) for distance and angle.
+/// and the sphere, moving over the time range, for distance and angle.
 #[derive(Clone, Copy, Debug)]
 struct Cluster {
     min: Vec3,
     max: Vec3,
-    centre: Vec3,
+    centre: Path,
     radius: f32,
     power: f32,
     axis: Vec3,
@@ -69,25 +135,47 @@ struct Cluster {
 }
 
 impl Cluster {
-    /// The cluster of `bounds` centred at `centre` (inside the box), its sphere reaching the
-    /// farthest corner.
-    fn new(bounds: LightBounds, centre: Vec3) -> Self {
-        let far = (centre - bounds.min).abs().max((bounds.max - centre).abs());
+    /// The cluster of `emitters[i]` for each `i` of `members`: centred on their power-weighted
+    /// mean, its sphere holding every member's sphere (checked at [`RADIUS_STEPS`] + 1 times).
+    fn new(emitters: &[LightBounds], members: &[u32]) -> Self {
+        let each = || members.iter().map(|&i| &emitters[i as usize]);
+        let first = each().next().expect("a cluster has members");
+        let (mut min, mut max) = (first.min, first.max);
+        let (mut axis, mut cos_spread) = (first.axis, first.cos_spread);
+        for e in each().skip(1) {
+            (min, max) = (min.min(e.min), max.max(e.max));
+            (axis, cos_spread) = merge_cones(axis, cos_spread, e.axis, e.cos_spread);
+        }
+        let power: f32 = each().map(|e| e.power).sum();
+        // Measured from the members' power-weighted mean, which lies among them: the middle of
+        // the box of an arc of ring is off the arc, nearer the ring's centre.
+        let centre = Path::mean(each().map(|e| (e.power, e.centre))).unwrap_or(first.centre);
+        // Two bounds on how far the members reach from the centre, both valid at every time:
+        // around every member's sphere, and to the farthest corner of the box. The first is
+        // the tighter for moving members, the second for still ones.
+        let (spheres, corners) = (0..=RADIUS_STEPS).fold((0.0f32, 0.0f32), |(s, b), k| {
+            let tau = k as f32 / RADIUS_STEPS as f32;
+            let c = centre.at(tau);
+            let s = each().fold(s, |s, e| s.max(e.centre.at(tau).distance(c) + e.reach));
+            (s, b.max((c - min).abs().max((max - c).abs()).length()))
+        });
+        let radius = spheres.min(corners);
         Self {
-            min: bounds.min,
-            max: bounds.max,
+            min,
+            max,
             centre,
-            radius: far.length(),
-            power: bounds.power,
-            axis: bounds.axis,
-            cos_spread: bounds.cos_spread,
+            radius,
+            power,
+            axis,
+            cos_spread,
         }
     }
 
     /// What the node can send to `p` (with unit surface normal `n`, when the point only
-    /// reflects), up to a constant; zero only when nothing in it can reach the point.
+    /// reflects) at `tau` through the time range (0 at its start, 1 at its end), up to a
+    /// constant; zero only when nothing in it can reach the point at any time.
     #[inline(always)]
-    fn importance(&self, p: Vec3, n: Option<Vec3>) -> f32 {
+    fn importance(&self, p: Vec3, n: Option<Vec3>, tau: f32) -> f32 {
         if self.power <= 0.0 {
             return 0.0;
         }
@@ -100,7 +188,7 @@ impl Cluster {
                 return 0.0;
             }
         }
-        let to_centre = self.centre - p;
+        let to_centre = self.centre.at(tau) - p;
         let dist2 = to_centre.length_squared();
         let radius2 = self.radius * self.radius;
         // Power over squared distance, the distance clamped at a quarter of the radius rather
@@ -202,7 +290,7 @@ impl LightTree {
             let mut order: Vec<u32> = (0..emitters.len() as u32).collect();
             // The root's slot; `build` fills it.
             tree.nodes.push(Node {
-                bounds: Cluster::new(emitters[0], emitters[0].centroid()),
+                bounds: Cluster::new(emitters, &order[..1]),
                 index: 0,
                 leaf: true,
             });
@@ -220,47 +308,31 @@ impl LightTree {
         path: u64,
         depth: u32,
     ) {
-        if order.len() == 1 {
-            let e = order[0] as usize;
+        let bounds = Cluster::new(emitters, order);
+        if let [e] = *order {
             self.nodes[slot] = Node {
-                bounds: Cluster::new(emitters[e], emitters[e].centroid()),
-                index: e as u32,
+                bounds,
+                index: e,
                 leaf: true,
             };
-            self.paths[e] = (path, depth);
+            self.paths[e as usize] = (path, depth);
             return;
         }
         // Median splits keep the depth at ⌈log₂ n⌉, far inside the path bits.
         debug_assert!(depth < MAX_DEPTH);
-        let mut bounds = emitters[order[0] as usize];
-        for &i in &order[1..] {
-            bounds = bounds.union(&emitters[i as usize]);
-        }
-        // Distances are measured from the emitters' power-weighted mean, which lies among
-        // them: the middle of the box of an arc of ring is off the arc, nearer the ring's centre.
-        let (weighted, weight) = order.iter().fold((Vec3::ZERO, 0.0f32), |(sum, w), &i| {
-            let e = &emitters[i as usize];
-            (sum + e.power * e.centroid(), w + e.power)
-        });
-        let centre = if weight > 0.0 {
-            (weighted / weight).clamp(bounds.min, bounds.max)
-        } else {
-            bounds.centroid()
-        };
         let children = self.nodes.len();
         self.nodes[slot] = Node {
-            bounds: Cluster::new(bounds, centre),
+            bounds,
             index: children as u32,
             leaf: false,
         };
         self.nodes.extend([self.nodes[slot]; 2]);
-        // Split at the median centroid along the centroids' widest axis.
+        // Split at the median centre (halfway through the time range) along the centres'
+        // widest axis.
+        let key = |i: u32| emitters[i as usize].centre.at(0.5);
         let (lo, hi) = order.iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), &i| {
-                let c = emitters[i as usize].centroid();
-                (lo.min(c), hi.max(c))
-            },
+            |(lo, hi), &i| (lo.min(key(i)), hi.max(key(i))),
         );
         let extent = hi - lo;
         let axis = if extent.x >= extent.y && extent.x >= extent.z {
@@ -271,9 +343,7 @@ impl LightTree {
             2
         };
         let mid = order.len() / 2;
-        order.select_nth_unstable_by(mid, |&a, &b| {
-            emitters[a as usize].centroid()[axis].total_cmp(&emitters[b as usize].centroid()[axis])
-        });
+        order.select_nth_unstable_by(mid, |&a, &b| key(a)[axis].total_cmp(&key(b)[axis]));
         let (left, right) = order.split_at_mut(mid);
         self.build(emitters, left, children, path, depth + 1);
         self.build(emitters, right, children + 1, path | 1 << depth, depth + 1);
@@ -284,10 +354,10 @@ impl LightTree {
         self.nodes.is_empty()
     }
 
-    /// Picks an emitter for point `p` (normal `n` when it only reflects) from `u` in [0, 1);
-    /// returns it, its probability and `u` rescaled for reuse. `None` when nothing can reach
-    /// the point.
-    pub fn sample(&self, u: f32, p: Vec3, n: Option<Vec3>) -> Option<(usize, f32, f32)> {
+    /// Picks an emitter for point `p` (normal `n` when it only reflects) at `tau` through the
+    /// time range (0 at its start, 1 at its end) from `u` in [0, 1); returns it, its
+    /// probability and `u` rescaled for reuse. `None` when nothing can reach the point.
+    pub fn sample(&self, u: f32, p: Vec3, n: Option<Vec3>, tau: f32) -> Option<(usize, f32, f32)> {
         let mut node = 0usize;
         let mut pmf = 1.0f32;
         let mut u = u;
@@ -297,8 +367,8 @@ impl LightTree {
         while !self.nodes[node].leaf {
             let first = self.nodes[node].index as usize;
             let second = first + 1;
-            let a = self.nodes[first].bounds.importance(p, n);
-            let b = self.nodes[second].bounds.importance(p, n);
+            let a = self.nodes[first].bounds.importance(p, n, tau);
+            let b = self.nodes[second].bounds.importance(p, n, tau);
             if a + b <= 0.0 {
                 return None;
             }
@@ -316,8 +386,8 @@ impl LightTree {
         Some((self.nodes[node].index as usize, pmf, u))
     }
 
-    /// The probability [`Self::sample`] picks `emitter` for point `p` (normal `n`).
-    pub fn pmf(&self, emitter: usize, p: Vec3, n: Option<Vec3>) -> f32 {
+    /// The probability [`Self::sample`] picks `emitter` for point `p` (normal `n`) at `tau`.
+    pub fn pmf(&self, emitter: usize, p: Vec3, n: Option<Vec3>, tau: f32) -> f32 {
         let Some(&(path, depth)) = self.paths.get(emitter) else {
             return 0.0;
         };
@@ -326,8 +396,8 @@ impl LightTree {
         for level in 0..depth {
             let first = self.nodes[node].index as usize;
             let second = first + 1;
-            let a = self.nodes[first].bounds.importance(p, n);
-            let b = self.nodes[second].bounds.importance(p, n);
+            let a = self.nodes[first].bounds.importance(p, n, tau);
+            let b = self.nodes[second].bounds.importance(p, n, tau);
             if a + b <= 0.0 {
                 return 0.0;
             }
@@ -359,13 +429,13 @@ mod tests {
                 );
                 let h = Vec3::splat(0.05 + 0.1 * (f * 0.7).sin().abs());
                 let one_sided = i % 3 != 0;
-                LightBounds {
-                    min: c - h,
-                    max: c + h,
-                    power: 0.5 + (f * 1.3).sin().abs(),
-                    axis: Vec3::new((f * 0.9).sin(), (f * 0.4).cos(), 0.3).normalize(),
-                    cos_spread: if one_sided { 1.0 } else { -1.0 },
-                }
+                LightBounds::still(
+                    c - h,
+                    c + h,
+                    0.5 + (f * 1.3).sin().abs(),
+                    Vec3::new((f * 0.9).sin(), (f * 0.4).cos(), 0.3).normalize(),
+                    if one_sided { 1.0 } else { -1.0 },
+                )
             })
             .collect()
     }
@@ -397,7 +467,7 @@ mod tests {
             let n = Vec3::new((f * 0.5).cos(), (f * 0.9).sin(), 0.4).normalize();
             let receiver = if k % 4 == 0 { None } else { Some(n) };
             let pmf: Vec<f32> = (0..lights.len())
-                .map(|i| tree.pmf(i, p, receiver))
+                .map(|i| tree.pmf(i, p, receiver, 0.5))
                 .collect();
             // A node whose children both turn out unreachable (their union reaches corners or
             // directions neither does) loses its share: the sample is then empty, which is
@@ -423,7 +493,7 @@ mod tests {
             let mut empty = 0u32;
             for j in 0..draws {
                 let u = (j as f32 + 0.5) / draws as f32;
-                let Some((i, prob, rest)) = tree.sample(u, p, receiver) else {
+                let Some((i, prob, rest)) = tree.sample(u, p, receiver, 0.5) else {
                     empty += 1;
                     continue;
                 };
@@ -451,21 +521,18 @@ mod tests {
 
     #[test]
     fn nearer_and_brighter_emitters_are_picked_more() {
-        let at = |x: f32, power: f32| LightBounds {
-            min: Vec3::new(x, 0.0, 0.0) - 0.01,
-            max: Vec3::new(x, 0.0, 0.0) + 0.01,
-            power,
-            axis: Vec3::Z,
-            cos_spread: -1.0,
+        let at = |x: f32, power: f32| {
+            let c = Vec3::new(x, 0.0, 0.0);
+            LightBounds::still(c - 0.01, c + 0.01, power, Vec3::Z, -1.0)
         };
         let tree = LightTree::new(&[at(1.0, 1.0), at(4.0, 1.0), at(-2.0, 8.0)]);
         let p = Vec3::ZERO;
-        let pmf: Vec<f32> = (0..3).map(|i| tree.pmf(i, p, None)).collect();
+        let pmf: Vec<f32> = (0..3).map(|i| tree.pmf(i, p, None, 0.0)).collect();
         // Power over distance squared is 1, 1/16 and 2; inner nodes blur it but keep the order.
         assert!(pmf[2] > pmf[0] && pmf[0] > 4.0 * pmf[1], "{pmf:?}");
         assert!((pmf.iter().sum::<f32>() - 1.0).abs() < 1e-5);
         // Behind the receiver's surface: never picked.
-        assert_eq!(tree.pmf(0, p, Some(-Vec3::X)), 0.0);
+        assert_eq!(tree.pmf(0, p, Some(-Vec3::X), 0.0), 0.0);
     }
 
     /// Second moment of (contribution / probability) over the squared mean: 1 for a pmf
@@ -496,12 +563,14 @@ mod tests {
         let lights: Vec<LightBounds> = centres
             .iter()
             .enumerate()
-            .map(|(i, &c)| LightBounds {
-                min: c - Vec3::splat(half),
-                max: c + Vec3::splat(half),
-                power: 1.0 + 0.5 * (i as f32 * 0.37).sin(),
-                axis: Vec3::Z,
-                cos_spread: -1.0,
+            .map(|(i, &c)| {
+                LightBounds::still(
+                    c - Vec3::splat(half),
+                    c + Vec3::splat(half),
+                    1.0 + 0.5 * (i as f32 * 0.37).sin(),
+                    Vec3::Z,
+                    -1.0,
+                )
             })
             .collect();
         let tree = LightTree::new(&lights);
@@ -521,7 +590,7 @@ mod tests {
                     (e.power * d.dot(n).max(0.0) / d.length().powi(3)) as f64
                 })
                 .collect();
-            let tree_moment = relative_second_moment(&f, |i| tree.pmf(i, p, Some(n)) as f64);
+            let tree_moment = relative_second_moment(&f, |i| tree.pmf(i, p, Some(n), 0.0) as f64);
             let total_power: f64 = lights.iter().map(|e| e.power as f64).sum();
             let power_moment = relative_second_moment(&f, |i| lights[i].power as f64 / total_power);
             // Beside the ring, choosing by power alone has several times the variance; the tree
@@ -533,6 +602,93 @@ mod tests {
                     power_moment > 5.0 * tree_moment,
                     "{p}: power {power_moment}, tree {tree_moment}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn a_path_passes_its_three_points_and_follows_uniform_acceleration() {
+        let motion = |tau: f32| {
+            Vec3::new(1.0, -2.0, 0.5) + tau * Vec3::new(0.3, 4.0, -1.0) + tau * tau * Vec3::Y
+        };
+        let path = Path::through([0.0, 0.5, 1.0].map(motion));
+        for tau in [0.0, 0.25, 0.5, 0.8, 1.0] {
+            assert!(path.at(tau).distance(motion(tau)) < 1e-5, "{tau}");
+        }
+        let mean = Path::mean([(1.0, path), (3.0, Path::still(Vec3::ONE))].into_iter()).unwrap();
+        assert!(mean.at(0.7).distance(0.25 * motion(0.7) + 0.75 * Vec3::ONE) < 1e-5);
+        assert_eq!(Path::mean(std::iter::empty()), None);
+    }
+
+    #[test]
+    fn a_point_beside_a_spinning_ring_picks_the_strands_near_it_at_its_time() {
+        // 2000 segments on a ring of radius 0.9 in the plane z = 0.1, half turning a twentieth
+        // of a circle one way over the time range and half the other way (strands 30 cm
+        // apart at the ends of the range that pass each other halfway); a wall at z = 0.
+        let count = 2000;
+        let radius = 0.9f32;
+        let turn = std::f32::consts::TAU / 20.0;
+        let place = |i: usize, tau: f32| {
+            let spin = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let a = std::f32::consts::TAU * i as f32 / count as f32 + spin * turn * (tau - 0.5);
+            Vec3::new(radius * a.cos(), radius * a.sin(), 0.1)
+        };
+        let half = 0.004;
+        let steps = 16;
+        let moving: Vec<LightBounds> = (0..count)
+            .map(|i| {
+                let (min, max) = (0..=steps).fold(
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                    |(lo, hi), k| {
+                        let c = place(i, k as f32 / steps as f32);
+                        (lo.min(c - half), hi.max(c + half))
+                    },
+                );
+                LightBounds {
+                    min,
+                    max,
+                    centre: Path::through([0.0, 0.5, 1.0].map(|tau| place(i, tau))),
+                    reach: half * 3f32.sqrt(),
+                    power: 1.0 + 0.5 * (i as f32 * 0.37).sin(),
+                    axis: Vec3::Z,
+                    cos_spread: -1.0,
+                }
+            })
+            .collect();
+        // The same emitters known only by their boxes over the whole range.
+        let swept: Vec<LightBounds> = moving
+            .iter()
+            .map(|e| LightBounds::still(e.min, e.max, e.power, e.axis, e.cos_spread))
+            .collect();
+        let (tree, swept_tree) = (LightTree::new(&moving), LightTree::new(&swept));
+        let n = Vec3::Z;
+        for p in [
+            Vec3::new(0.9, 0.0, 0.0),
+            Vec3::new(0.0, -1.05, 0.0),
+            Vec3::new(0.6, 0.6, 0.0),
+        ] {
+            for tau in [0.0, 0.3, 0.5, 1.0] {
+                let f: Vec<f64> = moving
+                    .iter()
+                    .enumerate()
+                    .map(|(i, e)| {
+                        let d = place(i, tau) - p;
+                        (e.power * d.dot(n).max(0.0) / d.length().powi(3)) as f64
+                    })
+                    .collect();
+                let moment = relative_second_moment(&f, |i| tree.pmf(i, p, Some(n), tau) as f64);
+                let swept_moment =
+                    relative_second_moment(&f, |i| swept_tree.pmf(i, p, Some(n), tau) as f64);
+                // Within a small factor of the ideal pmf at every time; at the ends of the range,
+                // where the strands are farthest from the middle of their boxes, the boxes alone
+                // do markedly worse (1.5 to 1.8 times the second moment here).
+                assert!(moment < 2.0, "{p} at {tau}: {moment}");
+                if tau == 0.0 || tau == 1.0 {
+                    assert!(
+                        swept_moment > 1.4 * moment,
+                        "{p} at {tau}: {moment}, boxes alone {swept_moment}"
+                    );
+                }
             }
         }
     }

@@ -8,7 +8,7 @@
 
 use crate::environment::Environment;
 use crate::geometry::{RoundCone, STATIC, Strands, Triangle};
-use crate::light_tree::{LightBounds, LightTree};
+use crate::light_tree::{LightBounds, LightTree, Path};
 use crate::sampling::{AliasTable, uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -38,6 +38,8 @@ pub struct Receiver {
     pub p: Vec3,
     /// Unit normal on the side light can arrive from, when the surface only reflects.
     pub n: Option<Vec3>,
+    /// The path's time (seconds).
+    pub time: f64,
 }
 
 /// One emissive triangle.
@@ -107,6 +109,8 @@ pub struct Lights {
     pub environment: Option<Environment>,
     /// Probability of sampling the environment rather than an emitter.
     environment_probability: f32,
+    /// The times rays can have, which the tree's moving bounds span.
+    times: [f64; 2],
 }
 
 fn luminance(c: Vec3) -> f32 {
@@ -120,34 +124,46 @@ fn triangle_bounds(e: &Emitter, swept: &impl Fn(u32) -> (Vec3, Vec3)) -> LightBo
     let power = PI * luminance(e.radiance).max(1e-6) * e.area * sides;
     if e.instance == STATIC {
         let [a, b, c] = e.vertices.v;
-        LightBounds {
-            min: a.min(b).min(c),
-            max: a.max(b).max(c),
+        let cos_spread = if e.two_sided { -1.0 } else { 1.0 };
+        LightBounds::still(
+            a.min(b).min(c),
+            a.max(b).max(c),
             power,
-            axis: e.normal,
-            cos_spread: if e.two_sided { -1.0 } else { 1.0 },
-        }
+            e.normal,
+            cos_spread,
+        )
     } else {
         let (min, max) = swept(e.instance);
-        LightBounds {
-            min,
-            max,
-            power,
-            axis: Vec3::Z,
-            cos_spread: -1.0,
-        }
+        LightBounds::still(min, max, power, Vec3::Z, -1.0)
     }
 }
 
-/// The selection bounds of strand segment `i`: round, so it emits every way.
+/// Times at which a strand segment is placed to find how far it strays from its centre's path
+/// (the ends of the range included).
+const SEGMENT_PATH_STEPS: usize = 8;
+
+/// The selection bounds of strand segment `i`: round, so it emits every way. Besides the box
+/// over `times`, its centre is followed over `times`, with the reach that holds the segment
+/// around it at every step.
 fn segment_bounds(strands: &Strands, i: u32, times: [f64; 2]) -> LightBounds {
     let b = strands.segment_bounds(i, times);
-    let s = strands.world_segment(i, times[0]);
     let [l0, l1] = strands.radiance[i as usize];
+    let at = |tau: f32| strands.world_segment(i, times[0] + (times[1] - times[0]) * tau as f64);
+    let midpoint = |s: RoundCone| 0.5 * (s.a + s.b);
+    let centre = Path::through([0.0, 0.5, 1.0].map(|tau| midpoint(at(tau))));
+    let reach = (0..=SEGMENT_PATH_STEPS).fold(0.0f32, |reach, k| {
+        let tau = k as f32 / SEGMENT_PATH_STEPS as f32;
+        let (s, c) = (at(tau), centre.at(tau));
+        reach
+            .max(s.a.distance(c) + s.radius_a)
+            .max(s.b.distance(c) + s.radius_b)
+    });
     LightBounds {
         min: b.min.into(),
         max: b.max.into(),
-        power: PI * luminance(0.5 * (l0 + l1)) * lateral_area(&s),
+        centre,
+        reach,
+        power: PI * luminance(0.5 * (l0 + l1)) * lateral_area(&at(0.0)),
         axis: Vec3::Z,
         cos_spread: -1.0,
     }
@@ -205,6 +221,7 @@ impl Lights {
             by_triangle,
             environment,
             environment_probability,
+            times,
         }
     }
 
@@ -213,10 +230,20 @@ impl Lights {
         self.emitters.is_empty() && self.strand_count == 0 && self.environment.is_none()
     }
 
+    /// Where `time` lies through the time range, 0 at its start and 1 at its end.
+    fn tau(&self, time: f64) -> f32 {
+        let span = self.times[1] - self.times[0];
+        if span > 0.0 {
+            ((time - self.times[0]) / span).clamp(0.0, 1.0) as f32
+        } else {
+            0.0
+        }
+    }
+
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
     fn pick(&self, u: f32, at: &Receiver) -> Option<(usize, f32, f32)> {
         match &self.picker {
-            Picker::Tree(tree) => tree.sample(u, at.p, at.n),
+            Picker::Tree(tree) => tree.sample(u, at.p, at.n, self.tau(at.time)),
             Picker::Power(table) if table.is_empty() => None,
             Picker::Power(table) => {
                 let (i, rest) = table.sample(u.clamp(0.0, 1.0 - f32::EPSILON));
@@ -228,7 +255,7 @@ impl Lights {
     /// Probability that [`Self::pick`] chooses emitter `i` for `at`.
     fn pick_pmf(&self, i: usize, at: &Receiver) -> f32 {
         match &self.picker {
-            Picker::Tree(tree) => tree.pmf(i, at.p, at.n),
+            Picker::Tree(tree) => tree.pmf(i, at.p, at.n, self.tau(at.time)),
             Picker::Power(table) => table.pmf(i),
         }
     }
@@ -236,15 +263,14 @@ impl Lights {
     /// Picks a light and a point (or direction) on it for the point `at`, from one stratified
     /// 2-D sample: `u.x` chooses the light and is then rescaled to be reused for the point, so
     /// the light samples of a pixel stay stratified across the emitters' surface. `moving`
-    /// gives the world-space triangle of an emitter on a moving object at the ray's time;
-    /// strands are taken at `time`.
+    /// gives the world-space triangle of an emitter on a moving object at the receiver's time;
+    /// strands are taken at that time too.
     pub fn sample(
         &self,
         u: Vec2,
         at: &Receiver,
         moving: impl Fn(&Emitter) -> Triangle,
         strands: &Strands,
-        time: f64,
     ) -> Option<LightSample> {
         let p_env = self.environment_probability;
         let on_environment = u.x < p_env;
@@ -266,7 +292,7 @@ impl Lights {
         let pick = (1.0 - p_env) * pmf;
         if i >= self.emitters.len() {
             let segment = (i - self.emitters.len()) as u32;
-            return sample_segment(strands, segment, at.p, u_point, time, pick);
+            return sample_segment(strands, segment, at, u_point, pick);
         }
         let e = &self.emitters[i];
         let (tri, normal, area) = if e.instance == STATIC {
@@ -311,7 +337,7 @@ impl Lights {
     }
 
     /// Area-measure pdf with which [`Lights::sample`] picks the point of strand `segment` at
-    /// position `s` with outward `normal`, for `at`, at `time`.
+    /// position `s` with outward `normal`, for `at` (at its time).
     pub fn pdf_strand(
         &self,
         segment: u32,
@@ -319,7 +345,6 @@ impl Lights {
         normal: Vec3,
         at: &Receiver,
         strands: &Strands,
-        time: f64,
     ) -> f32 {
         if segment as usize >= self.strand_count {
             return 0.0;
@@ -329,7 +354,7 @@ impl Lights {
         if pick == 0.0 {
             return 0.0;
         }
-        let seg = strands.world_segment(segment, time);
+        let seg = strands.world_segment(segment, at.time);
         let Some(cylinder) = Cylinder::new(&seg, s, at.p) else {
             return 0.0;
         };
@@ -383,19 +408,18 @@ impl Cylinder {
     }
 }
 
-/// A point on strand `segment` (world, at `time`) for the shading point `p`, picked with
-/// probability `pick`.
+/// A point on strand `segment` (world, at the receiver's time) for the shading point `at`,
+/// picked with probability `pick`.
 fn sample_segment(
     strands: &Strands,
     segment: u32,
-    p: Vec3,
+    at: &Receiver,
     u: Vec2,
-    time: f64,
     pick: f32,
 ) -> Option<LightSample> {
-    let seg = strands.world_segment(segment, time);
+    let seg = strands.world_segment(segment, at.time);
     let s = u.x.min(1.0 - f32::EPSILON);
-    let cylinder = Cylinder::new(&seg, s, p)?;
+    let cylinder = Cylinder::new(&seg, s, at.p)?;
     // sin φ uniform in [−1, 1]: cos φ-distributed over the facing half.
     let sin_phi = 2.0 * u.y - 1.0;
     let cos_phi = (1.0 - sin_phi * sin_phi).max(0.0).sqrt();
