@@ -7,7 +7,7 @@
 //! picked half the time.
 
 use crate::environment::Environment;
-use crate::geometry::{RoundCone, STATIC, Strands, Triangle};
+use crate::geometry::{MovingInstance, RoundCone, STATIC, Strands, Triangle};
 use crate::light_tree::{LightBounds, LightTree, Path};
 use crate::sampling::{AliasTable, uniform_triangle};
 use glam::{Vec2, Vec3};
@@ -117,47 +117,80 @@ fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
-/// The selection bounds of one emissive triangle. `swept` gives a moving instance's world
-/// bounds over the rays' times (its triangles may turn, so they count as facing everywhere).
-fn triangle_bounds(e: &Emitter, swept: &impl Fn(u32) -> (Vec3, Vec3)) -> LightBounds {
+/// The selection bounds of one emissive triangle. One on a moving instance may turn, so it
+/// counts as facing everywhere; its box is the instance's world bounds over `times`, and its
+/// centre is followed over `times`.
+fn triangle_bounds(e: &Emitter, instances: &[MovingInstance], times: [f64; 2]) -> LightBounds {
     let sides = if e.two_sided { 2.0 } else { 1.0 };
     let power = PI * luminance(e.radiance).max(1e-6) * e.area * sides;
     if e.instance == STATIC {
         let [a, b, c] = e.vertices.v;
         let cos_spread = if e.two_sided { -1.0 } else { 1.0 };
-        LightBounds::still(
+        return LightBounds::still(
             a.min(b).min(c),
             a.max(b).max(c),
             power,
             e.normal,
             cos_spread,
-        )
-    } else {
-        let (min, max) = swept(e.instance);
-        LightBounds::still(min, max, power, Vec3::Z, -1.0)
+        );
+    }
+    let instance = &instances[e.instance as usize];
+    let at = |tau: f32| {
+        let to_world = instance.placement(time_at(times, tau)).to_world;
+        e.vertices.v.map(|v| to_world.transform_point3(v))
+    };
+    let (centre, reach) = follow(
+        at,
+        |v| (v[0] + v[1] + v[2]) / 3.0,
+        |v, c| v.iter().fold(0.0f32, |r, v| r.max(v.distance(c))),
+    );
+    LightBounds {
+        min: instance.bounds.min.into(),
+        max: instance.bounds.max.into(),
+        centre,
+        reach,
+        power,
+        axis: Vec3::Z,
+        cos_spread: -1.0,
     }
 }
 
-/// Times at which a strand segment is placed to find how far it strays from its centre's path
+/// The time `tau` of the way through `times`.
+fn time_at(times: [f64; 2], tau: f32) -> f64 {
+    times[0] + (times[1] - times[0]) * tau as f64
+}
+
+/// Times at which a moving emitter is placed to find how far it strays from its centre's path
 /// (the ends of the range included).
-const SEGMENT_PATH_STEPS: usize = 8;
+const PATH_STEPS: usize = 8;
+
+/// The path of a moving emitter's centre over the time range and the reach that holds the
+/// emitter around it, from the emitter placed at τ (`at`), its centre, and its farthest
+/// extent from a point.
+fn follow<S>(
+    at: impl Fn(f32) -> S,
+    centre: impl Fn(&S) -> Vec3,
+    extent: impl Fn(&S, Vec3) -> f32,
+) -> (Path, f32) {
+    let path = Path::through([0.0, 0.5, 1.0].map(|tau| centre(&at(tau))));
+    let reach = (0..=PATH_STEPS).fold(0.0f32, |reach, k| {
+        let tau = k as f32 / PATH_STEPS as f32;
+        reach.max(extent(&at(tau), path.at(tau)))
+    });
+    (path, reach)
+}
 
 /// The selection bounds of strand segment `i`: round, so it emits every way. Besides the box
-/// over `times`, its centre is followed over `times`, with the reach that holds the segment
-/// around it at every step.
+/// over `times`, its centre is followed over `times`.
 fn segment_bounds(strands: &Strands, i: u32, times: [f64; 2]) -> LightBounds {
     let b = strands.segment_bounds(i, times);
     let [l0, l1] = strands.radiance[i as usize];
-    let at = |tau: f32| strands.world_segment(i, times[0] + (times[1] - times[0]) * tau as f64);
-    let midpoint = |s: RoundCone| 0.5 * (s.a + s.b);
-    let centre = Path::through([0.0, 0.5, 1.0].map(|tau| midpoint(at(tau))));
-    let reach = (0..=SEGMENT_PATH_STEPS).fold(0.0f32, |reach, k| {
-        let tau = k as f32 / SEGMENT_PATH_STEPS as f32;
-        let (s, c) = (at(tau), centre.at(tau));
-        reach
-            .max(s.a.distance(c) + s.radius_a)
-            .max(s.b.distance(c) + s.radius_b)
-    });
+    let at = |tau: f32| strands.world_segment(i, time_at(times, tau));
+    let (centre, reach) = follow(
+        at,
+        |s| 0.5 * (s.a + s.b),
+        |s, c| (s.a.distance(c) + s.radius_a).max(s.b.distance(c) + s.radius_b),
+    );
     LightBounds {
         min: b.min.into(),
         max: b.max.into(),
@@ -177,20 +210,20 @@ fn lateral_area(s: &RoundCone) -> f32 {
 
 impl Lights {
     /// Collects emitters: emissive triangles (`triangle_count` is the scene's triangle count;
-    /// `swept` gives a moving instance's world bounds) and every strand segment that emits;
+    /// those of moving objects are placed by `instances`) and every strand segment that emits;
     /// rays have times in `times`.
     pub fn new(
         emitters: Vec<Emitter>,
         triangle_count: usize,
         strands: &Strands,
         times: [f64; 2],
-        swept: impl Fn(u32) -> (Vec3, Vec3),
+        instances: &[MovingInstance],
         environment: Option<Environment>,
         selection: LightSelection,
     ) -> Self {
         let mut bounds: Vec<LightBounds> = emitters
             .iter()
-            .map(|e| triangle_bounds(e, &swept))
+            .map(|e| triangle_bounds(e, instances, times))
             .collect();
         let strand_count = strands.segments.len();
         bounds.extend((0..strand_count as u32).map(|i| segment_bounds(strands, i, times)));

@@ -430,16 +430,12 @@ impl Scene {
             );
             strand_flags.push(look.flags);
         }
-        let instance_bounds: Vec<(Vec3, Vec3)> = instances
-            .iter()
-            .map(|i| (i.bounds.min.into(), i.bounds.max.into()))
-            .collect();
         let lights = Lights::new(
             emitters,
             triangles.len(),
             &strands,
             times,
-            |instance| instance_bounds[instance as usize],
+            &instances,
             environment,
             light_selection,
         );
