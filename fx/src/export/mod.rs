@@ -5,6 +5,7 @@
 pub mod atomic;
 pub mod cache;
 pub mod ply;
+pub mod ply_table;
 pub mod usda;
 
 use crate::error::FxError;
