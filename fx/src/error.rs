@@ -33,6 +33,9 @@ pub enum FxError {
     /// A ring cache is truncated, corrupt or of another version.
     #[error("{}: not a valid ring cache: {message}", file.display())]
     Cache { file: PathBuf, message: String },
+    /// A ring point cloud (PLY) is malformed or lacks what the renderer needs.
+    #[error("{}: not a valid ring point cloud: {message}", file.display())]
+    PointCloud { file: PathBuf, message: String },
     /// A request that does not fit the shot (e.g. frames outside what can be generated).
     #[error("{0}")]
     Request(String),
