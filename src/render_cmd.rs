@@ -60,8 +60,9 @@ pub struct RenderArgs {
     /// Also write an sRGB PNG preview beside each EXR.
     #[arg(long)]
     png: bool,
-    /// Ring caches written by `rift fx` (`#`s become the frame number), replacing
-    /// `[render] rings`; without either the rings are generated in memory.
+    /// Ring caches written by `rift fx` (`#`s become the frame number), or its PLY point clouds
+    /// (a pattern ending in `.ply`, `%o` becoming each opening's name), replacing `[render]
+    /// rings`; without either the rings are generated in memory.
     #[arg(long, value_name = "PATTERN")]
     rings: Option<PathBuf>,
     /// How light sampling picks emitters: `tree` (by what each can send to the shaded point,

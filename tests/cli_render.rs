@@ -553,13 +553,119 @@ fn a_stereo_shot_renders_both_eyes_in_one_command() {
     expect_failure(&dir, &["shot.toml", "camera.stereo", "convergence"]);
 }
 
+/// The Cornell box with an opening "a" that has a ring, paired with "b" far away.
+fn ringed(t: &str) -> String {
+    t.to_owned()
+        + "\n[[portal]]\nname = \"a\"\nhere = { position = [0.0, 1.0, 0.0] }\npair = \"b\"\n[portal.ring]\nradius = 0.3\nstrands = 4\n\
+           [[portal]]\nname = \"b\"\nhere = { position = [30.0, 1.0, 0.0] }\npair = \"a\"\n"
+}
+
+#[test]
+fn ring_point_clouds_render_as_their_cache_does() {
+    let dir =
+        cornell_dir(|t| ringed(&t.replace("resolution = [256, 256]", "resolution = [40, 32]")));
+    run_ok(
+        &dir,
+        &[
+            "fx",
+            "shot.toml",
+            "--frames",
+            "1",
+            "-o",
+            "fx",
+            "--format",
+            "cache,ply",
+        ],
+    );
+    assert!(dir.path().join("fx/cornell.a.0001.ply").is_file());
+    let render = |rings: &str, out: &str| {
+        rift(
+            dir.path(),
+            &[
+                "render",
+                "shot.toml",
+                "--spp",
+                "4",
+                "--rings",
+                rings,
+                "-o",
+                out,
+            ],
+        )
+    };
+    for (rings, out) in [
+        ("fx/cornell.####.ringcache", "out/cache.exr"),
+        ("fx/cornell.%o.####.ply", "out/ply.exr"),
+    ] {
+        let r = render(rings, out);
+        assert!(r.status.success(), "{rings}: {}", stderr(&r));
+    }
+    let read = |name: &str| rift_render::film::read_exr_rgb(&dir.path().join("out").join(name));
+    let (cache, ply) = (read("cache.exr").unwrap().2, read("ply.exr").unwrap().2);
+    assert_eq!(
+        cache, ply,
+        "the same rings from either file render the same pixels"
+    );
+    // The ring is in view: the box without the openings differs where the strands are.
+    let shot = std::fs::read_to_string(dir.path().join("shot.toml")).unwrap();
+    let plain = &shot[..shot.find("\n[[portal]]").unwrap()];
+    std::fs::write(dir.path().join("plain.toml"), plain).unwrap();
+    run_ok(
+        &dir,
+        &["render", "plain.toml", "--spp", "4", "-o", "out/plain.exr"],
+    );
+    let strands = read("plain.exr")
+        .unwrap()
+        .2
+        .iter()
+        .zip(&cache)
+        .filter(|(a, b)| (**a - **b).abs().max_element() > 0.5)
+        .count();
+    assert!(strands >= 5, "only {strands} pixels show the ring");
+
+    let fails = |rings: &str, expect: &[&str]| {
+        let r = render(rings, "out/bad.exr");
+        let msg = stderr(&r);
+        assert_eq!(r.status.code(), Some(1), "{rings}: {msg}");
+        for e in expect {
+            assert!(msg.contains(e), "{rings}: {msg:?} lacks {e:?}");
+        }
+        assert!(!dir.path().join("out/bad.exr").exists());
+    };
+    fails(
+        "fx/cornell.a.####.ply",
+        &["--rings", "put %o where the opening's name goes"],
+    );
+    fails(
+        "fx/nothing.%o.####.ply",
+        &["nothing.a.0001.ply", "cannot read"],
+    );
+    // Another opening's ring under this opening's name.
+    let text = std::fs::read(dir.path().join("fx/cornell.a.0001.ply")).unwrap();
+    let title = b"opening a frame";
+    let at = text.windows(title.len()).position(|w| w == title).unwrap();
+    let mut other = text.clone();
+    other[at + 8] = b'b';
+    std::fs::create_dir_all(dir.path().join("wrong")).unwrap();
+    std::fs::write(dir.path().join("wrong/cornell.a.0001.ply"), &other).unwrap();
+    fails(
+        "wrong/cornell.%o.####.ply",
+        &["holds the ring of \"b\", not of \"a\""],
+    );
+    // A point cloud whose points were cut short.
+    std::fs::write(
+        dir.path().join("wrong/cornell.a.0001.ply"),
+        &text[..text.len() - 10],
+    )
+    .unwrap();
+    fails(
+        "wrong/cornell.%o.####.ply",
+        &["not a valid ring point cloud", "ends early"],
+    );
+}
+
 #[test]
 fn ring_caches_that_are_missing_corrupt_or_for_another_frame() {
-    let ringed = |t: &str| {
-        t.to_owned()
-            + "\n[[portal]]\nname = \"a\"\nhere = { position = [0.0, 1.0, 0.0] }\npair = \"b\"\n[portal.ring]\nradius = 0.3\nstrands = 4\n\
-               [[portal]]\nname = \"b\"\nhere = { position = [30.0, 1.0, 0.0] }\npair = \"a\"\n"
-    };
     // Named in the shot but absent.
     let dir = cornell_dir(|t| {
         ringed(&t).replace("[render]", "[render]\nrings = \"cache/r.####.ringcache\"")

@@ -1,7 +1,8 @@
-//! Where a render's rings come from: a native ring cache written by `rift fx` (`[render] rings`
-//! or `--rings`, with `#` frame tokens), or generated in memory from the shot's ring looks when
-//! no cache is named. Either way every opening with a ring look gets exactly one ring, at the
-//! frame being rendered.
+//! Where a render's rings come from: the native ring caches written by `rift fx` (`[render]
+//! rings` or `--rings`, with `#` frame tokens), its PLY point clouds (a pattern ending in `.ply`,
+//! with `%o` where the opening's name goes, one file per opening), or generated in memory from
+//! the shot's ring looks when no file is named. Either way every opening with a ring look gets
+//! exactly one ring, at the frame being rendered.
 
 use crate::error::{RenderError, key_error};
 use rift_fx::ring::{RingFrame, RingGenerator};
@@ -13,8 +14,9 @@ use std::path::{Path, PathBuf};
 pub enum RingSource {
     /// Bake them from the shot.
     Generate,
-    /// A cache path pattern (`#`s become the frame number), and where it was named: the shot
-    /// key `render.rings`, or `None` for the command line.
+    /// A cache or point-cloud path pattern (`#`s become the frame number, `%o` the opening's
+    /// name), and where it was named: the shot key `render.rings`, or `None` for the command
+    /// line.
     Cache {
         pattern: PathBuf,
         key: Option<String>,
@@ -62,9 +64,8 @@ pub fn load(
         }
         RingSource::Cache { pattern, key } => (pattern, key),
     };
-    let path = PathBuf::from(frame_path(&pattern.to_string_lossy(), frame));
-    let rings = rift_fx::export::cache::read(&path)?;
-    let bad = |message: String| -> RenderError {
+    let pattern = frame_path(&pattern.to_string_lossy(), frame);
+    let bad = |path: &Path, message: String| -> RenderError {
         match key {
             Some(k) => key_error(
                 &shot.source,
@@ -74,27 +75,98 @@ pub fn load(
             None => RenderError::Settings(format!("--rings {}: {message}", path.display())),
         }
     };
-    if rings.frame != frame {
-        return Err(bad(format!(
-            "holds frame {}, not frame {frame}",
-            rings.frame
-        )));
-    }
+    let names = wanted.iter().map(|&i| shot.rig.openings[i].name.as_str());
+    let rings = if pattern.ends_with(".ply") {
+        match point_clouds(&pattern, names, frame, &bad)? {
+            Some(rings) => rings,
+            None => return Ok(None),
+        }
+    } else {
+        let path = PathBuf::from(&pattern);
+        let rings = rift_fx::export::cache::read(&path)?;
+        for name in names {
+            if !rings.rings.iter().any(|r| r.opening == name) {
+                return Err(bad(&path, format!("has no ring for opening {name:?}")));
+            }
+        }
+        if rings.frame != frame {
+            return Err(bad(
+                &path,
+                format!("holds frame {}, not frame {frame}", rings.frame),
+            ));
+        }
+        rings
+    };
     for ring in &rings.rings {
         if shot.rig.find(&ring.opening).is_none() {
-            return Err(bad(format!(
-                "has a ring for {:?}, which is not an opening of this shot",
-                ring.opening
-            )));
-        }
-    }
-    for &i in &wanted {
-        let name = &shot.rig.openings[i].name;
-        if !rings.rings.iter().any(|r| &r.opening == name) {
-            return Err(bad(format!("has no ring for opening {name:?}")));
+            return Err(bad(
+                Path::new(&pattern),
+                format!(
+                    "has a ring for {:?}, which is not an opening of this shot",
+                    ring.opening
+                ),
+            ));
         }
     }
     Ok(Some(rings))
+}
+
+/// The rings of openings `names` at `frame` from one point cloud each: `pattern` with `%o`
+/// replaced by the opening's name (`None` without openings). The files must agree on the
+/// frame's timing.
+fn point_clouds<'a>(
+    pattern: &str,
+    names: impl Iterator<Item = &'a str>,
+    frame: i64,
+    bad: &impl Fn(&Path, String) -> RenderError,
+) -> Result<Option<RingFrame>, RenderError> {
+    if !pattern.contains("%o") {
+        return Err(bad(
+            Path::new(pattern),
+            "a PLY ring pattern names one file per opening: put %o where the opening's name goes"
+                .into(),
+        ));
+    }
+    let mut all: Option<RingFrame> = None;
+    for name in names {
+        let path = PathBuf::from(pattern.replace("%o", name));
+        let mut read = rift_fx::export::ply::read(&path)?;
+        let ring = read.rings.pop().expect("a point cloud holds one ring");
+        if ring.opening != name {
+            return Err(bad(
+                &path,
+                format!("holds the ring of {:?}, not of {name:?}", ring.opening),
+            ));
+        }
+        if read.frame != frame {
+            return Err(bad(
+                &path,
+                format!("holds frame {}, not frame {frame}", read.frame),
+            ));
+        }
+        match &mut all {
+            None => {
+                all = Some(RingFrame {
+                    rings: vec![ring],
+                    ..read
+                })
+            }
+            Some(first) if (first.fps, first.shutter) == (read.fps, read.shutter) => {
+                first.rings.push(ring)
+            }
+            Some(first) => {
+                return Err(bad(
+                    &path,
+                    format!(
+                        "is at {} fps with shutter {:?} s, where the first ring's file is at {} \
+                         fps with shutter {:?} s",
+                        read.fps, read.shutter, first.fps, first.shutter
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(all)
 }
 
 /// The cache pattern named by `[render] rings`, relative to the shot file.

@@ -9,7 +9,8 @@
 //!                               # an opening met past the limit ends the path (black)
 //! output = "out/shot.####.exr"  # frame number replaces the #s; relative to the working directory
 //! rings = "cache/shot.####.ringcache"  # ring caches written by `rift fx` (relative to the shot
-//!                               # file); omit to generate the rings in memory
+//!                               # file), or its point clouds: "cache/shot.%o.####.ply" (%o: the
+//!                               # opening's name); omit to generate the rings in memory
 //!
 //! [[material]]
 //! name = "white"
