@@ -40,8 +40,9 @@ pub fn frame_path(pattern: &str, frame: i64) -> String {
 }
 
 /// The rings of `shot` at `frame`: those of a named cache (which must hold one for every
-/// opening with a ring look, and none for an unknown opening), else those generated from the
-/// ring looks (`None` when no opening has one).
+/// opening with a ring look, and none for an unknown opening) or of named point clouds (one per
+/// opening with a ring look), else those generated from the ring looks (`None` when no opening
+/// has one).
 pub fn load(
     shot: &Shot,
     frame: i64,
@@ -76,36 +77,31 @@ pub fn load(
         }
     };
     let names = wanted.iter().map(|&i| shot.rig.openings[i].name.as_str());
-    let rings = if pattern.ends_with(".ply") {
-        match point_clouds(&pattern, names, frame, &bad)? {
-            Some(rings) => rings,
-            None => return Ok(None),
-        }
-    } else {
-        let path = PathBuf::from(&pattern);
-        let rings = rift_fx::export::cache::read(&path)?;
-        for name in names {
-            if !rings.rings.iter().any(|r| r.opening == name) {
-                return Err(bad(&path, format!("has no ring for opening {name:?}")));
-            }
-        }
-        if rings.frame != frame {
-            return Err(bad(
-                &path,
-                format!("holds frame {}, not frame {frame}", rings.frame),
-            ));
-        }
-        rings
-    };
+    if pattern.ends_with(".ply") {
+        return point_clouds(&pattern, names, frame, &bad);
+    }
+    let path = PathBuf::from(&pattern);
+    let rings = rift_fx::export::cache::read(&path)?;
+    if rings.frame != frame {
+        return Err(bad(
+            &path,
+            format!("holds frame {}, not frame {frame}", rings.frame),
+        ));
+    }
     for ring in &rings.rings {
         if shot.rig.find(&ring.opening).is_none() {
             return Err(bad(
-                Path::new(&pattern),
+                &path,
                 format!(
                     "has a ring for {:?}, which is not an opening of this shot",
                     ring.opening
                 ),
             ));
+        }
+    }
+    for name in names {
+        if !rings.rings.iter().any(|r| r.opening == name) {
+            return Err(bad(&path, format!("has no ring for opening {name:?}")));
         }
     }
     Ok(Some(rings))
