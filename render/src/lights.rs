@@ -155,7 +155,7 @@ fn triangle_bounds(e: &Emitter, instances: &[MovingInstance], times: [f64; 2]) -
     }
 }
 
-/// The time `tau` of the way through `times`.
+/// The time a fraction `tau` of the way through `times`.
 fn time_at(times: [f64; 2], tau: f32) -> f64 {
     times[0] + (times[1] - times[0]) * tau as f64
 }
