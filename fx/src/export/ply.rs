@@ -112,7 +112,7 @@ pub fn write(w: &mut dyn Write, frame: &RingFrame, ring: &RingCurves) -> io::Res
 /// What the first comment line starts with, before the opening's name.
 const TITLE: &str = "rift fx ring boundary: opening ";
 
-/// Reads one opening's ring at one frame, as [`write`] wrote it.
+/// Reads one opening's ring at one frame, as [`write()`] wrote it.
 pub fn read(path: &Path) -> Result<RingFrame, FxError> {
     let bytes = std::fs::read(path).map_err(|cause| FxError::Read {
         file: path.to_owned(),
