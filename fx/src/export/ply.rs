@@ -230,8 +230,12 @@ fn curves(vertex: &Element) -> Result<RingCurves, String> {
         let next = ring.vertex_counts.len() as f64;
         if strand == next {
             ring.vertex_counts.push(1);
-        } else if strand == next - 1.0 {
-            *ring.vertex_counts.last_mut().expect("a strand was started") += 1;
+        } else if let Some(count) = ring
+            .vertex_counts
+            .last_mut()
+            .filter(|_| strand == next - 1.0)
+        {
+            *count += 1;
         } else {
             return Err(format!(
                 "point {i} belongs to strand {strand} after strand {}: each strand's points must \
@@ -379,5 +383,16 @@ mod tests {
             err.contains("point 10 belongs to strand 0 after strand 1"),
             "{err}"
         );
+        // A first point numbered before strand 0.
+        let mut bytes = written(&frame());
+        let header_end = bytes
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .unwrap()
+            + 11;
+        let at = header_end + 4 * 12;
+        bytes[at..at + 4].copy_from_slice(&(-1i32).to_le_bytes());
+        let err = decode(&bytes).unwrap_err();
+        assert!(err.contains("point 0 belongs to strand -1"), "{err}");
     }
 }
