@@ -7,6 +7,7 @@ use rayon::prelude::*;
 use rift_fx::Shot;
 use rift_fx::export::{self, Format};
 use rift_fx::ring::RingGenerator;
+use rift_render::Ray;
 use rift_render::geometry::every_triangle;
 use rift_render::visibility::RayClass;
 use std::path::PathBuf;
@@ -455,7 +456,7 @@ fn portals(args: PortalsArgs) -> anyhow::Result<()> {
         .filter(|&(o, d)| {
             scene
                 .portals
-                .intersect(o, d, 0.0, f32::INFINITY, time)
+                .intersect(&Ray::new(o, d, f32::INFINITY, time))
                 .is_some()
         })
         .collect();
@@ -481,14 +482,14 @@ fn portals(args: PortalsArgs) -> anyhow::Result<()> {
     let portals = &scene.portals;
     let teleport_ns = 1e9
         * timed(&|o, d| {
-            let hit = portals.intersect(o, d, 0.0, f32::INFINITY, time);
+            let hit = portals.intersect(&Ray::new(o, d, f32::INFINITY, time));
             hit.and_then(|hit| portals.teleport(&hit, d, time))
                 .map_or(0.0, |t| t.origin.x)
         });
     let ray_ns = 1e9
         * timed(&|o, d| {
             scene
-                .intersect(o, d, f32::INFINITY, time, RayClass::Camera)
+                .intersect(&Ray::new(o, d, f32::INFINITY, time), RayClass::Camera)
                 .map_or(0.0, |hit| hit.t())
         });
     println!(
@@ -630,7 +631,7 @@ fn strands(args: StrandsArgs) -> anyhow::Result<()> {
                     .into_par_iter()
                     .filter(|&i| {
                         let (o, d, time) = ray(i);
-                        set.intersect(o, d, f32::INFINITY, at(time), |_| true)
+                        set.intersect(&Ray::new(o, d, f32::INFINITY, at(time)), |_| true)
                             .is_some()
                     })
                     .count()
@@ -642,7 +643,7 @@ fn strands(args: StrandsArgs) -> anyhow::Result<()> {
                     .into_par_iter()
                     .filter(|&i| {
                         let (o, d, time) = ray(i);
-                        set.occluded(o, d, f32::INFINITY, at(time), |_| true)
+                        set.occluded(&Ray::new(o, d, f32::INFINITY, at(time)), |_| true)
                     })
                     .count()
             })?;

@@ -22,9 +22,11 @@
 //! its opacity, and light reached by BSDF sampling after a teleport gets the full MIS weight
 //! (light sampling could not have found it): the estimate stays unbiased, only noisier.
 
+use crate::geometry::Hit;
 use crate::geometry::offset_origin;
-use crate::lights::{LightPlace, LightSource, Receiver};
+use crate::lights::{Found, LightPlace, LightSource, Receiver};
 use crate::material::{Bsdf, Side};
+use crate::ray::Ray;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::{Scene, SceneHit};
 use crate::visibility::RayClass;
@@ -66,95 +68,152 @@ pub struct FirstHit {
     pub albedo: Vec3,
 }
 
-/// Traces one path from `origin` along unit `dir` at time `time` (seconds). The camera ray
-/// sees only ray parameters within `camera_range` (its clipping interval).
-pub fn trace(
-    scene: &Scene,
-    mut origin: Vec3,
-    mut dir: Vec3,
-    mut time: f64,
-    camera_range: (f32, f32),
-    s: &mut SampleStream,
-) -> PathSample {
-    let mut out = PathSample::default();
-    let mut beta = Vec3::ONE;
-    // Solid-angle pdf of the BSDF sample that produced `dir` (MIS against light sampling);
-    // camera rays and specular bounces count as delta.
-    let mut prev_pdf = 0.0f32;
-    let mut prev_delta = true;
-    // The last scattering point, as light selection saw it (for the MIS weight of emitters
-    // that BSDF sampling finds).
-    let mut prev_receiver = Receiver {
-        p: origin,
-        n: None,
-        time,
-    };
-    let mut bounce = 0u32;
-    // Product of η² over refractions, so roulette sees the throughput without the radiance
-    // compression of entering or leaving glass.
-    let mut eta_scale = 1.0f32;
-    // Ray parameters the current ray may hit (clipping applies to the camera ray only).
-    let mut range = camera_range;
-    // Teleports since the last scattering event, and the camera ray's distance to its first
-    // opening.
-    let mut chain = 0u32;
-    let mut opening_t: Option<f32> = None;
-    let portals = &scene.portals;
-    'path: loop {
-        let class = match (bounce, chain) {
+/// A path between events: the ray it follows and what it carries from its last scattering
+/// event.
+struct PathState {
+    ray: Ray,
+    /// Throughput.
+    beta: Vec3,
+    /// Scattering events so far.
+    bounce: u32,
+    /// Product of η² over refractions, so roulette sees the throughput without the radiance
+    /// compression of entering or leaving glass.
+    eta_scale: f32,
+    /// Solid-angle pdf of the BSDF sample that produced the ray (MIS against light sampling);
+    /// camera rays and specular bounces count as delta.
+    prev_pdf: f32,
+    prev_delta: bool,
+    /// The last scattering point, as light selection saw it (for the MIS weight of emitters
+    /// that BSDF sampling finds).
+    prev_receiver: Receiver,
+    /// Teleports since the last scattering event.
+    chain: u32,
+    /// The camera ray's distance to its first opening.
+    opening_t: Option<f32>,
+}
+
+impl PathState {
+    fn camera(ray: Ray) -> Self {
+        Self {
+            ray,
+            beta: Vec3::ONE,
+            bounce: 0,
+            eta_scale: 1.0,
+            prev_pdf: 0.0,
+            prev_delta: true,
+            prev_receiver: Receiver {
+                p: ray.origin,
+                n: None,
+                time: ray.time,
+            },
+            chain: 0,
+            opening_t: None,
+        }
+    }
+
+    /// Who the current ray is, for visibility flags.
+    fn class(&self) -> RayClass {
+        match (self.bounce, self.chain) {
             (0, 0) => RayClass::Camera,
             (0, _) => RayClass::ThroughPortal,
             _ => RayClass::Indirect,
-        };
-        let hit = intersect_range(scene, origin, dir, range, time, class);
-        if !portals.is_empty() {
-            // Openings before the surface: each teleports with its opacity's probability.
-            let limit = hit.map_or(range.1, |h| h.t() * (1.0 + PORTAL_TIE));
-            let mut from = range.0;
-            while let Some(ph) = portals.intersect(origin, dir, from, limit, time) {
-                let look = portals.look(ph.opening);
-                if look.opacity < 1.0 && s.uniform() >= look.opacity {
-                    from = ph.t;
-                    continue;
-                }
-                if bounce == 0 && opening_t.is_none() {
-                    opening_t = Some(ph.t);
-                }
-                if chain >= scene.settings.max_portal_depth {
-                    if bounce == 0 {
-                        out.first = Some(FirstHit {
-                            t: opening_t.unwrap_or(ph.t),
-                            normal: -dir,
-                            albedo: Vec3::ZERO,
-                        });
-                    }
-                    break 'path;
-                }
-                time = portals.exit_time(ph.opening, time);
-                let Some(next) = portals.teleport(&ph, dir, time) else {
-                    break 'path;
-                };
-                beta *= look.tint;
-                chain += 1;
-                if bounce == 0 {
-                    out.portal_depth += 1;
-                }
-                (origin, dir) = (next.origin, next.direction);
-                range = (0.0, f32::INFINITY);
-                continue 'path;
-            }
         }
-        // Emission found by BSDF sampling gets the full weight when light sampling could not
-        // have found it: after a delta bounce, or through an opening.
-        let unweighted = prev_delta || chain > 0;
+    }
+
+    /// The MIS weight of emission the current ray found, whose light-sampling solid-angle pdf
+    /// `pdf_light` gives. It is 1 when light sampling could not have found it: after a delta
+    /// bounce, or through an opening.
+    fn emission_weight(&self, pdf_light: impl FnOnce() -> f32) -> f32 {
+        if self.prev_delta || self.chain > 0 {
+            1.0
+        } else {
+            power_heuristic(self.prev_pdf, pdf_light())
+        }
+    }
+
+    /// Records the camera ray's first surface (or opening) for the AOVs.
+    fn first_hit(&self, out: &mut PathSample, t: f32, normal: Vec3, albedo: Vec3) {
+        if self.bounce == 0 {
+            out.first = Some(FirstHit {
+                t: self.opening_t.unwrap_or(t),
+                normal,
+                albedo,
+            });
+        }
+    }
+}
+
+/// What became of a ray at the openings in front of its hit.
+enum Crossing {
+    /// It passed every opening (or met none): the hit stands.
+    Passed,
+    /// It teleported: the path continues along the new ray.
+    Teleported,
+    /// The path ends at an opening (the depth limit, or total reflection at its exit).
+    Ended,
+}
+
+/// Follows the path's ray through the openings before `hit_t` (its hit, or `None` if it
+/// escapes): each meets a teleport with its opacity's probability, else the ray passes. A
+/// teleport updates the path's ray, time, throughput and chain.
+fn cross_openings(
+    scene: &Scene,
+    path: &mut PathState,
+    hit_t: Option<f32>,
+    s: &mut SampleStream,
+    out: &mut PathSample,
+) -> Crossing {
+    let portals = &scene.portals;
+    if portals.is_empty() {
+        return Crossing::Passed;
+    }
+    let ray = path.ray;
+    let limit = hit_t.map_or(ray.t_max, |t| t * (1.0 + PORTAL_TIE));
+    let mut from = ray.t_min;
+    while let Some(ph) = portals.intersect(&ray.between(from, limit)) {
+        let look = portals.look(ph.opening);
+        if look.opacity < 1.0 && s.uniform() >= look.opacity {
+            from = ph.t;
+            continue;
+        }
+        if path.bounce == 0 && path.opening_t.is_none() {
+            path.opening_t = Some(ph.t);
+        }
+        if path.chain >= scene.settings.max_portal_depth {
+            path.first_hit(out, ph.t, -ray.dir, Vec3::ZERO);
+            return Crossing::Ended;
+        }
+        let time = portals.exit_time(ph.opening, ray.time);
+        let Some(next) = portals.teleport(&ph, ray.dir, time) else {
+            return Crossing::Ended;
+        };
+        path.beta *= look.tint;
+        path.chain += 1;
+        if path.bounce == 0 {
+            out.portal_depth += 1;
+        }
+        path.ray = Ray::new(next.origin, next.direction, f32::INFINITY, time);
+        return Crossing::Teleported;
+    }
+    Crossing::Passed
+}
+
+/// Traces one path along `camera_ray`, whose range is the camera's clipping interval.
+pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
+    let mut out = PathSample::default();
+    let mut path = PathState::camera(camera_ray);
+    loop {
+        let hit = scene.intersect(&path.ray, path.class());
+        match cross_openings(scene, &mut path, hit.map(|h| h.t()), s, &mut out) {
+            Crossing::Passed => {}
+            Crossing::Teleported => continue,
+            Crossing::Ended => break,
+        }
+        let dir = path.ray.dir;
         let Some(hit) = hit else {
             if let Some(env) = &scene.lights.environment {
-                let weight = if unweighted {
-                    1.0
-                } else {
-                    power_heuristic(prev_pdf, scene.lights.pdf_environment(dir))
-                };
-                out.radiance += beta * env.radiance(dir) * weight;
+                let weight = path.emission_weight(|| scene.lights.pdf_environment(dir));
+                out.radiance += path.beta * env.radiance(dir) * weight;
             }
             break;
         };
@@ -162,120 +221,126 @@ pub fn trace(
             SceneHit::Surface(h) => h,
             SceneHit::Strand(h) => {
                 // Strands glow and absorb: their emission ends the path.
-                let weight = if unweighted {
-                    1.0
-                } else {
-                    let pdf_area = scene.lights.pdf_strand(
-                        h.segment,
-                        h.s,
-                        h.normal,
-                        &prev_receiver,
-                        &scene.strands,
-                    );
-                    power_heuristic(prev_pdf, pdf_area * h.t * h.t / h.normal.dot(dir).abs())
+                let found = Found::Strand {
+                    segment: h.segment,
+                    s: h.s,
+                    normal: h.normal,
                 };
-                out.radiance += beta * scene.strands.radiance(h.segment, h.s) * weight;
-                if bounce == 0 {
-                    out.first = Some(FirstHit {
-                        t: opening_t.unwrap_or(h.t),
-                        normal: if h.normal.dot(dir) <= 0.0 {
-                            h.normal
-                        } else {
-                            -h.normal
-                        },
-                        albedo: Vec3::ZERO,
-                    });
-                }
+                let weight = path.emission_weight(|| {
+                    scene
+                        .lights
+                        .pdf_found(found, &path.prev_receiver, dir, h.t, &scene.strands)
+                });
+                out.radiance += path.beta * scene.strands.radiance(h.segment, h.s) * weight;
+                let facing = if h.normal.dot(dir) <= 0.0 {
+                    h.normal
+                } else {
+                    -h.normal
+                };
+                path.first_hit(&mut out, h.t, facing, Vec3::ZERO);
                 break;
             }
         };
-        let surface = scene.surface(&hit, time);
-        let (p, ng) = (surface.p, surface.ng);
-        let material = scene.material(hit.triangle);
-        let cos_o = -dir.dot(ng);
-        if bounce == 0 {
-            out.first = Some(FirstHit {
-                t: opening_t.unwrap_or(hit.t),
-                normal: if cos_o >= 0.0 { ng } else { -ng },
-                albedo: material.bsdf.albedo(),
-            });
-        }
-
-        if material.emits() {
-            let le = material.emitted(cos_o);
-            if le != Vec3::ZERO {
-                let weight = if unweighted {
-                    1.0
-                } else {
-                    let pdf_light =
-                        scene
-                            .lights
-                            .pdf_triangle(hit.triangle, surface.area_scale, &prev_receiver)
-                            * hit.t
-                            * hit.t
-                            / cos_o.abs();
-                    power_heuristic(prev_pdf, pdf_light)
-                };
-                out.radiance += beta * le * weight;
-            }
-        }
-        // Dimensions of this bounce, drawn whether or not they are used.
-        let [lx, ly, bx, by] = s.next_4d();
-        let [u_roulette, u_lobe, _, _] = s.uniform_4d();
-        let (u_light, u_bsdf) = (glam::Vec2::new(lx, ly), glam::Vec2::new(bx, by));
-        if scene.settings.max_bounces.is_some_and(|m| bounce >= m) {
+        if !scatter(scene, &mut path, &hit, s, &mut out) {
             break;
-        }
-
-        // Shade on the side the path arrived from.
-        let (n, side) = if cos_o >= 0.0 {
-            (ng, Side::Front)
-        } else {
-            (-ng, Side::Back)
-        };
-        let frame = Frame::new(n);
-        let wo = frame.to_local(-dir);
-        let bsdf = &material.bsdf;
-        let receiver = Receiver {
-            p,
-            n: (!bsdf.transmits()).then_some(n),
-            time,
-        };
-
-        if !bsdf.is_delta() {
-            let shading = Shading {
-                receiver,
-                ng,
-                frame: &frame,
-                wo,
-                bsdf,
-                side,
-            };
-            out.radiance += beta * next_event(scene, &shading, u_light);
-        }
-        let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
-            break;
-        };
-        beta *= bs.weight;
-        eta_scale *= bs.eta * bs.eta;
-        prev_pdf = bs.pdf;
-        prev_delta = bs.delta;
-        prev_receiver = receiver;
-        dir = frame.to_world(bs.wi).normalize();
-        origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
-        range = (0.0, f32::INFINITY);
-        chain = 0;
-        bounce += 1;
-        if bounce >= ROULETTE_AFTER {
-            let survive =
-                (beta.max_element() * eta_scale / ROULETTE_THRESHOLD).min(ROULETTE_MAX_SURVIVAL);
-            if survive <= 0.0 || u_roulette >= survive {
-                break;
-            }
-            beta /= survive;
         }
     }
     out
+}
+
+/// Shades the surface `hit` of the path's ray: its emission, light sampling, and the BSDF
+/// sample that continues the path (with roulette). False when the path ends there.
+fn scatter(
+    scene: &Scene,
+    path: &mut PathState,
+    hit: &Hit,
+    s: &mut SampleStream,
+    out: &mut PathSample,
+) -> bool {
+    let (dir, time) = (path.ray.dir, path.ray.time);
+    let surface = scene.surface(hit, time);
+    let (p, ng) = (surface.p, surface.ng);
+    let material = scene.material(hit.triangle);
+    let cos_o = -dir.dot(ng);
+    path.first_hit(
+        out,
+        hit.t,
+        if cos_o >= 0.0 { ng } else { -ng },
+        material.bsdf.albedo(),
+    );
+
+    if material.emits() {
+        let le = material.emitted(cos_o);
+        if le != Vec3::ZERO {
+            let found = Found::Triangle {
+                triangle: hit.triangle,
+                area_scale: surface.area_scale,
+                normal: ng,
+            };
+            let weight = path.emission_weight(|| {
+                scene
+                    .lights
+                    .pdf_found(found, &path.prev_receiver, dir, hit.t, &scene.strands)
+            });
+            out.radiance += path.beta * le * weight;
+        }
+    }
+    // Dimensions of this bounce, drawn whether or not they are used.
+    let [lx, ly, bx, by] = s.next_4d();
+    let [u_roulette, u_lobe, _, _] = s.uniform_4d();
+    let (u_light, u_bsdf) = (glam::Vec2::new(lx, ly), glam::Vec2::new(bx, by));
+    if scene.settings.max_bounces.is_some_and(|m| path.bounce >= m) {
+        return false;
+    }
+
+    // Shade on the side the path arrived from.
+    let (n, side) = if cos_o >= 0.0 {
+        (ng, Side::Front)
+    } else {
+        (-ng, Side::Back)
+    };
+    let frame = Frame::new(n);
+    let wo = frame.to_local(-dir);
+    let bsdf = &material.bsdf;
+    let receiver = Receiver {
+        p,
+        n: (!bsdf.transmits()).then_some(n),
+        time,
+    };
+
+    if !bsdf.is_delta() {
+        let shading = Shading {
+            receiver,
+            ng,
+            frame: &frame,
+            wo,
+            bsdf,
+            side,
+        };
+        out.radiance += path.beta * next_event(scene, &shading, u_light);
+    }
+    let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
+        return false;
+    };
+    path.beta *= bs.weight;
+    path.eta_scale *= bs.eta * bs.eta;
+    path.prev_pdf = bs.pdf;
+    path.prev_delta = bs.delta;
+    path.prev_receiver = receiver;
+    let dir = frame.to_world(bs.wi).normalize();
+    let origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
+    path.ray = Ray::new(origin, dir, f32::INFINITY, time);
+    path.chain = 0;
+    path.bounce += 1;
+    if path.bounce >= ROULETTE_AFTER {
+        let survive = (path.beta.max_element() * path.eta_scale / ROULETTE_THRESHOLD)
+            .min(ROULETTE_MAX_SURVIVAL);
+        if survive <= 0.0 || u_roulette >= survive {
+            return false;
+        }
+        path.beta /= survive;
+    }
+    true
 }
 
 /// A surface point being shaded, as next-event estimation needs it.
@@ -351,12 +416,13 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2) -> Vec3 {
         }
         None => (wi_world, f32::INFINITY),
     };
+    let shadow = Ray::new(from, shadow_dir, dist, time);
     let through = if scene.portals.is_empty() {
         1.0
     } else {
-        scene.portals.transmittance(from, shadow_dir, dist, time)
+        scene.portals.transmittance(&shadow)
     };
-    if through == 0.0 || scene.occluded(from, shadow_dir, dist, time) {
+    if through == 0.0 || scene.occluded(&shadow) {
         return Vec3::ZERO;
     }
     // An emitter hidden from indirect rays cannot be found by BSDF sampling.
@@ -377,31 +443,4 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2) -> Vec3 {
         1.0
     };
     f * light.radiance * (weight * through / pdf_light)
-}
-
-/// The closest surface or strand a ray of `class` sees along `origin + t·dir` for t within
-/// `range`.
-#[inline]
-fn intersect_range(
-    scene: &Scene,
-    origin: Vec3,
-    dir: Vec3,
-    range: (f32, f32),
-    time: f64,
-    class: RayClass,
-) -> Option<SceneHit> {
-    if range.0 <= 0.0 {
-        return scene.intersect(origin, dir, range.1, time, class);
-    }
-    let hit = scene.intersect(origin + dir * range.0, dir, range.1 - range.0, time, class)?;
-    Some(match hit {
-        SceneHit::Surface(mut h) => {
-            h.t += range.0;
-            SceneHit::Surface(h)
-        }
-        SceneHit::Strand(mut h) => {
-            h.t += range.0;
-            SceneHit::Strand(h)
-        }
-    })
 }

@@ -16,6 +16,7 @@ pub mod mask;
 pub mod material;
 pub mod microfacet;
 pub mod portal;
+pub mod ray;
 pub mod render;
 pub mod sampling;
 pub mod scene;
@@ -23,5 +24,6 @@ pub mod sobol;
 pub mod visibility;
 
 pub use error::RenderError;
+pub use ray::Ray;
 pub use rift_fx;
 pub use scene::Scene;

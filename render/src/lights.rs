@@ -42,6 +42,23 @@ pub struct Receiver {
     pub time: f64,
 }
 
+/// An emitter that a ray found (BSDF sampling), as the light-sampling pdf of the same light
+/// needs it.
+#[derive(Clone, Copy, Debug)]
+pub enum Found {
+    /// A point on a scene triangle, whose world area is `area_scale` times its stored area.
+    Triangle {
+        triangle: u32,
+        area_scale: f32,
+        /// Unit geometric normal there.
+        normal: Vec3,
+    },
+    /// A point on a strand segment, at position `s` along it.
+    Strand { segment: u32, s: f32, normal: Vec3 },
+    /// The environment, in the ray's direction.
+    Environment,
+}
+
 /// One emissive triangle.
 #[derive(Clone, Copy, Debug)]
 pub struct Emitter {
@@ -347,6 +364,31 @@ impl Lights {
             radiance: e.radiance,
             pdf: pick / area,
         })
+    }
+
+    /// Solid-angle pdf with which [`Lights::sample`], called for `at`, would have picked the
+    /// emitter point `found` that lies `distance` away along unit `dir` (the one conversion
+    /// from each emitter kind's own measure that MIS needs).
+    pub fn pdf_found(
+        &self,
+        found: Found,
+        at: &Receiver,
+        dir: Vec3,
+        distance: f32,
+        strands: &Strands,
+    ) -> f32 {
+        let (pdf_area, normal) = match found {
+            Found::Environment => return self.pdf_environment(dir),
+            Found::Triangle {
+                triangle,
+                area_scale,
+                normal,
+            } => (self.pdf_triangle(triangle, area_scale, at), normal),
+            Found::Strand { segment, s, normal } => {
+                (self.pdf_strand(segment, s, normal, at, strands), normal)
+            }
+        };
+        pdf_area * distance * distance / normal.dot(dir).abs()
     }
 
     /// Solid-angle pdf with which [`Lights::sample`] picks environment direction `dir`.

@@ -25,6 +25,7 @@
 
 use crate::geometry::offset_origin;
 pub use crate::mask::Mask;
+use crate::ray::Ray;
 use glam::{DVec2, DVec3, Vec3};
 use noise::{NoiseFn, Perlin};
 use rift_fx::rig::{Rig, Similarity};
@@ -215,38 +216,24 @@ impl Portals {
         }
     }
 
-    /// The nearest opening whose front `origin + t·dir` meets inside its teleport region, for t
-    /// in (t_min, t_max).
-    pub fn intersect(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_min: f32,
-        t_max: f32,
-        time: f64,
-    ) -> Option<PortalHit> {
+    /// The nearest opening whose front `ray` meets inside its teleport region.
+    pub fn intersect(&self, ray: &Ray) -> Option<PortalHit> {
         let mut best: Option<PortalHit> = None;
         for i in 0..self.len() {
-            let limit = best.map_or(t_max, |b| b.t);
-            if let Some(hit) = self.intersect_one(i, origin, dir, t_min, limit, time) {
+            let limit = best.map_or(ray.t_max, |b| b.t);
+            if let Some(hit) = self.intersect_one(i, &ray.between(ray.t_min, limit)) {
                 best = Some(hit);
             }
         }
         best
     }
 
-    fn intersect_one(
-        &self,
-        i: usize,
-        origin: Vec3,
-        dir: Vec3,
-        t_min: f32,
-        t_max: f32,
-        time: f64,
-    ) -> Option<PortalHit> {
+    /// Where `ray` meets the front of opening `i` inside its teleport region, if it does.
+    pub fn intersect_one(&self, i: usize, ray: &Ray) -> Option<PortalHit> {
+        let (t_min, t_max, time) = (ray.t_min, ray.t_max, ray.time);
         let here_inverse = self.here_inverse(i, time);
-        let o = here_inverse.transform_point(origin.as_dvec3());
-        let d = here_inverse.transform_vector(dir.as_dvec3());
+        let o = here_inverse.transform_point(ray.origin.as_dvec3());
+        let d = here_inverse.transform_vector(ray.dir.as_dvec3());
         // Only rays going into the front (towards local −Z) teleport.
         if d.z >= 0.0 || o.z <= 0.0 {
             return None;
@@ -265,16 +252,13 @@ impl Portals {
         })
     }
 
-    /// The fraction of light that passes straight through the openings between `origin` and
-    /// `origin + t_max·dir`: a shadow ray cannot follow a teleport, so a teleport region blocks
-    /// it in proportion to its opacity.
-    pub fn transmittance(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> f32 {
+    /// The fraction of light that passes straight through the openings along `ray`: a shadow
+    /// ray cannot follow a teleport, so a teleport region blocks it in proportion to its
+    /// opacity.
+    pub fn transmittance(&self, ray: &Ray) -> f32 {
         let mut through = 1.0;
         for i in 0..self.len() {
-            if self
-                .intersect_one(i, origin, dir, 0.0, t_max, time)
-                .is_some()
-            {
+            if self.intersect_one(i, ray).is_some() {
                 through *= 1.0 - self.looks[i].opacity;
                 if through == 0.0 {
                     break;
@@ -334,7 +318,6 @@ fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
 mod tests {
     use super::*;
     use glam::DQuat;
-    use rift_fx::rig::{AnimatedTransform, Opening, ThereFrame};
 
     /// Two openings facing each other across `gap` meters: A at the origin facing +Z, B at
     /// z = `gap` facing −Z, tilted by `tilt` radians about X and scaled by `scale`.
@@ -358,7 +341,7 @@ mod tests {
     fn bounce(portals: &Portals, mut o: Vec3, mut d: Vec3, count: usize) -> DVec3 {
         for k in 0..=count {
             let hit = portals
-                .intersect(o, d, 0.0, f32::INFINITY, 0.0)
+                .intersect(&Ray::new(o, d, f32::INFINITY, 0.0))
                 .unwrap_or_else(|| panic!("teleport {k} missed"));
             if k == count {
                 return o.as_dvec3() + d.as_dvec3() * hit.t as f64;
@@ -414,7 +397,7 @@ mod tests {
     fn teleport_leaves_the_there_front_and_keeps_the_point() {
         let portals = facing_pair(4.0, 0.0, 2.0, DVec3::ZERO);
         let hit = portals
-            .intersect(Vec3::new(0.3, 0.1, 1.0), -Vec3::Z, 0.0, 10.0, 0.0)
+            .intersect(&Ray::new(Vec3::new(0.3, 0.1, 1.0), -Vec3::Z, 10.0, 0.0))
             .unwrap();
         assert_eq!(hit.opening, 0);
         assert!((hit.t - 1.0).abs() < 1e-6);
@@ -426,12 +409,12 @@ mod tests {
         // From behind, or going away, nothing teleports.
         assert!(
             portals
-                .intersect(Vec3::new(0.3, 0.1, -1.0), -Vec3::Z, 0.0, 10.0, 0.0)
+                .intersect(&Ray::new(Vec3::new(0.3, 0.1, -1.0), -Vec3::Z, 10.0, 0.0))
                 .is_none()
         );
         assert!(
             portals
-                .intersect(Vec3::new(0.3, 0.1, 1.0), Vec3::Z, 0.0, 2.0, 0.0)
+                .intersect(&Ray::new(Vec3::new(0.3, 0.1, 1.0), Vec3::Z, 2.0, 0.0))
                 .is_none()
         );
     }

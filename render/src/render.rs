@@ -8,6 +8,7 @@
 use crate::camera::{Eye, Lens};
 use crate::film::{BACKGROUND_DEPTH, Image, Metadata, Window};
 use crate::integrator::{PathSample, trace};
+use crate::ray::Ray;
 use crate::sampling::{SampleStream, hash32};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
@@ -137,7 +138,11 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
                 Some((0.0, f32::INFINITY))
             };
             let sample = match range {
-                Some(range) => trace(scene, o, d, time, range, &mut s),
+                Some((t_min, t_max)) => trace(
+                    scene,
+                    Ray::new(o, d, t_max, time).between(t_min, t_max),
+                    &mut s,
+                ),
                 None => PathSample::default(),
             };
             if !sample.radiance.is_finite() {

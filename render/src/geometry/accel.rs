@@ -5,11 +5,12 @@
 use super::instance::{MovingInstance, Placement};
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
-use glam::{Vec3, Vec3A};
+use crate::ray::Ray;
+use glam::Vec3A;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::{Ray, RayHit};
+use obvhs::ray::RayHit;
 
 /// Marks a hit on static geometry.
 pub const STATIC: u32 = u32::MAX;
@@ -69,27 +70,25 @@ impl Accel {
         self.instances[instance as usize].placement(t)
     }
 
-    /// Closest hit along `origin + t·dir` (unit `dir`) for t in (0, t_max) at time `time`,
-    /// among the triangles `accept(triangle, t)` admits ([`every_triangle`] for all).
-    pub fn intersect(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        time: f64,
-        accept: &impl Fn(u32, f32) -> bool,
-    ) -> Option<Hit> {
+    /// Closest hit along `ray` (which starts at its origin: t in (0, t_max)) among the
+    /// triangles `accept(triangle, t)` admits ([`every_triangle`] for all).
+    pub fn intersect(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> Option<Hit> {
+        debug_assert!(ray.t_min == 0.0);
         let mut best = self
             .statics
-            .intersect(origin, dir, t_max, accept)
+            .intersect(ray.origin, ray.dir, ray.t_max, accept)
             .map(|h| lift(h, STATIC));
         if let Some(top) = &self.top {
-            let nearest = best.map_or(t_max, |h| h.t);
-            let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, nearest);
+            let nearest = best.map_or(ray.t_max, |h| h.t);
+            let box_ray = top_ray(ray, nearest);
             let mut top_hit = RayHit::none();
-            top.ray_traverse(ray, &mut top_hit, |r, leaf| {
+            top.ray_traverse(box_ray, &mut top_hit, |r, leaf| {
                 let i = top.primitive_indices[leaf];
-                match self.instances[i as usize].intersect(origin, dir, r.tmax, time, accept) {
+                let bounded = Ray {
+                    t_max: r.tmax,
+                    ..*ray
+                };
+                match self.instances[i as usize].intersect(&bounded, accept) {
                     Some(h) => {
                         best = Some(lift(h, i));
                         h.t
@@ -101,32 +100,32 @@ impl Accel {
         best
     }
 
-    /// True when an admitted triangle lies along `origin + t·dir` for t in (0, t_max) at time
-    /// `time`.
-    pub fn occluded(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        time: f64,
-        accept: &impl Fn(u32, f32) -> bool,
-    ) -> bool {
-        if self.statics.occluded(origin, dir, t_max, accept) {
+    /// True when an admitted triangle lies along `ray` (t in (0, t_max)).
+    pub fn occluded(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> bool {
+        debug_assert!(ray.t_min == 0.0);
+        if self
+            .statics
+            .occluded(ray.origin, ray.dir, ray.t_max, accept)
+        {
             return true;
         }
         let Some(top) = &self.top else {
             return false;
         };
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
-        !top.ray_traverse_miss(ray, |_, leaf| {
+        !top.ray_traverse_miss(top_ray(ray, ray.t_max), |_, leaf| {
             let i = top.primitive_indices[leaf] as usize;
-            if self.instances[i].occluded(origin, dir, t_max, time, accept) {
+            if self.instances[i].occluded(ray, accept) {
                 0.0
             } else {
                 f32::INFINITY
             }
         })
     }
+}
+
+/// `ray` as obvhs traverses the top level, up to `t_max`.
+fn top_ray(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
+    obvhs::ray::Ray::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir), 0.0, t_max)
 }
 
 fn lift(h: TriangleHit, instance: u32) -> Hit {

@@ -5,6 +5,7 @@
 use super::motion::ObjectMotion;
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
+use crate::ray::Ray;
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use rift_fx::rig::Similarity;
@@ -69,43 +70,28 @@ impl MovingInstance {
         Placement::new(&self.transform.at(t))
     }
 
-    /// A world-space ray in object space at time `time` (direction not renormalised, so ray
-    /// parameters stay in world units).
-    fn object_ray(&self, origin: Vec3, dir: Vec3, time: f64) -> (Vec3, Vec3) {
-        let to_object = self.placement(time).to_object;
+    /// A world-space ray's origin and direction in object space at its time (direction not
+    /// renormalised, so ray parameters stay in world units).
+    fn object_ray(&self, ray: &Ray) -> (Vec3, Vec3) {
+        let to_object = self.placement(ray.time).to_object;
         (
-            to_object.transform_point3(origin),
-            to_object.transform_vector3(dir),
+            to_object.transform_point3(ray.origin),
+            to_object.transform_vector3(ray.dir),
         )
     }
 
-    /// Closest hit of the world-space ray `origin + t·dir` at time `time` among the triangles
+    /// Closest hit of the world-space `ray` (t in (0, t_max)) among the triangles
     /// `accept(triangle, t)` admits; t is in world units because the object-space direction is
     /// not renormalised.
-    pub fn intersect(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        time: f64,
-        accept: &impl Fn(u32, f32) -> bool,
-    ) -> Option<TriangleHit> {
-        let (o, d) = self.object_ray(origin, dir, time);
-        self.bvh.intersect(o, d, t_max, accept)
+    pub fn intersect(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> Option<TriangleHit> {
+        let (o, d) = self.object_ray(ray);
+        self.bvh.intersect(o, d, ray.t_max, accept)
     }
 
-    /// True when an admitted triangle of the object blocks `origin + t·dir`, t in (0, t_max),
-    /// at time `time`.
-    pub fn occluded(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        time: f64,
-        accept: &impl Fn(u32, f32) -> bool,
-    ) -> bool {
-        let (o, d) = self.object_ray(origin, dir, time);
-        self.bvh.occluded(o, d, t_max, accept)
+    /// True when an admitted triangle of the object blocks `ray` (t in (0, t_max)).
+    pub fn occluded(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> bool {
+        let (o, d) = self.object_ray(ray);
+        self.bvh.occluded(o, d, ray.t_max, accept)
     }
 }
 

@@ -12,12 +12,13 @@
 
 use super::instance::{box_corners, swept_bounds};
 use super::round_cone::RoundCone;
+use crate::ray::Ray;
 use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::{Ray, RayHit};
+use obvhs::ray::{Ray as BoxRay, RayHit};
 use rift_fx::rig::Similarity;
 use rift_fx::ring::RingCurves;
 use rift_fx::ring::curves::moved;
@@ -297,42 +298,29 @@ impl Strands {
         self.segments.is_empty()
     }
 
-    /// The first strand along `origin + t·dir` for t in (0, t_max) at time `time`, among the
-    /// rings `admit(ring)` accepts.
-    pub fn intersect(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        time: f64,
-        admit: impl Fn(usize) -> bool,
-    ) -> Option<StrandHit> {
+    /// The first strand along `ray` (t in (0, t_max)), among the rings `admit(ring)` accepts.
+    pub fn intersect(&self, ray: &Ray, admit: impl Fn(usize) -> bool) -> Option<StrandHit> {
+        debug_assert!(ray.t_min == 0.0);
         let mut best: Option<StrandHit> = None;
         for (index, ring) in self.rings.iter().enumerate() {
-            let limit = best.map_or(t_max, |b| b.t);
-            if !admit(index) || !meets(&ring.bounds, origin, dir, limit) {
+            let limit = best.map_or(ray.t_max, |b| b.t);
+            if !admit(index) || !meets(&ring.bounds, ray.origin, ray.dir, limit) {
                 continue;
             }
-            if let Some(hit) = ring.intersect(origin, dir, limit, time) {
+            if let Some(hit) = ring.intersect(ray.origin, ray.dir, limit, ray.time) {
                 best = Some(hit);
             }
         }
         best
     }
 
-    /// True when a strand of an admitted ring lies along `origin + t·dir`, t in (0, t_max).
-    pub fn occluded(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        time: f64,
-        admit: impl Fn(usize) -> bool,
-    ) -> bool {
+    /// True when a strand of an admitted ring lies along `ray` (t in (0, t_max)).
+    pub fn occluded(&self, ray: &Ray, admit: impl Fn(usize) -> bool) -> bool {
+        debug_assert!(ray.t_min == 0.0);
         self.rings.iter().enumerate().any(|(index, ring)| {
             admit(index)
-                && meets(&ring.bounds, origin, dir, t_max)
-                && ring.occluded(origin, dir, t_max, time)
+                && meets(&ring.bounds, ray.origin, ray.dir, ray.t_max)
+                && ring.occluded(ray.origin, ray.dir, ray.t_max, ray.time)
         })
     }
 
@@ -410,7 +398,7 @@ impl Ring {
         let delta = self.delta(time);
         let slice = self.slice(delta)?;
         let (o, d, to_local) = self.local_ray(origin, dir, time);
-        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
+        let ray = BoxRay::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
         let mut hit = RayHit::none();
         let mut found = None;
         slice.bvh.ray_traverse(ray, &mut hit, |r, id| {
@@ -446,7 +434,7 @@ impl Ring {
             return false;
         };
         let (o, d, _) = self.local_ray(origin, dir, time);
-        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
+        let ray = BoxRay::new(Vec3A::from(o), Vec3A::from(d), 0.0, t_max);
         !slice.bvh.ray_traverse_miss(ray, |_, id| {
             match slice.leaf_segments[id]
                 .at(delta, self.moving)
@@ -484,7 +472,7 @@ fn time_slices(segments: &[Segment], deltas: [f32; 2]) -> usize {
 /// True when `origin + t·dir`, t in [0, t_max], meets `bounds`.
 #[inline]
 fn meets(bounds: &Aabb, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
-    bounds.intersect_ray(&Ray::new(origin.into(), dir.into(), 0.0, t_max)) <= t_max
+    bounds.intersect_ray(&BoxRay::new(origin.into(), dir.into(), 0.0, t_max)) <= t_max
 }
 
 #[cfg(test)]
@@ -558,7 +546,7 @@ mod tests {
             let origin =
                 target + Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.31).sin() + 0.2) * 3.0;
             let dir = (target - origin).normalize();
-            let got = strands.intersect(origin, dir, f32::INFINITY, time, |_| true);
+            let got = strands.intersect(&Ray::new(origin, dir, f32::INFINITY, time), |_| true);
             let want = brute_force(&strands, origin, dir, time);
             // Neighbours share the sphere at their joint, so a tie may go either way.
             assert_eq!(got.is_some(), want.is_some(), "ray {k}");
@@ -566,11 +554,11 @@ mod tests {
                 hits += 1;
                 assert!((g.t - w.0).abs() <= 1e-5 * w.0.max(1.0), "ray {k}");
                 assert!(g.normal.dot(dir) < 0.0, "ray {k}: the normal faces the ray");
-                assert!(strands.occluded(origin, dir, g.t * 1.0001, time, |_| true));
-                assert!(!strands.occluded(origin, dir, g.t * 0.9999, time, |_| true));
+                assert!(strands.occluded(&Ray::new(origin, dir, g.t * 1.0001, time), |_| true));
+                assert!(!strands.occluded(&Ray::new(origin, dir, g.t * 0.9999, time), |_| true));
                 assert!(
                     strands
-                        .intersect(origin, dir, f32::INFINITY, time, |_| false)
+                        .intersect(&Ray::new(origin, dir, f32::INFINITY, time), |_| false)
                         .is_none()
                 );
             }

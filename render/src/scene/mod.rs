@@ -21,6 +21,7 @@ use crate::lights::{Emitter, LightSelection, Lights};
 use crate::material::{Bsdf, Material};
 use crate::microfacet::Ggx;
 use crate::portal::Portals;
+use crate::ray::Ray;
 use crate::visibility::{Flags, RayClass, Visibility};
 use glam::Vec3;
 use rift_fx::rig::{AnimatedTransform, Camera};
@@ -468,59 +469,73 @@ impl Scene {
         })
     }
 
-    /// The closest surface or strand a ray of `class` sees along `origin + t·dir` (unit
-    /// `dir`), t in (0, t_max), at time `time`.
+    /// The closest surface or strand a ray of `class` sees along `ray`. A ray whose range
+    /// starts past its origin is traced from there (clipping moves the camera ray's start), and
+    /// the hit's parameter still counts from the origin.
     #[inline]
-    pub fn intersect(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        time: f64,
-        class: RayClass,
-    ) -> Option<SceneHit> {
+    pub fn intersect(&self, ray: &Ray, class: RayClass) -> Option<SceneHit> {
+        if ray.t_min <= 0.0 {
+            return self.intersect_from_origin(ray, class);
+        }
+        let start = ray.t_min;
+        let moved = Ray::new(ray.at(start), ray.dir, ray.t_max - start, ray.time);
+        Some(match self.intersect_from_origin(&moved, class)? {
+            SceneHit::Surface(mut h) => {
+                h.t += start;
+                SceneHit::Surface(h)
+            }
+            SceneHit::Strand(mut h) => {
+                h.t += start;
+                SceneHit::Strand(h)
+            }
+        })
+    }
+
+    /// [`Self::intersect`] for a ray whose range starts at its origin.
+    #[inline]
+    fn intersect_from_origin(&self, ray: &Ray, class: RayClass) -> Option<SceneHit> {
         let surface = if !self.visibility.hides_anything() {
-            self.accel
-                .intersect(origin, dir, t_max, time, &every_triangle)
+            self.accel.intersect(ray, &every_triangle)
         } else {
-            let admits = |triangle, t| {
-                self.visibility
-                    .admits(triangle, class, origin + dir * t, time)
-            };
-            self.accel.intersect(origin, dir, t_max, time, &admits)
+            let admits = |triangle, t| self.visibility.admits(triangle, class, ray.at(t), ray.time);
+            self.accel.intersect(ray, &admits)
         };
         if self.strands.is_empty() {
             return surface.map(SceneHit::Surface);
         }
-        let limit = surface.map_or(t_max, |h| h.t);
-        let strand = self.strands.intersect(origin, dir, limit, time, |ring| {
-            self.strand_flags[ring].sees(class)
-        });
+        let limit = surface.map_or(ray.t_max, |h| h.t);
+        let strand = self.strands.intersect(
+            &Ray {
+                t_max: limit,
+                ..*ray
+            },
+            |ring| self.strand_flags[ring].sees(class),
+        );
         match strand {
             Some(h) => Some(SceneHit::Strand(h)),
             None => surface.map(SceneHit::Surface),
         }
     }
 
-    /// True when a surface or strand that shadow rays see blocks `origin + t·dir`, t in
-    /// (0, t_max).
+    /// True when a surface or strand that shadow rays see blocks `ray` (which starts at its
+    /// origin: t in (0, t_max)).
     #[inline]
-    pub fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        debug_assert!(ray.t_min == 0.0);
         let blocked = if !self.visibility.hides_anything() {
-            self.accel
-                .occluded(origin, dir, t_max, time, &every_triangle)
+            self.accel.occluded(ray, &every_triangle)
         } else {
             let admits = |triangle, t| {
                 self.visibility
-                    .admits(triangle, RayClass::Shadow, origin + dir * t, time)
+                    .admits(triangle, RayClass::Shadow, ray.at(t), ray.time)
             };
-            self.accel.occluded(origin, dir, t_max, time, &admits)
+            self.accel.occluded(ray, &admits)
         };
         blocked
             || (!self.strands.is_empty()
-                && self.strands.occluded(origin, dir, t_max, time, |ring| {
-                    self.strand_flags[ring].sees(RayClass::Shadow)
-                }))
+                && self
+                    .strands
+                    .occluded(ray, |ring| self.strand_flags[ring].sees(RayClass::Shadow)))
     }
 
     /// The world-space point and normal of `hit` at time `time`.
