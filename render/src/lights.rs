@@ -24,7 +24,7 @@ pub enum LightSelection {
 }
 
 /// The emitter a light sample or a hit lies on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum LightSource {
     /// A scene triangle.
     Triangle(u32),
@@ -511,4 +511,185 @@ fn sample_segment(
         radiance: strands.radiance(segment, s),
         pdf,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{ObjectMotion, RingFrame};
+    use glam::{DQuat, DVec3};
+    use rift_fx::rig::{AnimatedTransform, Interpolation, Similarity, TransformKey};
+    use rift_fx::ring::RingCurves;
+
+    const SAMPLES: u32 = 200_000;
+
+    /// Hammersley point k of [`SAMPLES`], so picks follow their pmf without counting noise.
+    fn hammersley(k: u32) -> Vec2 {
+        Vec2::new(
+            (k as f32 + 0.5) / SAMPLES as f32,
+            k.reverse_bits() as f32 / 2f32.powi(32),
+        )
+    }
+
+    fn emitter(triangle: u32, instance: u32, v: [Vec3; 3]) -> Emitter {
+        let tri = Triangle { v };
+        Emitter {
+            triangle,
+            instance,
+            radiance: Vec3::splat(3.0),
+            two_sided: true,
+            vertices: tri,
+            normal: tri.normal().normalize(),
+            area: tri.area(),
+        }
+    }
+
+    /// One closed strand: a still square of side 2 (half-width 0.05) around the origin of a
+    /// frame placed at z = −3.
+    fn square_ring() -> Strands {
+        let mut c = RingCurves::default();
+        c.vertex_counts.push(4);
+        c.directions.push(1);
+        for p in [[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]] {
+            c.points.push(Vec3::new(p[0], p[1], 0.0));
+            c.velocities.push(Vec3::ZERO);
+            c.accelerations.push(Vec3::ZERO);
+            c.widths.push(0.1);
+            c.colors.push(Vec3::ONE);
+            c.intensities.push(1.0);
+        }
+        let mut strands = Strands::default();
+        let to_world = Similarity::new(DQuat::IDENTITY, DVec3::new(0.0, 0.0, -3.0), 1.0);
+        let frame = RingFrame::Fixed {
+            to_world,
+            to_local: to_world.inverse(),
+        };
+        strands.add_ring(&c, frame, 0.0, [0.0, 1.0], 1.0);
+        strands
+    }
+
+    /// A moving instance that grows from scale 1 to 3 over [0, 1].
+    fn growing() -> MovingInstance {
+        let key = |time, scale| TransformKey {
+            time,
+            value: Similarity::new(DQuat::IDENTITY, DVec3::new(0.0, 2.0, 0.0), scale),
+        };
+        let motion = ObjectMotion::new(AnimatedTransform::new(
+            vec![key(0.0, 1.0), key(1.0, 3.0)],
+            Interpolation::Linear,
+        ));
+        let tri = Triangle {
+            v: [Vec3::ZERO, Vec3::X, Vec3::Z],
+        };
+        MovingInstance::new(&[tri], 2, motion, [0.0, 1.0])
+    }
+
+    /// Every emitter kind; for each sample, the pdf the sampler reports must equal the pdf
+    /// evaluated at the sampled point, and Σ g/pdf over the samples that land on an emitter,
+    /// divided by the sample count, must integrate g over its area. g is 1 on triangles (the
+    /// area itself); on a strand, whose points are cos φ-distributed around the facing half,
+    /// 1/pdf has unbounded variance, so g is cos²φ there, which integrates to π·r·length/2.
+    #[test]
+    fn sampled_pdfs_match_evaluated_pdfs_and_integrate_each_area() {
+        let strands = square_ring();
+        let instance = growing();
+        let still_a = emitter(0, STATIC, [Vec3::new(-1.0, 0.0, 0.0), Vec3::X, Vec3::Y]);
+        let still_b = emitter(
+            1,
+            STATIC,
+            [
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(2.0, 0.0, 1.0),
+                Vec3::new(0.0, 0.5, 1.0),
+            ],
+        );
+        let moving = emitter(2, 0, [Vec3::ZERO, Vec3::X, Vec3::Z]);
+        let instances = [instance];
+        for selection in [LightSelection::Tree, LightSelection::Power] {
+            let lights = Lights::new(
+                vec![still_a, still_b, moving],
+                3,
+                &strands,
+                [0.0, 1.0],
+                &instances,
+                None,
+                selection,
+            );
+            let time = 0.5;
+            let at = Receiver {
+                p: Vec3::new(0.3, 0.8, 4.0),
+                n: None,
+                time,
+            };
+            let placement = instances[0].placement(time);
+            let world = |e: &Emitter| Triangle {
+                v: e.vertices.v.map(|v| placement.to_world.transform_point3(v)),
+            };
+            let mut integral = std::collections::HashMap::<LightSource, f64>::new();
+            for k in 0..SAMPLES {
+                let u = hammersley(k);
+                let Some(sample) = lights.sample(u, &at, world, &strands) else {
+                    continue;
+                };
+                let LightPlace::Point {
+                    point,
+                    normal,
+                    source,
+                    ..
+                } = sample.place
+                else {
+                    panic!("no environment here");
+                };
+                let (evaluated, g) = match source {
+                    LightSource::Triangle(t) => {
+                        let scale = if t == 2 { placement.scale.powi(2) } else { 1.0 };
+                        (lights.pdf_triangle(t, scale, &at), 1.0)
+                    }
+                    LightSource::Strand(segment) => {
+                        let seg = strands.world_segment(segment, time);
+                        let s = (point - seg.a).dot(seg.b - seg.a) / seg.a.distance_squared(seg.b);
+                        let cos_phi = Cylinder::new(&seg, s, at.p).unwrap().facing.dot(normal);
+                        (
+                            lights.pdf_strand(segment, s, normal, &at, &strands),
+                            (cos_phi * cos_phi) as f64,
+                        )
+                    }
+                };
+                assert!(
+                    (evaluated - sample.pdf).abs() <= 2e-3 * sample.pdf,
+                    "{selection:?} {source:?}: sampled pdf {} evaluated {evaluated}",
+                    sample.pdf
+                );
+                *integral.entry(source).or_default() += g / sample.pdf as f64;
+            }
+            let area = |source: LightSource| -> f64 {
+                match source {
+                    LightSource::Triangle(2) => world(&moving).area() as f64,
+                    LightSource::Triangle(0) => still_a.area as f64,
+                    LightSource::Triangle(_) => still_b.area as f64,
+                    LightSource::Strand(segment) => {
+                        let seg = strands.world_segment(segment, time);
+                        std::f64::consts::PI / 2.0
+                            * 0.5
+                            * (seg.radius_a + seg.radius_b) as f64
+                            * seg.a.distance(seg.b) as f64
+                    }
+                }
+            };
+            assert_eq!(integral.len(), 3 + strands.segments.len(), "{selection:?}");
+            for (source, sum) in integral {
+                let (got, want) = (sum / SAMPLES as f64, area(source));
+                assert!(
+                    (got - want).abs() < 0.01 * want,
+                    "{selection:?} {source:?}: Σ1/pdf gives {got}, area {want}"
+                );
+            }
+            // The moving triangle is integrated at its size at the receiver's time.
+            let grown = 0.5 * placement.scale * placement.scale;
+            assert!(
+                placement.scale > 1.5
+                    && (area(LightSource::Triangle(2)) - grown as f64).abs() < 1e-4
+            );
+        }
+    }
 }
