@@ -59,6 +59,17 @@ impl Environment {
         }
     }
 
+    /// Mean luminance over the sphere of directions.
+    pub fn mean_luminance(&self) -> f32 {
+        match self {
+            Environment::Constant(c) => luminance(*c),
+            // `total` sums luminance · sin θ over texels of solid angle (2π/w)(π/h) sin θ.
+            Environment::LatLong(map) => {
+                map.total * PI * PI * 2.0 / (map.width * map.height) as f32 / (4.0 * PI)
+            }
+        }
+    }
+
     /// True when it sends no light at all.
     pub fn is_black(&self) -> bool {
         match self {
@@ -66,6 +77,10 @@ impl Environment {
             Environment::LatLong(map) => map.total <= 0.0,
         }
     }
+}
+
+fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 /// A lat-long radiance image with a piecewise-constant sampling distribution over its texels,

@@ -102,7 +102,7 @@ pub struct LightSample {
 /// Picks emitters: the tree, or power-proportional.
 #[derive(Clone, Debug)]
 enum Picker {
-    Tree(LightTree),
+    Tree,
     Power(AliasTable),
 }
 
@@ -120,6 +120,11 @@ pub struct Lights {
     /// Strand segments that emit.
     strand_count: usize,
     picker: Picker,
+    /// The light BVH: what the tree picker descends, and the estimate of what all emitters
+    /// can send to a point whichever picker is used.
+    tree: LightTree,
+    /// Mean luminance of the environment over the sphere (0 without one).
+    environment_luminance: f32,
     /// Emitter index per scene triangle (u32::MAX: not an emitter).
     by_triangle: Vec<u32>,
     /// Light from where rays escape, if any.
@@ -244,8 +249,9 @@ impl Lights {
             .collect();
         let strand_count = strands.segments.len();
         bounds.extend((0..strand_count as u32).map(|i| segment_bounds(strands, i, times)));
+        let tree = LightTree::new(&bounds);
         let picker = match selection {
-            LightSelection::Tree => Picker::Tree(LightTree::new(&bounds)),
+            LightSelection::Tree => Picker::Tree,
             LightSelection::Power if bounds.is_empty() => Picker::Power(AliasTable::default()),
             LightSelection::Power => Picker::Power(AliasTable::new(
                 &bounds
@@ -268,6 +274,10 @@ impl Lights {
             emitters,
             strand_count,
             picker,
+            tree,
+            environment_luminance: environment
+                .as_ref()
+                .map_or(0.0, Environment::mean_luminance),
             by_triangle,
             environment,
             environment_probability,
@@ -290,10 +300,16 @@ impl Lights {
         }
     }
 
+    /// An unoccluded estimate of the light every emitter and the environment can send to `at`
+    /// (about π times its irradiance), for weighing light-sampling strategies.
+    pub fn importance(&self, at: &Receiver) -> f32 {
+        self.tree.importance(at.p, at.n, self.tau(at.time)) + PI * self.environment_luminance
+    }
+
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
     fn pick(&self, u: f32, at: &Receiver) -> Option<(usize, f32, f32)> {
         match &self.picker {
-            Picker::Tree(tree) => tree.sample(u, at.p, at.n, self.tau(at.time)),
+            Picker::Tree => self.tree.sample(u, at.p, at.n, self.tau(at.time)),
             Picker::Power(table) if table.is_empty() => None,
             Picker::Power(table) => {
                 let (i, rest) = table.sample(u.clamp(0.0, 1.0 - f32::EPSILON));
@@ -305,7 +321,7 @@ impl Lights {
     /// Probability that [`Self::pick`] chooses emitter `i` for `at`.
     fn pick_pmf(&self, i: usize, at: &Receiver) -> f32 {
         match &self.picker {
-            Picker::Tree(tree) => tree.pmf(i, at.p, at.n, self.tau(at.time)),
+            Picker::Tree => self.tree.pmf(i, at.p, at.n, self.tau(at.time)),
             Picker::Power(table) => table.pmf(i),
         }
     }

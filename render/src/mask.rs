@@ -1,5 +1,6 @@
 //! Where an opening's teleport region ends: inside its ring's boundary at the ray's time, or
-//! inside a disk when the opening has no ring (or the shot asks for one).
+//! inside a disk, a rectangle or a polygon (`[portal.surface] radius`, `rectangle`, `polygon`)
+//! when the opening has no ring or the shot asks for one of those.
 //!
 //! The ring boundary is the inner envelope of the strands projected on the opening's plane:
 //! at each polar angle, the smallest radius at which any strand crosses that angle. The seam
@@ -25,6 +26,10 @@ const MAX_TIME_SAMPLES: usize = 256;
 pub enum Mask {
     /// Inside a circle of this radius around the opening's centre, in its local units.
     Disk { radius: f64 },
+    /// Inside the centred rectangle |x| ≤ half.x, |y| ≤ half.y.
+    Rectangle { half: DVec2 },
+    /// Inside a simple polygon.
+    Polygon(Polygon),
     /// Inside the ring's boundary at the ray's time.
     Ring(RingBoundary),
 }
@@ -35,9 +40,130 @@ impl Mask {
     pub fn contains(&self, p: DVec2, time: f64) -> bool {
         match self {
             Mask::Disk { radius } => p.length_squared() <= radius * radius,
+            Mask::Rectangle { half } => p.x.abs() <= half.x && p.y.abs() <= half.y,
+            Mask::Polygon(polygon) => polygon.contains(p),
             Mask::Ring(boundary) => p.length() <= boundary.radius(p, time),
         }
     }
+
+    /// The largest distance from the opening's centre at which a point can teleport.
+    pub fn bounding_radius(&self) -> f64 {
+        match self {
+            Mask::Disk { radius } => *radius,
+            Mask::Rectangle { half } => half.length(),
+            Mask::Polygon(polygon) => polygon.bounding_radius,
+            Mask::Ring(boundary) => boundary.max_radius,
+        }
+    }
+
+    /// The region's area (a ring's averaged over its time samples), in local units.
+    pub fn area(&self) -> f64 {
+        match self {
+            Mask::Disk { radius } => std::f64::consts::PI * radius * radius,
+            Mask::Rectangle { half } => 4.0 * half.x * half.y,
+            Mask::Polygon(polygon) => polygon.area,
+            Mask::Ring(boundary) => boundary.area,
+        }
+    }
+}
+
+/// A simple polygon in an opening's local XY plane.
+#[derive(Clone, Debug)]
+pub struct Polygon {
+    points: Vec<DVec2>,
+    area: f64,
+    bounding_radius: f64,
+}
+
+/// Why a list of points is not a usable polygon.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PolygonError {
+    #[error("a polygon needs at least 3 points, not {0}")]
+    TooFew(usize),
+    #[error("point {0} is not finite")]
+    NotFinite(usize),
+    #[error("it encloses no area (its points are collinear or repeated)")]
+    Degenerate,
+    #[error("it intersects itself: edge {0} crosses edge {1}")]
+    SelfIntersecting(usize, usize),
+}
+
+impl Polygon {
+    /// The polygon through `points` in order (either winding), checked to be simple.
+    pub fn new(points: Vec<DVec2>) -> Result<Self, PolygonError> {
+        let n = points.len();
+        if n < 3 {
+            return Err(PolygonError::TooFew(n));
+        }
+        if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+            return Err(PolygonError::NotFinite(i));
+        }
+        let edge = |i: usize| (points[i], points[(i + 1) % n]);
+        let twice_area: f64 = (0..n).map(|i| edge(i).0.perp_dot(edge(i).1)).sum();
+        let extent = points.iter().fold(0.0f64, |r, p| r.max(p.length()));
+        if twice_area.abs() <= 1e-12 * extent * extent.max(1e-300) || edge_is_empty(&points) {
+            return Err(PolygonError::Degenerate);
+        }
+        for i in 0..n {
+            // Neighbouring edges share a point; the others must not meet at all.
+            for j in i + 2..n {
+                if i == 0 && j == n - 1 {
+                    continue;
+                }
+                if segments_meet(edge(i), edge(j)) {
+                    return Err(PolygonError::SelfIntersecting(i, j));
+                }
+            }
+        }
+        Ok(Self {
+            points,
+            area: 0.5 * twice_area.abs(),
+            bounding_radius: extent,
+        })
+    }
+
+    /// True when `p` is inside (crossing count of a ray towards +X).
+    #[inline]
+    pub fn contains(&self, p: DVec2) -> bool {
+        let mut inside = false;
+        let mut a = self.points[self.points.len() - 1];
+        for &b in &self.points {
+            if (a.y > p.y) != (b.y > p.y) {
+                let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+                if p.x < x {
+                    inside = !inside;
+                }
+            }
+            a = b;
+        }
+        inside
+    }
+}
+
+/// True when two consecutive points coincide.
+fn edge_is_empty(points: &[DVec2]) -> bool {
+    (0..points.len()).any(|i| points[i] == points[(i + 1) % points.len()])
+}
+
+/// True when the closed segments `a` and `b` share a point.
+fn segments_meet(a: (DVec2, DVec2), b: (DVec2, DVec2)) -> bool {
+    let side = |p: DVec2, q: DVec2, r: DVec2| (q - p).perp_dot(r - p);
+    let (d1, d2) = (side(b.0, b.1, a.0), side(b.0, b.1, a.1));
+    let (d3, d4) = (side(a.0, a.1, b.0), side(a.0, a.1, b.1));
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+    {
+        return true;
+    }
+    // Touching or collinear overlap.
+    let on = |p: DVec2, q: DVec2, r: DVec2, d: f64| {
+        d == 0.0
+            && r.x >= p.x.min(q.x)
+            && r.x <= p.x.max(q.x)
+            && r.y >= p.y.min(q.y)
+            && r.y <= p.y.max(q.y)
+    };
+    on(b.0, b.1, a.0, d1) || on(b.0, b.1, a.1, d2) || on(a.0, a.1, b.0, d3) || on(a.0, a.1, b.1, d4)
 }
 
 /// The inner envelope of a ring's strands, tabulated over angle and time.
@@ -47,6 +173,10 @@ pub struct RingBoundary {
     radii: Vec<f32>,
     /// Sample times, seconds (equally spaced; one entry for an instant).
     times: Vec<f64>,
+    /// The largest tabulated radius.
+    max_radius: f64,
+    /// Area inside the boundary, averaged over the time samples.
+    area: f64,
 }
 
 impl RingBoundary {
@@ -87,9 +217,14 @@ impl RingBoundary {
         for &t in &sample_times {
             radii.extend(envelope(curves, (t - frame_time) as f32));
         }
+        let max_radius = radii.iter().fold(0.0f32, |m, &r| m.max(r)) as f64;
+        let mean_square =
+            radii.iter().map(|&r| (r as f64).powi(2)).sum::<f64>() / radii.len().max(1) as f64;
         Self {
             radii,
             times: sample_times,
+            max_radius,
+            area: std::f64::consts::PI * mean_square,
         }
     }
 
@@ -253,8 +388,80 @@ mod tests {
         let disk = Mask::Disk { radius: 2.0 };
         assert!(disk.contains(DVec2::new(1.99, 0.0), 0.0));
         assert!(!disk.contains(DVec2::new(1.5, 1.5), 0.0));
+        assert!((disk.area() - std::f64::consts::PI * 4.0).abs() < 1e-12);
+        let widest = (0..1024)
+            .map(|k| analytic_envelope(TAU * k as f64 / 1024.0, 0.0, 0.0))
+            .fold(0.0, f64::max);
+        assert!((boundary.max_radius - widest).abs() < 2e-3);
         // A ring with no strands teleports nothing.
         let empty = Mask::Ring(RingBoundary::new(&RingCurves::default(), 0.0, [0.0, 1.0]));
         assert!(!empty.contains(DVec2::new(0.01, 0.0), 0.5));
+    }
+
+    #[test]
+    fn rectangles_and_polygons_contain_their_inside_only() {
+        let rect = Mask::Rectangle {
+            half: DVec2::new(0.5, 1.0),
+        };
+        assert!(rect.contains(DVec2::new(0.499, -0.999), 0.0));
+        assert!(!rect.contains(DVec2::new(0.501, 0.0), 0.0));
+        assert!(!rect.contains(DVec2::new(0.0, 1.001), 0.0));
+        assert_eq!(rect.area(), 2.0);
+        // An L shape (concave), clockwise.
+        let l = Polygon::new(
+            [
+                [0.0, 0.0],
+                [0.0, 2.0],
+                [1.0, 2.0],
+                [1.0, 1.0],
+                [2.0, 1.0],
+                [2.0, 0.0],
+            ]
+            .map(|[x, y]| DVec2::new(x, y))
+            .to_vec(),
+        )
+        .unwrap();
+        let mask = Mask::Polygon(l);
+        assert!(mask.contains(DVec2::new(0.5, 1.5), 0.0));
+        assert!(mask.contains(DVec2::new(1.5, 0.5), 0.0));
+        assert!(!mask.contains(DVec2::new(1.5, 1.5), 0.0));
+        assert!(!mask.contains(DVec2::new(-0.01, 0.5), 0.0));
+        assert!((mask.area() - 3.0).abs() < 1e-12);
+        assert!((mask.bounding_radius() - 5f64.sqrt()).abs() < 1e-12);
+        // Monte Carlo area agrees with the shoelace area.
+        let inside = (0..40_000)
+            .filter(|k| {
+                let p = DVec2::new((k % 200) as f64 + 0.5, (k / 200) as f64 + 0.5) / 100.0;
+                mask.contains(p, 0.0)
+            })
+            .count();
+        assert!((inside as f64 / 10_000.0 - 3.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn bad_polygons_are_refused() {
+        let poly =
+            |pts: &[[f64; 2]]| Polygon::new(pts.iter().map(|&[x, y]| DVec2::new(x, y)).collect());
+        assert_eq!(
+            poly(&[[0.0, 0.0], [1.0, 0.0]]).unwrap_err(),
+            PolygonError::TooFew(2)
+        );
+        assert_eq!(
+            poly(&[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]).unwrap_err(),
+            PolygonError::Degenerate
+        );
+        assert_eq!(
+            poly(&[[0.0, 0.0], [2.0, 2.0], [2.0, 0.0], [0.0, 1.0]]).unwrap_err(),
+            PolygonError::SelfIntersecting(0, 2)
+        );
+        assert_eq!(
+            poly(&[[0.0, 0.0], [1.0, 0.0], [1.0, f64::NAN]]).unwrap_err(),
+            PolygonError::NotFinite(2)
+        );
+        assert_eq!(
+            poly(&[[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 1.0]]).unwrap_err(),
+            PolygonError::Degenerate
+        );
+        assert!(poly(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]).is_ok());
     }
 }

@@ -4,9 +4,10 @@
 use super::schema::{CullSection, CullSide, PortalSurfaceSection, StrandsSection};
 use super::{flags, moves_during, parse};
 use crate::error::RenderError;
-use crate::mask::{Mask, RingBoundary};
+use crate::mask::{Mask, Polygon, RingBoundary};
 use crate::portal::{Distortion, OpeningLook, Portals};
 use crate::visibility::{CullVolume, Flags, Side};
+use glam::DVec2;
 use rift_fx::rig::ThereFrame;
 use rift_fx::ring::RingFrame;
 use rift_fx::shot::check;
@@ -34,7 +35,7 @@ pub fn portals(
 ) -> Result<(Portals, Vec<StrandLook>), RenderError> {
     let file = &shot.source;
     let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
-    let mut radii = Vec::new();
+    let mut shapes = Vec::new();
     let mut looks = Vec::new();
     let mut strand_looks = Vec::new();
     for (i, surface) in shot.render.portal_surfaces.iter().enumerate() {
@@ -43,8 +44,9 @@ pub fn portals(
             Some(t) => parse(file, &key, t)?,
             None => PortalSurfaceSection::default(),
         };
-        let (radius, look) = surface_look(&key, &s, shot.fps).map_err(invalid)?;
-        radii.push(radius);
+        let shape = shape(&key, &s).map_err(invalid)?;
+        let look = surface_look(&key, &s, shot.fps).map_err(invalid)?;
+        shapes.push(shape);
         looks.push(look);
         strand_looks.push(strand_look(&key, s.strands.as_ref()).map_err(invalid)?);
     }
@@ -53,16 +55,16 @@ pub fn portals(
         .rig
         .openings
         .iter()
-        .zip(radii)
-        .map(|(opening, radius)| {
+        .zip(shapes)
+        .map(|(opening, shape)| {
             let ring = rings.and_then(|f| {
                 f.rings
                     .iter()
                     .find(|r| r.opening == opening.name)
                     .map(|r| (r, f.time))
             });
-            match (radius, ring) {
-                (Some(radius), _) => Mask::Disk { radius },
+            match (shape, ring) {
+                (Some(shape), _) => shape,
                 (None, Some((curves, frame_time))) => {
                     Mask::Ring(RingBoundary::new(curves, frame_time, times))
                 }
@@ -155,17 +157,51 @@ pub fn cull_volumes(shot: &Shot, objects: &[&str]) -> Result<Vec<CullVolume>, Re
     Ok(volumes)
 }
 
-/// The look of one opening, and the disk radius it asks for instead of its ring's boundary.
-fn surface_look(
-    key: &str,
-    s: &PortalSurfaceSection,
-    fps: f64,
-) -> Result<(Option<f64>, OpeningLook), Invalid> {
+/// The teleport region an opening's surface asks for instead of its ring's boundary (a disk,
+/// a rectangle or a polygon; at most one of them).
+fn shape(key: &str, s: &PortalSurfaceSection) -> Result<Option<Mask>, Invalid> {
     let k = |name: &str| format!("{key}.{name}");
-    let radius = s
-        .radius
-        .map(|r| check::positive(&k("radius"), r))
-        .transpose()?;
+    let given: Vec<&str> = [
+        ("radius", s.radius.is_some()),
+        ("rectangle", s.rectangle.is_some()),
+        ("polygon", s.polygon.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(name, set)| set.then_some(name))
+    .collect();
+    if given.len() > 1 {
+        return Err(Invalid::new(
+            k(given[1]),
+            format!(
+                "give one teleport shape: `{}` and `{}` are both set",
+                given[0], given[1]
+            ),
+        ));
+    }
+    if let Some(r) = s.radius {
+        return Ok(Some(Mask::Disk {
+            radius: check::positive(&k("radius"), r)?,
+        }));
+    }
+    if let Some([w, h]) = s.rectangle {
+        let width = check::positive(&format!("{key}.rectangle[0]"), w)?;
+        let height = check::positive(&format!("{key}.rectangle[1]"), h)?;
+        return Ok(Some(Mask::Rectangle {
+            half: DVec2::new(0.5 * width, 0.5 * height),
+        }));
+    }
+    if let Some(points) = &s.polygon {
+        let points = points.iter().map(|&[x, y]| DVec2::new(x, y)).collect();
+        let polygon =
+            Polygon::new(points).map_err(|e| Invalid::new(k("polygon"), e.to_string()))?;
+        return Ok(Some(Mask::Polygon(polygon)));
+    }
+    Ok(None)
+}
+
+/// The look of one opening.
+fn surface_look(key: &str, s: &PortalSurfaceSection, fps: f64) -> Result<OpeningLook, Invalid> {
+    let k = |name: &str| format!("{key}.{name}");
     // Unset keys keep the defaults of [`OpeningLook`].
     let mut look = OpeningLook::default();
     if let Some(c) = s.tint {
@@ -198,5 +234,5 @@ fn surface_look(
             },
         ));
     }
-    Ok((radius, look))
+    Ok(look)
 }

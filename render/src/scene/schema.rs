@@ -73,6 +73,8 @@
 //! radius = 1.0                  # teleport region: a disk of this radius in the opening's frame
 //!                               # (default: inside the ring's boundary at each ray's time, the
 //!                               # strands' inner envelope; a disk of radius 1 without a ring)
+//! rectangle = [0.9, 2.0]        # or a centred rectangle: width along local X, height along Y
+//! polygon = [[0, 0], [1, 0], [0, 1]]  # or any simple polygon in local XY (one of the three)
 //! tint = [1.0, 1.0, 1.0]        # scales what is seen through the opening
 //! opacity = 1.0                 # 1: every ray teleports; 0: every ray passes through untouched
 //! ior = 1.0                     # bends the teleported direction at the exit, like refraction
@@ -206,6 +208,8 @@ pub struct ClipSection {
 #[serde(deny_unknown_fields)]
 pub struct PortalSurfaceSection {
     pub radius: Option<f64>,
+    pub rectangle: Option<[f64; 2]>,
+    pub polygon: Option<Vec<[f64; 2]>>,
     pub tint: Option<[f64; 3]>,
     pub opacity: Option<f64>,
     pub ior: Option<f64>,
