@@ -39,6 +39,10 @@ pub struct RenderArgs {
     /// `[render] max_portal_depth`); an opening met past the limit shows black.
     #[arg(long, value_name = "N")]
     max_portal_depth: Option<u32>,
+    /// Light sampling does not look through openings (overrides `[render]
+    /// light_through_openings`): light through them is found by BSDF sampling alone.
+    #[arg(long)]
+    no_light_through_openings: bool,
     /// Worker threads (default: all cores). The image is identical for any count.
     #[arg(long)]
     threads: Option<usize>,
@@ -148,6 +152,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         spp: args.spp,
         seed: args.seed,
         max_portal_depth: args.max_portal_depth,
+        light_through_openings: args.no_light_through_openings.then_some(false),
         rings: args.rings.clone(),
         light_selection: args.light_selection.map(Into::into),
     };

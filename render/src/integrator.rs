@@ -24,11 +24,12 @@
 
 use crate::geometry::Hit;
 use crate::geometry::offset_origin;
-use crate::lights::{Found, LightPlace, LightSource, Receiver};
+use crate::lights::{Found, LightPlace, LightSample, LightSource, Receiver};
 use crate::material::{Bsdf, Side};
 use crate::ray::Ray;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::{Scene, SceneHit};
+use crate::through::{Chain, Space, Strategies};
 use crate::visibility::RayClass;
 use glam::Vec3;
 
@@ -88,6 +89,13 @@ struct PathState {
     prev_receiver: Receiver,
     /// Teleports since the last scattering event.
     chain: u32,
+    /// The openings of those teleports, in order.
+    openings: Chain,
+    /// Probability of the opacity coin flips since the last scattering event (opacity per
+    /// teleport, 1 − opacity per opening passed): part of the BSDF strategy's density.
+    coins: f32,
+    /// How light sampling chose at the last scattering point.
+    strategies: Strategies,
     /// The camera ray's distance to its first opening.
     opening_t: Option<f32>,
 }
@@ -107,6 +115,9 @@ impl PathState {
                 time: ray.time,
             },
             chain: 0,
+            openings: Chain::default(),
+            coins: 1.0,
+            strategies: Strategies::DIRECT,
             opening_t: None,
         }
     }
@@ -120,15 +131,30 @@ impl PathState {
         }
     }
 
-    /// The MIS weight of emission the current ray found, whose light-sampling solid-angle pdf
-    /// `pdf_light` gives. It is 1 when light sampling could not have found it: after a delta
-    /// bounce, or through an opening.
-    fn emission_weight(&self, pdf_light: impl FnOnce() -> f32) -> f32 {
-        if self.prev_delta || self.chain > 0 {
-            1.0
-        } else {
-            power_heuristic(self.prev_pdf, pdf_light())
+    /// The MIS weight of emission `found` by the current ray at parameter `t` (at `point`,
+    /// unless it is the environment), against light sampling at the last scattering point
+    /// through the same openings. It is 1 where light sampling could not have found it: after
+    /// a delta bounce, or through a chain no strategy there samples.
+    fn emission_weight(&self, scene: &Scene, found: Found, t: f32, point: Option<Vec3>) -> f32 {
+        if self.prev_delta {
+            return 1.0;
         }
+        let (q, space) = self.strategies.find(&self.openings);
+        if q <= 0.0 {
+            return 1.0;
+        }
+        let dir = self.ray.dir;
+        let lights = &scene.lights;
+        let pdf_light = match space {
+            None => lights.pdf_found(found, &self.prev_receiver, dir, t, &scene.strands),
+            Some(space) => {
+                // Distances beyond the chain count from the mapped shading point.
+                let at = &space.receiver;
+                let distance = point.map_or(t, |y| y.distance(at.p));
+                lights.pdf_found(found, at, dir, distance, &scene.strands)
+            }
+        };
+        power_heuristic(self.prev_pdf * self.coins, q * pdf_light)
     }
 
     /// Records the camera ray's first surface (or opening) for the AOVs.
@@ -172,9 +198,13 @@ fn cross_openings(
     let mut from = ray.t_min;
     while let Some(ph) = portals.intersect(&ray.between(from, limit)) {
         let look = portals.look(ph.opening);
-        if look.opacity < 1.0 && s.uniform() >= look.opacity {
-            from = ph.t;
-            continue;
+        if look.opacity < 1.0 {
+            if s.uniform() >= look.opacity {
+                path.coins *= 1.0 - look.opacity;
+                from = ph.t;
+                continue;
+            }
+            path.coins *= look.opacity;
         }
         if path.bounce == 0 && path.opening_t.is_none() {
             path.opening_t = Some(ph.t);
@@ -189,6 +219,7 @@ fn cross_openings(
         };
         path.beta *= look.tint;
         path.chain += 1;
+        path.openings.push(ph.opening);
         if path.bounce == 0 {
             out.portal_depth += 1;
         }
@@ -212,7 +243,7 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
         let dir = path.ray.dir;
         let Some(hit) = hit else {
             if let Some(env) = &scene.lights.environment {
-                let weight = path.emission_weight(|| scene.lights.pdf_environment(dir));
+                let weight = path.emission_weight(scene, Found::Environment, f32::INFINITY, None);
                 out.radiance += path.beta * env.radiance(dir) * weight;
             }
             break;
@@ -226,11 +257,7 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
                     s: h.s,
                     normal: h.normal,
                 };
-                let weight = path.emission_weight(|| {
-                    scene
-                        .lights
-                        .pdf_found(found, &path.prev_receiver, dir, h.t, &scene.strands)
-                });
+                let weight = path.emission_weight(scene, found, h.t, Some(path.ray.at(h.t)));
                 out.radiance += path.beta * scene.strands.radiance(h.segment, h.s) * weight;
                 let facing = if h.normal.dot(dir) <= 0.0 {
                     h.normal
@@ -277,17 +304,13 @@ fn scatter(
                 area_scale: surface.area_scale,
                 normal: ng,
             };
-            let weight = path.emission_weight(|| {
-                scene
-                    .lights
-                    .pdf_found(found, &path.prev_receiver, dir, hit.t, &scene.strands)
-            });
+            let weight = path.emission_weight(scene, found, hit.t, Some(p));
             out.radiance += path.beta * le * weight;
         }
     }
     // Dimensions of this bounce, drawn whether or not they are used.
     let [lx, ly, bx, by] = s.next_4d();
-    let [u_roulette, u_lobe, _, _] = s.uniform_4d();
+    let [u_roulette, u_lobe, u_strategy, _] = s.uniform_4d();
     let (u_light, u_bsdf) = (glam::Vec2::new(lx, ly), glam::Vec2::new(bx, by));
     if scene.settings.max_bounces.is_some_and(|m| path.bounce >= m) {
         return false;
@@ -308,7 +331,15 @@ fn scatter(
         time,
     };
 
+    path.strategies = Strategies::DIRECT;
     if !bsdf.is_delta() {
+        path.strategies = Strategies::at(
+            &scene.portals,
+            &scene.lights,
+            &receiver,
+            scene.settings.max_portal_depth,
+            scene.settings.light_through_openings,
+        );
         let shading = Shading {
             receiver,
             ng,
@@ -317,7 +348,8 @@ fn scatter(
             bsdf,
             side,
         };
-        out.radiance += path.beta * next_event(scene, &shading, u_light);
+        let (space, q) = path.strategies.pick(u_strategy);
+        out.radiance += path.beta * next_event(scene, &shading, space, q, u_light);
     }
     let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
         return false;
@@ -331,6 +363,8 @@ fn scatter(
     let origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
     path.ray = Ray::new(origin, dir, f32::INFINITY, time);
     path.chain = 0;
+    path.openings = Chain::default();
+    path.coins = 1.0;
     path.bounce += 1;
     if path.bounce >= ROULETTE_AFTER {
         let survive = (path.beta.max_element() * path.eta_scale / ROULETTE_THRESHOLD)
@@ -358,48 +392,28 @@ struct Shading<'a> {
 }
 
 /// Next-event estimation: light arriving at `at` (at its time) from one light sample drawn
-/// with `u`, MIS weighted against BSDF sampling (power heuristic), before the path throughput.
-fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2) -> Vec3 {
-    let time = at.receiver.time;
+/// with `u`, in the space beyond the openings of `space` (`None`: ordinary light sampling),
+/// the strategy picked with probability `q`; MIS weighted against BSDF sampling (power
+/// heuristic), before the path throughput.
+fn next_event(scene: &Scene, at: &Shading, space: Option<&Space>, q: f32, u: glam::Vec2) -> Vec3 {
+    if q <= 0.0 {
+        return Vec3::ZERO;
+    }
+    // The point light selection sees: the shading point, or its image beyond the openings.
+    let receiver = space.map_or(at.receiver, |s| s.receiver);
+    let time = receiver.time;
     let Some(light) = scene.lights.sample(
         u,
-        &at.receiver,
+        &receiver,
         |e| scene.world_triangle(e.triangle, e.instance, time),
         &scene.strands,
     ) else {
         return Vec3::ZERO;
     };
-    let p = at.receiver.p;
-    // Direction, the point the shadow ray must reach (None: infinitely far) and the solid-angle
-    // pdf of the light sample.
-    let (wi_world, target, pdf_light) = match light.place {
-        LightPlace::Direction(d) => (d, None, light.pdf),
-        LightPlace::Point {
-            point,
-            normal,
-            two_sided,
-            source,
-        } => {
-            if let LightSource::Triangle(triangle) = source
-                && scene.visibility.culled(triangle, point, time)
-            {
-                return Vec3::ZERO;
-            }
-            let cos_raw = (p - point).dot(normal);
-            if !(cos_raw > 0.0 || (two_sided && cos_raw < 0.0)) {
-                return Vec3::ZERO;
-            }
-            let light_side = if cos_raw > 0.0 { normal } else { -normal };
-            let to = point - p;
-            let dist2 = to.length_squared();
-            let wi = to / dist2.sqrt();
-            (
-                wi,
-                Some(offset_origin(point, light_side)),
-                light.pdf * dist2 / wi.dot(light_side).abs(),
-            )
-        }
+    let Some(arrival) = arrival(scene, &light, &receiver) else {
+        return Vec3::ZERO;
     };
+    let wi_world = space.map_or(arrival.dir, |s| s.direction_back(arrival.dir));
     let wi = at.frame.to_local(wi_world);
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
@@ -407,25 +421,49 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2) -> Vec3 {
     }
     // The shadow ray leaves from the side of the surface it goes to.
     let ng = at.ng;
-    let from = offset_origin(p, if wi_world.dot(ng) > 0.0 { ng } else { -ng });
-    let (shadow_dir, dist) = match target {
-        Some(t) => {
-            let d = t - from;
-            let len = d.length();
-            (d / len, len)
-        }
-        None => (wi_world, f32::INFINITY),
+    let from = offset_origin(at.receiver.p, if wi_world.dot(ng) > 0.0 { ng } else { -ng });
+    let (tint, coins) = match space {
+        None => match shadow_direct(scene, from, arrival.target, wi_world, time) {
+            Some(through) => (Vec3::ONE, through),
+            None => return Vec3::ZERO,
+        },
+        Some(space) => match shadow_through(
+            scene,
+            space,
+            from,
+            wi_world,
+            arrival.target,
+            at.receiver.time,
+        ) {
+            Some(passed) => passed,
+            None => return Vec3::ZERO,
+        },
     };
-    let shadow = Ray::new(from, shadow_dir, dist, time);
-    let through = if scene.portals.is_empty() {
-        1.0
+    let pdf_light = q * arrival.pdf;
+    let weight = if arrival.bsdf_can_find {
+        power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side) * coins)
     } else {
-        scene.portals.transmittance(&shadow)
+        1.0
     };
-    if through == 0.0 || scene.occluded(&shadow) {
-        return Vec3::ZERO;
-    }
-    // An emitter hidden from indirect rays cannot be found by BSDF sampling.
+    f * light.radiance * tint * (weight * coins / pdf_light)
+}
+
+/// How a light sample reaches the point light selection saw.
+struct Arrival {
+    /// Unit direction from the point to the light.
+    dir: Vec3,
+    /// The point the shadow ray must reach (off the emitter's surface); `None`: infinitely far.
+    target: Option<Vec3>,
+    /// Solid-angle pdf of the sample.
+    pdf: f32,
+    /// False when rays that scatter cannot see the emitter, so BSDF sampling cannot find it.
+    bsdf_can_find: bool,
+}
+
+/// The direction, target and solid-angle pdf of `light` seen from `at`; `None` when it sends
+/// nothing that way (its back, or culled).
+fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Arrival> {
+    let time = at.time;
     let bsdf_can_find = match light.place {
         LightPlace::Point {
             source: LightSource::Triangle(triangle),
@@ -437,10 +475,117 @@ fn next_event(scene: &Scene, at: &Shading, u: glam::Vec2) -> Vec3 {
         } => scene.strand_sees(segment, RayClass::Indirect),
         LightPlace::Direction(_) => true,
     };
-    let weight = if bsdf_can_find {
-        power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side))
-    } else {
-        1.0
+    match light.place {
+        LightPlace::Direction(dir) => Some(Arrival {
+            dir,
+            target: None,
+            pdf: light.pdf,
+            bsdf_can_find,
+        }),
+        LightPlace::Point {
+            point,
+            normal,
+            two_sided,
+            source,
+        } => {
+            if let LightSource::Triangle(triangle) = source
+                && scene.visibility.culled(triangle, point, time)
+            {
+                return None;
+            }
+            let cos_raw = (at.p - point).dot(normal);
+            if !(cos_raw > 0.0 || (two_sided && cos_raw < 0.0)) {
+                return None;
+            }
+            let light_side = if cos_raw > 0.0 { normal } else { -normal };
+            let to = point - at.p;
+            let dist2 = to.length_squared();
+            let dir = to / dist2.sqrt();
+            Some(Arrival {
+                dir,
+                target: Some(offset_origin(point, light_side)),
+                pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
+                bsdf_can_find,
+            })
+        }
+    }
+}
+
+/// The fraction of light that reaches `from` straight from `target` (or from infinitely far
+/// along `dir`): the product of 1 − opacity of the openings it passes, or `None` when
+/// something blocks it.
+fn shadow_direct(
+    scene: &Scene,
+    from: Vec3,
+    target: Option<Vec3>,
+    dir: Vec3,
+    time: f64,
+) -> Option<f32> {
+    let (shadow_dir, dist) = match target {
+        Some(t) => {
+            let d = t - from;
+            let len = d.length();
+            (d / len, len)
+        }
+        None => (dir, f32::INFINITY),
     };
-    f * light.radiance * (weight * through / pdf_light)
+    let shadow = Ray::new(from, shadow_dir, dist, time);
+    let through = if scene.portals.is_empty() {
+        1.0
+    } else {
+        scene.portals.transmittance(&shadow)
+    };
+    (through != 0.0 && !scene.occluded(&shadow)).then_some(through)
+}
+
+/// Follows a shadow ray from `from` at `time` along `dir` through the openings of `space` in
+/// order (each must be the one it meets, inside its mask at the ray's time, with nothing in
+/// front), then on to `target` beyond the last (or to infinity). Returns the openings' tint
+/// and the probability of the coin flips a path along it makes (opacity per teleport,
+/// 1 − opacity per opening passed), or `None` when it is blocked or leaves the chain.
+fn shadow_through(
+    scene: &Scene,
+    space: &Space,
+    from: Vec3,
+    dir: Vec3,
+    target: Option<Vec3>,
+    time: f64,
+) -> Option<(Vec3, f32)> {
+    let portals = &scene.portals;
+    let mut ray = Ray::new(from, dir, f32::INFINITY, time);
+    let (mut tint, mut coins) = (Vec3::ONE, 1.0f32);
+    for i in space.chain.openings() {
+        let hit = portals.intersect_one(i, &ray)?;
+        // Up to the opening (which wins a tie with a wall it is set in), nothing may block.
+        let before = Ray {
+            t_max: hit.t,
+            ..ray
+        };
+        coins *= portals.transmittance(&before);
+        if coins == 0.0
+            || scene.occluded(&Ray {
+                t_max: hit.t * (1.0 - PORTAL_TIE),
+                ..ray
+            })
+        {
+            return None;
+        }
+        let look = portals.look(i);
+        coins *= look.opacity;
+        tint *= look.tint;
+        let exit_time = portals.exit_time(i, ray.time);
+        let next = portals.teleport(&hit, ray.dir, exit_time)?;
+        ray = Ray::new(next.origin, next.direction, f32::INFINITY, exit_time);
+    }
+    if let Some(target) = target {
+        // The target lies on the teleported line; it must lie beyond the last exit.
+        let to = target - ray.origin;
+        if to.dot(ray.dir) <= 0.0 {
+            return None;
+        }
+        let dist = to.length();
+        ray = Ray::new(ray.origin, to / dist, dist, ray.time);
+    }
+    coins *= portals.transmittance(&ray);
+    (coins != 0.0 && !scene.occluded(&ray)).then_some((tint, coins))
 }

@@ -21,6 +21,7 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod sobol;
+pub mod through;
 pub mod visibility;
 
 pub use error::RenderError;

@@ -92,6 +92,8 @@ impl Default for OpeningLook {
 /// The frames of one opening at one time.
 #[derive(Clone, Copy, Debug)]
 struct Frames {
+    /// P_H: here-local to world.
+    here: Similarity,
     /// P_H⁻¹: world to here-local.
     here_inverse: Similarity,
     /// P_T: there-local to world.
@@ -152,6 +154,7 @@ impl Portals {
             portals.fixed = Some(
                 (0..portals.len())
                     .map(|i| Frames {
+                        here: portals.rig.here_at(i, fixed_time),
                         here_inverse: portals.rig.here_at(i, fixed_time).inverse(),
                         there: portals.rig.there_at(i, fixed_time),
                     })
@@ -207,9 +210,23 @@ impl Portals {
         }
     }
 
+    /// P_H of opening `i` at `time`: its here frame, local to world.
+    #[inline]
+    pub fn here(&self, i: usize, time: f64) -> Similarity {
+        match &self.fixed {
+            Some(f) => f[i].here,
+            None => self.rig.here_at(i, time),
+        }
+    }
+
+    /// The teleport region of opening `i`.
+    pub fn mask(&self, i: usize) -> &Mask {
+        &self.masks[i]
+    }
+
     /// P_T of opening `i` at `time`.
     #[inline]
-    fn there(&self, i: usize, time: f64) -> Similarity {
+    pub fn there(&self, i: usize, time: f64) -> Similarity {
         match &self.fixed {
             Some(f) => f[i].there,
             None => self.rig.there_at(i, time),

@@ -46,6 +46,8 @@ pub struct Settings {
     pub max_bounces: Option<u32>,
     /// Teleports allowed in a row before the next scattering event.
     pub max_portal_depth: u32,
+    /// Light sampling also looks through openings (see [`crate::through`]).
+    pub light_through_openings: bool,
     /// Output path pattern; `#`s become the frame number.
     pub output: String,
 }
@@ -57,6 +59,8 @@ pub struct Overrides {
     pub spp: Option<u32>,
     pub seed: Option<u32>,
     pub max_portal_depth: Option<u32>,
+    /// `Some(false)` turns light sampling through openings off.
+    pub light_through_openings: Option<bool>,
     /// A ring cache path pattern (`#` frame tokens) replacing `[render] rings`.
     pub rings: Option<PathBuf>,
     /// How light sampling picks emitters (default: the light tree).
@@ -191,6 +195,7 @@ impl Scene {
                 }
                 None => portals::DEFAULT_MAX_PORTAL_DEPTH,
             },
+            light_through_openings: render.light_through_openings.unwrap_or(true),
             output: render
                 .output
                 .unwrap_or_else(|| format!("out/{}.####.exr", shot.name)),
@@ -201,6 +206,9 @@ impl Scene {
             max_portal_depth: overrides
                 .max_portal_depth
                 .unwrap_or(settings.max_portal_depth),
+            light_through_openings: overrides
+                .light_through_openings
+                .unwrap_or(settings.light_through_openings),
             ..settings
         };
 

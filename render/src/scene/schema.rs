@@ -7,6 +7,8 @@
 //! max_bounces = 16              # omit for unlimited (Russian roulette ends paths)
 //! max_portal_depth = 8          # teleports in a row before the next scattering event (default 8);
 //!                               # an opening met past the limit ends the path (black)
+//! light_through_openings = true # light sampling also looks through openings (false: only BSDF
+//!                               # sampling finds light through them; for A/B and as an escape)
 //! output = "out/shot.####.exr"  # frame number replaces the #s; relative to the working directory
 //! rings = "cache/shot.####.ringcache"  # ring caches written by `rift fx` (relative to the shot
 //!                               # file), or its point clouds: "cache/shot.%o.####.ply" (%o: the
@@ -105,6 +107,7 @@ pub struct RenderSection {
     pub seed: Option<i64>,
     pub max_bounces: Option<i64>,
     pub max_portal_depth: Option<i64>,
+    pub light_through_openings: Option<bool>,
     pub output: Option<String>,
     pub rings: Option<String>,
 }

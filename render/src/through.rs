@@ -1,0 +1,332 @@
+//! Light sampling through openings: where next-event estimation looks for light.
+//!
+//! A ray that teleports through openings a, b, … continues on the straight line that the
+//! composed teleport S = S_b ∘ S_a (each S = P_T · P_H⁻¹ at the ray's times) makes of it. So
+//! the light that a shading point p receives through that chain is the light that the virtual
+//! point S(p) receives in the space beyond it, restricted to the directions that pass every
+//! opening's mask. Similarities keep solid angles, so a light sample drawn for S(p) has the same
+//! solid-angle pdf at p, and its direction maps back to p by S's rotation.
+//!
+//! At each shading point [`Strategies::at`] lists the ways to sample light: ordinary light
+//! sampling, and one *virtual space* per chain of up to [`CHAIN_DEPTH`] openings (never past
+//! `max_portal_depth`) whose front the point faces, whose aperture is above its surface and,
+//! for a second opening, which can be seen through the first. Each gets a probability in
+//! proportion to an estimate of what it brings:
+//!
+//! - ordinary: the light tree's unoccluded estimate at p (plus the environment's);
+//! - a chain: the product of its openings' opacity × tint, times the smaller of the estimate at
+//!   S(p) (with the last exit's normal, so lights behind the exit do not count) and the
+//!   aperture bound Ω · E_exit / π, where Ω is the smallest projected solid angle of the chain's
+//!   openings seen along the way and E_exit the estimate at the centre of the last exit.
+//!
+//! Openings behind the point, facing away, below its surface or hidden behind the previous
+//! opening get no strategy at all, and a scene without openings has only the ordinary one: it
+//! pays nothing. Openings with an index of refraction other than 1 bend light in a way that has
+//! no closed-form inverse, so no chain passes them: light through them is found by BSDF
+//! sampling alone, with full weight, as before.
+//!
+//! The probabilities enter the light-sampling density (q · pdf), so the MIS weight of emission
+//! that BSDF sampling finds after the same chain of teleports uses [`Strategies::find`] at the
+//! previous vertex, with the BSDF density times the chain's coin probabilities (opacity per
+//! teleport, 1 − opacity per opening passed). Estimates may be poor without bias: every path is
+//! still counted once.
+
+use crate::lights::{Lights, Receiver};
+use crate::portal::Portals;
+use glam::{DVec3, Vec3};
+use rift_fx::rig::Similarity;
+use std::f64::consts::PI;
+
+/// The most openings in a row that light sampling looks through. Longer chains (a corridor of
+/// mirrors) are still lit, by BSDF sampling.
+pub const CHAIN_DEPTH: usize = 2;
+/// The most virtual spaces kept at one shading point (the most promising).
+const MAX_SPACES: usize = 6;
+
+/// The openings a path teleported through since its last scattering event, in order.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Chain {
+    openings: [u16; CHAIN_DEPTH],
+    len: u8,
+    /// More teleports than [`CHAIN_DEPTH`]: no strategy samples such a chain.
+    overflow: bool,
+}
+
+impl Chain {
+    /// Appends opening `i`.
+    pub fn push(&mut self, i: usize) {
+        if (self.len as usize) < CHAIN_DEPTH && i <= u16::MAX as usize {
+            self.openings[self.len as usize] = i as u16;
+            self.len += 1;
+        } else {
+            self.overflow = true;
+        }
+    }
+
+    /// The openings, in the order a ray meets them.
+    pub fn openings(&self) -> impl Iterator<Item = usize> + '_ {
+        self.openings[..self.len as usize]
+            .iter()
+            .map(|&i| i as usize)
+    }
+}
+
+/// The space beyond a chain of openings, as a shading point's light sampling sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Space {
+    pub chain: Chain,
+    /// The rotation of the composed teleport (directions at p to directions beyond).
+    rotation: glam::DQuat,
+    /// The shading point mapped beyond the chain, with the last exit's outward normal (light
+    /// can only come from that side) and the time after the chain's offsets.
+    pub receiver: Receiver,
+}
+
+impl Space {
+    /// A direction beyond the chain brought back to the shading point.
+    pub fn direction_back(&self, d: Vec3) -> Vec3 {
+        (self.rotation.inverse() * d.as_dvec3())
+            .normalize()
+            .as_vec3()
+    }
+}
+
+/// The ways light sampling can go at one shading point, with their probabilities.
+#[derive(Clone, Copy, Debug)]
+pub struct Strategies {
+    /// Probability of ordinary light sampling.
+    direct: f32,
+    spaces: [Option<(Space, f32)>; MAX_SPACES],
+}
+
+impl Strategies {
+    /// Ordinary light sampling only.
+    pub const DIRECT: Self = Self {
+        direct: 1.0,
+        spaces: [None; MAX_SPACES],
+    };
+
+    /// The strategies at `at` (world space, at its time). Only ordinary light sampling when
+    /// `enabled` is false, the scene has no opening or no light, or `max_depth` is 0.
+    pub fn at(
+        portals: &Portals,
+        lights: &Lights,
+        at: &Receiver,
+        max_depth: u32,
+        enabled: bool,
+    ) -> Self {
+        if !enabled || portals.is_empty() || lights.is_empty() || max_depth == 0 {
+            return Self::DIRECT;
+        }
+        let mut found: Vec<(Space, f32)> = Vec::new();
+        let mut frontier = vec![Reach::start(at)];
+        for _ in 0..CHAIN_DEPTH.min(max_depth as usize) {
+            let mut next = Vec::new();
+            for from in &frontier {
+                for i in 0..portals.len() {
+                    let Some(reach) = from.through(portals, i) else {
+                        continue;
+                    };
+                    let estimate = reach.estimate(lights);
+                    if estimate > 0.0 && estimate.is_finite() {
+                        found.push((reach.space(), estimate));
+                    }
+                    next.push(reach);
+                }
+            }
+            frontier = next;
+        }
+        // The most promising first; ties keep the enumeration order, so the choice is the
+        // same wherever it is made.
+        found.sort_by(|a, b| b.1.total_cmp(&a.1));
+        found.truncate(MAX_SPACES);
+        let direct = lights.importance(at);
+        let total = direct + found.iter().map(|f| f.1).sum::<f32>();
+        if !(total > 0.0 && total.is_finite()) || found.is_empty() {
+            return Self::DIRECT;
+        }
+        let mut spaces = [None; MAX_SPACES];
+        for (slot, (space, estimate)) in spaces.iter_mut().zip(found) {
+            *slot = Some((space, estimate / total));
+        }
+        Self {
+            direct: direct / total,
+            spaces,
+        }
+    }
+
+    /// Picks a strategy with `u` in [0, 1): `None` is ordinary light sampling. Returns its
+    /// probability too.
+    pub fn pick(&self, u: f32) -> (Option<&Space>, f32) {
+        let mut below = self.direct;
+        if u < below || self.spaces[0].is_none() {
+            return (None, self.direct);
+        }
+        let mut last = (None, self.direct);
+        for (space, q) in self.spaces.iter().flatten() {
+            below += q;
+            last = (Some(space), *q);
+            if u < below {
+                break;
+            }
+        }
+        last
+    }
+
+    /// The probability of the strategy that samples light through `chain` (ordinary light
+    /// sampling for an empty chain), with its space; 0 when no strategy does.
+    pub fn find(&self, chain: &Chain) -> (f32, Option<&Space>) {
+        if *chain == Chain::default() {
+            return (self.direct, None);
+        }
+        self.spaces
+            .iter()
+            .flatten()
+            .find(|(space, _)| space.chain == *chain)
+            .map_or((0.0, None), |(space, q)| (*q, Some(space)))
+    }
+}
+
+/// A chain being extended while strategies are enumerated: where the shading point is in the
+/// space reached so far, and what the chain has cost.
+struct Reach {
+    chain: Chain,
+    /// Composed teleport so far (identity at the start).
+    map: Similarity,
+    /// The shading point in the space reached, its normal there (the last exit's for a
+    /// virtual point), and its time.
+    point: DVec3,
+    normal: Option<DVec3>,
+    time: f64,
+    /// Product of opacity × luminance of tint over the chain.
+    factor: f32,
+    /// The smallest projected solid angle of the chain's openings seen along the way.
+    solid_angle: f32,
+    /// The last exit: its centre, its bounding radius and the direction rays leave it in.
+    exit: Option<(DVec3, f64, DVec3)>,
+}
+
+impl Reach {
+    fn start(at: &Receiver) -> Self {
+        Self {
+            chain: Chain::default(),
+            map: Similarity::IDENTITY,
+            point: at.p.as_dvec3(),
+            normal: at.n.map(Vec3::as_dvec3),
+            time: at.time,
+            factor: 1.0,
+            solid_angle: f32::INFINITY,
+            exit: None,
+        }
+    }
+
+    /// The chain extended through opening `i`, when light can come through it at all.
+    fn through(&self, portals: &Portals, i: usize) -> Option<Self> {
+        let look = portals.look(i);
+        if look.ior != 1.0 || look.opacity <= 0.0 || look.tint == Vec3::ZERO {
+            return None;
+        }
+        let here = portals.here(i, self.time);
+        let local = here.inverse().transform_point(self.point);
+        if local.z <= 0.0 {
+            return None; // behind the opening
+        }
+        let mask = portals.mask(i);
+        let radius = mask.bounding_radius() * here.scale;
+        let centre = here.translation;
+        let to_centre = centre - self.point;
+        let distance = to_centre.length();
+        // Above the point's surface: some of the aperture's sphere is in front of it.
+        let cos_receiver = match self.normal {
+            Some(n) => ((to_centre.dot(n) + radius) / distance).min(1.0),
+            None => 1.0,
+        };
+        if cos_receiver <= 0.0 {
+            return None;
+        }
+        if let Some((exit, exit_radius, leaving)) = self.exit
+            && !seen_through(self.point, (exit, exit_radius, leaving), (centre, radius))
+        {
+            return None;
+        }
+        let cos_aperture = local.z * here.scale / distance;
+        let area = mask.area() * here.scale * here.scale;
+        let solid_angle =
+            ((area * cos_aperture / (distance * distance)).min(2.0 * PI) * cos_receiver) as f32;
+        let time = portals.exit_time(i, self.time);
+        let there = portals.there(i, time);
+        let teleport = there.compose(&here.inverse());
+        let leaving = there.transform_direction(-DVec3::Z);
+        let mut chain = self.chain;
+        chain.push(i);
+        Some(Self {
+            chain,
+            map: teleport.compose(&self.map),
+            point: teleport.transform_point(self.point),
+            normal: Some(leaving),
+            time,
+            factor: self.factor * look.opacity * luminance(look.tint),
+            solid_angle: self.solid_angle.min(solid_angle),
+            exit: Some((
+                there.translation,
+                mask.bounding_radius() * there.scale,
+                leaving,
+            )),
+        })
+    }
+
+    fn receiver(&self) -> Receiver {
+        Receiver {
+            p: self.point.as_vec3(),
+            n: self.normal.map(DVec3::as_vec3),
+            time: self.time,
+        }
+    }
+
+    /// What the chain brings: its factor times the smaller of the estimate at the virtual
+    /// point and the aperture bound.
+    fn estimate(&self, lights: &Lights) -> f32 {
+        let at_point = lights.importance(&self.receiver());
+        let Some((exit, _, leaving)) = self.exit else {
+            return at_point;
+        };
+        let at_exit = lights.importance(&Receiver {
+            p: exit.as_vec3(),
+            n: Some(leaving.as_vec3()),
+            time: self.time,
+        });
+        self.factor * at_point.min(self.solid_angle * at_exit / std::f32::consts::PI)
+    }
+
+    fn space(&self) -> Space {
+        Space {
+            chain: self.chain,
+            rotation: self.map.rotation,
+            receiver: self.receiver(),
+        }
+    }
+}
+
+/// True when a sphere (`target`: centre, radius) can be seen from `point` through an exit
+/// aperture's sphere (`exit`: centre, radius, the direction rays leave it in): it lies on the
+/// far side of the exit, within the cone from the point around the exit.
+fn seen_through(point: DVec3, exit: (DVec3, f64, DVec3), target: (DVec3, f64)) -> bool {
+    let (centre, radius, leaving) = exit;
+    if (target.0 - centre).dot(leaving) < -target.1 {
+        return false;
+    }
+    let (to_exit, to_target) = (centre - point, target.0 - point);
+    let (d_exit, d_target) = (to_exit.length(), to_target.length());
+    if d_exit <= radius || d_target <= target.1 {
+        return true;
+    }
+    let half_angle = (radius / d_exit).asin() + (target.1 / d_target).asin();
+    let angle = (to_exit.dot(to_target) / (d_exit * d_target))
+        .clamp(-1.0, 1.0)
+        .acos();
+    angle <= half_angle
+}
+
+fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
