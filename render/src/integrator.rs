@@ -333,13 +333,7 @@ fn scatter(
 
     path.strategies = Strategies::DIRECT;
     if !bsdf.is_delta() {
-        path.strategies = Strategies::at(
-            &scene.portals,
-            &scene.lights,
-            &receiver,
-            scene.settings.max_portal_depth,
-            scene.settings.light_through_openings,
-        );
+        path.strategies = Strategies::at(scene, &receiver);
         let shading = Shading {
             receiver,
             ng,

@@ -98,6 +98,8 @@ struct Frames {
     here_inverse: Similarity,
     /// P_T: there-local to world.
     there: Similarity,
+    /// P_T · P_H⁻¹.
+    teleport: Similarity,
 }
 
 /// A ray meeting the front of an opening inside its teleport region.
@@ -153,10 +155,15 @@ impl Portals {
         if !moving {
             portals.fixed = Some(
                 (0..portals.len())
-                    .map(|i| Frames {
-                        here: portals.rig.here_at(i, fixed_time),
-                        here_inverse: portals.rig.here_at(i, fixed_time).inverse(),
-                        there: portals.rig.there_at(i, fixed_time),
+                    .map(|i| {
+                        let here = portals.rig.here_at(i, fixed_time);
+                        let there = portals.rig.there_at(i, fixed_time);
+                        Frames {
+                            here,
+                            here_inverse: here.inverse(),
+                            there,
+                            teleport: there.compose(&here.inverse()),
+                        }
                     })
                     .collect(),
             );
@@ -203,7 +210,7 @@ impl Portals {
     /// P_H⁻¹ of opening `i` at `time`. A moving rig evaluates only this for every opening a
     /// ray is tested against; the there frame waits for a teleport.
     #[inline]
-    fn here_inverse(&self, i: usize, time: f64) -> Similarity {
+    pub fn here_inverse(&self, i: usize, time: f64) -> Similarity {
         match &self.fixed {
             Some(f) => f[i].here_inverse,
             None => self.rig.here_at(i, time).inverse(),
@@ -216,6 +223,22 @@ impl Portals {
         match &self.fixed {
             Some(f) => f[i].here,
             None => self.rig.here_at(i, time),
+        }
+    }
+
+    /// The teleport of a ray that meets opening `i` at `time` (P_T at the exit time ∘ P_H⁻¹
+    /// at `time`), with the exit time.
+    #[inline]
+    pub fn teleport_map(&self, i: usize, time: f64) -> (Similarity, f64) {
+        let exit = self.exit_time(i, time);
+        match &self.fixed {
+            Some(f) => (f[i].teleport, exit),
+            None => (
+                self.rig
+                    .there_at(i, exit)
+                    .compose(&self.rig.here_at(i, time).inverse()),
+                exit,
+            ),
         }
     }
 

@@ -14,10 +14,10 @@
 //! proportion to an estimate of what it brings:
 //!
 //! - ordinary: the light tree's unoccluded estimate at p (plus the environment's);
-//! - a chain: the product of its openings' opacity × tint, times the smaller of the estimate at
-//!   S(p) (with the last exit's normal, so lights behind the exit do not count) and the
-//!   aperture bound Ω · E_exit / π, where Ω is the smallest projected solid angle of the chain's
-//!   openings seen along the way and E_exit the estimate at the centre of the last exit.
+//! - a chain: the product of its openings' opacity × tint, times the aperture bound
+//!   Ω · E_exit / π, where Ω is the smallest projected solid angle of the chain's openings seen
+//!   along the way (capped at 2π) and E_exit the tree's estimate at the centre of the last
+//!   exit, facing out ([`exit_light`], once per scene at mid-shutter).
 //!
 //! Openings behind the point, facing away, below its surface or hidden behind the previous
 //! opening get no strategy at all, and a scene without openings has only the ordinary one: it
@@ -33,8 +33,9 @@
 
 use crate::lights::{Lights, Receiver};
 use crate::portal::Portals;
-use glam::{DVec3, Vec3};
-use rift_fx::rig::Similarity;
+use crate::scene::Scene;
+use glam::{DQuat, DVec3, Vec3};
+use smallvec::SmallVec;
 use std::f64::consts::PI;
 
 /// The most openings in a row that light sampling looks through. Longer chains (a corridor of
@@ -76,7 +77,7 @@ impl Chain {
 pub struct Space {
     pub chain: Chain,
     /// The rotation of the composed teleport (directions at p to directions beyond).
-    rotation: glam::DQuat,
+    rotation: DQuat,
     /// The shading point mapped beyond the chain, with the last exit's outward normal (light
     /// can only come from that side) and the time after the chain's offsets.
     pub receiver: Receiver,
@@ -107,27 +108,29 @@ impl Strategies {
     };
 
     /// The strategies at `at` (world space, at its time). Only ordinary light sampling when
-    /// `enabled` is false, the scene has no opening or no light, or `max_depth` is 0.
-    pub fn at(
-        portals: &Portals,
-        lights: &Lights,
-        at: &Receiver,
-        max_depth: u32,
-        enabled: bool,
-    ) -> Self {
-        if !enabled || portals.is_empty() || lights.is_empty() || max_depth == 0 {
+    /// the scene turns light through openings off, has no opening or no light, or allows no
+    /// teleport.
+    pub fn at(scene: &Scene, at: &Receiver) -> Self {
+        let (portals, lights) = (&scene.portals, &scene.lights);
+        let max_depth = scene.settings.max_portal_depth;
+        if !scene.settings.light_through_openings
+            || portals.is_empty()
+            || lights.is_empty()
+            || max_depth == 0
+        {
             return Self::DIRECT;
         }
-        let mut found: Vec<(Space, f32)> = Vec::new();
-        let mut frontier = vec![Reach::start(at)];
+        let mut found: SmallVec<[(Space, f32); 16]> = SmallVec::new();
+        let mut frontier: SmallVec<[Reach; 8]> = smallvec::smallvec![Reach::start(at)];
         for _ in 0..CHAIN_DEPTH.min(max_depth as usize) {
-            let mut next = Vec::new();
+            let mut next = SmallVec::new();
             for from in &frontier {
                 for i in 0..portals.len() {
                     let Some(reach) = from.through(portals, i) else {
                         continue;
                     };
-                    let estimate = reach.estimate(lights);
+                    let estimate = reach.factor * reach.solid_angle * scene.exit_light[i]
+                        / std::f32::consts::PI;
                     if estimate > 0.0 && estimate.is_finite() {
                         found.push((reach.space(), estimate));
                     }
@@ -153,6 +156,16 @@ impl Strategies {
             direct: direct / total,
             spaces,
         }
+    }
+
+    /// The probability of ordinary light sampling.
+    pub fn direct(&self) -> f32 {
+        self.direct
+    }
+
+    /// The virtual spaces with their probabilities, the most promising first.
+    pub fn spaces(&self) -> impl Iterator<Item = (&Space, f32)> {
+        self.spaces.iter().flatten().map(|(space, q)| (space, *q))
     }
 
     /// Picks a strategy with `u` in [0, 1): `None` is ordinary light sampling. Returns its
@@ -191,8 +204,8 @@ impl Strategies {
 /// space reached so far, and what the chain has cost.
 struct Reach {
     chain: Chain,
-    /// Composed teleport so far (identity at the start).
-    map: Similarity,
+    /// Rotation of the composed teleport so far.
+    rotation: DQuat,
     /// The shading point in the space reached, its normal there (the last exit's for a
     /// virtual point), and its time.
     point: DVec3,
@@ -202,15 +215,15 @@ struct Reach {
     factor: f32,
     /// The smallest projected solid angle of the chain's openings seen along the way.
     solid_angle: f32,
-    /// The last exit: its centre, its bounding radius and the direction rays leave it in.
-    exit: Option<(DVec3, f64, DVec3)>,
+    /// The last exit.
+    exit: Option<Exit>,
 }
 
 impl Reach {
     fn start(at: &Receiver) -> Self {
         Self {
             chain: Chain::default(),
-            map: Similarity::IDENTITY,
+            rotation: DQuat::IDENTITY,
             point: at.p.as_dvec3(),
             normal: at.n.map(Vec3::as_dvec3),
             time: at.time,
@@ -226,15 +239,16 @@ impl Reach {
         if look.ior != 1.0 || look.opacity <= 0.0 || look.tint == Vec3::ZERO {
             return None;
         }
-        let here = portals.here(i, self.time);
-        let local = here.inverse().transform_point(self.point);
+        let here_inverse = portals.here_inverse(i, self.time);
+        let local = here_inverse.transform_point(self.point);
         if local.z <= 0.0 {
             return None; // behind the opening
         }
+        let here = portals.here(i, self.time);
+        let scale = here.scale;
         let mask = portals.mask(i);
-        let radius = mask.bounding_radius() * here.scale;
-        let centre = here.translation;
-        let to_centre = centre - self.point;
+        let radius = mask.bounding_radius() * scale;
+        let to_centre = here.translation - self.point;
         let distance = to_centre.length();
         // Above the point's surface: some of the aperture's sphere is in front of it.
         let cos_receiver = match self.normal {
@@ -244,87 +258,93 @@ impl Reach {
         if cos_receiver <= 0.0 {
             return None;
         }
-        if let Some((exit, exit_radius, leaving)) = self.exit
-            && !seen_through(self.point, (exit, exit_radius, leaving), (centre, radius))
+        if let Some(exit) = &self.exit
+            && !exit.shows(self.point, self.point + to_centre, radius)
         {
             return None;
         }
-        let cos_aperture = local.z * here.scale / distance;
-        let area = mask.area() * here.scale * here.scale;
+        let cos_aperture = local.z * scale / distance;
+        let area = mask.area() * scale * scale;
         let solid_angle =
             ((area * cos_aperture / (distance * distance)).min(2.0 * PI) * cos_receiver) as f32;
-        let time = portals.exit_time(i, self.time);
+        let (teleport, time) = portals.teleport_map(i, self.time);
         let there = portals.there(i, time);
-        let teleport = there.compose(&here.inverse());
         let leaving = there.transform_direction(-DVec3::Z);
         let mut chain = self.chain;
         chain.push(i);
         Some(Self {
             chain,
-            map: teleport.compose(&self.map),
+            rotation: teleport.rotation * self.rotation,
             point: teleport.transform_point(self.point),
             normal: Some(leaving),
             time,
             factor: self.factor * look.opacity * luminance(look.tint),
             solid_angle: self.solid_angle.min(solid_angle),
-            exit: Some((
-                there.translation,
-                mask.bounding_radius() * there.scale,
+            exit: Some(Exit {
+                centre: there.translation,
+                radius: mask.bounding_radius() * there.scale,
                 leaving,
-            )),
+            }),
         })
-    }
-
-    fn receiver(&self) -> Receiver {
-        Receiver {
-            p: self.point.as_vec3(),
-            n: self.normal.map(DVec3::as_vec3),
-            time: self.time,
-        }
-    }
-
-    /// What the chain brings: its factor times the smaller of the estimate at the virtual
-    /// point and the aperture bound.
-    fn estimate(&self, lights: &Lights) -> f32 {
-        let at_point = lights.importance(&self.receiver());
-        let Some((exit, _, leaving)) = self.exit else {
-            return at_point;
-        };
-        let at_exit = lights.importance(&Receiver {
-            p: exit.as_vec3(),
-            n: Some(leaving.as_vec3()),
-            time: self.time,
-        });
-        self.factor * at_point.min(self.solid_angle * at_exit / std::f32::consts::PI)
     }
 
     fn space(&self) -> Space {
         Space {
             chain: self.chain,
-            rotation: self.map.rotation,
-            receiver: self.receiver(),
+            rotation: self.rotation,
+            receiver: Receiver {
+                p: self.point.as_vec3(),
+                n: self.normal.map(DVec3::as_vec3),
+                time: self.time,
+            },
         }
     }
 }
 
-/// True when a sphere (`target`: centre, radius) can be seen from `point` through an exit
-/// aperture's sphere (`exit`: centre, radius, the direction rays leave it in): it lies on the
-/// far side of the exit, within the cone from the point around the exit.
-fn seen_through(point: DVec3, exit: (DVec3, f64, DVec3), target: (DVec3, f64)) -> bool {
-    let (centre, radius, leaving) = exit;
-    if (target.0 - centre).dot(leaving) < -target.1 {
-        return false;
+/// Where rays leave the last opening of a chain.
+struct Exit {
+    centre: DVec3,
+    /// Bounding radius of its mask.
+    radius: f64,
+    /// Unit direction rays leave in.
+    leaving: DVec3,
+}
+
+impl Exit {
+    /// True when a sphere around `centre` of `radius` can be seen from `point` through the
+    /// exit's sphere: it reaches the far side of the exit, and the cones from the point around
+    /// the two spheres overlap.
+    fn shows(&self, point: DVec3, centre: DVec3, radius: f64) -> bool {
+        if (centre - self.centre).dot(self.leaving) < -radius {
+            return false;
+        }
+        let (to_exit, to_target) = (self.centre - point, centre - point);
+        let (d_exit, d_target) = (to_exit.length(), to_target.length());
+        if d_exit <= self.radius || d_target <= radius {
+            return true;
+        }
+        // angle ≤ a + b ⇔ cos(angle) ≥ cos a cos b − sin a sin b (a, b within [0, π/2]).
+        let (sin_a, sin_b) = (self.radius / d_exit, radius / d_target);
+        let (cos_a, cos_b) = ((1.0 - sin_a * sin_a).sqrt(), (1.0 - sin_b * sin_b).sqrt());
+        to_exit.dot(to_target) / (d_exit * d_target) >= cos_a * cos_b - sin_a * sin_b
     }
-    let (to_exit, to_target) = (centre - point, target.0 - point);
-    let (d_exit, d_target) = (to_exit.length(), to_target.length());
-    if d_exit <= radius || d_target <= target.1 {
-        return true;
-    }
-    let half_angle = (radius / d_exit).asin() + (target.1 / d_target).asin();
-    let angle = (to_exit.dot(to_target) / (d_exit * d_target))
-        .clamp(-1.0, 1.0)
-        .acos();
-    angle <= half_angle
+}
+
+/// What each opening's exit can pass on: the light tree's unoccluded estimate at the centre
+/// of its there side, facing the way rays leave, at the middle of the ray times.
+pub fn exit_light(portals: &Portals, lights: &Lights) -> Vec<f32> {
+    let times = portals.times();
+    let time = 0.5 * (times[0] + times[1]);
+    (0..portals.len())
+        .map(|i| {
+            let there = portals.there(i, time);
+            lights.importance(&Receiver {
+                p: there.translation.as_vec3(),
+                n: Some(there.transform_direction(-DVec3::Z).as_vec3()),
+                time,
+            })
+        })
+        .collect()
 }
 
 fn luminance(c: Vec3) -> f32 {
