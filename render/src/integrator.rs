@@ -18,9 +18,14 @@
 //! objects' flags and cull volumes filter. An emitter that indirect rays do not see can only be
 //! found by light sampling, which then gets the full MIS weight.
 //!
-//! Shadow rays cannot follow a teleport yet, so a teleport region blocks them in proportion to
-//! its opacity, and light reached by BSDF sampling after a teleport gets the full MIS weight
-//! (light sampling could not have found it): the estimate stays unbiased, only noisier.
+//! Light sampling looks through openings ([`crate::through`]): each shading point picks a
+//! strategy (ordinary, or a chain of openings) with the hashed strategy number, samples a light
+//! as seen from its image beyond the chain, and the shadow ray follows the teleports. Emission
+//! that BSDF sampling finds after teleports is weighed against the strategy for the same chain
+//! at the previous vertex, with the opacity coin flips in the BSDF density; chains no strategy
+//! samples (too long, an opening with ior ≠ 1, light sampling through openings off) keep the
+//! full weight. Shadow rays that pass openings without teleporting are attenuated by
+//! 1 − opacity.
 
 use crate::geometry::Hit;
 use crate::geometry::offset_origin;
