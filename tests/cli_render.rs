@@ -451,6 +451,41 @@ fn bad_portal_frames_pairings_and_limits() {
         ));
         expect_failure(&dir, &["shot.toml", &format!("portal[0].surface.{key}")]);
     }
+    // Teleport shapes: a rectangle with a side that is not positive, polygons that are
+    // degenerate or cross themselves, and two shapes at once.
+    for (surface, expected) in [
+        (
+            "rectangle = [1.0, 0.0]",
+            vec!["portal[0].surface.rectangle[1]"],
+        ),
+        (
+            "rectangle = [-2.0, 1.0]",
+            vec!["portal[0].surface.rectangle[0]"],
+        ),
+        (
+            "polygon = [[0, 0], [2, 2], [2, 0], [0, 1]]",
+            vec!["portal[0].surface.polygon", "intersects itself"],
+        ),
+        (
+            "polygon = [[0, 0], [1, 1], [2, 2]]",
+            vec!["portal[0].surface.polygon", "no area"],
+        ),
+        (
+            "polygon = [[0, 0], [1, 1]]",
+            vec!["portal[0].surface.polygon", "at least 3 points"],
+        ),
+        (
+            "radius = 1.0\nrectangle = [1.0, 2.0]",
+            vec!["portal[0].surface.rectangle", "`radius` and `rectangle`"],
+        ),
+    ] {
+        let dir = cornell_with(&format!(
+            "\n[[portal]]\nname = \"A\"\nhere = {{ position = [0, 0, 0] }}\nthere = {{ position = [0, 0, 1] }}\n[portal.surface]\n{surface}\n"
+        ));
+        let mut wanted = vec!["shot.toml"];
+        wanted.extend(expected);
+        expect_failure(&dir, &wanted);
+    }
     let dir = cornell_with(
         "\n[[portal]]\nname = \"A\"\nhere = { position = [0, 0, 0] }\nthere = { position = [0, 0, 1] }\n[portal.surface]\nglow = 1\n",
     );
