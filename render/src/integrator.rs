@@ -99,8 +99,9 @@ struct PathState {
     /// Probability of the opacity coin flips since the last scattering event (opacity per
     /// teleport, 1 − opacity per opening passed): part of the BSDF strategy's density.
     coins: f32,
-    /// How light sampling chose at the last scattering point.
-    strategies: Strategies,
+    /// How light sampling chose at the last scattering point (`None`: ordinary light sampling
+    /// only, which keeps the path state small where no opening can matter).
+    strategies: Option<Strategies>,
     /// The camera ray's distance to its first opening.
     opening_t: Option<f32>,
 }
@@ -122,7 +123,7 @@ impl PathState {
             chain: 0,
             openings: Chain::default(),
             coins: 1.0,
-            strategies: Strategies::DIRECT,
+            strategies: None,
             opening_t: None,
         }
     }
@@ -144,7 +145,11 @@ impl PathState {
         if self.prev_delta {
             return 1.0;
         }
-        let (q, space) = self.strategies.find(&self.openings);
+        let (q, space) = match &self.strategies {
+            Some(strategies) => strategies.find(&self.openings),
+            None if self.openings == Chain::default() => (1.0, None),
+            None => (0.0, None),
+        };
         if q <= 0.0 {
             return 1.0;
         }
@@ -336,9 +341,11 @@ fn scatter(
         time,
     };
 
-    path.strategies = Strategies::DIRECT;
+    path.strategies = None;
     if !bsdf.is_delta() {
-        path.strategies = Strategies::at(scene, &receiver);
+        if !scene.portals.is_empty() && scene.settings.light_through_openings {
+            path.strategies = Some(Strategies::at(scene, &receiver));
+        }
         let shading = Shading {
             receiver,
             ng,
@@ -347,7 +354,10 @@ fn scatter(
             bsdf,
             side,
         };
-        let (space, q) = path.strategies.pick(u_strategy);
+        let (space, q) = match &path.strategies {
+            Some(strategies) => strategies.pick(u_strategy),
+            None => (None, 1.0),
+        };
         out.radiance += path.beta * next_event(scene, &shading, space, q, u_light);
     }
     let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
