@@ -92,10 +92,8 @@ struct PathState {
     /// The last scattering point, as light selection saw it (for the MIS weight of emitters
     /// that BSDF sampling finds).
     prev_receiver: Receiver,
-    /// Teleports since the last scattering event.
-    chain: u32,
-    /// The openings of those teleports, in order.
-    openings: Chain,
+    /// Teleports since the last scattering event, and through which openings.
+    chain: Chain,
     /// Probability of the opacity coin flips since the last scattering event (opacity per
     /// teleport, 1 − opacity per opening passed): part of the BSDF strategy's density.
     coins: f32,
@@ -120,8 +118,7 @@ impl PathState {
                 n: None,
                 time: ray.time,
             },
-            chain: 0,
-            openings: Chain::default(),
+            chain: Chain::default(),
             coins: 1.0,
             strategies: None,
             opening_t: None,
@@ -130,7 +127,7 @@ impl PathState {
 
     /// Who the current ray is, for visibility flags.
     fn class(&self) -> RayClass {
-        match (self.bounce, self.chain) {
+        match (self.bounce, self.chain.teleports()) {
             (0, 0) => RayClass::Camera,
             (0, _) => RayClass::ThroughPortal,
             _ => RayClass::Indirect,
@@ -146,8 +143,8 @@ impl PathState {
             return 1.0;
         }
         let (q, space) = match &self.strategies {
-            Some(strategies) => strategies.find(&self.openings),
-            None if self.openings == Chain::default() => (1.0, None),
+            Some(strategies) => strategies.find(&self.chain),
+            None if self.chain == Chain::default() => (1.0, None),
             None => (0.0, None),
         };
         if q <= 0.0 {
@@ -219,7 +216,7 @@ fn cross_openings(
         if path.bounce == 0 && path.opening_t.is_none() {
             path.opening_t = Some(ph.t);
         }
-        if path.chain >= scene.settings.max_portal_depth {
+        if path.chain.teleports() >= scene.settings.max_portal_depth {
             path.first_hit(out, ph.t, -ray.dir, Vec3::ZERO);
             return Crossing::Ended;
         }
@@ -228,8 +225,7 @@ fn cross_openings(
             return Crossing::Ended;
         };
         path.beta *= look.tint;
-        path.chain += 1;
-        path.openings.push(ph.opening);
+        path.chain.push(ph.opening);
         if path.bounce == 0 {
             out.portal_depth += 1;
         }
@@ -343,9 +339,7 @@ fn scatter(
 
     path.strategies = None;
     if !bsdf.is_delta() {
-        if !scene.portals.is_empty() && scene.settings.light_through_openings {
-            path.strategies = Some(Strategies::at(scene, &receiver));
-        }
+        path.strategies = Strategies::at(scene, &receiver);
         let shading = Shading {
             receiver,
             ng,
@@ -371,8 +365,7 @@ fn scatter(
     let dir = frame.to_world(bs.wi).normalize();
     let origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
     path.ray = Ray::new(origin, dir, f32::INFINITY, time);
-    path.chain = 0;
-    path.openings = Chain::default();
+    path.chain = Chain::default();
     path.coins = 1.0;
     path.bounce += 1;
     if path.bounce >= ROULETTE_AFTER {
@@ -431,22 +424,16 @@ fn next_event(scene: &Scene, at: &Shading, space: Option<&Space>, q: f32, u: gla
     // The shadow ray leaves from the side of the surface it goes to.
     let ng = at.ng;
     let from = offset_origin(at.receiver.p, if wi_world.dot(ng) > 0.0 { ng } else { -ng });
-    let (tint, coins) = match space {
-        None => match shadow_direct(scene, from, arrival.target, wi_world, time) {
-            Some(through) => (Vec3::ONE, through),
-            None => return Vec3::ZERO,
-        },
-        Some(space) => match shadow_through(
-            scene,
-            space,
-            from,
-            wi_world,
-            arrival.target,
-            at.receiver.time,
-        ) {
-            Some(passed) => passed,
-            None => return Vec3::ZERO,
-        },
+    let chain = space.map_or(Chain::default(), |s| s.chain);
+    let Some((tint, coins)) = shadow(
+        scene,
+        &chain,
+        from,
+        wi_world,
+        arrival.target,
+        at.receiver.time,
+    ) else {
+        return Vec3::ZERO;
     };
     let pdf_light = q * arrival.pdf;
     let weight = if arrival.bsdf_can_find {
@@ -520,41 +507,15 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Arrival>
     }
 }
 
-/// The fraction of light that reaches `from` straight from `target` (or from infinitely far
-/// along `dir`): the product of 1 − opacity of the openings it passes, or `None` when
-/// something blocks it.
-fn shadow_direct(
-    scene: &Scene,
-    from: Vec3,
-    target: Option<Vec3>,
-    dir: Vec3,
-    time: f64,
-) -> Option<f32> {
-    let (shadow_dir, dist) = match target {
-        Some(t) => {
-            let d = t - from;
-            let len = d.length();
-            (d / len, len)
-        }
-        None => (dir, f32::INFINITY),
-    };
-    let shadow = Ray::new(from, shadow_dir, dist, time);
-    let through = if scene.portals.is_empty() {
-        1.0
-    } else {
-        scene.portals.transmittance(&shadow)
-    };
-    (through != 0.0 && !scene.occluded(&shadow)).then_some(through)
-}
-
-/// Follows a shadow ray from `from` at `time` along `dir` through the openings of `space` in
+/// Follows a shadow ray from `from` at `time` along `dir` through the openings of `chain` in
 /// order (each must be the one it meets, inside its mask at the ray's time, with nothing in
-/// front), then on to `target` beyond the last (or to infinity). Returns the openings' tint
-/// and the probability of the coin flips a path along it makes (opacity per teleport,
-/// 1 − opacity per opening passed), or `None` when it is blocked or leaves the chain.
-fn shadow_through(
+/// front), then on to `target` beyond the last (or to infinity); an empty chain goes straight
+/// there. Returns the openings' tint and the probability of the coin flips a path along it
+/// makes (opacity per teleport, 1 − opacity per opening passed), or `None` when it is blocked
+/// or leaves the chain.
+fn shadow(
     scene: &Scene,
-    space: &Space,
+    chain: &Chain,
     from: Vec3,
     dir: Vec3,
     target: Option<Vec3>,
@@ -563,7 +524,7 @@ fn shadow_through(
     let portals = &scene.portals;
     let mut ray = Ray::new(from, dir, f32::INFINITY, time);
     let (mut tint, mut coins) = (Vec3::ONE, 1.0f32);
-    for i in space.chain.openings() {
+    for i in chain.openings() {
         let hit = portals.intersect_one(i, &ray)?;
         // Up to the opening (which wins a tie with a wall it is set in), nothing may block.
         let before = Ray {
@@ -587,9 +548,10 @@ fn shadow_through(
         ray = Ray::new(next.origin, next.direction, f32::INFINITY, exit_time);
     }
     if let Some(target) = target {
-        // The target lies on the teleported line; it must lie beyond the last exit.
+        // Beyond openings the target lies on the teleported line; it must lie past the last
+        // exit.
         let to = target - ray.origin;
-        if to.dot(ray.dir) <= 0.0 {
+        if chain.teleports() > 0 && to.dot(ray.dir) <= 0.0 {
             return None;
         }
         let dist = to.length();

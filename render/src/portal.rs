@@ -210,7 +210,7 @@ impl Portals {
     /// P_H⁻¹ of opening `i` at `time`. A moving rig evaluates only this for every opening a
     /// ray is tested against; the there frame waits for a teleport.
     #[inline]
-    pub fn here_inverse(&self, i: usize, time: f64) -> Similarity {
+    fn here_inverse(&self, i: usize, time: f64) -> Similarity {
         match &self.fixed {
             Some(f) => f[i].here_inverse,
             None => self.rig.here_at(i, time).inverse(),

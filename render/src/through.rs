@@ -47,26 +47,29 @@ const MAX_SPACES: usize = 6;
 /// The openings a path teleported through since its last scattering event, in order.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Chain {
+    /// The first [`CHAIN_DEPTH`] openings (no strategy samples a longer chain).
     openings: [u16; CHAIN_DEPTH],
-    len: u8,
-    /// More teleports than [`CHAIN_DEPTH`]: no strategy samples such a chain.
-    overflow: bool,
+    /// Teleports in all, however many.
+    teleports: u32,
 }
 
 impl Chain {
     /// Appends opening `i`.
     pub fn push(&mut self, i: usize) {
-        if (self.len as usize) < CHAIN_DEPTH && i <= u16::MAX as usize {
-            self.openings[self.len as usize] = i as u16;
-            self.len += 1;
-        } else {
-            self.overflow = true;
+        if (self.teleports as usize) < CHAIN_DEPTH {
+            self.openings[self.teleports as usize] = i as u16;
         }
+        self.teleports += 1;
     }
 
-    /// The openings, in the order a ray meets them.
+    /// How many teleports the chain holds.
+    pub fn teleports(&self) -> u32 {
+        self.teleports
+    }
+
+    /// The openings, in the order a ray meets them (the first [`CHAIN_DEPTH`] of them).
     pub fn openings(&self) -> impl Iterator<Item = usize> + '_ {
-        self.openings[..self.len as usize]
+        self.openings[..(self.teleports as usize).min(CHAIN_DEPTH)]
             .iter()
             .map(|&i| i as usize)
     }
@@ -101,16 +104,10 @@ pub struct Strategies {
 }
 
 impl Strategies {
-    /// Ordinary light sampling only.
-    pub const DIRECT: Self = Self {
-        direct: 1.0,
-        spaces: [None; MAX_SPACES],
-    };
-
-    /// The strategies at `at` (world space, at its time). Only ordinary light sampling when
-    /// the scene turns light through openings off, has no opening or no light, or allows no
-    /// teleport.
-    pub fn at(scene: &Scene, at: &Receiver) -> Self {
+    /// The strategies at `at` (world space, at its time); `None` when there is only ordinary
+    /// light sampling: the scene turns light through openings off, has no opening or no light,
+    /// allows no teleport, or no opening can bring light to the point.
+    pub fn at(scene: &Scene, at: &Receiver) -> Option<Self> {
         let (portals, lights) = (&scene.portals, &scene.lights);
         let max_depth = scene.settings.max_portal_depth;
         if !scene.settings.light_through_openings
@@ -118,7 +115,7 @@ impl Strategies {
             || lights.is_empty()
             || max_depth == 0
         {
-            return Self::DIRECT;
+            return None;
         }
         let mut found: SmallVec<[(Space, f32); 16]> = SmallVec::new();
         let mut frontier: SmallVec<[Reach; 8]> = smallvec::smallvec![Reach::start(at)];
@@ -146,16 +143,16 @@ impl Strategies {
         let direct = lights.importance(at);
         let total = direct + found.iter().map(|f| f.1).sum::<f32>();
         if !(total > 0.0 && total.is_finite()) || found.is_empty() {
-            return Self::DIRECT;
+            return None;
         }
         let mut spaces = [None; MAX_SPACES];
         for (slot, (space, estimate)) in spaces.iter_mut().zip(found) {
             *slot = Some((space, estimate / total));
         }
-        Self {
+        Some(Self {
             direct: direct / total,
             spaces,
-        }
+        })
     }
 
     /// The probability of ordinary light sampling.
@@ -239,16 +236,16 @@ impl Reach {
         if look.ior != 1.0 || look.opacity <= 0.0 || look.tint == Vec3::ZERO {
             return None;
         }
-        let here_inverse = portals.here_inverse(i, self.time);
-        let local = here_inverse.transform_point(self.point);
-        if local.z <= 0.0 {
+        let here = portals.here(i, self.time);
+        let to_centre = here.translation - self.point;
+        // The point's height above the opening's plane (its local z, in world units).
+        let height = -to_centre.dot(here.transform_direction(DVec3::Z));
+        if height <= 0.0 {
             return None; // behind the opening
         }
-        let here = portals.here(i, self.time);
         let scale = here.scale;
         let mask = portals.mask(i);
         let radius = mask.bounding_radius() * scale;
-        let to_centre = here.translation - self.point;
         let distance = to_centre.length();
         // Above the point's surface: some of the aperture's sphere is in front of it.
         let cos_receiver = match self.normal {
@@ -263,7 +260,7 @@ impl Reach {
         {
             return None;
         }
-        let cos_aperture = local.z * scale / distance;
+        let cos_aperture = height / distance;
         let area = mask.area() * scale * scale;
         let solid_angle =
             ((area * cos_aperture / (distance * distance)).min(2.0 * PI) * cos_receiver) as f32;
