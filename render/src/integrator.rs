@@ -97,9 +97,6 @@ struct PathState {
     /// Probability of the opacity coin flips since the last scattering event (opacity per
     /// teleport, 1 − opacity per opening passed): part of the BSDF strategy's density.
     coins: f32,
-    /// How light sampling chose at the last scattering point (`None`: ordinary light sampling
-    /// only, which keeps the path state small where no opening can matter).
-    strategies: Option<Strategies>,
     /// The camera ray's distance to its first opening.
     opening_t: Option<f32>,
 }
@@ -120,7 +117,6 @@ impl PathState {
             },
             chain: Chain::default(),
             coins: 1.0,
-            strategies: None,
             opening_t: None,
         }
     }
@@ -136,13 +132,21 @@ impl PathState {
 
     /// The MIS weight of emission `found` by the current ray at parameter `t` (at `point`,
     /// unless it is the environment), against light sampling at the last scattering point
-    /// through the same openings. It is 1 where light sampling could not have found it: after
-    /// a delta bounce, or through a chain no strategy there samples.
-    fn emission_weight(&self, scene: &Scene, found: Found, t: f32, point: Option<Vec3>) -> f32 {
+    /// through the same openings, which chose by `strategies`. It is 1 where light sampling
+    /// could not have found it: after a delta bounce, or through a chain no strategy there
+    /// samples.
+    fn emission_weight(
+        &self,
+        scene: &Scene,
+        strategies: Option<&Strategies>,
+        found: Found,
+        t: f32,
+        point: Option<Vec3>,
+    ) -> f32 {
         if self.prev_delta {
             return 1.0;
         }
-        let (q, space) = match &self.strategies {
+        let (q, space) = match strategies {
             Some(strategies) => strategies.find(&self.chain),
             None if self.chain == Chain::default() => (1.0, None),
             None => (0.0, None),
@@ -239,6 +243,9 @@ fn cross_openings(
 pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
     let mut out = PathSample::default();
     let mut path = PathState::camera(camera_ray);
+    // How light sampling chose at the last scattering point (`None`: ordinary light sampling
+    // only). Kept beside the path state, which stays small where no opening can matter.
+    let mut strategies: Option<Strategies> = None;
     loop {
         let hit = scene.intersect(&path.ray, path.class());
         match cross_openings(scene, &mut path, hit.map(|h| h.t()), s, &mut out) {
@@ -249,7 +256,13 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
         let dir = path.ray.dir;
         let Some(hit) = hit else {
             if let Some(env) = &scene.lights.environment {
-                let weight = path.emission_weight(scene, Found::Environment, f32::INFINITY, None);
+                let weight = path.emission_weight(
+                    scene,
+                    strategies.as_ref(),
+                    Found::Environment,
+                    f32::INFINITY,
+                    None,
+                );
                 out.radiance += path.beta * env.radiance(dir) * weight;
             }
             break;
@@ -263,7 +276,8 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
                     s: h.s,
                     normal: h.normal,
                 };
-                let weight = path.emission_weight(scene, found, h.t, Some(path.ray.at(h.t)));
+                let point = Some(path.ray.at(h.t));
+                let weight = path.emission_weight(scene, strategies.as_ref(), found, h.t, point);
                 out.radiance += path.beta * scene.strands.radiance(h.segment, h.s) * weight;
                 let facing = if h.normal.dot(dir) <= 0.0 {
                     h.normal
@@ -274,18 +288,20 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
                 break;
             }
         };
-        if !scatter(scene, &mut path, &hit, s, &mut out) {
+        if !scatter(scene, &mut path, &mut strategies, &hit, s, &mut out) {
             break;
         }
     }
     out
 }
 
-/// Shades the surface `hit` of the path's ray: its emission, light sampling, and the BSDF
-/// sample that continues the path (with roulette). False when the path ends there.
+/// Shades the surface `hit` of the path's ray: its emission, light sampling (whose choice of
+/// strategies it leaves in `strategies`), and the BSDF sample that continues the path (with
+/// roulette). False when the path ends there.
 fn scatter(
     scene: &Scene,
     path: &mut PathState,
+    strategies: &mut Option<Strategies>,
     hit: &Hit,
     s: &mut SampleStream,
     out: &mut PathSample,
@@ -310,7 +326,7 @@ fn scatter(
                 area_scale: surface.area_scale,
                 normal: ng,
             };
-            let weight = path.emission_weight(scene, found, hit.t, Some(p));
+            let weight = path.emission_weight(scene, strategies.as_ref(), found, hit.t, Some(p));
             out.radiance += path.beta * le * weight;
         }
     }
@@ -337,9 +353,9 @@ fn scatter(
         time,
     };
 
-    path.strategies = None;
+    *strategies = None;
     if !bsdf.is_delta() {
-        path.strategies = Strategies::at(scene, &receiver);
+        *strategies = Strategies::at(scene, &receiver);
         let shading = Shading {
             receiver,
             ng,
@@ -348,7 +364,7 @@ fn scatter(
             bsdf,
             side,
         };
-        let (space, q) = match &path.strategies {
+        let (space, q) = match strategies {
             Some(strategies) => strategies.pick(u_strategy),
             None => (None, 1.0),
         };
