@@ -91,6 +91,11 @@ pub struct Metadata {
 /// packages expect; never infinity).
 pub const BACKGROUND_DEPTH: f32 = 1e10;
 
+/// EXR layer of the light that arrived through openings, and of the rest; the two sum to the
+/// beauty, so a compositor can rebalance light spilling through a window or door.
+pub const THROUGH_LAYER: &str = "throughOpenings";
+pub const LOCAL_LAYER: &str = "notThroughOpenings";
+
 /// A finished image: the beauty pass and the AOVs over a data window of a full frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
@@ -101,6 +106,9 @@ pub struct Image {
     pub window: Window,
     /// Row-major over the window, top row first.
     pub rgb: Vec<Vec3>,
+    /// The part of `rgb` that arrived through openings (light that teleported between its
+    /// emitter and the first surface the camera sees); `None` in scenes without openings.
+    pub through: Option<Vec<Vec3>>,
     pub alpha: Vec<f32>,
     /// Reflectance of the first surface hit, averaged over the pixel's samples.
     pub albedo: Vec<Vec3>,
@@ -119,8 +127,9 @@ pub struct Image {
 }
 
 impl Image {
-    /// Writes a float EXR with R, G, B, A, albedo.R/G/B, N.X/Y/Z, Z, portalDepth and spp, the crop as the
-    /// data window, and the metadata as header attributes.
+    /// Writes a float EXR with R, G, B, A, albedo.R/G/B, N.X/Y/Z, Z, portalDepth, spp and (in
+    /// scenes with openings) the through/not-through light layers, the crop as the data
+    /// window, and the metadata as header attributes.
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
         use exr::prelude::*;
         let err = |message: String| RenderError::Write {
@@ -144,6 +153,19 @@ impl Image {
         }
         for (k, suffix) in ["X", "Y", "Z"].iter().enumerate() {
             channels.push(channel(&format!("N.{suffix}"), split(&self.normal, k)));
+        }
+        if let Some(through) = &self.through {
+            let local: Vec<Vec3> = self.rgb.iter().zip(through).map(|(c, t)| c - t).collect();
+            for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
+                channels.push(channel(
+                    &format!("{THROUGH_LAYER}.{suffix}"),
+                    split(through, k),
+                ));
+                channels.push(channel(
+                    &format!("{LOCAL_LAYER}.{suffix}"),
+                    split(&local, k),
+                ));
+            }
         }
         let mut attributes = LayerAttributes {
             layer_position: Vec2(self.window.x0 as i32, self.window.y0 as i32),

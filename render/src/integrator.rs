@@ -58,6 +58,10 @@ const PORTAL_TIE: f32 = 1e-4;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathSample {
     pub radiance: Vec3,
+    /// The part of `radiance` that arrived through openings: light that teleported on its way
+    /// from the emitter to the first surface the camera sees (what the camera itself sees
+    /// through an opening does not count; `portal_depth` tells that apart).
+    pub through: Vec3,
     /// The camera ray's hit, for alpha and the AOVs.
     pub first: Option<FirstHit>,
     /// Teleports before the camera path's first scattering event.
@@ -99,6 +103,9 @@ struct PathState {
     coins: f32,
     /// The camera ray's distance to its first opening.
     opening_t: Option<f32>,
+    /// The path teleported after its first scattering event: all it gathers from then on is
+    /// light through openings.
+    lit_through: bool,
 }
 
 impl PathState {
@@ -118,6 +125,7 @@ impl PathState {
             chain: Chain::default(),
             coins: 1.0,
             opening_t: None,
+            lit_through: false,
         }
     }
 
@@ -180,6 +188,16 @@ impl PathState {
     }
 }
 
+impl PathSample {
+    /// Adds light to the path's radiance, and to its through-openings part when `through`.
+    fn gather(&mut self, light: Vec3, through: bool) {
+        self.radiance += light;
+        if through {
+            self.through += light;
+        }
+    }
+}
+
 /// What became of a ray at the openings in front of its hit.
 enum Crossing {
     /// It passed every opening (or met none): the hit stands.
@@ -232,6 +250,8 @@ fn cross_openings(
         path.chain.push(ph.opening);
         if path.bounce == 0 {
             out.portal_depth += 1;
+        } else {
+            path.lit_through = true;
         }
         path.ray = Ray::new(next.origin, next.direction, f32::INFINITY, time);
         return Crossing::Teleported;
@@ -263,7 +283,7 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
                     f32::INFINITY,
                     None,
                 );
-                out.radiance += path.beta * env.radiance(dir) * weight;
+                out.gather(path.beta * env.radiance(dir) * weight, path.lit_through);
             }
             break;
         };
@@ -278,7 +298,8 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
                 };
                 let point = Some(path.ray.at(h.t));
                 let weight = path.emission_weight(scene, strategies.as_ref(), found, h.t, point);
-                out.radiance += path.beta * scene.strands.radiance(h.segment, h.s) * weight;
+                let le = scene.strands.radiance(h.segment, h.s);
+                out.gather(path.beta * le * weight, path.lit_through);
                 let facing = if h.normal.dot(dir) <= 0.0 {
                     h.normal
                 } else {
@@ -327,7 +348,7 @@ fn scatter(
                 normal: ng,
             };
             let weight = path.emission_weight(scene, strategies.as_ref(), found, hit.t, Some(p));
-            out.radiance += path.beta * le * weight;
+            out.gather(path.beta * le * weight, path.lit_through);
         }
     }
     // Dimensions of this bounce, drawn whether or not they are used.
@@ -368,7 +389,9 @@ fn scatter(
             Some(strategies) => strategies.pick(u_strategy),
             None => (None, 1.0),
         };
-        out.radiance += path.beta * next_event(scene, &shading, space, q, u_light);
+        let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
+        let light = next_event(scene, &shading, space, q, u_light);
+        out.gather(path.beta * light, through);
     }
     let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
         return false;

@@ -58,6 +58,8 @@ impl RenderOptions<'_> {
 #[derive(Clone, Copy, Default)]
 struct Pixel {
     sum: DVec3,
+    /// The part of `sum` that arrived through openings.
+    through: DVec3,
     /// Sum of squared luminance, for the error estimate.
     lum_sq: f64,
     hits: u32,
@@ -151,6 +153,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
             }
             let c = sample.radiance.as_dvec3();
             px.sum += c;
+            px.through += sample.through.as_dvec3();
             px.lum_sq += luminance(c) * luminance(c);
             px.portal_depth += sample.portal_depth;
             if let Some(first) = sample.first {
@@ -263,6 +266,12 @@ fn finish(
         height: h,
         window,
         rgb: pixels.iter().map(|p| (p.sum / kept(p)).as_vec3()).collect(),
+        through: (!scene.portals.is_empty()).then(|| {
+            pixels
+                .iter()
+                .map(|p| (p.through / kept(p)).as_vec3())
+                .collect()
+        }),
         alpha: pixels
             .iter()
             .map(|p| (p.hits as f64 / kept(p)) as f32)

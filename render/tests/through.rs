@@ -89,15 +89,29 @@ transform = { position = [29.6, 1.5, 0.2] }
 
 const RECTANGLE: &str = "rectangle = [1.6, 1.2]";
 
-/// Channel means over the pixels where the camera saw only the dark room itself (no sample
-/// teleported), and
-/// over the whole frame.
-fn region_means(image: &Image) -> (DVec3, DVec3) {
+/// Which pixels of an image a check reads: the beauty, or one of its layers.
+type Part = fn(&Image) -> &[Vec3];
+
+fn beauty(image: &Image) -> &[Vec3] {
+    &image.rgb
+}
+
+fn through(image: &Image) -> &[Vec3] {
+    image
+        .through
+        .as_deref()
+        .expect("a scene with openings has a through layer")
+}
+
+/// Channel means of `part` over the pixels where the camera saw only the dark room itself (no
+/// sample teleported), and over the whole frame.
+fn region_means(image: &Image, part: Part) -> (DVec3, DVec3) {
+    let values = part(image);
     let mean = |keep: &dyn Fn(usize) -> bool| {
-        let (sum, n) = (0..image.rgb.len())
+        let (sum, n) = (0..values.len())
             .filter(|&i| keep(i))
             .fold((DVec3::ZERO, 0usize), |(s, n), i| {
-                (s + image.rgb[i].as_dvec3(), n + 1)
+                (s + values[i].as_dvec3(), n + 1)
             });
         sum / n.max(1) as f64
     };
@@ -110,8 +124,8 @@ fn region_means(image: &Image) -> (DVec3, DVec3) {
 /// from its two seeds; BSDF sampling alone is heavy-tailed there, so two seeds understate its
 /// error, and converged renders agree within 1%; a missing opacity, tint or MIS factor is off
 /// by tens of percent), and, where `less_noisy`, the new sampling is the less noisy at a
-/// quarter of the samples.
-fn same_estimate(dir: &Path, name: &str, shot: &str, spp: u32, less_noisy: bool) {
+/// quarter of the samples. `part` picks the beauty or a layer.
+fn same_estimate(dir: &Path, name: &str, shot: &str, spp: u32, less_noisy: bool, part: Part) {
     let off = shot.replace("[render]", "[render]\nlight_through_openings = false");
     let on = [1, 2].map(|seed| render_at(dir, name, shot, spp, seed));
     let off = [3, 4].map(|seed| render_at(dir, &format!("{name}_off"), &off, 4 * spp, seed));
@@ -122,8 +136,8 @@ fn same_estimate(dir: &Path, name: &str, shot: &str, spp: u32, less_noisy: bool)
             "{name}: NaN or Inf"
         );
     }
-    let on_means = on.each_ref().map(region_means);
-    let off_means = off.each_ref().map(region_means);
+    let on_means = on.each_ref().map(|i| region_means(i, part));
+    let off_means = off.each_ref().map(|i| region_means(i, part));
     assert!(
         off_means[0].0.min_element() > 1e-4,
         "{name}: the dark room is not lit ({})",
@@ -153,7 +167,7 @@ fn same_estimate(dir: &Path, name: &str, shot: &str, spp: u32, less_noisy: bool)
     let room = |image: &Image| -> Vec<Vec3> {
         (0..image.rgb.len())
             .filter(|&i| on[0].portal_depth[i] == 0.0 && on[1].portal_depth[i] == 0.0)
-            .map(|i| image.rgb[i])
+            .map(|i| part(image)[i])
             .collect()
     };
     let noise_on = relative_mse(&room(&on[0]), &room(&on[1]));
@@ -175,7 +189,7 @@ fn a_lamp_seen_through_rectangle_polygon_and_disk_openings_gives_the_same_image(
         ("disk", "radius = 0.7"),
     ] {
         let shot = two_rooms(dir.path(), shape, shape, LAMP, "");
-        same_estimate(dir.path(), name, &shot, 256, true);
+        same_estimate(dir.path(), name, &shot, 256, true, beauty);
     }
 }
 
@@ -217,7 +231,7 @@ transform = { interpolation = "linear", keys = [
         ("time offset", delayed.as_str(), moving_lamp, ""),
     ] {
         let shot = two_rooms(dir.path(), here, RECTANGLE, light, extra);
-        same_estimate(dir.path(), name, &shot, 256, true);
+        same_estimate(dir.path(), name, &shot, 256, true, beauty);
     }
 }
 
@@ -241,7 +255,7 @@ radiance = [0.6, 0.8, 1.2]
     // Light sampling of the sky from beyond the window rarely picks a direction through it (the
     // window is a small part of the sky), so it is unbiased here but not yet less noisy than
     // BSDF sampling: that needs sampling the aperture itself.
-    same_estimate(dir.path(), "environment", &open, 256, false);
+    same_estimate(dir.path(), "environment", &open, 256, false, beauty);
 
     // A ring on a third opening in the far room: its strands light the far room and, through
     // the window, the dark room.
@@ -262,7 +276,7 @@ here = { position = [60.0, 1.5, 0.0] }
 pair = "ringed"
 "#;
     let strands = two_rooms(dir.path(), RECTANGLE, RECTANGLE, "", ring);
-    same_estimate(dir.path(), "strands", &strands, 256, true);
+    same_estimate(dir.path(), "strands", &strands, 256, true, beauty);
 
     // The lamp in a third room, reached from the far room's −Z wall: two openings in a row.
     let chain = format!(
@@ -289,7 +303,7 @@ rectangle = [1.4, 1.4]
         LAMP.replace("[29.6, 1.5, 0.2]", "[60.2, 1.5, 0.6]")
     );
     let two = two_rooms(dir.path(), RECTANGLE, RECTANGLE, "", &chain);
-    same_estimate(dir.path(), "two openings", &two, 256, true);
+    same_estimate(dir.path(), "two openings", &two, 256, true, beauty);
 }
 
 #[test]
@@ -304,6 +318,80 @@ fn the_dark_room_is_lit_only_through_the_window() {
         "",
     );
     let image = render_at(dir.path(), "closed", &shot, 16, 1);
-    let (region, _) = region_means(&image);
+    let (region, _) = region_means(&image, beauty);
     assert!(region.max_element() < 1e-6, "light leaks: {region}");
+}
+
+#[test]
+fn light_through_openings_has_its_own_layer_and_the_two_layers_sum_to_the_beauty() {
+    let dir = tempfile::tempdir().unwrap();
+    let room_lamp = r#"
+[[object]]
+name = "room_lamp"
+mesh = "lamp.obj"
+material = "lamp"
+transform = { position = [1.2, 2.6, -1.2], scale = 0.3 }
+"#;
+    let dark_room = |image: &Image| -> Vec<usize> {
+        (0..image.rgb.len())
+            .filter(|&i| image.portal_depth[i] == 0.0)
+            .collect()
+    };
+    // The far lamp alone: all the dark room shows arrived through the window.
+    let far_lamp = two_rooms(dir.path(), RECTANGLE, RECTANGLE, LAMP, "");
+    let image = render_at(dir.path(), "far_lamp", &far_lamp, 16, 1);
+    for i in dark_room(&image) {
+        let (beauty, through) = (image.rgb[i], through(&image)[i]);
+        assert!(
+            (beauty - through).abs().max_element() <= 1e-6 * beauty.max_element(),
+            "pixel {i}: beauty {beauty}, through {through}"
+        );
+    }
+    // The room's own lamp alone: only what left through the window and came back off the
+    // sooty far room (a few percent at most) is light through openings.
+    let own_lamp = two_rooms(dir.path(), RECTANGLE, RECTANGLE, room_lamp, "");
+    let image = render_at(dir.path(), "own_lamp", &own_lamp, 64, 1);
+    let (all, came_back) = (
+        region_means(&image, beauty).0,
+        region_means(&image, through).0,
+    );
+    assert!(
+        came_back.max_element() > 0.0 && came_back.max_element() < 0.03 * all.min_element(),
+        "own lamp: through {came_back} of {all}"
+    );
+
+    // Both: the through layer is the same estimate with the new sampling on and off, and less
+    // noisy with it.
+    let both = two_rooms(
+        dir.path(),
+        RECTANGLE,
+        RECTANGLE,
+        &format!("{LAMP}{room_lamp}"),
+        "",
+    );
+    same_estimate(dir.path(), "through layer", &both, 256, true, through);
+
+    // In the EXR, throughOpenings + notThroughOpenings is the beauty.
+    let image = render_at(dir.path(), "both", &both, 16, 1);
+    let path = dir.path().join("both.exr");
+    image.write_exr(&path).unwrap();
+    let layer = rift_render::film::read_exr_layer(&path).unwrap();
+    for c in ["R", "G", "B"] {
+        let get = |name: &str| &layer.channels[name];
+        let (sum, a, b) = (
+            get(c),
+            get(&format!("throughOpenings.{c}")),
+            get(&format!("notThroughOpenings.{c}")),
+        );
+        assert!(a.iter().any(|&v| v > 0.0) && b.iter().any(|&v| v > 0.0));
+        for i in 0..sum.len() {
+            assert!(
+                (sum[i] - (a[i] + b[i])).abs() <= 1e-6 * sum[i].abs(),
+                "{c} at {i}: {} + {} != {}",
+                a[i],
+                b[i],
+                sum[i]
+            );
+        }
+    }
 }
