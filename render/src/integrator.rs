@@ -374,11 +374,12 @@ fn scatter(
         time,
     };
 
-    *strategies = None;
-    if !bsdf.is_delta() {
-        *strategies = Strategies::at(scene, &receiver);
+    if bsdf.is_delta() {
+        *strategies = None;
+    } else {
+        Strategies::update(strategies, scene, &receiver);
         let shading = Shading {
-            receiver,
+            receiver: &receiver,
             ng,
             frame: &frame,
             wo,
@@ -421,7 +422,7 @@ fn scatter(
 /// A surface point being shaded, as next-event estimation needs it.
 struct Shading<'a> {
     /// The point, with its normal when it only reflects.
-    receiver: Receiver,
+    receiver: &'a Receiver,
     /// Geometric normal.
     ng: Vec3,
     /// Shading frame (around the normal on the side the path arrived from).
@@ -441,17 +442,17 @@ fn next_event(scene: &Scene, at: &Shading, space: Option<&Space>, q: f32, u: gla
         return Vec3::ZERO;
     }
     // The point light selection sees: the shading point, or its image beyond the openings.
-    let receiver = space.map_or(at.receiver, |s| s.receiver);
+    let receiver = space.map_or(at.receiver, |s| &s.receiver);
     let time = receiver.time;
     let Some(light) = scene.lights.sample(
         u,
-        &receiver,
+        receiver,
         |e| scene.world_triangle(e.triangle, e.instance, time),
         &scene.strands,
     ) else {
         return Vec3::ZERO;
     };
-    let Some(arrival) = arrival(scene, &light, &receiver) else {
+    let Some(arrival) = arrival(scene, &light, receiver) else {
         return Vec3::ZERO;
     };
     let wi_world = space.map_or(arrival.dir, |s| s.direction_back(arrival.dir));

@@ -422,7 +422,6 @@ impl LightTree {
         }
     }
 
-    /// The probability [`Self::sample`] picks `emitter` for point `p` (normal `n`) at `tau`.
     /// What all emitters together can send to `p` (normal `n`) at `tau`, in the units of the
     /// selection importance (power over squared distance, with the angular bounds): an
     /// unoccluded estimate, about π times the irradiance, used to weigh light-sampling
@@ -433,6 +432,7 @@ impl LightTree {
             .map_or(0.0, |root| root.importance(p, n, tau).iter().sum())
     }
 
+    /// The probability [`Self::sample`] picks `emitter` for point `p` (normal `n`) at `tau`.
     pub fn pmf(&self, emitter: usize, p: Vec3, n: Option<Vec3>, tau: f32) -> f32 {
         let Some(&(path, depth)) = self.paths.get(emitter) else {
             return 0.0;
