@@ -17,7 +17,7 @@
 //! - a chain: the product of its openings' opacity × tint, times the aperture bound
 //!   Ω · E_exit / π, where Ω is the smallest projected solid angle of the chain's openings seen
 //!   along the way (capped at 2π) and E_exit the tree's estimate at the centre of the last
-//!   exit, facing out ([`exit_light`], once per scene at mid-shutter).
+//!   exit, facing out ([`Apertures`], once per scene at mid-shutter).
 //!
 //! Openings behind the point, facing away, below its surface or hidden behind the previous
 //! opening get no strategy at all, and a scene without openings has only the ordinary one: it
@@ -35,7 +35,8 @@ use crate::lights::{Lights, Receiver};
 use crate::portal::Portals;
 use crate::scene::Scene;
 use glam::{DQuat, DVec3, Vec3};
-use smallvec::SmallVec;
+use rift_fx::rig::Similarity;
+use std::borrow::Cow;
 use std::f64::consts::PI;
 
 /// The most openings in a row that light sampling looks through. Longer chains (a corridor of
@@ -121,49 +122,88 @@ impl Strategies {
         {
             *slot = None;
         } else {
-            *slot = Self::search(scene, at, max_depth);
+            Self::search(slot, scene, at, max_depth);
         }
     }
 
-    /// The strategies at `at` in a scene where openings may bring light.
-    fn search(scene: &Scene, at: &Receiver, max_depth: u32) -> Option<Self> {
-        let (portals, lights) = (&scene.portals, &scene.lights);
-        let mut found: SmallVec<[(Space, f32); 16]> = SmallVec::new();
-        let mut frontier: SmallVec<[Reach; 8]> = smallvec::smallvec![Reach::start(at)];
-        for _ in 0..CHAIN_DEPTH.min(max_depth as usize) {
-            let mut next = SmallVec::new();
-            for from in &frontier {
-                for i in 0..portals.len() {
-                    let Some(reach) = from.through(portals, i) else {
-                        continue;
-                    };
-                    let estimate = reach.factor * reach.solid_angle * scene.exit_light[i]
-                        / std::f32::consts::PI;
-                    if estimate > 0.0 && estimate.is_finite() {
-                        found.push((reach.space(), estimate));
-                    }
-                    next.push(reach);
-                }
+    /// Fills `slot` with the strategies at `at` in a scene where openings may bring light.
+    fn search(slot: &mut Option<Self>, scene: &Scene, at: &Receiver, max_depth: u32) {
+        let table = slot.insert(Self {
+            direct: 0.0,
+            spaces: [None; MAX_SPACES],
+        });
+        let depth = CHAIN_DEPTH.min(max_depth as usize);
+        table.extend(scene, &Reach::start(at), depth);
+        if !table.normalise(scene.lights.importance(at)) {
+            *slot = None;
+        }
+    }
+
+    /// Keeps the chains that extend `from` by one opening, and by up to `depth` − 1 more.
+    fn extend(&mut self, scene: &Scene, from: &Reach, depth: usize) {
+        let (portals, apertures) = (&scene.portals, &scene.apertures);
+        // What the last exit lets the point see, once for every opening tested beyond it.
+        let cone = from
+            .exit
+            .as_ref()
+            .map(|exit| ExitCone::new(exit, from.point));
+        for i in 0..portals.len() {
+            let aperture = apertures.get(portals, i, from.time);
+            let Some(solid_angle) = from.sees(&aperture, cone.as_ref()) else {
+                continue;
+            };
+            let estimate = from.factor
+                * aperture.factor
+                * from.solid_angle.min(solid_angle)
+                * apertures.exit_light[i]
+                / std::f32::consts::PI;
+            let kept = estimate > 0.0 && estimate.is_finite() && self.would_keep(estimate);
+            if !kept && depth == 1 {
+                continue;
             }
-            frontier = next;
+            let exit_time = portals.exit_time(i, from.time);
+            let reach = from.beyond(&aperture, i, exit_time, solid_angle);
+            if kept {
+                self.keep(reach.space(), estimate);
+            }
+            if depth > 1 {
+                self.extend(scene, &reach, depth - 1);
+            }
         }
-        // The most promising first; ties keep the enumeration order, so the choice is the
-        // same wherever it is made.
-        found.sort_by(|a, b| b.1.total_cmp(&a.1));
-        found.truncate(MAX_SPACES);
-        let direct = lights.importance(at);
-        let total = direct + found.iter().map(|f| f.1).sum::<f32>();
-        if !(total > 0.0 && total.is_finite()) || found.is_empty() {
-            return None;
+    }
+
+    /// True when a space with `estimate` would be among the [`MAX_SPACES`] kept.
+    fn would_keep(&self, estimate: f32) -> bool {
+        self.spaces[MAX_SPACES - 1].is_none_or(|(_, kept)| kept < estimate)
+    }
+
+    /// Keeps `space` if it is among the [`MAX_SPACES`] most promising so far, in order of
+    /// estimate; ties keep the enumeration order (depth first), so the choice is the same
+    /// wherever it is made.
+    fn keep(&mut self, space: Space, estimate: f32) {
+        let spaces = &mut self.spaces;
+        let Some(at) = spaces
+            .iter()
+            .position(|s| s.is_none_or(|(_, kept)| kept < estimate))
+        else {
+            return;
+        };
+        spaces[at..].rotate_right(1);
+        spaces[at] = Some((space, estimate));
+    }
+
+    /// Turns the kept estimates and ordinary sampling's `direct` into probabilities; false
+    /// when there is nothing to choose between.
+    fn normalise(&mut self, direct: f32) -> bool {
+        let total = direct + self.spaces.iter().flatten().map(|s| s.1).sum::<f32>();
+        if !(total > 0.0 && total.is_finite()) || self.spaces[0].is_none() {
+            return false;
         }
-        let mut spaces = [None; MAX_SPACES];
-        for (slot, (space, estimate)) in spaces.iter_mut().zip(found) {
-            *slot = Some((space, estimate / total));
+        self.direct = direct / total;
+        for (_, q) in self.spaces.iter_mut().flatten() {
+            *q /= total;
         }
-        Some(Self {
-            direct: direct / total,
-            spaces,
-        })
+        true
     }
 
     /// The probability of ordinary light sampling.
@@ -241,59 +281,53 @@ impl Reach {
         }
     }
 
-    /// The chain extended through opening `i`, when light can come through it at all.
-    fn through(&self, portals: &Portals, i: usize) -> Option<Self> {
-        let look = portals.look(i);
-        if look.ior != 1.0 || look.opacity <= 0.0 || look.tint == Vec3::ZERO {
+    /// The projected solid angle of aperture `a` (its bounding sphere) from the point, when
+    /// light can come through it at all: it is usable, the point is in front of it, above the
+    /// point's surface, and seen through the last exit (`cone`).
+    #[inline(always)]
+    fn sees(&self, a: &Aperture, cone: Option<&ExitCone>) -> Option<f32> {
+        if a.factor <= 0.0 {
             return None;
         }
-        let here = portals.here(i, self.time);
-        let to_centre = here.translation - self.point;
-        // The point's height above the opening's plane (its local z, in world units).
-        let height = -to_centre.dot(here.transform_direction(DVec3::Z));
+        let to_centre = a.centre - self.point;
+        // The point's height above the opening's plane.
+        let height = -to_centre.dot(a.front);
         if height <= 0.0 {
             return None; // behind the opening
         }
-        let scale = here.scale;
-        let mask = portals.mask(i);
-        let radius = mask.bounding_radius() * scale;
         let distance = to_centre.length();
         // Above the point's surface: some of the aperture's sphere is in front of it.
         let cos_receiver = match self.normal {
-            Some(n) => ((to_centre.dot(n) + radius) / distance).min(1.0),
+            Some(n) => ((to_centre.dot(n) + a.radius) / distance).min(1.0),
             None => 1.0,
         };
         if cos_receiver <= 0.0 {
             return None;
         }
-        if let Some(exit) = &self.exit
-            && !exit.shows(self.point, self.point + to_centre, radius)
+        if let Some(cone) = cone
+            && !cone.shows(a.centre, to_centre, distance, a.radius)
         {
             return None;
         }
         let cos_aperture = height / distance;
-        let area = mask.area() * scale * scale;
-        let solid_angle =
-            ((area * cos_aperture / (distance * distance)).min(2.0 * PI) * cos_receiver) as f32;
-        let (teleport, time) = portals.teleport_map(i, self.time);
-        let there = portals.there(i, time);
-        let leaving = there.transform_direction(-DVec3::Z);
+        Some(((a.area * cos_aperture / (distance * distance)).min(2.0 * PI) * cos_receiver) as f32)
+    }
+
+    /// The chain extended through opening `i` (seen as `a`, with `solid_angle`; rays leave it
+    /// at `exit_time`).
+    fn beyond(&self, a: &Aperture, i: usize, exit_time: f64, solid_angle: f32) -> Self {
         let mut chain = self.chain;
         chain.push(i);
-        Some(Self {
+        Self {
             chain,
-            rotation: teleport.rotation * self.rotation,
-            point: teleport.transform_point(self.point),
-            normal: Some(leaving),
-            time,
-            factor: self.factor * look.opacity * luminance(look.tint),
+            rotation: a.teleport.rotation * self.rotation,
+            point: a.teleport.transform_point(self.point),
+            normal: Some(a.exit.leaving),
+            time: exit_time,
+            factor: self.factor * a.factor,
             solid_angle: self.solid_angle.min(solid_angle),
-            exit: Some(Exit {
-                centre: there.translation,
-                radius: mask.bounding_radius() * there.scale,
-                leaving,
-            }),
-        })
+            exit: Some(a.exit),
+        }
     }
 
     fn space(&self) -> Space {
@@ -310,6 +344,7 @@ impl Reach {
 }
 
 /// Where rays leave the last opening of a chain.
+#[derive(Clone, Copy)]
 struct Exit {
     centre: DVec3,
     /// Bounding radius of its mask.
@@ -318,41 +353,131 @@ struct Exit {
     leaving: DVec3,
 }
 
-impl Exit {
-    /// True when a sphere around `centre` of `radius` can be seen from `point` through the
-    /// exit's sphere: it reaches the far side of the exit, and the cones from the point around
-    /// the two spheres overlap.
-    fn shows(&self, point: DVec3, centre: DVec3, radius: f64) -> bool {
-        if (centre - self.centre).dot(self.leaving) < -radius {
+/// The directions from a point through an exit's bounding sphere: a cone.
+struct ExitCone {
+    exit: Exit,
+    /// Unit axis, and the sine and cosine of the half angle; `None` when the point is inside
+    /// the sphere (it sees through the exit every way).
+    cone: Option<(DVec3, f64, f64)>,
+}
+
+impl ExitCone {
+    fn new(exit: &Exit, point: DVec3) -> Self {
+        let to_exit = exit.centre - point;
+        let d = to_exit.length();
+        let cone = (d > exit.radius).then(|| {
+            let sin = exit.radius / d;
+            (to_exit / d, sin, (1.0 - sin * sin).sqrt())
+        });
+        Self { exit: *exit, cone }
+    }
+
+    /// True when the sphere around `centre` of `radius` (at `to` from the point, `d` away)
+    /// can be seen through the exit: it reaches the far side of the exit, and its cone from
+    /// the point overlaps the exit's.
+    fn shows(&self, centre: DVec3, to: DVec3, d: f64, radius: f64) -> bool {
+        let exit = &self.exit;
+        if (centre - exit.centre).dot(exit.leaving) < -radius {
             return false;
         }
-        let (to_exit, to_target) = (self.centre - point, centre - point);
-        let (d_exit, d_target) = (to_exit.length(), to_target.length());
-        if d_exit <= self.radius || d_target <= radius {
+        let Some((axis, sin_a, cos_a)) = self.cone else {
+            return true;
+        };
+        if d <= radius {
             return true;
         }
         // angle ≤ a + b ⇔ cos(angle) ≥ cos a cos b − sin a sin b (a, b within [0, π/2]).
-        let (sin_a, sin_b) = (self.radius / d_exit, radius / d_target);
-        let (cos_a, cos_b) = ((1.0 - sin_a * sin_a).sqrt(), (1.0 - sin_b * sin_b).sqrt());
-        to_exit.dot(to_target) / (d_exit * d_target) >= cos_a * cos_b - sin_a * sin_b
+        let sin_b = radius / d;
+        let cos_b = (1.0 - sin_b * sin_b).sqrt();
+        axis.dot(to) / d >= cos_a * cos_b - sin_a * sin_b
     }
 }
 
-/// What each opening's exit can pass on: the light tree's unoccluded estimate at the centre
-/// of its there side, facing the way rays leave, at the middle of the ray times.
-pub fn exit_light(portals: &Portals, lights: &Lights) -> Vec<f32> {
-    let times = portals.times();
-    let time = 0.5 * (times[0] + times[1]);
-    (0..portals.len())
-        .map(|i| {
-            let there = portals.there(i, time);
-            lights.importance(&Receiver {
-                p: there.translation.as_vec3(),
-                n: Some(there.transform_direction(-DVec3::Z).as_vec3()),
-                time,
+/// The openings as the strategy search sees them, built once per scene.
+pub struct Apertures {
+    /// Per opening, when the rig stands still (a moving rig's are built at each ray's time).
+    still: Option<Vec<Aperture>>,
+    /// What each opening's exit can pass on: the light tree's unoccluded estimate at the
+    /// centre of its there side, facing the way rays leave, at the middle of the ray times.
+    exit_light: Vec<f32>,
+}
+
+impl Apertures {
+    pub fn new(portals: &Portals, lights: &Lights) -> Self {
+        let times = portals.times();
+        let middle = 0.5 * (times[0] + times[1]);
+        let exit_light = (0..portals.len())
+            .map(|i| {
+                let there = portals.there(i, middle);
+                lights.importance(&Receiver {
+                    p: there.translation.as_vec3(),
+                    n: Some(there.transform_direction(-DVec3::Z).as_vec3()),
+                    time: middle,
+                })
             })
-        })
-        .collect()
+            .collect();
+        let still = (!portals.moving()).then(|| {
+            (0..portals.len())
+                .map(|i| Aperture::new(portals, i, times[0]))
+                .collect()
+        });
+        Self { still, exit_light }
+    }
+
+    /// Opening `i` at `time`, borrowed where the rig stands still (copying it costs more
+    /// than the test that reads it).
+    #[inline]
+    fn get(&self, portals: &Portals, i: usize, time: f64) -> Cow<'_, Aperture> {
+        match &self.still {
+            Some(still) => Cow::Borrowed(&still[i]),
+            None => Cow::Owned(Aperture::new(portals, i, time)),
+        }
+    }
+}
+
+/// One opening at one time: what deciding whether light can come through it needs.
+#[derive(Clone)]
+struct Aperture {
+    /// Opacity × luminance of tint; 0 when light sampling does not look through it (an ior
+    /// other than 1, opaque or black).
+    factor: f32,
+    centre: DVec3,
+    /// Unit normal of the front (rays going against it teleport).
+    front: DVec3,
+    /// Bounding radius and area of the teleport region, in world units.
+    radius: f64,
+    area: f64,
+    /// The teleport of rays that meet it (to the exit time).
+    teleport: Similarity,
+    exit: Exit,
+}
+
+impl Aperture {
+    fn new(portals: &Portals, i: usize, time: f64) -> Self {
+        let look = portals.look(i);
+        let usable = look.ior == 1.0 && look.opacity > 0.0 && look.tint != Vec3::ZERO;
+        let here = portals.here(i, time);
+        let (teleport, exit_time) = portals.teleport_map(i, time);
+        let there = portals.there(i, exit_time);
+        let mask = portals.mask(i);
+        Self {
+            factor: if usable {
+                look.opacity * luminance(look.tint)
+            } else {
+                0.0
+            },
+            centre: here.translation,
+            front: here.transform_direction(DVec3::Z),
+            radius: mask.bounding_radius() * here.scale,
+            area: mask.area() * here.scale * here.scale,
+            teleport,
+            exit: Exit {
+                centre: there.translation,
+                radius: mask.bounding_radius() * there.scale,
+                leaving: there.transform_direction(-DVec3::Z),
+            },
+        }
+    }
 }
 
 fn luminance(c: Vec3) -> f32 {

@@ -104,8 +104,8 @@ pub struct Scene {
     pub stereo: Option<Stereo>,
     /// Portal openings (none: the integrator never tests for them).
     pub portals: Portals,
-    /// What light each opening's exit can pass on (see [`crate::through::exit_light`]).
-    pub exit_light: Vec<f32>,
+    /// The openings as light sampling through them sees them.
+    pub apertures: crate::through::Apertures,
     /// Per-object visibility flags and cull volumes.
     pub visibility: Visibility,
     /// The rings' strands (emissive round curves).
@@ -459,9 +459,9 @@ impl Scene {
             portals.moving(),
             times[0],
         );
-        let exit_light = crate::through::exit_light(&portals, &lights);
+        let apertures = crate::through::Apertures::new(&portals, &lights);
         Ok(Self {
-            exit_light,
+            apertures,
             triangles,
             normals,
             triangle_material,
