@@ -128,47 +128,47 @@ pub struct Portals {
     rig: Rig,
     masks: Vec<Mask>,
     looks: Vec<OpeningLook>,
-    /// Every opening's frames, when no frame moves at any time a ray can have.
-    fixed: Option<Vec<Frames>>,
+    /// Each opening's frames, where neither its here nor its there frame moves at any time a
+    /// ray can have (a moving rig evaluates the others at each ray's time).
+    fixed: Vec<Option<Frames>>,
     /// The times rays can have: the shutter, widened by the time offsets.
     times: [f64; 2],
 }
 
 impl Portals {
     /// `masks` and `looks` follow the rig's openings; `times` is the interval ray times stay
-    /// in. When `moving` is false every frame is evaluated once.
+    /// in. The frames of each opening that `moving` says stands still are evaluated once.
     pub fn new(
         rig: Rig,
         masks: Vec<Mask>,
         looks: Vec<OpeningLook>,
         times: [f64; 2],
-        moving: bool,
+        moving: &[bool],
     ) -> Self {
         let fixed_time = times[0];
-        let mut portals = Self {
+        let fixed = moving
+            .iter()
+            .enumerate()
+            .map(|(i, &moves)| {
+                (!moves).then(|| {
+                    let here = rig.here_at(i, fixed_time);
+                    let there = rig.there_at(i, fixed_time);
+                    Frames {
+                        here,
+                        here_inverse: here.inverse(),
+                        there,
+                        teleport: there.compose(&here.inverse()),
+                    }
+                })
+            })
+            .collect();
+        Self {
             rig,
             masks,
             looks,
-            fixed: None,
+            fixed,
             times,
-        };
-        if !moving {
-            portals.fixed = Some(
-                (0..portals.len())
-                    .map(|i| {
-                        let here = portals.rig.here_at(i, fixed_time);
-                        let there = portals.rig.there_at(i, fixed_time);
-                        Frames {
-                            here,
-                            here_inverse: here.inverse(),
-                            there,
-                            teleport: there.compose(&here.inverse()),
-                        }
-                    })
-                    .collect(),
-            );
         }
-        portals
     }
 
     /// Number of openings.
@@ -188,7 +188,12 @@ impl Portals {
 
     /// True when some opening's frames change over [`Self::times`].
     pub fn moving(&self) -> bool {
-        self.fixed.is_none()
+        self.fixed.iter().any(Option::is_none)
+    }
+
+    /// True when opening `i`'s here or there frame changes over [`Self::times`].
+    pub fn opening_moves(&self, i: usize) -> bool {
+        self.fixed[i].is_none()
     }
 
     /// The interval ray times stay in: the shutter, widened by what the time offsets can add.
@@ -211,8 +216,8 @@ impl Portals {
     /// ray is tested against; the there frame waits for a teleport.
     #[inline]
     fn here_inverse(&self, i: usize, time: f64) -> Similarity {
-        match &self.fixed {
-            Some(f) => f[i].here_inverse,
+        match &self.fixed[i] {
+            Some(f) => f.here_inverse,
             None => self.rig.here_at(i, time).inverse(),
         }
     }
@@ -220,8 +225,8 @@ impl Portals {
     /// P_H of opening `i` at `time`: its here frame, local to world.
     #[inline]
     pub fn here(&self, i: usize, time: f64) -> Similarity {
-        match &self.fixed {
-            Some(f) => f[i].here,
+        match &self.fixed[i] {
+            Some(f) => f.here,
             None => self.rig.here_at(i, time),
         }
     }
@@ -231,8 +236,8 @@ impl Portals {
     #[inline]
     pub fn teleport_map(&self, i: usize, time: f64) -> (Similarity, f64) {
         let exit = self.exit_time(i, time);
-        match &self.fixed {
-            Some(f) => (f[i].teleport, exit),
+        match &self.fixed[i] {
+            Some(f) => (f.teleport, exit),
             None => (
                 self.rig
                     .there_at(i, exit)
@@ -250,8 +255,8 @@ impl Portals {
     /// P_T of opening `i` at `time`.
     #[inline]
     pub fn there(&self, i: usize, time: f64) -> Similarity {
-        match &self.fixed {
-            Some(f) => f[i].there,
+        match &self.fixed[i] {
+            Some(f) => f.there,
             None => self.rig.there_at(i, time),
         }
     }
@@ -373,7 +378,7 @@ mod tests {
             vec![Mask::Disk { radius: 1e3 }; 2],
             vec![OpeningLook::default(); 2],
             [0.0, 0.0],
-            false,
+            &[false; 2],
         )
     }
 

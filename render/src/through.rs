@@ -395,8 +395,8 @@ impl ExitCone {
 
 /// The openings as the strategy search sees them, built once per scene.
 pub struct Apertures {
-    /// Per opening, when the rig stands still (a moving rig's are built at each ray's time).
-    still: Option<Vec<Aperture>>,
+    /// Per opening that stands still (a moving one's is built at each ray's time).
+    still: Vec<Option<Aperture>>,
     /// What each opening's exit can pass on: the light tree's unoccluded estimate at the
     /// centre of its there side, facing the way rays leave, at the middle of the ray times.
     exit_light: Vec<f32>,
@@ -416,20 +416,18 @@ impl Apertures {
                 })
             })
             .collect();
-        let still = (!portals.moving()).then(|| {
-            (0..portals.len())
-                .map(|i| Aperture::new(portals, i, times[0]))
-                .collect()
-        });
+        let still = (0..portals.len())
+            .map(|i| (!portals.opening_moves(i)).then(|| Aperture::new(portals, i, times[0])))
+            .collect();
         Self { still, exit_light }
     }
 
-    /// Opening `i` at `time`, borrowed where the rig stands still (copying it costs more
+    /// Opening `i` at `time`, borrowed where it stands still (copying it costs more
     /// than the test that reads it).
     #[inline]
     fn get(&self, portals: &Portals, i: usize, time: f64) -> Cow<'_, Aperture> {
-        match &self.still {
-            Some(still) => Cow::Borrowed(&still[i]),
+        match &self.still[i] {
+            Some(still) => Cow::Borrowed(still),
             None => Cow::Owned(Aperture::new(portals, i, time)),
         }
     }

@@ -4,8 +4,11 @@
 mod common;
 
 use common::{box_obj, render_at};
-use glam::{DVec3, Vec3};
+use glam::{DVec2, DVec3, Vec3};
+use rift_render::Scene;
 use rift_render::film::{Image, relative_mse};
+use rift_render::ray::Ray;
+use rift_render::rift_fx::Shot;
 use std::path::Path;
 
 /// A dark room (a closed grey box around the origin, camera inside) whose only light comes
@@ -182,10 +185,10 @@ fn same_estimate(dir: &Path, name: &str, shot: &str, spp: u32, less_noisy: bool,
 #[test]
 fn a_lamp_seen_through_rectangle_polygon_and_disk_openings_gives_the_same_image() {
     let dir = tempfile::tempdir().unwrap();
-    let polygon = "polygon = [[-0.8, -0.6], [0.8, -0.6], [0.9, 0.2], [0.0, 0.7], [-0.9, 0.2]]";
+    let polygon = format!("polygon = {POLYGON_POINTS:?}");
     for (name, shape) in [
         ("rectangle", RECTANGLE),
-        ("polygon", polygon),
+        ("polygon", polygon.as_str()),
         ("disk", "radius = 0.7"),
     ] {
         let shot = two_rooms(dir.path(), shape, shape, LAMP, "");
@@ -392,6 +395,105 @@ transform = { position = [1.2, 2.6, -1.2], scale = 0.3 }
                 b[i],
                 sum[i]
             );
+        }
+    }
+}
+
+/// Points just inside and just outside the teleport region's edge, in the opening's local
+/// plane: (inside, outside) pairs `EDGE_STEP` from points along each edge, or around the disk.
+fn edge_pairs(mask: &str) -> Vec<(DVec2, DVec2)> {
+    const EDGE_STEP: f64 = 2e-5;
+    let polygon: Vec<DVec2> = match mask {
+        "rectangle" => vec![
+            DVec2::new(-0.8, -0.6),
+            DVec2::new(0.8, -0.6),
+            DVec2::new(0.8, 0.6),
+            DVec2::new(-0.8, 0.6),
+        ],
+        "polygon" => POLYGON_POINTS
+            .iter()
+            .map(|&[x, y]| DVec2::new(x, y))
+            .collect(),
+        _ => {
+            return (0..64)
+                .map(|k| {
+                    let u = DVec2::from_angle(std::f64::consts::TAU * (k as f64 + 0.5) / 64.0);
+                    (u * (0.7 - EDGE_STEP), u * (0.7 + EDGE_STEP))
+                })
+                .collect();
+        }
+    };
+    let mut pairs = Vec::new();
+    for (k, &a) in polygon.iter().enumerate() {
+        let b = polygon[(k + 1) % polygon.len()];
+        // Counter-clockwise: the inside is to the left of each edge.
+        let inward = (b - a).perp().normalize();
+        for s in 1..16 {
+            let p = a.lerp(b, s as f64 / 16.0);
+            pairs.push((p + inward * EDGE_STEP, p - inward * EDGE_STEP));
+        }
+    }
+    pairs
+}
+
+const POLYGON_POINTS: [[f64; 2]; 5] = [
+    [-0.8, -0.6],
+    [0.8, -0.6],
+    [0.9, 0.2],
+    [0.0, 0.7],
+    [-0.9, 0.2],
+];
+
+#[test]
+fn rays_just_inside_the_edge_teleport_and_rays_just_outside_do_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let polygon = format!("polygon = {POLYGON_POINTS:?}");
+    for (name, shape) in [
+        ("rectangle", RECTANGLE),
+        ("polygon", polygon.as_str()),
+        ("disk", "radius = 0.7"),
+    ] {
+        let text = two_rooms(dir.path(), shape, shape, LAMP, "");
+        let path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&path, &text).unwrap();
+        let shot = Shot::load(&path).unwrap();
+        let scene = Scene::build(&shot, 1).unwrap();
+        let time = 1.0 / 24.0;
+        let (here, there) = (scene.portals.here(0, time), scene.portals.there(0, time));
+        // From three points in the dark room, one near the window and at grazing angles.
+        for from in [
+            DVec3::new(1.0, 1.3, 0.4),
+            DVec3::new(-1.7, 1.5, 0.1),
+            DVec3::new(-1.9, 0.4, 1.8),
+        ] {
+            let ray_to = |local: DVec2| {
+                let target = here.transform_point(local.extend(0.0));
+                let d = (target - from).normalize();
+                Ray::new(from.as_vec3(), d.as_vec3(), f32::INFINITY, time)
+            };
+            for (inside, outside) in edge_pairs(name) {
+                let ray = ray_to(inside);
+                let hit = scene.portals.intersect(&ray);
+                let hit = hit.unwrap_or_else(|| panic!("{name}: {inside} from {from} missed"));
+                let next = scene.portals.teleport(&hit, ray.dir, time).unwrap();
+                assert!(next.origin.is_finite() && next.direction.is_finite());
+                // It leaves the paired window from the same local point (its origin is lifted
+                // off the plane along its own line: follow that back to the plane).
+                let to_local = there.inverse();
+                let origin = to_local.transform_point(next.origin.as_dvec3());
+                let d = to_local.transform_vector(next.direction.as_dvec3());
+                assert!(d.z < 0.0 && origin.z <= 0.0, "{name}: leaves backwards");
+                let left = (origin - d * (origin.z / d.z)).truncate();
+                assert!(
+                    (left - inside).length() < 5e-5,
+                    "{name}: entered at {inside}, left at {left}"
+                );
+                let ray = ray_to(outside);
+                assert!(
+                    scene.portals.intersect(&ray).is_none(),
+                    "{name}: {outside} from {from} teleported"
+                );
+            }
         }
     }
 }

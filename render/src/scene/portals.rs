@@ -72,12 +72,24 @@ pub fn portals(
             }
         })
         .collect();
-    let moving = shot.rig.openings.iter().any(|o| {
-        moves_during(&o.here, times)
-            || matches!(&o.there, ThereFrame::Explicit(t) if moves_during(t, times))
-    });
+    let openings = &shot.rig.openings;
+    let here_moves: Vec<bool> = openings
+        .iter()
+        .map(|o| moves_during(&o.here, times))
+        .collect();
+    let moving: Vec<bool> = openings
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            here_moves[i]
+                || match &o.there {
+                    ThereFrame::Explicit(t) => moves_during(t, times),
+                    ThereFrame::Paired(pair) => here_moves[*pair],
+                }
+        })
+        .collect();
     Ok((
-        Portals::new(shot.rig.clone(), masks, looks, times, moving),
+        Portals::new(shot.rig.clone(), masks, looks, times, &moving),
         strand_looks,
     ))
 }
