@@ -91,6 +91,50 @@ transform = { position = [29.6, 1.5, 0.2] }
 "#;
 
 const RECTANGLE: &str = "rectangle = [1.6, 1.2]";
+/// Half of [`RECTANGLE`]'s sides.
+const RECTANGLE_HALF: [f64; 2] = [0.8, 0.6];
+const DISK_RADIUS: f64 = 0.7;
+const POLYGON_POINTS: [[f64; 2]; 5] = [
+    [-0.8, -0.6],
+    [0.8, -0.6],
+    [0.9, 0.2],
+    [0.0, 0.7],
+    [-0.9, 0.2],
+];
+
+/// The edge of a test opening's teleport region, in its local plane.
+enum Outline {
+    /// Corners, counter-clockwise.
+    Polygon(Vec<DVec2>),
+    Disk(f64),
+}
+
+/// The opening shapes every shape test tries: name, `[portal.surface]` key, outline.
+fn shapes() -> [(&'static str, String, Outline); 3] {
+    let [hx, hy] = RECTANGLE_HALF;
+    assert_eq!(
+        RECTANGLE,
+        format!("rectangle = [{:?}, {:?}]", 2.0 * hx, 2.0 * hy)
+    );
+    let corners = |points: &[[f64; 2]]| points.iter().map(|&[x, y]| DVec2::new(x, y)).collect();
+    [
+        (
+            "rectangle",
+            RECTANGLE.to_owned(),
+            Outline::Polygon(corners(&[[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])),
+        ),
+        (
+            "polygon",
+            format!("polygon = {POLYGON_POINTS:?}"),
+            Outline::Polygon(corners(&POLYGON_POINTS)),
+        ),
+        (
+            "disk",
+            format!("radius = {DISK_RADIUS}"),
+            Outline::Disk(DISK_RADIUS),
+        ),
+    ]
+}
 
 /// Which pixels of an image a check reads: the beauty, or one of its layers.
 type Part = fn(&Image) -> &[Vec3];
@@ -185,13 +229,8 @@ fn same_estimate(dir: &Path, name: &str, shot: &str, spp: u32, less_noisy: bool,
 #[test]
 fn a_lamp_seen_through_rectangle_polygon_and_disk_openings_gives_the_same_image() {
     let dir = tempfile::tempdir().unwrap();
-    let polygon = format!("polygon = {POLYGON_POINTS:?}");
-    for (name, shape) in [
-        ("rectangle", RECTANGLE),
-        ("polygon", polygon.as_str()),
-        ("disk", "radius = 0.7"),
-    ] {
-        let shot = two_rooms(dir.path(), shape, shape, LAMP, "");
+    for (name, shape, _) in shapes() {
+        let shot = two_rooms(dir.path(), &shape, &shape, LAMP, "");
         same_estimate(dir.path(), name, &shot, 256, true, beauty);
     }
 }
@@ -399,26 +438,17 @@ transform = { position = [1.2, 2.6, -1.2], scale = 0.3 }
     }
 }
 
-/// Points just inside and just outside the teleport region's edge, in the opening's local
-/// plane: (inside, outside) pairs `EDGE_STEP` from points along each edge, or around the disk.
-fn edge_pairs(mask: &str) -> Vec<(DVec2, DVec2)> {
+/// Points just inside and just outside `outline`: (inside, outside) pairs `EDGE_STEP` from
+/// points along each edge, or around the disk.
+fn edge_pairs(outline: &Outline) -> Vec<(DVec2, DVec2)> {
     const EDGE_STEP: f64 = 2e-5;
-    let polygon: Vec<DVec2> = match mask {
-        "rectangle" => vec![
-            DVec2::new(-0.8, -0.6),
-            DVec2::new(0.8, -0.6),
-            DVec2::new(0.8, 0.6),
-            DVec2::new(-0.8, 0.6),
-        ],
-        "polygon" => POLYGON_POINTS
-            .iter()
-            .map(|&[x, y]| DVec2::new(x, y))
-            .collect(),
-        _ => {
+    let polygon = match outline {
+        Outline::Polygon(corners) => corners,
+        Outline::Disk(radius) => {
             return (0..64)
                 .map(|k| {
                     let u = DVec2::from_angle(std::f64::consts::TAU * (k as f64 + 0.5) / 64.0);
-                    (u * (0.7 - EDGE_STEP), u * (0.7 + EDGE_STEP))
+                    (u * (radius - EDGE_STEP), u * (radius + EDGE_STEP))
                 })
                 .collect();
         }
@@ -436,24 +466,11 @@ fn edge_pairs(mask: &str) -> Vec<(DVec2, DVec2)> {
     pairs
 }
 
-const POLYGON_POINTS: [[f64; 2]; 5] = [
-    [-0.8, -0.6],
-    [0.8, -0.6],
-    [0.9, 0.2],
-    [0.0, 0.7],
-    [-0.9, 0.2],
-];
-
 #[test]
 fn rays_just_inside_the_edge_teleport_and_rays_just_outside_do_not() {
     let dir = tempfile::tempdir().unwrap();
-    let polygon = format!("polygon = {POLYGON_POINTS:?}");
-    for (name, shape) in [
-        ("rectangle", RECTANGLE),
-        ("polygon", polygon.as_str()),
-        ("disk", "radius = 0.7"),
-    ] {
-        let text = two_rooms(dir.path(), shape, shape, LAMP, "");
+    for (name, shape, outline) in shapes() {
+        let text = two_rooms(dir.path(), &shape, &shape, LAMP, "");
         let path = dir.path().join(format!("{name}.toml"));
         std::fs::write(&path, &text).unwrap();
         let shot = Shot::load(&path).unwrap();
@@ -471,7 +488,7 @@ fn rays_just_inside_the_edge_teleport_and_rays_just_outside_do_not() {
                 let d = (target - from).normalize();
                 Ray::new(from.as_vec3(), d.as_vec3(), f32::INFINITY, time)
             };
-            for (inside, outside) in edge_pairs(name) {
+            for (inside, outside) in edge_pairs(&outline) {
                 let ray = ray_to(inside);
                 let hit = scene.portals.intersect(&ray);
                 let hit = hit.unwrap_or_else(|| panic!("{name}: {inside} from {from} missed"));
