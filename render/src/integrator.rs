@@ -28,7 +28,7 @@
 //! 1 − opacity.
 
 use crate::geometry::Hit;
-use crate::geometry::offset_origin;
+use crate::geometry::{offset_origin, offset_target};
 use crate::lights::{Found, LightPlace, LightSample, LightSource, Receiver};
 use crate::material::{Bsdf, Side};
 use crate::ray::Ray;
@@ -539,7 +539,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Arrival>
             let dir = to / dist2.sqrt();
             Some(Arrival {
                 dir,
-                target: Some(offset_origin(point, light_side)),
+                target: Some(offset_target(point, light_side)),
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find,
             })

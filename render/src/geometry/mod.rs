@@ -13,7 +13,7 @@ pub mod triangle_bvh;
 pub use accel::{Accel, Hit, STATIC, every_triangle};
 pub use instance::{MovingInstance, Placement};
 pub use motion::{ObjectMotion, changes_during};
-pub use offset::offset_origin;
+pub use offset::{offset_origin, offset_target};
 pub use round_cone::{RoundCone, RoundConeHit};
 pub use strands::{Ring, RingFrame, Segment, StrandHit, Strands};
 pub use triangle::{Triangle, intersect_watertight};
