@@ -28,6 +28,34 @@ pub enum BenchCommand {
     Strands(StrandsArgs),
     /// Light selection on a ring-lit shot: the light tree against power-proportional choice.
     Lights(LightsArgs),
+    /// Light sampling through openings, on against off, on the room the camera stands in.
+    Through(ThroughArgs),
+}
+
+/// Arguments of `rift bench through`.
+#[derive(Args)]
+pub struct ThroughArgs {
+    /// A shot with a room lit through openings.
+    #[arg(default_value = "examples/shots/lit_through.toml")]
+    shot: PathBuf,
+    /// Frame to render (default: the shot's first).
+    #[arg(long)]
+    frame: Option<i64>,
+    /// Samples per pixel of the measured renders.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Samples per pixel of the reference (light sampling through openings on).
+    #[arg(long, default_value_t = 2048)]
+    reference_spp: u32,
+    /// Image width (the height follows the shot's aspect).
+    #[arg(long, default_value_t = 160)]
+    width: u32,
+    /// Timed repeats (the median is reported), each with its own seed.
+    #[arg(long, default_value_t = 3)]
+    repeats: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 /// Arguments of `rift bench strands`.
@@ -162,6 +190,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Portals(args) => portals(args),
         BenchCommand::Strands(args) => strands(args),
         BenchCommand::Lights(args) => lights(args),
+        BenchCommand::Through(args) => through(args),
     }
 }
 
@@ -665,7 +694,6 @@ fn strands(args: StrandsArgs) -> anyhow::Result<()> {
 }
 
 fn lights(args: LightsArgs) -> anyhow::Result<()> {
-    use rift_render::film::relative_mse;
     use rift_render::lights::LightSelection;
     use rift_render::render::{RenderOptions, render};
     use rift_render::scene::Overrides;
@@ -718,37 +746,124 @@ fn lights(args: LightsArgs) -> anyhow::Result<()> {
         "{:<8} {:>5} {:>10} {:>10} {:>14}",
         "choice", "spp", "seconds", "relMSE", "relMSE·s"
     );
-    // The two choices take turns, so a change in the machine's load between runs falls on
-    // both alike.
-    let choices = [
-        ("tree", LightSelection::Tree),
-        ("power", LightSelection::Power),
-    ];
+    let choices = [LightSelection::Tree, LightSelection::Power];
+    let products = alternate(
+        ["tree", "power"],
+        |k, seed| build(choices[k], seed),
+        (args.spp, args.repeats, args.threads),
+        &reference.rgb,
+        |_| true,
+    )?;
+    println!(
+        "power-proportional needs {:.1}x the time of the light tree for the same error",
+        products[1] / products[0]
+    );
+    Ok(())
+}
+
+/// Renders two variants of a scene in turn (`build(k, seed)` for variant k), `repeats` times
+/// each with its own seed, so a change in the machine's load between runs falls on both
+/// alike; prints each one's median seconds, median relMSE against `reference` over the
+/// pixels `keep` selects, and their product, which it returns (lower is better).
+fn alternate(
+    names: [&str; 2],
+    build: impl Fn(usize, u32) -> anyhow::Result<rift_render::Scene>,
+    (spp, repeats, threads): (u32, usize, Option<usize>),
+    reference: &[glam::Vec3],
+    keep: impl Fn(usize) -> bool,
+) -> anyhow::Result<[f64; 2]> {
+    use rift_render::film::relative_mse;
+    use rift_render::render::{RenderOptions, render};
+    let kept = |pixels: &[glam::Vec3]| -> Vec<glam::Vec3> {
+        (0..pixels.len())
+            .filter(|&i| keep(i))
+            .map(|i| pixels[i])
+            .collect()
+    };
+    let reference = kept(reference);
     let mut seconds = [Vec::new(), Vec::new()];
     let mut errors = [Vec::new(), Vec::new()];
-    for seed in 0..args.repeats as u32 {
-        for (k, &(_, selection)) in choices.iter().enumerate() {
-            let scene = build(selection, seed)?;
+    for seed in 0..repeats as u32 {
+        for k in 0..2 {
+            let scene = build(k, seed)?;
             let t = Instant::now();
-            let image = crate::with_threads(args.threads, || {
-                render(&scene, &RenderOptions::new(args.spp))
-            })?;
+            let image = crate::with_threads(threads, || render(&scene, &RenderOptions::new(spp)))?;
             seconds[k].push(t.elapsed().as_secs_f64());
-            errors[k].push(relative_mse(&image.rgb, &reference.rgb));
+            errors[k].push(relative_mse(&kept(&image.rgb), &reference));
         }
     }
-    let mut products = Vec::new();
-    for ((name, _), (seconds, errors)) in choices.iter().zip(seconds.into_iter().zip(errors)) {
+    println!(
+        "{:<8} {:>5} {:>10} {:>10} {:>14}",
+        "choice", "spp", "seconds", "relMSE", "relMSE·s"
+    );
+    let mut products = [0.0; 2];
+    for (k, (seconds, errors)) in seconds.into_iter().zip(errors).enumerate() {
         let (s, e) = (median(seconds), median(errors));
-        products.push(s * e);
+        products[k] = s * e;
         println!(
-            "{name:<8} {:>5} {s:>10.3} {e:>10.3e} {:>14.3e}",
-            args.spp,
+            "{:<8} {spp:>5} {s:>10.3} {e:>10.3e} {:>14.3e}",
+            names[k],
             s * e
         );
     }
+    Ok(products)
+}
+
+/// Efficiency of light sampling through openings: on and off in turn, against a reference
+/// rendered with it on, over the pixels of the room the camera stands in (no teleport).
+fn through(args: ThroughArgs) -> anyhow::Result<()> {
+    use rift_render::render::{RenderOptions, render};
+    use rift_render::scene::Overrides;
+    anyhow::ensure!(
+        args.spp > 0 && args.reference_spp > 0 && args.repeats > 0 && args.width > 0,
+        "expected positive counts"
+    );
+    let mut shot = Shot::load(&args.shot)?;
+    let frame = args.frame.unwrap_or(shot.frames.first);
+    let [w, h] = shot.camera.projection.resolution;
+    let height = ((args.width as f64 * h as f64 / w as f64).round() as u32).max(1);
+    shot.camera.projection.resolution = [args.width, height];
+    let build = |on: bool, seed| {
+        rift_render::Scene::build_with(
+            &shot,
+            frame,
+            &Overrides {
+                light_through_openings: Some(on),
+                seed: Some(seed),
+                ..Default::default()
+            },
+        )
+    };
+    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
+    let t = Instant::now();
+    let reference_scene = build(true, 9_999)?;
+    let reference = crate::with_threads(args.threads, || {
+        render(&reference_scene, &RenderOptions::new(args.reference_spp))
+    })?;
+    let room = |i: usize| reference.portal_depth[i] == 0.0;
+    let pixels = (0..reference.rgb.len()).filter(|&i| room(i)).count();
+    anyhow::ensure!(
+        pixels > 0,
+        "{}: the camera sees no pixel without an opening",
+        args.shot.display()
+    );
     println!(
-        "power-proportional needs {:.1}x the time of the light tree for the same error",
+        "rift bench through: {} frame {frame} ({}x{height}, {pixels} pixels in the camera's room), reference {} spp in {:.1} s, {threads} threads, median of {}",
+        args.shot.display(),
+        args.width,
+        args.reference_spp,
+        t.elapsed().as_secs_f64(),
+        args.repeats
+    );
+    let products = alternate(
+        ["on", "off"],
+        |k, seed| Ok(build(k == 0, seed)?),
+        (args.spp, args.repeats, args.threads),
+        &reference.rgb,
+        room,
+    )?;
+    println!(
+        "light sampling through openings is {:.1}x as efficient (1/(relMSE·s)) as without it",
         products[1] / products[0]
     );
     Ok(())
