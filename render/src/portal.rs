@@ -98,8 +98,6 @@ struct Frames {
     here_inverse: Similarity,
     /// P_T: there-local to world.
     there: Similarity,
-    /// P_T · P_H⁻¹.
-    teleport: Similarity,
 }
 
 /// A ray meeting the front of an opening inside its teleport region.
@@ -157,7 +155,6 @@ impl Portals {
                         here,
                         here_inverse: here.inverse(),
                         there,
-                        teleport: there.compose(&here.inverse()),
                     }
                 })
             })
@@ -228,22 +225,6 @@ impl Portals {
         match &self.fixed[i] {
             Some(f) => f.here,
             None => self.rig.here_at(i, time),
-        }
-    }
-
-    /// The teleport of a ray that meets opening `i` at `time` (P_T at the exit time ∘ P_H⁻¹
-    /// at `time`), with the exit time.
-    #[inline]
-    pub fn teleport_map(&self, i: usize, time: f64) -> (Similarity, f64) {
-        let exit = self.exit_time(i, time);
-        match &self.fixed[i] {
-            Some(f) => (f.teleport, exit),
-            None => (
-                self.rig
-                    .there_at(i, exit)
-                    .compose(&self.rig.here_at(i, time).inverse()),
-                exit,
-            ),
         }
     }
 

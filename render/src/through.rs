@@ -454,9 +454,11 @@ impl Aperture {
     fn new(portals: &Portals, i: usize, time: f64) -> Self {
         let look = portals.look(i);
         let usable = look.ior == 1.0 && look.opacity > 0.0 && look.tint != Vec3::ZERO;
+        // Each frame evaluated once (a moving opening interpolates its keys for each): the
+        // teleport is P_T at the exit time ∘ P_H⁻¹.
         let here = portals.here(i, time);
-        let (teleport, exit_time) = portals.teleport_map(i, time);
-        let there = portals.there(i, exit_time);
+        let there = portals.there(i, portals.exit_time(i, time));
+        let teleport = there.compose(&here.inverse());
         let mask = portals.mask(i);
         Self {
             factor: if usable {
