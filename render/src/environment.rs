@@ -6,6 +6,7 @@
 //! wraps around the viewer the way the image reads left to right. `rotation_degrees` turns it
 //! about +Y.
 
+use crate::lights::luminance;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
 
@@ -77,10 +78,6 @@ impl Environment {
             Environment::LatLong(map) => map.total <= 0.0,
         }
     }
-}
-
-fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 /// A lat-long radiance image with a piecewise-constant sampling distribution over its texels,

@@ -27,6 +27,7 @@
 //! full weight. Shadow rays that pass openings without teleporting are attenuated by
 //! 1 − opacity.
 
+use crate::aperture;
 use crate::geometry::Hit;
 use crate::geometry::{offset_origin, offset_target};
 use crate::lights::{Found, LightPlace, LightSample, LightSource, Receiver};
@@ -170,7 +171,10 @@ impl PathState {
                 // Distances beyond the chain count from the mapped shading point.
                 let at = &space.receiver;
                 let distance = point.map_or(t, |y| y.distance(at.p));
-                lights.pdf_found(found, at, dir, distance, &scene.strands)
+                let pdf = lights.pdf_found(found, at, dir, distance, &scene.strands);
+                let sky = matches!(found, Found::Environment)
+                    .then(|| (&self.prev_receiver, space.direction_back(dir)));
+                space.density(&scene.portals, pdf, sky)
             }
         };
         power_heuristic(self.prev_pdf * self.coins, q * pdf_light)
@@ -353,7 +357,7 @@ fn scatter(
     }
     // Dimensions of this bounce, drawn whether or not they are used.
     let [lx, ly, bx, by] = s.next_4d();
-    let [u_roulette, u_lobe, u_strategy, _] = s.uniform_4d();
+    let [u_roulette, u_lobe, u_strategy, u_technique] = s.uniform_4d();
     let (u_light, u_bsdf) = (glam::Vec2::new(lx, ly), glam::Vec2::new(bx, by));
     if scene.settings.max_bounces.is_some_and(|m| path.bounce >= m) {
         return false;
@@ -391,7 +395,7 @@ fn scatter(
             None => (None, 1.0),
         };
         let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
-        let light = next_event(scene, &shading, space, q, u_light);
+        let light = next_event(scene, &shading, space, q, u_light, u_technique);
         out.gather(path.beta * light, through);
     }
     let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
@@ -433,72 +437,123 @@ struct Shading<'a> {
     side: Side,
 }
 
-/// Next-event estimation: light arriving at `at` (at its time) from one light sample drawn
-/// with `u`, in the space beyond the openings of `space` (`None`: ordinary light sampling),
-/// the strategy picked with probability `q`; MIS weighted against BSDF sampling (power
-/// heuristic), before the path throughput.
-fn next_event(scene: &Scene, at: &Shading, space: Option<&Space>, q: f32, u: glam::Vec2) -> Vec3 {
+/// Next-event estimation: light arriving at `at` (at its time) from one sample drawn with `u`
+/// and `u_technique`, in the space beyond the openings of `space` (`None`: ordinary light
+/// sampling), the strategy picked with probability `q`; MIS weighted against BSDF sampling
+/// (power heuristic), before the path throughput.
+fn next_event(
+    scene: &Scene,
+    at: &Shading,
+    space: Option<&Space>,
+    q: f32,
+    u: glam::Vec2,
+    u_technique: f32,
+) -> Vec3 {
     if q <= 0.0 {
         return Vec3::ZERO;
     }
-    // The point light selection sees: the shading point, or its image beyond the openings.
-    let receiver = space.map_or(at.receiver, |s| &s.receiver);
-    let time = receiver.time;
-    let Some(light) = scene.lights.sample(
-        u,
-        receiver,
-        |e| scene.world_triangle(e.triangle, e.instance, time),
-        &scene.strands,
-    ) else {
+    let Some(incoming) = incoming(scene, at.receiver, space, u, u_technique) else {
         return Vec3::ZERO;
     };
-    let Some(arrival) = arrival(scene, &light, receiver) else {
-        return Vec3::ZERO;
-    };
-    let wi_world = space.map_or(arrival.dir, |s| s.direction_back(arrival.dir));
-    let wi = at.frame.to_local(wi_world);
+    let wi = at.frame.to_local(incoming.dir);
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
         return Vec3::ZERO;
     }
     // The shadow ray leaves from the side of the surface it goes to.
     let ng = at.ng;
-    let from = offset_origin(at.receiver.p, if wi_world.dot(ng) > 0.0 { ng } else { -ng });
+    let dir = incoming.dir;
+    let from = offset_origin(at.receiver.p, if dir.dot(ng) > 0.0 { ng } else { -ng });
     let chain = space.map_or(Chain::default(), |s| s.chain);
-    let Some((tint, coins)) = shadow(
-        scene,
-        &chain,
-        from,
-        wi_world,
-        arrival.target,
-        at.receiver.time,
-    ) else {
+    let Some((tint, coins)) = shadow(scene, &chain, from, dir, incoming.target, at.receiver.time)
+    else {
         return Vec3::ZERO;
     };
-    let pdf_light = q * arrival.pdf;
-    let weight = if arrival.bsdf_can_find {
+    let pdf_light = q * incoming.pdf;
+    let weight = if incoming.bsdf_can_find {
         power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side) * coins)
     } else {
         1.0
     };
-    f * light.radiance * tint * (weight * coins / pdf_light)
+    f * incoming.radiance * tint * (weight * coins / pdf_light)
 }
 
-/// How a light sample reaches the point light selection saw.
-struct Arrival {
-    /// Unit direction from the point to the light.
-    dir: Vec3,
-    /// The point the shadow ray must reach (off the emitter's surface); `None`: infinitely far.
-    target: Option<Vec3>,
-    /// Solid-angle pdf of the sample.
-    pdf: f32,
+/// One sample of light that may reach a point, before its shadow ray.
+pub(crate) struct Incoming {
+    /// Unit direction at the point.
+    pub dir: Vec3,
+    pub radiance: Vec3,
+    /// The point the shadow ray must reach (off the emitter's surface, beyond the openings);
+    /// `None`: infinitely far.
+    pub target: Option<Vec3>,
+    /// Solid-angle pdf (of all the strategy's techniques that could draw it).
+    pub pdf: f32,
     /// False when rays that scatter cannot see the emitter, so BSDF sampling cannot find it.
     bsdf_can_find: bool,
 }
 
-/// The direction, target and solid-angle pdf of `light` seen from `at`; `None` when it sends
-/// nothing that way (its back, or culled).
-fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Arrival> {
+/// Draws light for `at` with the strategy of `space` (`None`: ordinary light sampling): a
+/// point on its first opening for the sky beyond when `u_technique` falls in its aperture
+/// share, else a light sample as seen from `at`'s image beyond the chain.
+fn incoming(
+    scene: &Scene,
+    at: &Receiver,
+    space: Option<&Space>,
+    u: glam::Vec2,
+    u_technique: f32,
+) -> Option<Incoming> {
+    if let Some(space) = space
+        && u_technique < space.aperture
+    {
+        return sky_through_aperture(scene, at, space, u);
+    }
+    // The point light selection sees: the shading point, or its image beyond the openings.
+    let receiver = space.map_or(at, |s| &s.receiver);
+    let time = receiver.time;
+    let light = scene.lights.sample(
+        u,
+        receiver,
+        |e| scene.world_triangle(e.triangle, e.instance, time),
+        &scene.strands,
+    )?;
+    let arrival = arrival(scene, &light, receiver)?;
+    let Some(space) = space else {
+        return Some(arrival);
+    };
+    let dir = space.direction_back(arrival.dir);
+    let sky = arrival.target.is_none().then_some((at, dir));
+    Some(Incoming {
+        dir,
+        pdf: space.density(&scene.portals, arrival.pdf, sky),
+        ..arrival
+    })
+}
+
+/// The sky beyond the chain of `space`, in the direction of a uniform point on its first
+/// opening.
+fn sky_through_aperture(
+    scene: &Scene,
+    at: &Receiver,
+    space: &Space,
+    u: glam::Vec2,
+) -> Option<Incoming> {
+    let sky = scene.lights.environment.as_ref()?;
+    let (dir, pdf_aperture) = aperture::sample(&scene.portals, space.first(), at.time, at.p, u)?;
+    let beyond = space.direction_beyond(dir);
+    let pdf_light = scene.lights.pdf_environment(beyond);
+    let pdf = (1.0 - space.aperture) * pdf_light + space.aperture * pdf_aperture;
+    Some(Incoming {
+        dir,
+        radiance: sky.radiance(beyond),
+        target: None,
+        pdf,
+        bsdf_can_find: true,
+    })
+}
+
+/// How `light` reaches `at`: its direction, target and solid-angle pdf there; `None` when it
+/// sends nothing that way (its back, or culled).
+pub(crate) fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming> {
     let time = at.time;
     let bsdf_can_find = match light.place {
         LightPlace::Point {
@@ -512,8 +567,9 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Arrival>
         LightPlace::Direction(_) => true,
     };
     match light.place {
-        LightPlace::Direction(dir) => Some(Arrival {
+        LightPlace::Direction(dir) => Some(Incoming {
             dir,
+            radiance: light.radiance,
             target: None,
             pdf: light.pdf,
             bsdf_can_find,
@@ -537,8 +593,9 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Arrival>
             let to = point - at.p;
             let dist2 = to.length_squared();
             let dir = to / dist2.sqrt();
-            Some(Arrival {
+            Some(Incoming {
                 dir,
+                radiance: light.radiance,
                 target: Some(offset_target(point, light_side)),
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find,

@@ -4,6 +4,7 @@
 //! light with unidirectional path tracing, next-event estimation and multiple importance
 //! sampling. render depends on fx, never the reverse.
 
+pub mod aperture;
 pub mod camera;
 pub mod environment;
 pub mod error;
@@ -11,6 +12,7 @@ pub mod film;
 pub mod geometry;
 pub mod integrator;
 pub mod light_tree;
+pub mod light_visibility;
 pub mod lights;
 pub mod mask;
 pub mod material;

@@ -135,7 +135,8 @@ pub struct Lights {
     times: [f64; 2],
 }
 
-fn luminance(c: Vec3) -> f32 {
+/// Rec. 709 luminance of a linear colour.
+pub fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
@@ -303,7 +304,12 @@ impl Lights {
     /// An unoccluded estimate of the light every emitter and the environment can send to `at`
     /// (about π times its irradiance), for weighing light-sampling strategies.
     pub fn importance(&self, at: &Receiver) -> f32 {
-        self.tree.importance(at.p, at.n, self.tau(at.time)) + PI * self.environment_luminance
+        self.tree.importance(at.p, at.n, self.tau(at.time)) + self.environment_importance()
+    }
+
+    /// The environment's part of [`Self::importance`] (the same everywhere).
+    pub fn environment_importance(&self) -> f32 {
+        PI * self.environment_luminance
     }
 
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).

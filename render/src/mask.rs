@@ -122,6 +122,16 @@ impl Polygon {
         })
     }
 
+    /// The smallest axis-aligned box around it: (lower corner, upper corner).
+    pub fn bounds(&self) -> (DVec2, DVec2) {
+        let lower = self.points.iter().fold(DVec2::INFINITY, |m, &p| m.min(p));
+        let upper = self
+            .points
+            .iter()
+            .fold(DVec2::NEG_INFINITY, |m, &p| m.max(p));
+        (lower, upper)
+    }
+
     /// True when `p` is inside (crossing count of a ray towards +X).
     #[inline]
     pub fn contains(&self, p: DVec2) -> bool {

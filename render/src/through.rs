@@ -13,7 +13,10 @@
 //! for a second opening, which can be seen through the first. Each gets a probability in
 //! proportion to an estimate of what it brings:
 //!
-//! - ordinary: the light tree's unoccluded estimate at p (plus the environment's);
+//! - ordinary: the light tree's unoccluded estimate at p (plus the environment's), times the
+//!   share of ordinary light sampling that walls do not block around p
+//!   ([`crate::light_visibility`]), so a closed room lit through a window spends its samples
+//!   on the window;
 //! - a chain: the product of its openings' opacity × tint, times the aperture bound
 //!   Ω · E_exit / π, where Ω is the smallest projected solid angle of the chain's openings seen
 //!   along the way (capped at 2π) and E_exit the tree's estimate at the centre of the last
@@ -25,13 +28,19 @@
 //! no closed-form inverse, so no chain passes them: light through them is found by BSDF
 //! sampling alone, with full weight, as before.
 //!
+//! A chain's strategy draws most of its samples for the sky beyond on its first opening
+//! ([`crate::aperture`]) rather than on the sky, when the sky brings much of the light there:
+//! a window is a small part of the sky, so few of the sky's own samples pass it. The two are
+//! one strategy with a mixture density.
+//!
 //! The probabilities enter the light-sampling density (q · pdf), so the MIS weight of emission
 //! that BSDF sampling finds after the same chain of teleports uses [`Strategies::find`] at the
 //! previous vertex, with the BSDF density times the chain's coin probabilities (opacity per
 //! teleport, 1 − opacity per opening passed). Estimates may be poor without bias: every path is
 //! still counted once.
 
-use crate::lights::{Lights, Receiver};
+use crate::aperture;
+use crate::lights::{Lights, Receiver, luminance};
 use crate::portal::Portals;
 use crate::scene::Scene;
 use glam::{DQuat, DVec3, Vec3};
@@ -85,7 +94,16 @@ pub struct Space {
     /// The shading point mapped beyond the chain, with the last exit's outward normal (light
     /// can only come from that side) and the time after the chain's offsets.
     pub receiver: Receiver,
+    /// Probability that the strategy draws a point on the chain's first opening, for the sky
+    /// beyond ([`crate::aperture`]), rather than a light sample there: the sky's share of the
+    /// light at the last exit, less where the openings fill much of the point's view (there
+    /// the sky's own sampling finds them as often), and never above [`MAX_APERTURE_SHARE`], so
+    /// a sun behind a window is still sampled as a light.
+    pub aperture: f32,
 }
+
+/// The largest share of a chain's samples drawn on its first opening.
+const MAX_APERTURE_SHARE: f32 = 0.9;
 
 impl Space {
     /// A direction beyond the chain brought back to the shading point.
@@ -93,6 +111,34 @@ impl Space {
         (self.rotation.inverse() * d.as_dvec3())
             .normalize()
             .as_vec3()
+    }
+
+    /// A direction at the shading point taken beyond the chain.
+    pub fn direction_beyond(&self, d: Vec3) -> Vec3 {
+        (self.rotation * d.as_dvec3()).normalize().as_vec3()
+    }
+
+    /// The strategy's solid-angle density of a sample that light sampling beyond the chain
+    /// draws with `light_pdf`; for the sky, `sky` gives the shading point and the direction
+    /// there, whose aperture density adds to it.
+    pub fn density(
+        &self,
+        portals: &Portals,
+        light_pdf: f32,
+        sky: Option<(&Receiver, Vec3)>,
+    ) -> f32 {
+        let mut pdf = (1.0 - self.aperture) * light_pdf;
+        if let Some((at, dir)) = sky
+            && self.aperture > 0.0
+        {
+            pdf += self.aperture * aperture::pdf(portals, self.first(), at.time, at.p, dir);
+        }
+        pdf
+    }
+
+    /// The chain's first opening.
+    pub fn first(&self) -> usize {
+        self.chain.openings[0] as usize
     }
 }
 
@@ -114,15 +160,10 @@ impl Strategies {
     /// render time.
     #[inline]
     pub fn update(slot: &mut Option<Self>, scene: &Scene, at: &Receiver) {
-        let max_depth = scene.settings.max_portal_depth;
-        if !scene.settings.light_through_openings
-            || scene.portals.is_empty()
-            || scene.lights.is_empty()
-            || max_depth == 0
-        {
-            *slot = None;
+        if scene.light_through_openings_possible() {
+            Self::search(slot, scene, at, scene.settings.max_portal_depth);
         } else {
-            Self::search(slot, scene, at, max_depth);
+            *slot = None;
         }
     }
 
@@ -134,7 +175,8 @@ impl Strategies {
         });
         let depth = CHAIN_DEPTH.min(max_depth as usize);
         table.extend(scene, &Reach::start(at), depth);
-        if !table.normalise(scene.lights.importance(at)) {
+        let direct = scene.lights.importance(at) * scene.light_visibility.at(at.p);
+        if !table.normalise(direct) {
             *slot = None;
         }
     }
@@ -162,7 +204,8 @@ impl Strategies {
                 continue;
             }
             let exit_time = portals.exit_time(i, from.time);
-            let reach = from.beyond(&aperture, i, exit_time, solid_angle);
+            let sky_share = apertures.sky_share[i];
+            let reach = from.beyond(&aperture, i, exit_time, solid_angle, sky_share);
             if kept {
                 self.keep(reach.space(), estimate);
             }
@@ -263,8 +306,9 @@ struct Reach {
     factor: f32,
     /// The smallest projected solid angle of the chain's openings seen along the way.
     solid_angle: f32,
-    /// The last exit.
+    /// The last exit, and the sky's share of the light it passes on.
     exit: Option<Exit>,
+    sky_share: f32,
 }
 
 impl Reach {
@@ -278,6 +322,7 @@ impl Reach {
             factor: 1.0,
             solid_angle: f32::INFINITY,
             exit: None,
+            sky_share: 0.0,
         }
     }
 
@@ -314,8 +359,15 @@ impl Reach {
     }
 
     /// The chain extended through opening `i` (seen as `a`, with `solid_angle`; rays leave it
-    /// at `exit_time`).
-    fn beyond(&self, a: &Aperture, i: usize, exit_time: f64, solid_angle: f32) -> Self {
+    /// at `exit_time`, where the sky brings `sky_share` of the light).
+    fn beyond(
+        &self,
+        a: &Aperture,
+        i: usize,
+        exit_time: f64,
+        solid_angle: f32,
+        sky_share: f32,
+    ) -> Self {
         let mut chain = self.chain;
         chain.push(i);
         Self {
@@ -327,11 +379,14 @@ impl Reach {
             factor: self.factor * a.factor,
             solid_angle: self.solid_angle.min(solid_angle),
             exit: Some(a.exit),
+            sky_share,
         }
     }
 
     fn space(&self) -> Space {
+        let open_view = (1.0 - self.solid_angle / (2.0 * std::f32::consts::PI)).max(0.0);
         Space {
+            aperture: (self.sky_share * open_view).min(MAX_APERTURE_SHARE),
             chain: self.chain,
             rotation: self.rotation,
             receiver: Receiver {
@@ -400,13 +455,15 @@ pub struct Apertures {
     /// What each opening's exit can pass on: the light tree's unoccluded estimate at the
     /// centre of its there side, facing the way rays leave, at the middle of the ray times.
     exit_light: Vec<f32>,
+    /// The sky's share of `exit_light`.
+    sky_share: Vec<f32>,
 }
 
 impl Apertures {
     pub fn new(portals: &Portals, lights: &Lights) -> Self {
         let times = portals.times();
         let middle = 0.5 * (times[0] + times[1]);
-        let exit_light = (0..portals.len())
+        let exit_light: Vec<f32> = (0..portals.len())
             .map(|i| {
                 let there = portals.there(i, middle);
                 lights.importance(&Receiver {
@@ -419,7 +476,22 @@ impl Apertures {
         let still = (0..portals.len())
             .map(|i| (!portals.opening_moves(i)).then(|| Aperture::new(portals, i, times[0])))
             .collect();
-        Self { still, exit_light }
+        let sky = lights.environment_importance();
+        let sky_share = exit_light
+            .iter()
+            .map(|&light| {
+                if light > 0.0 {
+                    (sky / light).min(1.0)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        Self {
+            still,
+            exit_light,
+            sky_share,
+        }
     }
 
     /// Opening `i` at `time`, borrowed where it stands still (copying it costs more
@@ -478,8 +550,4 @@ impl Aperture {
             },
         }
     }
-}
-
-fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }

@@ -295,9 +295,8 @@ radiance = [0.6, 0.8, 1.2]
         "mesh = \"open_room.obj\"\nmaterial = \"soot\"",
     );
     // Light sampling of the sky from beyond the window rarely picks a direction through it (the
-    // window is a small part of the sky), so it is unbiased here but not yet less noisy than
-    // BSDF sampling: that needs sampling the aperture itself.
-    same_estimate(dir.path(), "environment", &open, 256, false, beauty);
+    // window is a small part of the sky): points drawn on the window find it.
+    same_estimate(dir.path(), "environment", &open, 256, true, beauty);
 
     // A ring on a third opening in the far room: its strands light the far room and, through
     // the window, the dark room.
@@ -537,4 +536,28 @@ fn rays_just_inside_the_edge_teleport_and_rays_just_outside_do_not() {
             }
         }
     }
+}
+
+#[test]
+fn ordinary_light_sampling_is_known_to_be_blocked_in_the_dark_room_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = two_rooms(dir.path(), RECTANGLE, RECTANGLE, LAMP, "");
+    let path = dir.path().join("rooms.toml");
+    std::fs::write(&path, &text).unwrap();
+    let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
+    let share = |p: [f32; 3]| scene.light_visibility.at(Vec3::from(p));
+    // The lamp is behind the dark room's walls (the window teleports: it passes nothing
+    // straight), and in plain view across its own room, where only its far faces (it is a box
+    // that glows on both sides of its faces) are hidden: about half of it.
+    for p in [[0.0, 1.5, 0.0], [-1.5, 0.5, 1.5], [1.5, 2.5, -1.5]] {
+        assert!(share(p) <= 0.02, "dark room at {p:?}: {}", share(p));
+    }
+    for p in [[31.0, 1.5, 1.0], [28.5, 0.5, -1.5]] {
+        assert!(share(p) >= 0.35, "lamp room at {p:?}: {}", share(p));
+    }
+    // With light sampling through openings off nothing weighs against it: no grid is built.
+    let off = text.replace("[render]", "[render]\nlight_through_openings = false");
+    std::fs::write(&path, &off).unwrap();
+    let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
+    assert_eq!(scene.light_visibility.at(Vec3::new(0.0, 1.5, 0.0)), 1.0);
 }

@@ -17,6 +17,7 @@ use crate::geometry::{
     Accel, Hit, MovingInstance, ObjectMotion, RingFrame, STATIC, StrandHit, Strands, Triangle,
     changes_during, every_triangle,
 };
+use crate::light_visibility::LightVisibility;
 use crate::lights::{Emitter, LightSelection, Lights};
 use crate::material::{Bsdf, Material};
 use crate::microfacet::Ggx;
@@ -106,6 +107,9 @@ pub struct Scene {
     pub portals: Portals,
     /// The openings as light sampling through them sees them.
     pub apertures: crate::through::Apertures,
+    /// How much of ordinary light sampling is unblocked where (empty unless openings may
+    /// bring light).
+    pub light_visibility: crate::light_visibility::LightVisibility,
     /// Per-object visibility flags and cull volumes.
     pub visibility: Visibility,
     /// The rings' strands (emissive round curves).
@@ -460,8 +464,10 @@ impl Scene {
             times[0],
         );
         let apertures = crate::through::Apertures::new(&portals, &lights);
-        Ok(Self {
+        let bounds = static_bounds(&triangles[..static_count]);
+        let mut scene = Self {
             apertures,
+            light_visibility: Default::default(),
             triangles,
             normals,
             triangle_material,
@@ -478,7 +484,20 @@ impl Scene {
             strand_flags,
             frame,
             shutter,
-        })
+        };
+        if scene.light_through_openings_possible() {
+            scene.light_visibility = LightVisibility::new(&scene, bounds, times);
+        }
+        Ok(scene)
+    }
+
+    /// True when light sampling may look through openings: the shot allows it, and there are
+    /// openings, teleports and lights.
+    pub fn light_through_openings_possible(&self) -> bool {
+        self.settings.light_through_openings
+            && !self.portals.is_empty()
+            && !self.lights.is_empty()
+            && self.settings.max_portal_depth > 0
     }
 
     /// The closest surface or strand a ray of `class` sees along `ray`. A ray whose range
@@ -785,4 +804,17 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         emission: color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?,
         two_sided_emission: m.two_sided_emission.unwrap_or(false),
     })
+}
+
+/// The lower and upper corners of the static triangles (a unit box around the origin when
+/// there are none).
+fn static_bounds(triangles: &[Triangle]) -> [Vec3; 2] {
+    let corners = triangles.iter().flat_map(|t| t.v);
+    let lower = corners.clone().fold(Vec3::INFINITY, Vec3::min);
+    let upper = corners.fold(Vec3::NEG_INFINITY, Vec3::max);
+    if lower.cmple(upper).all() {
+        [lower, upper]
+    } else {
+        [Vec3::splat(-0.5), Vec3::splat(0.5)]
+    }
 }

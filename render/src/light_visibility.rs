@@ -1,0 +1,125 @@
+//! How much of ordinary light sampling's estimate is not blocked, on a coarse grid over the
+//! scene, to weigh it against light through openings.
+//!
+//! The light tree's estimate ignores occlusion: inside a closed room lit through a window, it
+//! still counts the sky and the lamps behind the walls, and light sampling through the window
+//! then gets few of the samples. Each cell of this grid traces a few ordinary light samples
+//! from random points inside it and keeps the unblocked share of their contribution; the
+//! strategy search scales the ordinary estimate by it. It only moves samples between
+//! strategies, so a poor grid costs noise, never bias; a floor keeps some ordinary samples
+//! wherever the probes saw nothing.
+
+use crate::geometry::Triangle;
+use crate::integrator::arrival;
+use crate::lights::{Receiver, luminance};
+use crate::ray::Ray;
+use crate::sampling::SampleStream;
+use crate::scene::Scene;
+use glam::{UVec3, Vec2, Vec3};
+use rayon::prelude::*;
+
+/// Cells in the grid (about; its shape follows the scene's bounds).
+const CELLS: f32 = 8192.0;
+/// Light samples traced from each cell.
+const PROBES: u32 = 32;
+/// The least share any cell reports.
+const FLOOR: f32 = 0.01;
+
+/// The unblocked share of ordinary light sampling per cell.
+#[derive(Clone, Debug, Default)]
+pub struct LightVisibility {
+    lower: Vec3,
+    /// Cell size along each axis.
+    cell: Vec3,
+    dims: UVec3,
+    share: Vec<f32>,
+}
+
+impl LightVisibility {
+    /// Probes `scene` over `bounds` (lower and upper corner), at times in `times`.
+    pub fn new(scene: &Scene, bounds: [Vec3; 2], times: [f64; 2]) -> Self {
+        let [lower, upper] = bounds;
+        let extent = (upper - lower).max(Vec3::splat(1e-3));
+        let side = (extent.element_product() / CELLS).cbrt();
+        let dims = (extent / side).ceil().max(Vec3::ONE).as_uvec3();
+        let cell = extent / dims.as_vec3();
+        let count = dims.element_product();
+        let share = (0..count)
+            .into_par_iter()
+            .map(|i| {
+                let index = UVec3::new(i % dims.x, (i / dims.x) % dims.y, i / (dims.x * dims.y));
+                probe(scene, lower + index.as_vec3() * cell, cell, times, i)
+            })
+            .collect();
+        Self {
+            lower,
+            cell,
+            dims,
+            share,
+        }
+    }
+
+    /// The share at `p` (its cell's; points outside the grid take the nearest cell's); 1 for
+    /// an empty grid.
+    pub fn at(&self, p: Vec3) -> f32 {
+        if self.share.is_empty() {
+            return 1.0;
+        }
+        let index = ((p - self.lower) / self.cell)
+            .floor()
+            .max(Vec3::ZERO)
+            .as_uvec3()
+            .min(self.dims - UVec3::ONE);
+        self.share[(index.x + self.dims.x * (index.y + self.dims.y * index.z)) as usize]
+    }
+}
+
+/// The unblocked share of [`PROBES`] light samples from random points of the cell at
+/// `corner` with sides `size` (1 when none of them brings light).
+fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) -> f32 {
+    let mut stream = SampleStream::new(cell, 0x7153_11b5);
+    let (mut all, mut unblocked) = (0.0f64, 0.0f64);
+    for _ in 0..PROBES {
+        let [x, y, z, t] = stream.uniform_4d();
+        let [u, v, _, _] = stream.uniform_4d();
+        let receiver = Receiver {
+            p: corner + size * Vec3::new(x, y, z),
+            n: None,
+            time: times[0] + (times[1] - times[0]) * t as f64,
+        };
+        let time = receiver.time;
+        let world = |e: &crate::lights::Emitter| -> Triangle {
+            scene.world_triangle(e.triangle, e.instance, time)
+        };
+        let Some(light) = scene
+            .lights
+            .sample(Vec2::new(u, v), &receiver, world, &scene.strands)
+        else {
+            continue;
+        };
+        let Some(arrival) = arrival(scene, &light, &receiver) else {
+            continue;
+        };
+        let weight = (luminance(light.radiance) / arrival.pdf) as f64;
+        if !weight.is_finite() || weight <= 0.0 {
+            continue;
+        }
+        all += weight;
+        let ray = match arrival.target {
+            Some(target) => {
+                let to = target - receiver.p;
+                let distance = to.length();
+                Ray::new(receiver.p, to / distance, distance, time)
+            }
+            None => Ray::new(receiver.p, arrival.dir, f32::INFINITY, time),
+        };
+        if !scene.occluded(&ray) {
+            unblocked += weight * scene.portals.transmittance(&ray) as f64;
+        }
+    }
+    if all > 0.0 {
+        ((unblocked / all) as f32).max(FLOOR)
+    } else {
+        1.0
+    }
+}
