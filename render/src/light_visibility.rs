@@ -40,8 +40,9 @@ impl LightVisibility {
     pub fn new(scene: &Scene, bounds: [Vec3; 2], times: [f64; 2]) -> Self {
         let [lower, upper] = bounds;
         let extent = (upper - lower).max(Vec3::splat(1e-3));
-        let side = (extent.element_product() / CELLS).cbrt();
-        let dims = (extent / side).ceil().max(Vec3::ONE).as_uvec3();
+        let Some(dims) = grid_shape(extent) else {
+            return Self::default();
+        };
         let cell = extent / dims.as_vec3();
         let count = dims.element_product();
         let share = (0..count)
@@ -72,6 +73,23 @@ impl LightVisibility {
             .min(self.dims - UVec3::ONE);
         self.share[(index.x + self.dims.x * (index.y + self.dims.y * index.z)) as usize]
     }
+}
+
+/// Cells along each axis for a box of `extent`: about [`CELLS`] of them, as near cubes as
+/// the box allows (a long thin scene gets a row, not billions of cells); `None` for an
+/// infinite box.
+fn grid_shape(extent: Vec3) -> Option<UVec3> {
+    if !extent.is_finite() {
+        return None;
+    }
+    let count = |side: f32| (extent / side).ceil().max(Vec3::ONE);
+    let mut side = (extent.element_product() / CELLS)
+        .cbrt()
+        .max(f32::MIN_POSITIVE);
+    while count(side).element_product() > 2.0 * CELLS {
+        side *= 1.25;
+    }
+    Some(count(side).as_uvec3())
 }
 
 /// The unblocked share of [`PROBES`] light samples from random points of the cell at
@@ -121,5 +139,32 @@ fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) ->
         ((unblocked / all) as f32).max(FLOOR)
     } else {
         1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grids_stay_near_the_cell_budget_whatever_the_box() {
+        for extent in [
+            Vec3::new(4.0, 3.0, 4.0),
+            Vec3::new(84.0, 3.0, 4.0),
+            Vec3::new(1e20, 3.0, 4.0),
+            Vec3::new(1e20, 1e20, 1e-3),
+            Vec3::new(1e-3, 1e-3, 1e-3),
+            Vec3::new(3e38, 3e38, 3e38),
+        ] {
+            let dims = grid_shape(extent).unwrap();
+            let cells = dims.as_vec3().element_product();
+            assert!(
+                dims.min_element() >= 1 && cells <= 2.0 * CELLS,
+                "{extent}: {dims}"
+            );
+        }
+        let room = grid_shape(Vec3::new(4.0, 3.0, 4.0)).unwrap();
+        assert!(room.as_vec3().element_product() >= 0.5 * CELLS, "{room}");
+        assert!(grid_shape(Vec3::new(f32::INFINITY, 1.0, 1.0)).is_none());
     }
 }
