@@ -57,7 +57,7 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
         frame_list
             .par_iter()
             .map(|&frame| {
-                let baked = generator.frame(frame);
+                let baked = generator.checked_frame(frame)?;
                 let files = export::write_frame(&args.output, &shot.name, &baked, &formats)?;
                 let motion = args.check_motion.then(|| generator.motion_error(frame, 9));
                 progress.done(&format!(

@@ -334,3 +334,20 @@ fn syntax_error_names_the_line() {
         &["bad.toml", "line 1"],
     );
 }
+
+#[test]
+fn lengths_beyond_single_precision() {
+    for (from, to, key) in [
+        ("radius = 0.8", "radius = 1e40", "portal[0].ring.radius"),
+        (
+            "position = [-1.2, 1.5, 0.0]",
+            "position = [-1.2e20, 1.5, 0.0]",
+            "portal[0].here.position",
+        ),
+        ("scale = 1.5", "scale = 1e39", "portal[1].here.scale"),
+    ] {
+        let text = small_shot().replacen(from, to, 1);
+        assert_ne!(text, small_shot(), "{from} is not in the shot");
+        expect_failure("bad.toml", Some(&text), &[], &["bad.toml", key, "1e12"]);
+    }
+}

@@ -734,3 +734,62 @@ fn ring_caches_that_are_missing_corrupt_or_for_another_frame() {
     std::fs::rename(&name, dir.path().join("cache/r.0001.ringcache")).unwrap();
     expect_failure(&dir, &["render.rings", "holds frame 2, not frame 1"]);
 }
+
+#[test]
+fn placements_beyond_single_precision() {
+    let placed = |transform: &str| {
+        cornell_dir(|t| {
+            t.replace(
+                "mesh = \"cornell.obj\"",
+                &format!("mesh = \"cornell.obj\"\ntransform = {transform}"),
+            )
+        })
+    };
+    let dir = placed("{ position = [1e20, 0.0, 0.0] }");
+    expect_failure(&dir, &["object[0].transform.position", "1e12"]);
+    // Each number within bounds, the mesh they place is not.
+    let dir = placed("{ position = [9e11, 0.0, 0.0], scale = 1e12 }");
+    expect_failure(&dir, &["object[0].transform", "beyond", "single-precision"]);
+}
+
+#[test]
+fn ring_caches_with_values_no_ring_can_have() {
+    let dir = cornell_dir(|t| {
+        ringed(&t).replace("[render]", "[render]\nrings = \"cache/r.####.ringcache\"")
+    });
+    run_ok(
+        &dir,
+        &[
+            "fx",
+            "shot.toml",
+            "--frames",
+            "1",
+            "-o",
+            "cache",
+            "--format",
+            "cache",
+        ],
+    );
+    let written = dir.path().join("cache/cornell.0001.ringcache");
+    let good = rift_fx::export::cache::read(&written).unwrap();
+    let wanted = dir.path().join("cache/r.0001.ringcache");
+    // Each damage keeps the checksum valid: the cache is rewritten whole.
+    type Damage = fn(&mut rift_fx::ring::RingCurves);
+    let damages: [(Damage, &str); 4] = [
+        (|r| r.points[3].y = f32::NAN, "vertex 3: position"),
+        (|r| r.velocities[0].x = f32::INFINITY, "vertex 0: velocity"),
+        (|r| r.widths[5] = -0.01, "vertex 5: width"),
+        (|r| r.points[1].x = 1e20, "vertex 1: position"),
+    ];
+    for (damage, expect) in damages {
+        let mut frame = good.clone();
+        damage(&mut frame.rings[0]);
+        let mut bytes = Vec::new();
+        rift_fx::export::cache::write(&mut bytes, &frame).unwrap();
+        std::fs::write(&wanted, &bytes).unwrap();
+        expect_failure(
+            &dir,
+            &["r.0001.ringcache", "not a valid ring cache", expect],
+        );
+    }
+}

@@ -36,6 +36,13 @@ pub enum FxError {
     /// A ring point cloud (PLY) is malformed or lacks what the renderer needs.
     #[error("{}: not a valid ring point cloud: {message}", file.display())]
     PointCloud { file: PathBuf, message: String },
+    /// Rings generated from a shot came out unusable.
+    #[error("{}: frame {frame}: the generated rings cannot be used: {message}", file.display())]
+    Rings {
+        file: PathBuf,
+        frame: i64,
+        message: String,
+    },
     /// A request that does not fit the shot (e.g. frames outside what can be generated).
     #[error("{0}")]
     Request(String),

@@ -157,13 +157,15 @@ pub fn decode(bytes: &[u8]) -> Result<RingFrame, String> {
     if r.at != body.len() {
         return Err("unexpected bytes after the last ring".into());
     }
-    Ok(RingFrame {
+    let decoded = RingFrame {
         frame,
         time,
         fps,
         shutter: [open, close],
         rings,
-    })
+    };
+    decoded.check()?;
+    Ok(decoded)
 }
 
 /// 64-bit FNV-1a.

@@ -184,13 +184,15 @@ pub fn decode(bytes: &[u8]) -> Result<RingFrame, String> {
             ));
         }
     }
-    Ok(RingFrame {
+    let decoded = RingFrame {
         frame,
         time,
         fps,
         shutter: [open, close],
         rings: vec![ring],
-    })
+    };
+    decoded.check()?;
+    Ok(decoded)
 }
 
 /// The strands of a `vertex` element: contiguous runs of one strand index, counting up from 0.

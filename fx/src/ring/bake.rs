@@ -21,6 +21,7 @@
 use super::curves::{RingCurves, RingFrame};
 use super::strand::RingModel;
 use super::timing::RingTiming;
+use crate::error::FxError;
 use crate::rig::Similarity;
 use crate::shot::{FrameRange, Shot};
 use glam::DVec3;
@@ -83,6 +84,19 @@ impl<'a> RingGenerator<'a> {
     }
 
     /// Bakes every ring at `frame`.
+    /// [`Self::frame`], refused when the rings cannot be rendered or exported (values a shot
+    /// within its limits could still push beyond single precision, such as a fast ring far
+    /// away); the error names the shot and the ring's opening.
+    pub fn checked_frame(&self, frame: i64) -> Result<RingFrame, FxError> {
+        let baked = self.frame(frame);
+        baked.check().map_err(|message| FxError::Rings {
+            file: self.shot.source.clone(),
+            frame,
+            message,
+        })?;
+        Ok(baked)
+    }
+
     pub fn frame(&self, frame: i64) -> RingFrame {
         let time = self.shot.time_of(frame as f64);
         RingFrame {

@@ -1,6 +1,7 @@
 //! Baked ring curves: what fx hands to exporters and the renderer.
 
 use crate::rig::Similarity;
+use crate::shot::check::MAX_LENGTH;
 use glam::Vec3;
 
 /// One opening's strands at one frame, in the opening's local frame (the opening lies in local
@@ -41,6 +42,91 @@ impl RingCurves {
     /// True when there are no vertices.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
+    }
+
+    /// Checks what a file written by another tool (or damaged on the way) could get wrong:
+    /// per-vertex arrays of one length, strands that use exactly the vertices, ±1 turns,
+    /// finite values with coordinates and widths within [`MAX_LENGTH`], and widths, colours
+    /// and intensities ≥ 0. The message names the first bad vertex or strand.
+    pub fn check(&self) -> Result<(), String> {
+        let n = self.points.len();
+        let lengths = [
+            ("velocities", self.velocities.len()),
+            ("accelerations", self.accelerations.len()),
+            ("widths", self.widths.len()),
+            ("colors", self.colors.len()),
+            ("intensities", self.intensities.len()),
+        ];
+        if let Some((name, len)) = lengths.iter().find(|(_, len)| *len != n) {
+            return Err(format!("{len} {name} for {n} points"));
+        }
+        if self.directions.len() != self.vertex_counts.len() {
+            return Err(format!(
+                "{} directions for {} strands",
+                self.directions.len(),
+                self.vertex_counts.len()
+            ));
+        }
+        if self
+            .vertex_counts
+            .iter()
+            .map(|&c| c as usize)
+            .sum::<usize>()
+            != n
+        {
+            return Err(format!("strand vertex counts do not add up to {n}"));
+        }
+        if let Some(i) = self.directions.iter().position(|d| d.abs() != 1) {
+            return Err(format!(
+                "strand {i} turns {}, not +1 or -1",
+                self.directions[i]
+            ));
+        }
+        for frame in [&self.here, &self.here_shutter[0], &self.here_shutter[1]] {
+            let ok = frame.rotation.is_finite()
+                && frame.translation.abs().max_element() <= MAX_LENGTH
+                && frame.scale > 0.0
+                && frame.scale <= MAX_LENGTH;
+            if !ok {
+                return Err("the opening's frame is not finite, or beyond single precision".into());
+            }
+        }
+        let limit = MAX_LENGTH as f32;
+        let within = |v: Vec3| v.is_finite() && v.abs().max_element() <= limit;
+        for (name, values) in [
+            ("position", &self.points),
+            ("velocity", &self.velocities),
+            ("acceleration", &self.accelerations),
+        ] {
+            if let Some(i) = values.iter().position(|&v| !within(v)) {
+                return Err(format!(
+                    "vertex {i}: {name} {} is not finite or beyond ±{MAX_LENGTH:e}",
+                    values[i]
+                ));
+            }
+        }
+        let colour_ok = |c: &Vec3| c.is_finite() && c.min_element() >= 0.0;
+        if let Some(i) = self.colors.iter().position(|c| !colour_ok(c)) {
+            return Err(format!(
+                "vertex {i}: colour {} is not finite and ≥ 0",
+                self.colors[i]
+            ));
+        }
+        for (name, values, most) in [
+            ("width", &self.widths, limit),
+            ("intensity", &self.intensities, f32::MAX),
+        ] {
+            if let Some(i) = values
+                .iter()
+                .position(|&v| !(v.is_finite() && v >= 0.0 && v <= most))
+            {
+                return Err(format!(
+                    "vertex {i}: {name} {} is not finite and ≥ 0",
+                    values[i]
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Index ranges of each strand's vertices.
@@ -112,6 +198,15 @@ pub struct RingFrame {
 }
 
 impl RingFrame {
+    /// [`RingCurves::check`] for every ring, the message naming its opening.
+    pub fn check(&self) -> Result<(), String> {
+        for ring in &self.rings {
+            ring.check()
+                .map_err(|message| format!("ring of {:?}: {message}", ring.opening))?;
+        }
+        Ok(())
+    }
+
     /// Total vertex count of all rings.
     pub fn vertex_count(&self) -> usize {
         self.rings.iter().map(RingCurves::len).sum()

@@ -27,6 +27,53 @@ pub fn positive(key: &str, v: f64) -> Result<f64, Invalid> {
     }
 }
 
+/// The largest length or coordinate, in metres, a shot may give. Rendering works in single
+/// precision, whose range ends near 3.4e38: beyond about 1e19 the square of a length (every
+/// distance and intersection test takes one) is infinite, and 1e40 is infinite as it is read.
+/// 1e12 m (seven times the distance to the sun) leaves that headroom with room to spare.
+pub const MAX_LENGTH: f64 = 1e12;
+
+/// A length or coordinate: a finite number no larger than [`MAX_LENGTH`] either way.
+pub fn length(key: &str, v: f64) -> Result<f64, Invalid> {
+    if v.is_finite() && v.abs() <= MAX_LENGTH {
+        Ok(v)
+    } else {
+        Err(Invalid::new(key, too_long(v)))
+    }
+}
+
+/// A length > 0 and no larger than [`MAX_LENGTH`].
+pub fn positive_length(key: &str, v: f64) -> Result<f64, Invalid> {
+    positive(key, v).and_then(|v| length(key, v))
+}
+
+/// A length ≥ 0 and no larger than [`MAX_LENGTH`].
+pub fn non_negative_length(key: &str, v: f64) -> Result<f64, Invalid> {
+    non_negative(key, v).and_then(|v| length(key, v))
+}
+
+/// Three coordinates, each within [`MAX_LENGTH`].
+pub fn point(key: &str, v: [f64; 3]) -> Result<DVec3, Invalid> {
+    let p = DVec3::from_array(v);
+    if p.is_finite() && p.abs().max_element() <= MAX_LENGTH {
+        Ok(p)
+    } else {
+        Err(Invalid::new(
+            key,
+            format!(
+                "expected three finite coordinates within ±{MAX_LENGTH:e} m, got {:?}",
+                v
+            ),
+        ))
+    }
+}
+
+fn too_long(v: f64) -> String {
+    format!(
+        "expected a finite length within ±{MAX_LENGTH:e} m (single-precision rendering cannot          hold more), got {v}"
+    )
+}
+
 /// A finite number ≥ 0.
 pub fn non_negative(key: &str, v: f64) -> Result<f64, Invalid> {
     if v.is_finite() && v >= 0.0 {

@@ -426,21 +426,31 @@ fn rig(portals: &[PortalSection], fps: f64) -> Result<(Rig, Vec<Option<RingLook>
 
 fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
     let k = |name: &str| format!("{key}.{name}");
-    let radius = check::positive(&k("radius"), r.radius)?;
+    let radius = check::positive_length(&k("radius"), r.radius)?;
     let strands = check::integer(&k("strands"), r.strands, 1, 100_000, "a positive integer")?;
     let mut look = RingLook::with_defaults(radius, strands);
     let unit = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, false);
     let unit_open = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, true);
     let roughness = |key: &str, v: f64| check::within(key, v, 1e-6, 1.0, false);
 
-    set(&mut look.band, r.band, &k("band"), check::non_negative)?;
+    set(
+        &mut look.band,
+        r.band,
+        &k("band"),
+        check::non_negative_length,
+    )?;
     set(
         &mut look.counter_rotating,
         r.counter_rotating,
         &k("counter_rotating"),
         unit,
     )?;
-    set(&mut look.width, r.width, &k("width"), check::positive)?;
+    set(
+        &mut look.width,
+        r.width,
+        &k("width"),
+        check::positive_length,
+    )?;
     set(
         &mut look.width_variation,
         r.width_variation,
@@ -462,7 +472,7 @@ fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
         &mut noise.amplitude,
         n.amplitude,
         &k("noise.amplitude"),
-        check::non_negative,
+        check::non_negative_length,
     )?;
     set(
         &mut noise.depth,

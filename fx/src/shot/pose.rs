@@ -116,11 +116,14 @@ pub fn pose(key: &str, spec: &PoseSpec, facing: Facing) -> Result<Similarity, In
                 "the last row must be [0, 0, 0, 1] (no projective part)",
             ));
         }
-        return Similarity::from_affine(&DAffine3::from_mat4(m))
-            .map_err(|e| Invalid::new(sub("matrix"), e.to_string()));
+        let similarity = Similarity::from_affine(&DAffine3::from_mat4(m))
+            .map_err(|e| Invalid::new(sub("matrix"), e.to_string()))?;
+        check::point(&sub("matrix"), similarity.translation.to_array())?;
+        check::positive_length(&sub("matrix"), similarity.scale)?;
+        return Ok(similarity);
     }
 
-    let position = vec3(&sub("position"), spec.position.unwrap_or([0.0; 3]))?;
+    let position = check::point(&sub("position"), spec.position.unwrap_or([0.0; 3]))?;
     let orientation_count = [
         spec.rotation_degrees.is_some(),
         spec.quaternion.is_some(),
@@ -164,10 +167,14 @@ pub fn pose(key: &str, spec: &PoseSpec, facing: Facing) -> Result<Similarity, In
     };
     let scale = match spec.scale {
         None => 1.0,
-        Some(s) => check::positive(&sub("scale"), s).map_err(|_| {
+        Some(s) => check::positive_length(&sub("scale"), s).map_err(|_| {
             Invalid::new(
                 sub("scale"),
-                format!("expected a positive scale, got {s} (the frame would be singular)"),
+                format!(
+                    "expected a positive scale no larger than {:e}, got {s} (the frame would \
+                     be singular or beyond single precision)",
+                    check::MAX_LENGTH
+                ),
             )
         })?,
     };

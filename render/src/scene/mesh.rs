@@ -1,6 +1,7 @@
 //! Mesh files: OBJ (with its MTL, through tobj); PLY is in [`super::ply`]. Each OBJ object/group becomes one part with the
 //! name of its `usemtl` material and, when the MTL has it, that material's Kd and Ke.
 
+use super::within_single_precision;
 use crate::error::RenderError;
 use glam::Vec3;
 use std::path::Path;
@@ -46,10 +47,11 @@ pub fn load_obj(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
             .chunks_exact(3)
             .map(|p| Vec3::new(p[0], p[1], p[2]))
             .collect();
-        if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
+        if let Some(i) = positions.iter().position(|&p| !within_single_precision(p)) {
             return Err(bad(format!(
-                "object {:?}: vertex {i} is not finite",
-                model.name
+                "object {:?}: vertex {i} is not finite or beyond ±{:e} m",
+                model.name,
+                rift_fx::shot::check::MAX_LENGTH
             )));
         }
         let mut triangles = Vec::with_capacity(m.indices.len() / 3);

@@ -357,6 +357,17 @@ impl Scene {
                     } else {
                         tri.map(|p| placed.transform_point(p.as_dvec3()).as_vec3())
                     };
+                    if !v.iter().all(|&p| within_single_precision(p)) {
+                        return Err(key_error(
+                            file,
+                            format!("{key}.transform"),
+                            format!(
+                                "it places {mesh_name} beyond ±{:e} m, more than single-precision \
+                                 rendering can hold",
+                                check::MAX_LENGTH
+                            ),
+                        ));
+                    }
                     part.triangles.push(Triangle { v });
                     part.materials.push(index as u32);
                 }
@@ -817,4 +828,9 @@ fn static_bounds(triangles: &[Triangle]) -> [Vec3; 2] {
     } else {
         [Vec3::splat(-0.5), Vec3::splat(0.5)]
     }
+}
+
+/// True when every coordinate of `p` is finite and within [`check::MAX_LENGTH`].
+pub fn within_single_precision(p: Vec3) -> bool {
+    p.is_finite() && p.abs().max_element() <= check::MAX_LENGTH as f32
 }

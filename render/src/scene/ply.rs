@@ -32,8 +32,11 @@ fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
             let mut points = Vec::with_capacity(vertex.count);
             for (item, ((&x, &y), &z)) in x.iter().zip(y).zip(z).enumerate() {
                 let p = Vec3::new(x as f32, y as f32, z as f32);
-                if !p.is_finite() {
-                    return Err(format!("vertex {item} is not finite"));
+                if !super::within_single_precision(p) {
+                    return Err(format!(
+                        "vertex {item} is not finite or beyond ±{:e} m",
+                        rift_fx::shot::check::MAX_LENGTH
+                    ));
                 }
                 points.push(p);
             }

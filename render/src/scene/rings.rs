@@ -61,7 +61,7 @@ pub fn load(
                     last: frame,
                 },
             );
-            return Ok(Some(generator.frame(frame)));
+            return Ok(Some(generator.checked_frame(frame)?));
         }
         RingSource::Cache { pattern, key } => (pattern, key),
     };
