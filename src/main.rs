@@ -3,6 +3,7 @@
 
 mod bench;
 mod fx_cmd;
+mod memory;
 mod plot;
 mod progress;
 mod render_cmd;

@@ -61,6 +61,10 @@ pub struct RenderArgs {
     /// its first few).
     #[arg(long, value_name = "S")]
     time_limit: Option<f64>,
+    /// The most memory the render may take, such as `8G` (default: what the system has
+    /// available); a frame whose film needs more is refused before anything is allocated.
+    #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
+    max_memory: Option<u64>,
     /// Also write an sRGB PNG preview beside each EXR.
     #[arg(long)]
     png: bool,
@@ -138,6 +142,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
+    let pixels = crop.map_or(w * h, |c| c.area());
+    crate::memory::ensure_fits(
+        &format!("a {w}x{h} frame ({pixels} pixels rendered)"),
+        rift_render::render::film_bytes(pixels),
+        crate::memory::budget(args.max_memory),
+        "lower --res (or the shot's resolution), or render a window of the frame at a time with --crop",
+    )?;
     if let Some(e) = args.target_error
         && !(e.is_finite() && e > 0.0)
     {

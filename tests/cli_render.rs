@@ -793,3 +793,61 @@ fn ring_caches_with_values_no_ring_can_have() {
         );
     }
 }
+
+#[test]
+fn a_frame_larger_than_memory_is_refused_at_once() {
+    let dir = cornell_dir(|t| t.to_owned());
+    let started = std::time::Instant::now();
+    let out = rift(
+        dir.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--res",
+            "60000",
+            "60000",
+            "-o",
+            "out/img.exr",
+        ],
+    );
+    let msg = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{msg}");
+    assert!(
+        msg.contains("60000x60000") && msg.contains("TiB") && msg.contains("--crop"),
+        "{msg}"
+    );
+    assert!(
+        started.elapsed().as_secs_f64() < 5.0,
+        "took {:?}",
+        started.elapsed()
+    );
+    assert!(files_in(&dir.path().join("out")).is_empty());
+    // An explicit budget: the 256x256 film needs tens of megabytes.
+    let out = rift(
+        dir.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--max-memory",
+            "1M",
+            "-o",
+            "out/img.exr",
+        ],
+    );
+    let msg = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{msg}");
+    assert!(msg.contains("1.0 MiB available"), "{msg}");
+    let out = rift(
+        dir.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--max-memory",
+            "lots",
+            "-o",
+            "out/img.exr",
+        ],
+    );
+    assert!(stderr(&out).contains("--max-memory"), "{}", stderr(&out));
+    assert!(files_in(&dir.path().join("out")).is_empty());
+}

@@ -16,6 +16,16 @@ use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 const TILE: usize = 16;
+
+/// Bytes the film of a frame of `pixels` pixels takes at its peak: the per-pixel sums (held in
+/// tiles while sampling, then once more in rows), the finished image with its AOVs, and the
+/// EXR writer's channels (about 23 floats a pixel, which the encoder copies once more).
+pub fn film_bytes(pixels: usize) -> u64 {
+    const EXR_CHANNEL_BYTES: usize = 2 * 23 * std::mem::size_of::<f32>();
+    let image = 4 * std::mem::size_of::<Vec3>() + 4 * std::mem::size_of::<f32>();
+    let per_pixel = 2 * std::mem::size_of::<Pixel>() + image + EXR_CHANNEL_BYTES;
+    (pixels as u64).saturating_mul(per_pixel as u64)
+}
 /// Samples a pixel takes before its error estimate is trusted.
 const MIN_ADAPTIVE_SPP: u32 = 16;
 /// The first pass when sampling progressively (adaptive or time-limited).
