@@ -851,3 +851,66 @@ fn a_frame_larger_than_memory_is_refused_at_once() {
     assert!(stderr(&out).contains("--max-memory"), "{}", stderr(&out));
     assert!(files_in(&dir.path().join("out")).is_empty());
 }
+
+#[test]
+fn paths_that_are_not_regular_files_are_refused_at_once() {
+    // The shot itself.
+    let dir = cornell_dir(|t| t.to_owned());
+    for (shot, expect) in [(".", "is a directory"), ("/dev/zero", "not a regular file")] {
+        let out = rift(dir.path(), &["render", shot, "-o", "out/img.exr"]);
+        let msg = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{msg}");
+        assert!(msg.contains(expect), "{shot}: {msg}");
+    }
+    // A mesh that is a directory, and one that is a FIFO (no writer: reading it would block
+    // for ever).
+    std::fs::create_dir(dir.path().join("dir.obj")).unwrap();
+    let fifo = dir.path().join("pipe.ply");
+    let have_fifo = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success());
+    let mut meshes = vec![("dir.obj", "is a directory")];
+    if have_fifo {
+        meshes.push(("pipe.ply", "not a regular file"));
+    }
+    for (mesh, expect) in meshes {
+        let text = std::fs::read_to_string(dir.path().join("shot.toml"))
+            .unwrap()
+            .replace("mesh = \"cornell.obj\"", &format!("mesh = \"{mesh}\""));
+        std::fs::write(dir.path().join("bad.toml"), text).unwrap();
+        let started = std::time::Instant::now();
+        let out = rift(dir.path(), &["render", "bad.toml", "-o", "out/img.exr"]);
+        let msg = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{msg}");
+        assert!(msg.contains(mesh) && msg.contains(expect), "{mesh}: {msg}");
+        assert!(started.elapsed().as_secs_f64() < 5.0);
+    }
+    // An environment map that is a directory.
+    std::fs::create_dir(dir.path().join("sky.exr")).unwrap();
+    let text = std::fs::read_to_string(dir.path().join("shot.toml")).unwrap()
+        + "\n[environment]\nmap = \"sky.exr\"\n";
+    std::fs::write(dir.path().join("bad.toml"), text).unwrap();
+    let out = rift(dir.path(), &["render", "bad.toml", "-o", "out/img.exr"]);
+    let msg = stderr(&out);
+    assert!(
+        msg.contains("environment.map") && msg.contains("is a directory"),
+        "{msg}"
+    );
+    assert!(files_in(&dir.path().join("out")).is_empty());
+}
+
+#[test]
+fn a_deeply_nested_value_is_a_short_clear_error() {
+    let dir =
+        cornell_dir(|t| t + &format!("\nbad = {}{}\n", "[".repeat(100_000), "]".repeat(100_000)));
+    let out = rift(dir.path(), &["render", "shot.toml", "-o", "out/img.exr"]);
+    let msg = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{}", &msg[..msg.len().min(500)]);
+    assert!(msg.contains("shot.toml") && msg.contains("line"), "{msg}");
+    assert!(
+        msg.len() < 1000,
+        "the message quotes {} characters",
+        msg.len()
+    );
+}

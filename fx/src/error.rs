@@ -81,3 +81,32 @@ impl std::fmt::Display for Invalid {
         write!(f, "{}: {}", self.key, self.message)
     }
 }
+
+/// `text` with every line longer than `max` characters cut to its first `max` and an
+/// ellipsis, so a parse error that quotes a huge offending line stays readable.
+pub fn shorten_long_lines(text: &str, max: usize) -> String {
+    text.lines()
+        .map(|line| match line.char_indices().nth(max) {
+            Some((cut, _)) => format!("{}… ({} characters)", &line[..cut], line.chars().count()),
+            None => line.to_owned(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_lines_are_cut_and_short_ones_kept() {
+        let long = "é".repeat(500);
+        let text = format!("line 3\n{long}\n  ^");
+        let short = shorten_long_lines(&text, 10);
+        assert_eq!(
+            short,
+            format!("line 3\n{}… (500 characters)\n  ^", "é".repeat(10))
+        );
+        assert_eq!(shorten_long_lines("a\nb", 10), "a\nb");
+    }
+}

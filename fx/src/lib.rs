@@ -7,6 +7,7 @@
 //! PLY point clouds and a fast native cache.
 
 pub mod error;
+pub mod io;
 pub mod rig;
 
 pub use error::{FxError, Invalid};

@@ -267,9 +267,36 @@ pub fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
     sum / (3 * image.len()) as f64
 }
 
+/// The most pixels an EXR rift reads may hold per layer (2^28: a 16k × 16k map).
+const MAX_EXR_PIXELS: usize = 1 << 28;
+
+/// Refuses, before any pixel is allocated, an EXR path that is not a regular file or whose
+/// header declares more than [`MAX_EXR_PIXELS`] in a layer (a few bytes of header can ask
+/// for terabytes).
+fn check_exr_input(path: &Path) -> Result<(), RenderError> {
+    let bad = |message: String| RenderError::Image {
+        path: path.to_owned(),
+        message,
+    };
+    rift_fx::io::regular_file(path).map_err(|e| bad(e.to_string()))?;
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| bad(e.to_string()))?;
+    for header in meta.headers.iter() {
+        let size = header.layer_size;
+        if size.width().saturating_mul(size.height()) > MAX_EXR_PIXELS {
+            return Err(bad(format!(
+                "a layer of {}x{} pixels, more than the {MAX_EXR_PIXELS} rift reads",
+                size.width(),
+                size.height()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Reads the RGB channels of an EXR (for references and tests).
 pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<Vec3>), RenderError> {
     use exr::prelude::*;
+    check_exr_input(path)?;
     let image = read_first_rgba_layer_from_file(
         path,
         |resolution, _| {
@@ -309,6 +336,7 @@ pub struct ExrLayer {
 /// Reads the first layer of an EXR with all its channels.
 pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
     use exr::prelude::*;
+    check_exr_input(path)?;
     let image = read_all_flat_layers_from_file(path).map_err(|e| RenderError::Image {
         path: path.to_owned(),
         message: e.to_string(),

@@ -81,7 +81,7 @@ pub fn write(w: &mut dyn Write, frame: &RingFrame) -> io::Result<()> {
 
 /// Reads a cache file.
 pub fn read(path: &Path) -> Result<RingFrame, FxError> {
-    let bytes = std::fs::read(path).map_err(|cause| FxError::Read {
+    let bytes = crate::io::read(path).map_err(|cause| FxError::Read {
         file: path.to_owned(),
         cause,
     })?;

@@ -114,7 +114,7 @@ const TITLE: &str = "rift fx ring boundary: opening ";
 
 /// Reads one opening's ring at one frame, as [`write()`] wrote it.
 pub fn read(path: &Path) -> Result<RingFrame, FxError> {
-    let bytes = std::fs::read(path).map_err(|cause| FxError::Read {
+    let bytes = crate::io::read(path).map_err(|cause| FxError::Read {
         file: path.to_owned(),
         cause,
     })?;

@@ -114,6 +114,20 @@ struct Body<'a> {
 }
 
 impl Body<'_> {
+    /// The fewest bytes one value of `property` can take: its binary size (a list's count
+    /// alone, for an empty list), or a digit and a separator in ASCII.
+    fn least_bytes(&self, property: &Property) -> usize {
+        match self.format {
+            Format::Ascii => 2,
+            _ => property.count.unwrap_or(property.value).size(),
+        }
+    }
+
+    /// Bytes left to read (in ASCII, at most this many).
+    fn remaining(&self) -> usize {
+        self.bytes.len().saturating_sub(self.at)
+    }
+
     fn read(&mut self, t: Scalar) -> Result<f64, String> {
         if self.format == Format::Ascii {
             let token = self.tokens.next().ok_or("the file ends early")?;
@@ -241,7 +255,19 @@ pub fn parse(bytes: &[u8]) -> Result<Table, String> {
                 Some(_) => Column::List(Vec::with_capacity(reserve)),
             })
             .collect();
-        for item in 0..count {
+        // Trust no count before the bytes for it are there; an element without properties
+        // holds no bytes at all, however many items it declares.
+        let least: usize = properties.iter().map(|p| body.least_bytes(p)).sum();
+        if count.saturating_mul(least).saturating_sub(1) > body.remaining() {
+            return Err(format!(
+                "the header declares {count} {name} items, which need at least {} bytes, but \
+                 only {} follow",
+                count.saturating_mul(least),
+                body.remaining()
+            ));
+        }
+        let items = if properties.is_empty() { 0 } else { count };
+        for item in 0..items {
             for (property, column) in properties.iter().zip(&mut columns) {
                 match (property.count, column) {
                     (None, Column::Scalar(values)) => values.push(body.read(property.value)?),
@@ -378,5 +404,31 @@ mod tests {
         let mut cut = binary(false);
         cut.truncate(cut.len() - 3);
         assert!(parse(&cut).unwrap_err().contains("ends early"));
+    }
+
+    #[test]
+    fn counts_in_the_header_are_not_trusted_before_their_bytes() {
+        let huge = 1u64 << 40;
+        for format in ["ascii", "binary_little_endian"] {
+            let text = format!(
+                "ply\nformat {format} 1.0\nelement vertex {huge}\nproperty float x\nend_header\n1 2 3\n"
+            );
+            let err = parse(text.as_bytes()).unwrap_err();
+            assert!(err.contains("declares 1099511627776 vertex items"), "{err}");
+        }
+        // No properties: no bytes, whatever the count (it used to loop over every item).
+        let text = format!("ply\nformat ascii 1.0\nelement vertex {huge}\nend_header\n");
+        let table = parse(text.as_bytes()).unwrap();
+        assert_eq!(table.element("vertex").unwrap().count, huge as usize);
+        // One small ASCII item without a final newline still reads.
+        let text = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2";
+        assert_eq!(
+            parse(text.as_bytes())
+                .unwrap()
+                .element("vertex")
+                .unwrap()
+                .count,
+            1
+        );
     }
 }

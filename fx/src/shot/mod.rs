@@ -116,7 +116,7 @@ pub struct Shot {
 impl Shot {
     /// Reads and validates a shot file.
     pub fn load(path: &Path) -> Result<Self, FxError> {
-        let text = std::fs::read_to_string(path).map_err(|cause| FxError::Read {
+        let text = crate::io::read_to_string(path).map_err(|cause| FxError::Read {
             file: path.to_owned(),
             cause,
         })?;
@@ -127,7 +127,7 @@ impl Shot {
     pub fn parse(text: &str, path: &Path) -> Result<Self, FxError> {
         let de = toml::Deserializer::parse(text).map_err(|e| FxError::Syntax {
             file: path.to_owned(),
-            message: e.to_string().trim_end().to_owned(),
+            message: crate::error::shorten_long_lines(e.to_string().trim_end(), 160),
         })?;
         let raw: ShotFile = serde_path_to_error::deserialize(de).map_err(|e| {
             let line = e

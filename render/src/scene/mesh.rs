@@ -28,16 +28,20 @@ pub fn load_obj(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
         file: path.to_owned(),
         message,
     };
-    if !path.is_file() {
-        return Err(bad("no such mesh file".into()));
-    }
+    let bytes = rift_fx::io::read(path).map_err(|e| bad(format!("cannot read: {e}")))?;
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ..Default::default()
     };
-    let (models, materials) =
-        tobj::load_obj(path, &options).map_err(|e| bad(format!("malformed OBJ: {e}")))?;
+    // Its MTL files are read within the same bounds.
+    let load_mtl = |mtl: &Path| {
+        let full = path.parent().map_or(mtl.to_owned(), |dir| dir.join(mtl));
+        let bytes = rift_fx::io::read(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+        tobj::load_mtl_buf(&mut bytes.as_slice())
+    };
+    let (models, materials) = tobj::load_obj_buf(&mut bytes.as_slice(), &options, load_mtl)
+        .map_err(|e| bad(format!("malformed OBJ: {e}")))?;
     let materials = materials.map_err(|e| bad(format!("its MTL could not be read: {e}")))?;
     let mut parts = Vec::with_capacity(models.len());
     for model in models {

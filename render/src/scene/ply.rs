@@ -14,10 +14,7 @@ pub fn load_ply(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
         file: path.to_owned(),
         message,
     };
-    if !path.is_file() {
-        return Err(bad("no such mesh file".into()));
-    }
-    let bytes = std::fs::read(path).map_err(|e| bad(e.to_string()))?;
+    let bytes = rift_fx::io::read(path).map_err(|e| bad(format!("cannot read: {e}")))?;
     parse(&bytes).map_err(|m| bad(format!("malformed PLY: {m}")))
 }
 
