@@ -270,49 +270,61 @@ pub fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
 /// The most pixels an EXR rift reads may hold per layer (2^28: a 16k × 16k map).
 const MAX_EXR_PIXELS: usize = 1 << 28;
 
-/// Refuses, before any pixel is allocated, an EXR path that is not a regular file or whose
-/// header declares more than [`MAX_EXR_PIXELS`] in a layer (a few bytes of header can ask
-/// for terabytes).
-fn check_exr_input(path: &Path) -> Result<(), RenderError> {
-    let bad = |message: String| RenderError::Image {
-        path: path.to_owned(),
-        message,
-    };
-    rift_fx::io::regular_file(path).map_err(|e| bad(e.to_string()))?;
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| bad(e.to_string()))?;
+/// Refuses, before any pixel is allocated, an EXR whose header declares more than
+/// [`MAX_EXR_PIXELS`] in a layer (a few bytes of header can ask for terabytes).
+fn check_exr_size(bytes: &[u8]) -> Result<(), String> {
+    let meta = exr::meta::MetaData::read_from_buffered(bytes, false).map_err(|e| e.to_string())?;
     for header in meta.headers.iter() {
         let size = header.layer_size;
         if size.width().saturating_mul(size.height()) > MAX_EXR_PIXELS {
-            return Err(bad(format!(
+            return Err(format!(
                 "a layer of {}x{} pixels, more than the {MAX_EXR_PIXELS} rift reads",
                 size.width(),
                 size.height()
-            )));
+            ));
         }
     }
     Ok(())
 }
 
-/// Reads the RGB channels of an EXR (for references and tests).
-pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<Vec3>), RenderError> {
-    use exr::prelude::*;
-    check_exr_input(path)?;
-    let image = read_first_rgba_layer_from_file(
-        path,
-        |resolution, _| {
-            (
-                resolution.width(),
-                vec![Vec3::ZERO; resolution.width() * resolution.height()],
-            )
-        },
-        |(w, pixels), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            pixels[pos.y() * *w + pos.x()] = Vec3::new(r, g, b)
-        },
-    )
-    .map_err(|e| RenderError::Image {
+/// The bytes of an EXR file, read within bounds (a regular file of bounded size).
+fn read_exr_bytes(path: &Path) -> Result<Vec<u8>, RenderError> {
+    rift_fx::io::read(path).map_err(|e| RenderError::Image {
         path: path.to_owned(),
         message: e.to_string(),
-    })?;
+    })
+}
+
+/// Reads the RGB channels of an EXR (environment maps, references and tests).
+pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<Vec3>), RenderError> {
+    decode_exr_rgb(&read_exr_bytes(path)?).map_err(|message| RenderError::Image {
+        path: path.to_owned(),
+        message,
+    })
+}
+
+/// The width, height and RGB pixels (row-major, top first) of EXR bytes.
+pub fn decode_exr_rgb(bytes: &[u8]) -> Result<(usize, usize, Vec<Vec3>), String> {
+    use exr::prelude::*;
+    check_exr_size(bytes)?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |resolution, _| {
+                (
+                    resolution.width(),
+                    vec![Vec3::ZERO; resolution.width() * resolution.height()],
+                )
+            },
+            |(w, pixels), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                pixels[pos.y() * *w + pos.x()] = Vec3::new(r, g, b)
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| e.to_string())?;
     let size = image.layer_data.size;
     let (_, pixels) = image.layer_data.channel_data.pixels;
     Ok((size.width(), size.height(), pixels))
@@ -336,11 +348,22 @@ pub struct ExrLayer {
 /// Reads the first layer of an EXR with all its channels.
 pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
     use exr::prelude::*;
-    check_exr_input(path)?;
-    let image = read_all_flat_layers_from_file(path).map_err(|e| RenderError::Image {
+    let bytes = read_exr_bytes(path)?;
+    check_exr_size(&bytes).map_err(|message| RenderError::Image {
         path: path.to_owned(),
-        message: e.to_string(),
+        message,
     })?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(|e| RenderError::Image {
+            path: path.to_owned(),
+            message: e.to_string(),
+        })?;
     let display = image.attributes.display_window.size;
     let layer = image.layer_data.first().ok_or_else(|| RenderError::Image {
         path: path.to_owned(),

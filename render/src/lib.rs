@@ -24,6 +24,7 @@ pub mod sampling;
 pub mod scene;
 pub mod sobol;
 pub mod through;
+pub mod untrusted;
 pub mod visibility;
 
 pub use error::RenderError;

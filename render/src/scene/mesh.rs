@@ -22,27 +22,40 @@ pub struct MeshPart {
     pub material: Option<MtlMaterial>,
 }
 
-/// Loads an OBJ file.
+/// Loads an OBJ file, with the MTL files it names beside it.
 pub fn load_obj(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
     let bad = |message: String| RenderError::Mesh {
         file: path.to_owned(),
         message,
     };
     let bytes = rift_fx::io::read(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    // Its MTL files are read within the same bounds.
+    let read_mtl = |mtl: &Path| {
+        let full = path.parent().map_or(mtl.to_owned(), |dir| dir.join(mtl));
+        rift_fx::io::read(&full).ok()
+    };
+    parse_obj(&bytes, read_mtl).map_err(bad)
+}
+
+/// Parses OBJ bytes into parts; `read_mtl` gives the bytes of an MTL file the OBJ names
+/// (`None`: it cannot be read).
+pub fn parse_obj(
+    bytes: &[u8],
+    read_mtl: impl Fn(&Path) -> Option<Vec<u8>>,
+) -> Result<Vec<MeshPart>, String> {
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ..Default::default()
     };
-    // Its MTL files are read within the same bounds.
     let load_mtl = |mtl: &Path| {
-        let full = path.parent().map_or(mtl.to_owned(), |dir| dir.join(mtl));
-        let bytes = rift_fx::io::read(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+        let bytes = read_mtl(mtl).ok_or(tobj::LoadError::OpenFileFailed)?;
         tobj::load_mtl_buf(&mut bytes.as_slice())
     };
-    let (models, materials) = tobj::load_obj_buf(&mut bytes.as_slice(), &options, load_mtl)
-        .map_err(|e| bad(format!("malformed OBJ: {e}")))?;
-    let materials = materials.map_err(|e| bad(format!("its MTL could not be read: {e}")))?;
+    let mut reader = bytes;
+    let (models, materials) = tobj::load_obj_buf(&mut reader, &options, load_mtl)
+        .map_err(|e| format!("malformed OBJ: {e}"))?;
+    let materials = materials.map_err(|e| format!("its MTL could not be read: {e}"))?;
     let mut parts = Vec::with_capacity(models.len());
     for model in models {
         let m = &model.mesh;
@@ -52,22 +65,22 @@ pub fn load_obj(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
             .map(|p| Vec3::new(p[0], p[1], p[2]))
             .collect();
         if let Some(i) = positions.iter().position(|&p| !within_single_precision(p)) {
-            return Err(bad(format!(
+            return Err(format!(
                 "object {:?}: vertex {i} is not finite or beyond ±{:e} m",
                 model.name,
                 rift_fx::shot::check::MAX_LENGTH
-            )));
+            ));
         }
         let mut triangles = Vec::with_capacity(m.indices.len() / 3);
         for (f, idx) in m.indices.chunks_exact(3).enumerate() {
             let get = |k: usize| {
                 positions.get(idx[k] as usize).copied().ok_or_else(|| {
-                    bad(format!(
+                    format!(
                         "object {:?}: face {f} uses vertex {} of {}",
                         model.name,
                         idx[k],
                         positions.len()
-                    ))
+                    )
                 })
             };
             triangles.push([get(0)?, get(1)?, get(2)?]);
@@ -87,7 +100,7 @@ pub fn load_obj(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
         });
     }
     if parts.iter().all(|p| p.triangles.is_empty()) {
-        return Err(bad("malformed OBJ: no faces".into()));
+        return Err("malformed OBJ: no faces".into());
     }
     Ok(parts)
 }

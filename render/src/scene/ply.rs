@@ -18,7 +18,8 @@ pub fn load_ply(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
     parse(&bytes).map_err(|m| bad(format!("malformed PLY: {m}")))
 }
 
-fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
+/// Parses PLY mesh bytes into one part.
+pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
     let table = ply_table::parse(bytes)?;
     let vertices: Vec<Vec3> = match table.element("vertex") {
         None => Vec::new(),

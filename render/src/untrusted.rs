@@ -1,0 +1,61 @@
+//! Every reader of user input as one function from bytes, for the fuzz targets in `fuzz/` and
+//! the regression tests that replay their corpora on stable. Each must return, with or without
+//! an error, and never panic, hang or allocate without bound, whatever the bytes.
+
+use crate::Scene;
+use rift_fx::Shot;
+use std::path::Path;
+
+/// The most strands a fuzzed shot may ask for before its scene is built: generating rings
+/// costs time in proportion, which only slows the fuzzer down.
+const MAX_FUZZED_STRANDS: u32 = 256;
+
+/// The readers, by the name of their fuzz target.
+pub const TARGETS: [(&str, fn(&[u8])); 6] = [
+    ("shot", shot),
+    ("obj", obj),
+    ("ply_mesh", ply_mesh),
+    ("ring_ply", ring_ply),
+    ("ring_cache", ring_cache),
+    ("exr", exr),
+];
+
+/// A shot file: parsed, validated and, when it is small, built into a scene (meshes are
+/// looked up beside `fuzz.toml` in the working directory).
+pub fn shot(bytes: &[u8]) {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return;
+    };
+    let Ok(shot) = Shot::parse(text, Path::new("fuzz.toml")) else {
+        return;
+    };
+    let strands: u32 = shot.rings.iter().flatten().map(|look| look.strands).sum();
+    if strands <= MAX_FUZZED_STRANDS {
+        let _ = Scene::build(&shot, shot.frames.first);
+    }
+}
+
+/// An OBJ mesh, whose MTL files hold the same bytes.
+pub fn obj(bytes: &[u8]) {
+    let _ = crate::scene::mesh::parse_obj(bytes, |_| Some(bytes.to_vec()));
+}
+
+/// A PLY mesh.
+pub fn ply_mesh(bytes: &[u8]) {
+    let _ = crate::scene::ply::parse(bytes);
+}
+
+/// A ring point cloud (PLY) written by `rift fx`.
+pub fn ring_ply(bytes: &[u8]) {
+    let _ = rift_fx::export::ply::decode(bytes);
+}
+
+/// A ring cache.
+pub fn ring_cache(bytes: &[u8]) {
+    let _ = rift_fx::export::cache::decode(bytes);
+}
+
+/// An EXR environment map.
+pub fn exr(bytes: &[u8]) {
+    let _ = crate::film::decode_exr_rgb(bytes);
+}

@@ -1,0 +1,67 @@
+//! A short coverage-guided run of every fuzz target, where the nightly toolchain is installed
+//! (cargo-fuzz needs it; it is installed here when missing). Long campaigns are run by hand:
+//! `cd fuzz && cargo +nightly fuzz run -O TARGET`. Anything it finds is a failure; the input
+//! that found it goes into `fuzz/regressions/TARGET/` once fixed.
+
+mod common;
+
+use common::root;
+use std::process::Command;
+
+/// Seconds each target runs for.
+const SECONDS: u32 = 8;
+
+fn succeeds(command: &mut Command) -> bool {
+    command.output().is_ok_and(|o| o.status.success())
+}
+
+#[test]
+fn each_fuzz_target_runs_briefly_without_a_finding() {
+    if !succeeds(Command::new("cargo").args(["+nightly", "--version"])) {
+        eprintln!("skipped: no nightly toolchain (cargo-fuzz needs one)");
+        return;
+    }
+    if !succeeds(Command::new("cargo").args(["fuzz", "--version"])) {
+        let installed = Command::new("cargo")
+            .args(["install", "--locked", "cargo-fuzz"])
+            .status()
+            .is_ok_and(|s| s.success());
+        if !installed {
+            eprintln!("skipped: cargo-fuzz could not be installed");
+            return;
+        }
+    }
+    let fuzz = root().join("fuzz");
+    let work = tempfile::tempdir().unwrap();
+    for (target, _) in rift_render::untrusted::TARGETS {
+        // New inputs go to a scratch folder; the committed seed corpus stays as it is.
+        let scratch = work.path().join(target);
+        std::fs::create_dir(&scratch).unwrap();
+        let out = Command::new("cargo")
+            .current_dir(&fuzz)
+            .args(["+nightly", "fuzz", "run", "-O", target])
+            .arg(&scratch)
+            .arg(fuzz.join("corpus").join(target))
+            .arg("--")
+            .args([
+                format!("-max_total_time={SECONDS}"),
+                "-rss_limit_mb=2048".into(),
+                "-timeout=10".into(),
+                format!("-artifact_prefix={}/", work.path().display()),
+            ])
+            .output()
+            .unwrap();
+        let log = String::from_utf8_lossy(&out.stderr);
+        let tail: String = log.lines().rev().take(30).collect::<Vec<_>>().join("\n");
+        assert!(
+            out.status.success(),
+            "fuzz target {target} found something:\n{tail}"
+        );
+        let runs = log
+            .lines()
+            .rev()
+            .find_map(|l| l.strip_prefix("Done ").and_then(|r| r.split(' ').next()))
+            .unwrap_or("?");
+        eprintln!("{target}: {runs} runs in {SECONDS} s, no finding");
+    }
+}
