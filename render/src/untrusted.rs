@@ -50,9 +50,15 @@ pub fn ring_ply(bytes: &[u8]) {
     let _ = rift_fx::export::ply::decode(bytes);
 }
 
-/// A ring cache.
+/// A ring cache, its checksum made to match first (otherwise almost every mutation would stop
+/// there and the decoder behind it would go untested).
 pub fn ring_cache(bytes: &[u8]) {
-    let _ = rift_fx::export::cache::decode(bytes);
+    let mut sealed = bytes.to_vec();
+    if let Some(body_len) = sealed.len().checked_sub(8) {
+        let sum = rift_fx::export::cache::fnv1a(&sealed[..body_len]);
+        sealed[body_len..].copy_from_slice(&sum.to_le_bytes());
+    }
+    let _ = rift_fx::export::cache::decode(&sealed);
 }
 
 /// An EXR environment map.

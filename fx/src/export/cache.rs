@@ -168,8 +168,8 @@ pub fn decode(bytes: &[u8]) -> Result<RingFrame, String> {
     Ok(decoded)
 }
 
-/// 64-bit FNV-1a.
-fn fnv1a(bytes: &[u8]) -> u64 {
+/// 64-bit FNV-1a: the checksum that ends a cache, over everything before it.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
         (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
     })
