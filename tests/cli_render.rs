@@ -5,9 +5,22 @@ mod common;
 use common::{cornell_dir, files_in, rift, stderr};
 
 fn expect_failure(dir: &tempfile::TempDir, expect: &[&str]) {
-    let out = rift(
-        dir.path(),
+    expect_failure_of(
+        dir,
         &["render", "shot.toml", "--spp", "1", "-o", "out/img.exr"],
+        expect,
+    );
+}
+
+/// Runs `rift` with `args` in `dir` and checks that it failed at once (exit 1, within five
+/// seconds) with a message holding each of `expect`, and wrote nothing under `out/`.
+fn expect_failure_of(dir: &tempfile::TempDir, args: &[&str], expect: &[&str]) {
+    let started = std::time::Instant::now();
+    let out = rift(dir.path(), args);
+    assert!(
+        started.elapsed().as_secs_f64() < 5.0,
+        "{args:?} took {:?}",
+        started.elapsed()
     );
     let msg = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{msg}");
@@ -797,107 +810,57 @@ fn ring_caches_with_values_no_ring_can_have() {
 #[test]
 fn a_frame_larger_than_memory_is_refused_at_once() {
     let dir = cornell_dir(|t| t.to_owned());
-    let started = std::time::Instant::now();
-    let out = rift(
-        dir.path(),
-        &[
-            "render",
-            "shot.toml",
-            "--res",
-            "60000",
-            "60000",
-            "-o",
-            "out/img.exr",
-        ],
+    let render = |extra: &[&'static str]| {
+        let mut args = vec!["render", "shot.toml", "-o", "out/img.exr"];
+        args.extend_from_slice(extra);
+        args
+    };
+    expect_failure_of(
+        &dir,
+        &render(&["--res", "60000", "60000"]),
+        &["60000x60000", "TiB", "--crop"],
     );
-    let msg = stderr(&out);
-    assert_eq!(out.status.code(), Some(1), "{msg}");
-    assert!(
-        msg.contains("60000x60000") && msg.contains("TiB") && msg.contains("--crop"),
-        "{msg}"
-    );
-    assert!(
-        started.elapsed().as_secs_f64() < 5.0,
-        "took {:?}",
-        started.elapsed()
-    );
-    assert!(files_in(&dir.path().join("out")).is_empty());
     // An explicit budget: the 256x256 film needs tens of megabytes.
-    let out = rift(
-        dir.path(),
-        &[
-            "render",
-            "shot.toml",
-            "--max-memory",
-            "1M",
-            "-o",
-            "out/img.exr",
-        ],
+    expect_failure_of(
+        &dir,
+        &render(&["--max-memory", "1M"]),
+        &["1.0 MiB available"],
     );
-    let msg = stderr(&out);
-    assert_eq!(out.status.code(), Some(1), "{msg}");
-    assert!(msg.contains("1.0 MiB available"), "{msg}");
-    let out = rift(
-        dir.path(),
-        &[
-            "render",
-            "shot.toml",
-            "--max-memory",
-            "lots",
-            "-o",
-            "out/img.exr",
-        ],
-    );
+    // A size that does not parse is clap's usage error (exit 2).
+    let out = rift(dir.path(), &render(&["--max-memory", "lots"]));
+    assert_eq!(out.status.code(), Some(2));
     assert!(stderr(&out).contains("--max-memory"), "{}", stderr(&out));
-    assert!(files_in(&dir.path().join("out")).is_empty());
 }
 
 #[test]
 fn paths_that_are_not_regular_files_are_refused_at_once() {
     // The shot itself.
     let dir = cornell_dir(|t| t.to_owned());
-    for (shot, expect) in [(".", "is a directory"), ("/dev/zero", "not a regular file")] {
-        let out = rift(dir.path(), &["render", shot, "-o", "out/img.exr"]);
-        let msg = stderr(&out);
-        assert_eq!(out.status.code(), Some(1), "{msg}");
-        assert!(msg.contains(expect), "{shot}: {msg}");
-    }
+    expect_failure_of(&dir, &["render", "."], &["is a directory"]);
+    expect_failure_of(&dir, &["render", "/dev/zero"], &["not a regular file"]);
     // A mesh that is a directory, and one that is a FIFO (no writer: reading it would block
     // for ever).
     std::fs::create_dir(dir.path().join("dir.obj")).unwrap();
-    let fifo = dir.path().join("pipe.ply");
     let have_fifo = std::process::Command::new("mkfifo")
-        .arg(&fifo)
+        .arg(dir.path().join("pipe.ply"))
         .status()
         .is_ok_and(|s| s.success());
     let mut meshes = vec![("dir.obj", "is a directory")];
     if have_fifo {
         meshes.push(("pipe.ply", "not a regular file"));
     }
+    let shot = std::fs::read_to_string(dir.path().join("shot.toml")).unwrap();
+    let bad = ["render", "bad.toml", "-o", "out/img.exr"];
     for (mesh, expect) in meshes {
-        let text = std::fs::read_to_string(dir.path().join("shot.toml"))
-            .unwrap()
-            .replace("mesh = \"cornell.obj\"", &format!("mesh = \"{mesh}\""));
+        let text = shot.replace("mesh = \"cornell.obj\"", &format!("mesh = \"{mesh}\""));
         std::fs::write(dir.path().join("bad.toml"), text).unwrap();
-        let started = std::time::Instant::now();
-        let out = rift(dir.path(), &["render", "bad.toml", "-o", "out/img.exr"]);
-        let msg = stderr(&out);
-        assert_eq!(out.status.code(), Some(1), "{msg}");
-        assert!(msg.contains(mesh) && msg.contains(expect), "{mesh}: {msg}");
-        assert!(started.elapsed().as_secs_f64() < 5.0);
+        expect_failure_of(&dir, &bad, &[mesh, expect]);
     }
     // An environment map that is a directory.
     std::fs::create_dir(dir.path().join("sky.exr")).unwrap();
-    let text = std::fs::read_to_string(dir.path().join("shot.toml")).unwrap()
-        + "\n[environment]\nmap = \"sky.exr\"\n";
+    let text = shot + "\n[environment]\nmap = \"sky.exr\"\n";
     std::fs::write(dir.path().join("bad.toml"), text).unwrap();
-    let out = rift(dir.path(), &["render", "bad.toml", "-o", "out/img.exr"]);
-    let msg = stderr(&out);
-    assert!(
-        msg.contains("environment.map") && msg.contains("is a directory"),
-        "{msg}"
-    );
-    assert!(files_in(&dir.path().join("out")).is_empty());
+    expect_failure_of(&dir, &bad, &["environment.map", "is a directory"]);
 }
 
 #[test]
