@@ -37,6 +37,9 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
         // New inputs go to a scratch folder; the committed seed corpus stays as it is.
         let scratch = work.path().join(target);
         std::fs::create_dir(&scratch).unwrap();
+        // Findings are kept (fuzz/artifacts is not committed) to be reproduced and fixed.
+        let artifacts = fuzz.join("artifacts").join(target);
+        std::fs::create_dir_all(&artifacts).unwrap();
         let out = Command::new("cargo")
             .current_dir(&fuzz)
             .args(["+nightly", "fuzz", "run", "-O", target])
@@ -46,8 +49,9 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
             .args([
                 format!("-max_total_time={SECONDS}"),
                 "-rss_limit_mb=2048".into(),
+                "-malloc_limit_mb=1024".into(),
                 "-timeout=10".into(),
-                format!("-artifact_prefix={}/", work.path().display()),
+                format!("-artifact_prefix={}/", artifacts.display()),
             ])
             .output()
             .unwrap();

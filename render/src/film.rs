@@ -267,18 +267,19 @@ pub fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
     sum / (3 * image.len()) as f64
 }
 
-/// The most pixels an EXR rift reads may hold per layer (2^28: a 16k × 16k map).
-const MAX_EXR_PIXELS: usize = 1 << 28;
+/// The most pixels an EXR rift reads may hold per layer (2^27: a 16k × 8k lat-long map, about
+/// 5 GiB while it is decoded).
+pub const MAX_EXR_PIXELS: usize = 1 << 27;
 
 /// Refuses, before any pixel is allocated, an EXR whose header declares more than
-/// [`MAX_EXR_PIXELS`] in a layer (a few bytes of header can ask for terabytes).
-fn check_exr_size(bytes: &[u8]) -> Result<(), String> {
+/// `max_pixels` in a layer (a few bytes of header can ask for terabytes).
+fn check_exr_size(bytes: &[u8], max_pixels: usize) -> Result<(), String> {
     let meta = exr::meta::MetaData::read_from_buffered(bytes, false).map_err(|e| e.to_string())?;
     for header in meta.headers.iter() {
         let size = header.layer_size;
-        if size.width().saturating_mul(size.height()) > MAX_EXR_PIXELS {
+        if size.width().saturating_mul(size.height()) > max_pixels {
             return Err(format!(
-                "a layer of {}x{} pixels, more than the {MAX_EXR_PIXELS} rift reads",
+                "a layer of {}x{} pixels, more than the {max_pixels} rift reads",
                 size.width(),
                 size.height()
             ));
@@ -297,16 +298,20 @@ fn read_exr_bytes(path: &Path) -> Result<Vec<u8>, RenderError> {
 
 /// Reads the RGB channels of an EXR (environment maps, references and tests).
 pub fn read_exr_rgb(path: &Path) -> Result<(usize, usize, Vec<Vec3>), RenderError> {
-    decode_exr_rgb(&read_exr_bytes(path)?).map_err(|message| RenderError::Image {
+    decode_exr_rgb(&read_exr_bytes(path)?, MAX_EXR_PIXELS).map_err(|message| RenderError::Image {
         path: path.to_owned(),
         message,
     })
 }
 
-/// The width, height and RGB pixels (row-major, top first) of EXR bytes.
-pub fn decode_exr_rgb(bytes: &[u8]) -> Result<(usize, usize, Vec<Vec3>), String> {
+/// The width, height and RGB pixels (row-major, top first) of EXR bytes with at most
+/// `max_pixels` in a layer.
+pub fn decode_exr_rgb(
+    bytes: &[u8],
+    max_pixels: usize,
+) -> Result<(usize, usize, Vec<Vec3>), String> {
     use exr::prelude::*;
-    check_exr_size(bytes)?;
+    check_exr_size(bytes, max_pixels)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -349,7 +354,7 @@ pub struct ExrLayer {
 pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
     use exr::prelude::*;
     let bytes = read_exr_bytes(path)?;
-    check_exr_size(&bytes).map_err(|message| RenderError::Image {
+    check_exr_size(&bytes, MAX_EXR_PIXELS).map_err(|message| RenderError::Image {
         path: path.to_owned(),
         message,
     })?;

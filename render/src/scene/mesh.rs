@@ -48,14 +48,23 @@ pub fn parse_obj(
         single_index: false,
         ..Default::default()
     };
+    // What the MTL parser would panic on, found first.
+    let mtl_problem = std::cell::RefCell::new(None);
     let load_mtl = |mtl: &Path| {
         let bytes = read_mtl(mtl).ok_or(tobj::LoadError::OpenFileFailed)?;
+        if let Err(problem) = check_mtl(&bytes) {
+            *mtl_problem.borrow_mut() = Some(format!("{}: {problem}", mtl.display()));
+            return Err(tobj::LoadError::MaterialParseError);
+        }
         tobj::load_mtl_buf(&mut bytes.as_slice())
     };
     let mut reader = bytes;
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, load_mtl)
         .map_err(|e| format!("malformed OBJ: {e}"))?;
-    let materials = materials.map_err(|e| format!("its MTL could not be read: {e}"))?;
+    let materials = materials.map_err(|e| match mtl_problem.take() {
+        Some(problem) => format!("its MTL {problem}"),
+        None => format!("its MTL could not be read: {e}"),
+    })?;
     let mut parts = Vec::with_capacity(models.len());
     for model in models {
         let m = &model.mesh;
@@ -103,4 +112,40 @@ pub fn parse_obj(
         return Err("malformed OBJ: no faces".into());
     }
     Ok(parts)
+}
+
+/// Checks what the MTL parser takes on trust: a colour line (`Ka`, `Kd`, `Ks`, `Ke`) has at
+/// least three values.
+fn check_mtl(bytes: &[u8]) -> Result<(), String> {
+    for (i, line) in String::from_utf8_lossy(bytes).lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next()
+            && words.count() < 3
+        {
+            return Err(format!("line {}: {key} needs three numbers (r g b)", i + 1));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_colour_with_fewer_than_three_values_is_an_error_not_a_panic() {
+        let obj = b"mtllib a.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        let mtl = b"newmtl m\nKd 0.5 0.5\n".to_vec();
+        let err = parse_obj(obj, |_| Some(mtl.clone())).unwrap_err();
+        assert!(
+            err.contains("a.mtl: line 2: Kd needs three numbers"),
+            "{err}"
+        );
+        let good = b"newmtl m\nKd 0.5 0.5 0.5\n".to_vec();
+        let parts = parse_obj(obj, |_| Some(good.clone())).unwrap();
+        assert_eq!(
+            parts[0].material.as_ref().unwrap().diffuse,
+            Some(Vec3::splat(0.5))
+        );
+    }
 }
