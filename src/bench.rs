@@ -1,6 +1,8 @@
 //! `rift bench`: performance measurements printed as tables. Timings are medians over repeats;
 //! compare ratios within one run, since the machines are shared.
 
+mod stability;
+
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use rayon::prelude::*;
@@ -30,6 +32,9 @@ pub enum BenchCommand {
     Lights(LightsArgs),
     /// Light sampling through openings, on against off, on the room the camera stands in.
     Through(ThroughArgs),
+    /// The numerical stress table: furnaces at extreme scales, placements, radiance and
+    /// roughness, and long chains of scaled teleports, each against its tolerance.
+    Stability(stability::StabilityArgs),
 }
 
 /// Arguments of `rift bench through`.
@@ -191,6 +196,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Strands(args) => strands(args),
         BenchCommand::Lights(args) => lights(args),
         BenchCommand::Through(args) => through(args),
+        BenchCommand::Stability(args) => stability::run(args),
     }
 }
 

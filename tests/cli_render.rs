@@ -877,3 +877,21 @@ fn a_deeply_nested_value_is_a_short_clear_error() {
         msg.len()
     );
 }
+
+#[test]
+fn the_numerical_stress_table_holds_its_tolerances() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = rift(dir.path(), &["bench", "stability", "--quick"]);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{table}\n{}", stderr(&out));
+    // Every family of rows is there, and none has a non-finite value.
+    for family in [
+        "furnace 1e5 m across",
+        "emitting 1e30",
+        "sky furnace, dielectric",
+        "256 teleports",
+    ] {
+        assert!(table.contains(family), "{family} missing:\n{table}");
+    }
+    assert!(table.contains(", 0 non-finite values"), "{table}");
+}

@@ -10,8 +10,11 @@ use std::path::Path;
 /// costs time in proportion, which only slows the fuzzer down.
 const MAX_FUZZED_STRANDS: u32 = 256;
 
+/// A reader of untrusted bytes.
+pub type Reader = fn(&[u8]);
+
 /// The readers, by the name of their fuzz target.
-pub const TARGETS: [(&str, fn(&[u8])); 6] = [
+pub const TARGETS: [(&str, Reader); 6] = [
     ("shot", shot),
     ("obj", obj),
     ("ply_mesh", ply_mesh),
