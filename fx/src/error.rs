@@ -66,12 +66,31 @@ impl Invalid {
         }
     }
 
-    /// Ties the error to the file it came from.
+    /// Ties the error to the shot file it came from, with the line its key is on (the file
+    /// is read again to find it).
     pub fn in_file(self, file: impl Into<PathBuf>) -> FxError {
+        let file = file.into();
+        let text = crate::io::read_to_string(&file).ok();
+        self.located(file, text.as_deref())
+    }
+
+    /// Ties the error to `file`, whose text is `text`, with the line its key is on.
+    pub fn in_text(self, file: impl Into<PathBuf>, text: &str) -> FxError {
+        self.located(file.into(), Some(text))
+    }
+
+    fn located(self, file: PathBuf, text: Option<&str>) -> FxError {
+        let line = text.and_then(|text| crate::shot::locate::line_of_key(text, &self.key));
+        let message = match line {
+            Some(line) if !self.message.contains("(line ") => {
+                format!("{} (line {line})", self.message)
+            }
+            _ => self.message,
+        };
         FxError::Key {
-            file: file.into(),
+            file,
             key: self.key,
-            message: self.message,
+            message,
         }
     }
 }

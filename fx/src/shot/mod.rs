@@ -3,6 +3,7 @@
 //! [`FxError`] naming the file, the key path and, where known, the line.
 
 pub mod check;
+pub mod locate;
 pub mod pose;
 pub mod schema;
 
@@ -133,7 +134,7 @@ impl Shot {
             let line = e
                 .inner()
                 .span()
-                .map(|s| format!(" (line {})", line_of(text, s.start)))
+                .map(|s| format!(" (line {})", locate::line_at(text, s.start)))
                 .unwrap_or_default();
             let key = match e.path().to_string() {
                 p if p == "." => "(top level)".to_owned(),
@@ -145,7 +146,7 @@ impl Shot {
                 message: format!("{}{line}", e.inner().message()),
             }
         })?;
-        from_raw(raw, path).map_err(|e| e.in_file(path))
+        from_raw(raw, path).map_err(|e| e.in_text(path, text))
     }
 
     /// Time in seconds of a (possibly fractional) frame.
@@ -157,11 +158,6 @@ impl Shot {
     pub fn shutter_seconds(&self) -> [f64; 2] {
         [self.shutter[0] / self.fps, self.shutter[1] / self.fps]
     }
-}
-
-/// 1-based line number of a byte offset.
-fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
 }
 
 fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
