@@ -2,11 +2,11 @@
 //! BVH; and each moving object in its own BVH under a top-level BVH of their bounds over the
 //! rays' time interval. A static scene has no top level and pays nothing for motion.
 
+use super::box_ray::{box_ray, from_box_t, to_box_t};
 use super::instance::{MovingInstance, Placement};
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
 use crate::ray::Ray;
-use glam::Vec3A;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
@@ -85,13 +85,13 @@ impl Accel {
             top.ray_traverse(box_ray, &mut top_hit, |r, leaf| {
                 let i = top.primitive_indices[leaf];
                 let bounded = Ray {
-                    t_max: r.tmax,
+                    t_max: from_box_t(r.tmax),
                     ..*ray
                 };
                 match self.instances[i as usize].intersect(&bounded, accept) {
                     Some(h) => {
                         best = Some(lift(h, i));
-                        h.t
+                        to_box_t(h.t)
                     }
                     None => f32::INFINITY,
                 }
@@ -125,7 +125,7 @@ impl Accel {
 
 /// `ray` as obvhs traverses the top level, up to `t_max`.
 fn top_ray(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
-    obvhs::ray::Ray::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir), 0.0, t_max)
+    box_ray(ray.origin, ray.dir, t_max)
 }
 
 fn lift(h: TriangleHit, instance: u32) -> Hit {

@@ -2,12 +2,13 @@
 //! triangles (a static scene part in world space, or one moving object in its own space), with
 //! closest-hit and occlusion queries using the watertight triangle test.
 
+use super::box_ray::{box_ray, to_box_t};
 use super::triangle::{ShearedRay, Triangle, intersect_watertight};
-use glam::{Vec3, Vec3A};
+use glam::Vec3;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
-use obvhs::ray::{Ray, RayHit};
+use obvhs::ray::RayHit;
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,7 +83,7 @@ impl TriangleBvh {
     ) -> Option<TriangleHit> {
         let bvh = self.bvh.as_ref()?;
         let sheared = ShearedRay::new(origin, dir);
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+        let ray = box_ray(origin, dir, t_max);
         let mut hit = RayHit::none();
         let mut bary = (0.0, 0.0);
         let mut best = t_max;
@@ -91,13 +92,13 @@ impl TriangleBvh {
                 Some((t, b1, b2)) if accept(self.leaf_ids[id], t) => {
                     best = t;
                     bary = (b1, b2);
-                    t
+                    to_box_t(t)
                 }
                 _ => f32::INFINITY,
             }
         });
         found.then(|| TriangleHit {
-            t: hit.t,
+            t: best,
             triangle: self.leaf_ids[hit.primitive_id as usize],
             b1: bary.0,
             b2: bary.1,
@@ -116,13 +117,13 @@ impl TriangleBvh {
             return false;
         };
         let sheared = ShearedRay::new(origin, dir);
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
-        !bvh.ray_traverse_miss(ray, |_, id| {
-            match intersect_watertight(&sheared, &self.leaf_triangles[id], t_max) {
-                Some((t, ..)) if accept(self.leaf_ids[id], t) => t,
+        !bvh.ray_traverse_miss(
+            box_ray(origin, dir, t_max),
+            |_, id| match intersect_watertight(&sheared, &self.leaf_triangles[id], t_max) {
+                Some((t, ..)) if accept(self.leaf_ids[id], t) => to_box_t(t),
                 _ => f32::INFINITY,
-            }
-        })
+            },
+        )
     }
 }
 
@@ -211,5 +212,39 @@ mod tests {
                 .intersect(Vec3::ZERO, Vec3::X, 1.0, &ALL)
                 .is_none()
         );
+    }
+
+    #[test]
+    fn near_triangles_and_axis_aligned_rays_are_hit() {
+        // The BVH library drops child boxes nearer than t = 1e-4 unless the ray is scaled, and
+        // missed flat boxes along −Z (a −0.0 direction component) unless the zero is positive.
+        for size in [1e-3f32, 5e-5, 1e-6] {
+            let tris: Vec<Triangle> = (0..64)
+                .map(|k| {
+                    let x = (k % 8) as f32 * size;
+                    let y = (k / 8) as f32 * size;
+                    Triangle {
+                        v: [
+                            Vec3::new(x, y, -size),
+                            Vec3::new(x + size, y, -size),
+                            Vec3::new(x, y + size, -size),
+                        ],
+                    }
+                })
+                .collect();
+            let bvh = TriangleBvh::build(&tris, 0);
+            let origin = Vec3::new(0.25 * size, 0.25 * size, 0.0);
+            // Slanted, and exactly along the axis (a zero direction component).
+            for dir in [Vec3::new(0.01, 0.02, -1.0).normalize(), -Vec3::Z] {
+                let hit = bvh.intersect(origin, dir, f32::INFINITY, &ALL);
+                let hit = hit.unwrap_or_else(|| panic!("{size} m along {dir}: missed"));
+                assert!(
+                    (hit.t * -dir.z - size).abs() < 1e-3 * size,
+                    "{size}: t {}",
+                    hit.t
+                );
+                assert!(bvh.occluded(origin, dir, f32::INFINITY, &ALL));
+            }
+        }
     }
 }
