@@ -10,6 +10,7 @@ use rift_fx::Shot;
 use rift_fx::rig::{Rig, Similarity};
 use rift_render::Ray;
 use rift_render::Scene;
+use rift_render::film::Image;
 use rift_render::portal::{Mask, OpeningLook, Portals};
 use rift_render::render::{RenderOptions, render};
 use std::path::Path;
@@ -159,11 +160,7 @@ transform = {{ position = [{centre:e}, {centre:e}, {centre:e}], scale = {half:e}
 "#,
         ahead = centre - half,
     );
-    let path = dir.join("furnace.toml");
-    std::fs::write(&path, text)?;
-    let shot = Shot::load(&path)?;
-    let scene = Scene::build(&shot, 1).context("furnace scene")?;
-    let image = render(&scene, &RenderOptions::new(spp));
+    let image = render_text(dir, "furnace", &text, spp)?;
     let non_finite = image.rgb.iter().filter(|c| !c.is_finite()).count();
     let sum: f64 = image
         .rgb
@@ -172,6 +169,15 @@ transform = {{ position = [{centre:e}, {centre:e}, {centre:e}], scale = {half:e}
         .map(|c| c.as_dvec3().element_sum() / 3.0)
         .sum();
     Ok((sum / image.rgb.len() as f64, non_finite))
+}
+
+/// Renders the shot `text` (written as `name.toml` in `dir`, beside its meshes) at `spp`.
+fn render_text(dir: &Path, name: &str, text: &str, spp: u32) -> anyhow::Result<Image> {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text)?;
+    let shot = Shot::load(&path)?;
+    let scene = Scene::build(&shot, 1).with_context(|| format!("{name} scene"))?;
+    Ok(render(&scene, &RenderOptions::new(spp)))
 }
 
 /// A closed cube from −1 to 1, as OBJ, its faces towards the inside.
@@ -348,11 +354,7 @@ mesh = "cube.obj"
 material = "m"
 "#
     );
-    let path = dir.join("sky_furnace.toml");
-    std::fs::write(&path, text)?;
-    let shot = Shot::load(&path)?;
-    let scene = Scene::build(&shot, 1).context("sky furnace scene")?;
-    let image = render(&scene, &RenderOptions::new(spp));
+    let image = render_text(dir, "sky_furnace", &text, spp)?;
     let non_finite = image.rgb.iter().filter(|c| !c.is_finite()).count();
     let on_cube: Vec<f64> = image
         .rgb
