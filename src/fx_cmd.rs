@@ -27,6 +27,10 @@ pub struct FxArgs {
     /// Worker threads (default: all cores). Output is identical for any count.
     #[arg(long)]
     threads: Option<usize>,
+    /// The most memory baking may take, such as `8G` (default: what the system has
+    /// available); a shot whose rings could need more is refused before baking.
+    #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
+    max_memory: Option<u64>,
     /// Also measure how well the baked velocity and acceleration reproduce the true motion
     /// across the shutter, and print the largest error.
     #[arg(long)]
@@ -51,6 +55,15 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
 
     let started = Instant::now();
     let generator = RingGenerator::new(&shot, frames);
+    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
+    crate::memory::ensure_fits(
+        &format!("baking {threads} frames at once"),
+        generator
+            .frame_bytes_bound(frames)
+            .saturating_mul(threads.min(frames.len()) as u64),
+        crate::memory::budget(args.max_memory),
+        "lower fx.max_segments or [portal.ring] strands, or use fewer --threads",
+    )?;
     let progress = Progress::new("rift fx", frames.len());
     let frame_list: Vec<i64> = frames.iter().collect();
     let outcome = crate::with_threads(args.threads, || {

@@ -143,11 +143,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         None => None,
     };
     let pixels = crop.map_or(w * h, |c| c.area());
+    // Generated rings are held as curves and again as the renderer's strands.
+    let rings = match args.rings {
+        None => 2 * rift_fx::ring::RingGenerator::new(&shot, frames).frame_bytes_bound(frames),
+        Some(_) => 0,
+    };
     crate::memory::ensure_fits(
-        &format!("a {w}x{h} frame ({pixels} pixels rendered)"),
-        rift_render::render::film_bytes(pixels),
+        &format!("a {w}x{h} frame ({pixels} pixels rendered) with its rings"),
+        rift_render::render::film_bytes(pixels).saturating_add(rings),
         crate::memory::budget(args.max_memory),
-        "lower --res (or the shot's resolution), or render a window of the frame at a time with --crop",
+        "lower --res (or the shot's resolution), render a window of the frame at a time with \
+         --crop, or lower fx.max_segments or [portal.ring] strands",
     )?;
     if let Some(e) = args.target_error
         && !(e.is_finite() && e > 0.0)

@@ -351,3 +351,13 @@ fn lengths_beyond_single_precision() {
         expect_failure("bad.toml", Some(&text), &[], &["bad.toml", key, "1e12"]);
     }
 }
+
+#[test]
+fn rings_larger_than_the_memory_budget_are_refused_before_baking() {
+    expect_failure(
+        "small.toml",
+        Some(&small_shot()),
+        &["--max-memory", "4K"],
+        &["baking", "needs", "4.0 KiB available", "fx.max_segments"],
+    );
+}

@@ -78,6 +78,26 @@ impl<'a> RingGenerator<'a> {
         }
     }
 
+    /// The most bytes one baked frame of `frames` takes while it is made and written: every
+    /// strand of every ring at the vertex count its tessellation gives at that frame, each
+    /// vertex's arrays (56 bytes) held once baked and once more in the writer's buffer.
+    /// Commands check it against the memory they have before baking anything.
+    pub fn frame_bytes_bound(&self, frames: FrameRange) -> u64 {
+        const VERTEX_BYTES: u64 = 2 * 56;
+        let frame_bytes = |frame: i64| -> u64 {
+            let time = self.shot.time_of(frame as f64);
+            self.models
+                .iter()
+                .map(|(i, model)| {
+                    let here = self.shot.rig.here_at(*i, time);
+                    let vertices = self.segments(model, &here, time) as u64;
+                    (model.strands.len() as u64).saturating_mul(vertices * VERTEX_BYTES)
+                })
+                .fold(0u64, u64::saturating_add)
+        };
+        frames.iter().map(frame_bytes).max().unwrap_or(0)
+    }
+
     /// The models, one per opening with a ring.
     pub fn models(&self) -> impl Iterator<Item = (usize, &RingModel)> {
         self.models.iter().map(|(i, m)| (*i, m))
