@@ -7,6 +7,10 @@
 //! would bend the boxes' slabs for every nearly axis-parallel ray: 2^-16 missed strands.)
 //! Distances cross the boundary through [`to_box_t`] and [`from_box_t`].
 //!
+//! The old cut also skipped, for free, the leaf of the surface a bounce ray leaves (its offset
+//! puts it some 30 µm out at unit scale); visiting it costs about 4% on the Cornell box. A cut
+//! set per ray at twice its origin's offset would win that back and still see a 0.1 mm box.
+//!
 //! Negative zeros become positive ones: the library takes a component's side from `d < 0` but
 //! the sign of its inverse from the sign bit, so −0.0 made them disagree, and a ray exactly
 //! along an axis (−Z, say) missed flat boxes.
