@@ -495,7 +495,7 @@ pub(crate) struct Incoming {
 /// Draws light for `at` with the strategy of `space` (`None`: ordinary light sampling): a
 /// point on its first opening for the sky beyond when `u_technique` falls in its aperture
 /// share, else a light sample as seen from `at`'s image beyond the chain.
-fn incoming(
+pub(crate) fn incoming(
     scene: &Scene,
     at: &Receiver,
     space: Option<&Space>,
@@ -563,7 +563,7 @@ fn sky_through_aperture(
 /// How `light` reaches `at`: its direction, target and solid-angle pdf there; `None` when it
 /// sends nothing that way (its back, or culled).
 #[inline]
-pub(crate) fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming> {
+fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming> {
     let time = at.time;
     let bsdf_can_find = match light.place {
         LightPlace::Point {
@@ -620,7 +620,7 @@ pub(crate) fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Opti
 /// there. Returns the openings' tint and the probability of the coin flips a path along it
 /// makes (opacity per teleport, 1 − opacity per opening passed), or `None` when it is blocked
 /// or leaves the chain.
-fn shadow(
+pub(crate) fn shadow(
     scene: &Scene,
     chain: &Chain,
     from: Vec3,

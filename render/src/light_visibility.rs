@@ -9,12 +9,11 @@
 //! strategies, so a poor grid costs noise, never bias; a floor keeps some ordinary samples
 //! wherever the probes saw nothing.
 
-use crate::geometry::Triangle;
-use crate::integrator::arrival;
+use crate::integrator::{incoming, shadow};
 use crate::lights::{Receiver, luminance};
-use crate::ray::Ray;
 use crate::sampling::SampleStream;
 use crate::scene::Scene;
+use crate::through::Chain;
 use glam::{UVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -105,34 +104,19 @@ fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) ->
             n: None,
             time: times[0] + (times[1] - times[0]) * t as f64,
         };
-        let time = receiver.time;
-        let world = |e: &crate::lights::Emitter| -> Triangle {
-            scene.world_triangle(e.triangle, e.instance, time)
-        };
-        let Some(light) = scene
-            .lights
-            .sample(Vec2::new(u, v), &receiver, world, &scene.strands)
-        else {
+        // Ordinary light sampling, as next-event estimation draws it, and its shadow ray.
+        let Some(light) = incoming(scene, &receiver, None, Vec2::new(u, v), 0.0) else {
             continue;
         };
-        let Some(arrival) = arrival(scene, &light, &receiver) else {
-            continue;
-        };
-        let weight = (luminance(light.radiance) / arrival.pdf) as f64;
+        let weight = (luminance(light.radiance) / light.pdf) as f64;
         if !weight.is_finite() || weight <= 0.0 {
             continue;
         }
         all += weight;
-        let ray = match arrival.target {
-            Some(target) => {
-                let to = target - receiver.p;
-                let distance = to.length();
-                Ray::new(receiver.p, to / distance, distance, time)
-            }
-            None => Ray::new(receiver.p, arrival.dir, f32::INFINITY, time),
-        };
-        if !scene.occluded(&ray) {
-            unblocked += weight * scene.portals.transmittance(&ray) as f64;
+        let none = Chain::default();
+        let (p, time) = (receiver.p, receiver.time);
+        if let Some((_, transmitted)) = shadow(scene, &none, p, light.dir, light.target, time) {
+            unblocked += weight * transmitted as f64;
         }
     }
     if all > 0.0 {
