@@ -89,7 +89,7 @@ pub fn sample(portals: &Portals, i: usize, time: f64, from: Vec3, u: Vec2) -> Op
 
 /// The solid-angle pdf with which [`sample`] gives unit direction `dir` from `from`.
 pub fn pdf(portals: &Portals, i: usize, time: f64, from: Vec3, dir: Vec3) -> f32 {
-    let inverse = portals.here(i, time).inverse();
+    let inverse = portals.here_inverse(i, time);
     let o = inverse.transform_point(from.as_dvec3());
     // Local units: lengths and areas scale alike, so the ratio below is the world one.
     let d = inverse.transform_vector(dir.as_dvec3());

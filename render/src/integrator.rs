@@ -550,12 +550,11 @@ fn sky_through_aperture(
     let (dir, pdf_aperture) = aperture::sample(&scene.portals, space.first(), at.time, at.p, u)?;
     let beyond = space.direction_beyond(dir);
     let pdf_light = scene.lights.pdf_environment(beyond);
-    let pdf = (1.0 - space.aperture) * pdf_light + space.aperture * pdf_aperture;
     Some(Incoming {
         dir,
         radiance: sky.radiance(beyond),
         target: None,
-        pdf,
+        pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
     })
 }

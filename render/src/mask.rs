@@ -73,6 +73,8 @@ pub struct Polygon {
     points: Vec<DVec2>,
     area: f64,
     bounding_radius: f64,
+    /// Lower and upper corner of its bounding box.
+    bounds: (DVec2, DVec2),
 }
 
 /// Why a list of points is not a usable polygon.
@@ -115,21 +117,19 @@ impl Polygon {
                 }
             }
         }
+        let lower = points.iter().fold(DVec2::INFINITY, |m, &p| m.min(p));
+        let upper = points.iter().fold(DVec2::NEG_INFINITY, |m, &p| m.max(p));
         Ok(Self {
             points,
             area: 0.5 * twice_area.abs(),
             bounding_radius: extent,
+            bounds: (lower, upper),
         })
     }
 
     /// The smallest axis-aligned box around it: (lower corner, upper corner).
     pub fn bounds(&self) -> (DVec2, DVec2) {
-        let lower = self.points.iter().fold(DVec2::INFINITY, |m, &p| m.min(p));
-        let upper = self
-            .points
-            .iter()
-            .fold(DVec2::NEG_INFINITY, |m, &p| m.max(p));
-        (lower, upper)
+        self.bounds
     }
 
     /// True when `p` is inside (crossing count of a ray towards +X).

@@ -212,7 +212,7 @@ impl Portals {
     /// P_H⁻¹ of opening `i` at `time`. A moving rig evaluates only this for every opening a
     /// ray is tested against; the there frame waits for a teleport.
     #[inline]
-    fn here_inverse(&self, i: usize, time: f64) -> Similarity {
+    pub fn here_inverse(&self, i: usize, time: f64) -> Similarity {
         match &self.fixed[i] {
             Some(f) => f.here_inverse,
             None => self.rig.here_at(i, time).inverse(),

@@ -127,13 +127,19 @@ impl Space {
         light_pdf: f32,
         sky: Option<(&Receiver, Vec3)>,
     ) -> f32 {
-        let mut pdf = (1.0 - self.aperture) * light_pdf;
-        if let Some((at, dir)) = sky
-            && self.aperture > 0.0
-        {
-            pdf += self.aperture * aperture::pdf(portals, self.first(), at.time, at.p, dir);
+        match sky {
+            Some((at, dir)) if self.aperture > 0.0 => {
+                let aperture_pdf = aperture::pdf(portals, self.first(), at.time, at.p, dir);
+                self.mixture(light_pdf, aperture_pdf)
+            }
+            _ => (1.0 - self.aperture) * light_pdf,
         }
-        pdf
+    }
+
+    /// The density of the sky in one direction when light sampling draws it with `light_pdf`
+    /// and the first opening with `aperture_pdf`.
+    pub fn mixture(&self, light_pdf: f32, aperture_pdf: f32) -> f32 {
+        (1.0 - self.aperture) * light_pdf + self.aperture * aperture_pdf
     }
 
     /// The chain's first opening.
