@@ -2,15 +2,14 @@
 //! BVH; and each moving object in its own BVH under a top-level BVH of their bounds over the
 //! rays' time interval. A static scene has no top level and pays nothing for motion.
 
-use super::box_ray::{box_ray, from_box_t, to_box_t};
 use super::instance::{MovingInstance, Placement};
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
+use super::wide_bvh::{BoxRay, any_hit, closest_hit};
 use crate::ray::Ray;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::RayHit;
 
 /// Marks a hit on static geometry.
 pub const STATIC: u32 = u32::MAX;
@@ -80,22 +79,21 @@ impl Accel {
             .map(|h| lift(h, STATIC));
         if let Some(top) = &self.top {
             let nearest = best.map_or(ray.t_max, |h| h.t);
-            let box_ray = top_ray(ray, nearest);
-            let mut top_hit = RayHit::none();
-            top.ray_traverse(box_ray, &mut top_hit, |r, leaf| {
-                let i = top.primitive_indices[leaf];
-                let bounded = Ray {
-                    t_max: from_box_t(r.tmax),
-                    ..*ray
-                };
-                match self.instances[i as usize].intersect(&bounded, accept) {
-                    Some(h) => {
-                        best = Some(lift(h, i));
-                        to_box_t(h.t)
-                    }
-                    None => f32::INFINITY,
-                }
-            });
+            closest_hit(
+                top,
+                &BoxRay::new(ray.origin, ray.dir),
+                nearest,
+                |slot, range| {
+                    let i = top.primitive_indices[slot];
+                    let bounded = Ray {
+                        t_max: range,
+                        ..*ray
+                    };
+                    let h = self.instances[i as usize].intersect(&bounded, accept)?;
+                    best = Some(lift(h, i));
+                    Some(h.t)
+                },
+            );
         }
         best
     }
@@ -112,20 +110,10 @@ impl Accel {
         let Some(top) = &self.top else {
             return false;
         };
-        !top.ray_traverse_miss(top_ray(ray, ray.t_max), |_, leaf| {
-            let i = top.primitive_indices[leaf] as usize;
-            if self.instances[i].occluded(ray, accept) {
-                0.0
-            } else {
-                f32::INFINITY
-            }
+        any_hit(top, &BoxRay::new(ray.origin, ray.dir), ray.t_max, |slot| {
+            self.instances[top.primitive_indices[slot] as usize].occluded(ray, accept)
         })
     }
-}
-
-/// `ray` as obvhs traverses the top level, up to `t_max`.
-fn top_ray(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
-    box_ray(ray.origin, ray.dir, t_max)
 }
 
 fn lift(h: TriangleHit, instance: u32) -> Hit {

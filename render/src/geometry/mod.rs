@@ -2,7 +2,6 @@
 //! structure that gives moving objects motion blur.
 
 pub mod accel;
-pub mod box_ray;
 pub mod instance;
 pub mod motion;
 pub mod offset;
@@ -10,6 +9,7 @@ pub mod round_cone;
 pub mod strands;
 pub mod triangle;
 pub mod triangle_bvh;
+pub mod wide_bvh;
 
 pub use accel::{Accel, Hit, STATIC, every_triangle};
 pub use instance::{MovingInstance, Placement};

@@ -10,16 +10,15 @@
 //! and acceleration, or an instant of time) stores positions only and evaluates nothing per
 //! test; a ring whose opening does not move keeps its frame precomputed.
 
-use super::box_ray::{box_ray, from_box_t, to_box_t};
 use super::instance::{box_corners, swept_bounds};
 use super::round_cone::RoundCone;
+use super::wide_bvh::{BoxRay, any_hit, closest_hit};
 use crate::ray::Ray;
 use glam::Vec3;
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::RayHit;
 use rift_fx::rig::Similarity;
 use rift_fx::ring::RingCurves;
 use rift_fx::ring::curves::moved;
@@ -399,24 +398,14 @@ impl Ring {
         let delta = self.delta(time);
         let slice = self.slice(delta)?;
         let (o, d, to_local) = self.local_ray(origin, dir, time);
-        let mut hit = RayHit::none();
         let mut found = None;
-        slice
-            .bvh
-            .ray_traverse(box_ray(o, d, t_max), &mut hit, |r, id| {
-                match slice.leaf_segments[id].at(delta, self.moving).intersect(
-                    o,
-                    d,
-                    0.0,
-                    from_box_t(r.tmax),
-                ) {
-                    Some(h) => {
-                        found = Some((h, slice.leaf_ids[id]));
-                        to_box_t(h.t)
-                    }
-                    None => f32::INFINITY,
-                }
-            });
+        closest_hit(&slice.bvh, &BoxRay::new(o, d), t_max, |slot, range| {
+            let h = slice.leaf_segments[slot]
+                .at(delta, self.moving)
+                .intersect(o, d, 0.0, range)?;
+            found = Some((h, slice.leaf_ids[slot]));
+            Some(h.t)
+        });
         let (h, segment) = found?;
         // Normals are covectors: under a similarity the inverse's rotation maps them back.
         let normal = to_local
@@ -438,14 +427,11 @@ impl Ring {
             return false;
         };
         let (o, d, _) = self.local_ray(origin, dir, time);
-        !slice.bvh.ray_traverse_miss(box_ray(o, d, t_max), |_, id| {
-            match slice.leaf_segments[id]
+        any_hit(&slice.bvh, &BoxRay::new(o, d), t_max, |slot| {
+            slice.leaf_segments[slot]
                 .at(delta, self.moving)
                 .intersect(o, d, 0.0, t_max)
-            {
-                Some(h) => to_box_t(h.t),
-                None => f32::INFINITY,
-            }
+                .is_some()
         })
     }
 }
@@ -475,7 +461,9 @@ fn time_slices(segments: &[Segment], deltas: [f32; 2]) -> usize {
 /// True when `origin + t·dir`, t in [0, t_max], meets `bounds`.
 #[inline]
 fn meets(bounds: &Aabb, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
-    from_box_t(bounds.intersect_ray(&box_ray(origin, dir, t_max))) <= t_max
+    BoxRay::new(origin, dir)
+        .enters(bounds.min.into(), bounds.max.into(), t_max)
+        .is_some()
 }
 
 #[cfg(test)]

@@ -1,0 +1,480 @@
+//! Queries over obvhs' compressed wide BVH (eight children a node, each child's box quantized
+//! to bytes on the node's power-of-two grid; Ylitie et al. 2017). obvhs builds the trees and
+//! fixes their layout; the traversal is ours, for three reasons:
+//!
+//! - the library's node test never accepts a child box nearer than t = 1e-4, which dropped
+//!   whatever lies within 0.1 mm of a ray's origin (light leaked into narrower crevices);
+//! - it takes a direction component's side from `d < 0` but its inverse's sign from the sign
+//!   bit, so a −0.0 component (a ray exactly along −Z, say) missed flat boxes;
+//! - it widens the quantized planes to floats one lane at a time. Here all eight children are
+//!   tested as one vector operation (AVX2 when the processor has it, chosen once per query).
+//!
+//! Children are visited in the order of the ray's octant, as the layout intends; a closest-hit
+//! query shrinks its range as hits are found, an any-hit query stops at the first.
+
+use glam::Vec3;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::node::CwBvhNode;
+
+/// Direction components are kept at least this far from zero, so inverses stay finite and a
+/// quantized plane at 0 never makes 0 × ∞; at 1e-18 a box 1e12 m across is still exact.
+const MIN_COMPONENT: f32 = 1e-18;
+
+/// Groups of children waiting that fit on the traversal's fixed stack: one a level, and a
+/// balanced wide BVH over 2^32 primitives is about eleven levels deep. Deeper (lopsided) trees
+/// spill onto the heap.
+const STACK: usize = 32;
+
+/// The bits of a node group that name inner children (the rest name primitives).
+const INNER_BITS: u32 = 0xff00_0000;
+
+/// A ray as the node tests read it.
+#[derive(Clone, Copy, Debug)]
+pub struct BoxRay {
+    origin: Vec3,
+    /// Per axis, 1 / the direction component (kept finite).
+    inv_dir: Vec3,
+    /// Per axis, whether the direction points down it (−0.0 counts as up, as for `inv_dir`).
+    down: [bool; 3],
+    /// The octant's visiting order in the layout's encoding: the three "points up" bits.
+    octant_order: u32,
+}
+
+impl BoxRay {
+    /// The ray `origin + t·dir` (any length of `dir`; distances are in its units).
+    #[inline]
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        let down = [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0];
+        let inverse = |d: f32, down: bool| {
+            let magnitude = d.abs().max(MIN_COMPONENT);
+            if down {
+                -1.0 / magnitude
+            } else {
+                1.0 / magnitude
+            }
+        };
+        Self {
+            origin,
+            inv_dir: Vec3::new(
+                inverse(dir.x, down[0]),
+                inverse(dir.y, down[1]),
+                inverse(dir.z, down[2]),
+            ),
+            down,
+            octant_order: (!down[0] as u32) << 2 | (!down[1] as u32) << 1 | !down[2] as u32,
+        }
+    }
+
+    /// The entry distance of the box `min`..`max` in [0, `t_max`], or `None` when the ray
+    /// misses it there.
+    #[inline]
+    pub fn enters(&self, min: Vec3, max: Vec3, t_max: f32) -> Option<f32> {
+        let a = (min - self.origin) * self.inv_dir;
+        let b = (max - self.origin) * self.inv_dir;
+        let near = a.min(b).max_element().max(0.0);
+        let far = a.max(b).min_element().min(t_max);
+        (near <= far).then_some(near)
+    }
+}
+
+/// Visits the primitives of `bvh` along `ray` for t in [0, `t_max`], in an order that finds near
+/// ones early: `leaf(slot, t_max)` tests the primitive at `slot` (an index into
+/// `bvh.primitive_indices`) and returns its distance when it is hit nearer than `t_max`, which
+/// then becomes the range. Returns the final range: below `t_max` exactly when something was hit.
+#[inline]
+pub fn closest_hit(
+    bvh: &CwBvh,
+    ray: &BoxRay,
+    t_max: f32,
+    mut leaf: impl FnMut(usize, f32) -> Option<f32>,
+) -> f32 {
+    let mut range = t_max;
+    traverse(bvh, ray, &mut range, |slot, range| {
+        if let Some(t) = leaf(slot, *range) {
+            *range = t;
+        }
+        false
+    });
+    range
+}
+
+/// True when `hit(slot)` holds for some primitive along `ray` for t in [0, `t_max`] (visited as
+/// in [`closest_hit`]); stops at the first.
+#[inline]
+pub fn any_hit(bvh: &CwBvh, ray: &BoxRay, t_max: f32, mut hit: impl FnMut(usize) -> bool) -> bool {
+    let mut range = t_max;
+    traverse(bvh, ray, &mut range, |slot, _| hit(slot))
+}
+
+/// The traversal both queries share, compiled twice: for AVX2 and for the baseline.
+#[inline]
+fn traverse(
+    bvh: &CwBvh,
+    ray: &BoxRay,
+    range: &mut f32,
+    leaf: impl FnMut(usize, &mut f32) -> bool,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2, checked just above.
+        return unsafe { traverse_avx2(bvh, ray, range, leaf) };
+    }
+    traverse_groups::<false, STACK>(bvh, ray, range, leaf)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn traverse_avx2(
+    bvh: &CwBvh,
+    ray: &BoxRay,
+    range: &mut f32,
+    leaf: impl FnMut(usize, &mut f32) -> bool,
+) -> bool {
+    traverse_groups::<true, STACK>(bvh, ray, range, leaf)
+}
+
+/// A node's children still to visit: `base` is the first child node (or first primitive) and
+/// `bits` marks the children, as the layout encodes them (inner children in the top byte by
+/// visiting priority with the node's inner-child mask in the bottom byte; primitives in the low
+/// 24 bits by their offset from `base`).
+#[derive(Clone, Copy, Default)]
+struct Group {
+    base: u32,
+    bits: u32,
+}
+
+/// Ylitie et al.'s stack of node groups: a node's hit primitives are tested first, then its
+/// hit inner children in octant order, the rest of a group waiting on the stack. Returns true
+/// when `leaf` asked to stop.
+#[inline(always)]
+fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize>(
+    bvh: &CwBvh,
+    ray: &BoxRay,
+    range: &mut f32,
+    mut leaf: impl FnMut(usize, &mut f32) -> bool,
+) -> bool {
+    if bvh.nodes.is_empty() {
+        return false;
+    }
+    let mut stack = [Group::default(); STACK_SLOTS];
+    let mut depth = 0;
+    let mut spilled: Vec<Group> = Vec::new();
+    // The root is the one inner child of an imaginary parent, in the top slot.
+    let mut nodes = Group {
+        base: 0,
+        bits: 0x8000_0000,
+    };
+    let mut primitives = Group::default();
+    loop {
+        while primitives.bits != 0 {
+            let offset = 31 - primitives.bits.leading_zeros();
+            primitives.bits &= !(1 << offset);
+            if leaf((primitives.base + offset) as usize, range) {
+                return true;
+            }
+        }
+        if nodes.bits & INNER_BITS != 0 {
+            let priority = 31 - nodes.bits.leading_zeros();
+            let inner_mask = nodes.bits & 0xff;
+            nodes.bits &= !(1 << priority);
+            let slot = (priority - 24) ^ ray.octant_order;
+            // Inner children are stored in slot order: count those in lower slots.
+            let index = nodes.base + (inner_mask & ((1 << slot) - 1)).count_ones();
+            if nodes.bits & INNER_BITS != 0 {
+                if depth < STACK_SLOTS {
+                    stack[depth] = nodes;
+                    depth += 1;
+                } else {
+                    spilled.push(nodes);
+                    #[cfg(test)]
+                    tests::SPILLS.with(|n| n.set(n.get() + 1));
+                }
+            }
+            let node = &bvh.nodes[index as usize];
+            let hits = children_hit::<AVX2>(node, ray, *range);
+            nodes = Group {
+                base: node.child_base_idx,
+                bits: (hits & INNER_BITS) | node.imask as u32,
+            };
+            primitives = Group {
+                base: node.primitive_base_idx,
+                bits: hits & !INNER_BITS,
+            };
+        } else if primitives.bits == 0 {
+            if let Some(group) = spilled.pop() {
+                nodes = group;
+            } else if depth > 0 {
+                depth -= 1;
+                nodes = stack[depth];
+            } else {
+                return false;
+            }
+        }
+    }
+}
+
+/// The children of `node` that `ray` meets within [0, `t_max`], as group bits (see [`Group`]).
+#[inline(always)]
+fn children_hit<const AVX2: bool>(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
+    let lanes = slab_hits::<AVX2>(node, ray, t_max);
+    if lanes == 0 {
+        return 0;
+    }
+    let meta = u64::from_le_bytes(node.child_meta);
+    let order = ray.octant_order as u64 * 0x0101_0101_0101_0101;
+    // An inner child's meta byte is 24 + its slot (bits 3 and 4 both set, which a leaf's
+    // primitive offset below 24 never has); it is visited at priority 24 + (slot ^ order).
+    let inner = (meta & (meta << 1)) & 0x1010_1010_1010_1010;
+    let inner_bytes = (inner >> 4) * 0xff;
+    let shift = (meta ^ (order & inner_bytes)) & 0x1f1f_1f1f_1f1f_1f1f;
+    // An inner child contributes one bit; a leaf its primitive count in unary.
+    let count = (meta >> 5) & 0x0707_0707_0707_0707;
+    let mut bits = 0u32;
+    let mut lanes = lanes;
+    while lanes != 0 {
+        let c = lanes.trailing_zeros();
+        lanes &= lanes - 1;
+        let byte = |v: u64| ((v >> (8 * c)) & 0xff) as u32;
+        bits |= byte(count) << byte(shift);
+    }
+    bits
+}
+
+/// One bit per child slot whose box `ray` meets within [0, `t_max`]: the eight slab tests as
+/// one vector computation over the quantized planes.
+#[inline(always)]
+fn slab_hits<const AVX2: bool>(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        // SAFETY: `AVX2` is set only by `traverse_avx2`, which runs where the processor has it.
+        return unsafe { slab_hits_avx2(node, ray, t_max) };
+    }
+    slab_hits_portable(node, ray, t_max)
+}
+
+/// [`slab_hits`] in plain arrays, for any processor.
+#[inline(always)]
+fn slab_hits_portable(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
+    let grid = |a: usize| f32::from_bits((node.e[a] as u32) << 23);
+    let corner = node.p - ray.origin;
+    let axes = [
+        (&node.child_min_x, &node.child_max_x),
+        (&node.child_min_y, &node.child_max_y),
+        (&node.child_min_z, &node.child_max_z),
+    ];
+    let mut near = [0.0f32; 8];
+    let mut far = [t_max; 8];
+    for (a, (lo, hi)) in axes.into_iter().enumerate() {
+        let (entry, exit) = if ray.down[a] { (hi, lo) } else { (lo, hi) };
+        let scale = grid(a) * ray.inv_dir[a];
+        let offset = corner[a] * ray.inv_dir[a];
+        for c in 0..8 {
+            let t_in = entry[c] as f32 * scale + offset;
+            let t_out = exit[c] as f32 * scale + offset;
+            near[c] = if t_in > near[c] { t_in } else { near[c] };
+            far[c] = if t_out < far[c] { t_out } else { far[c] };
+        }
+    }
+    let mut lanes = 0u32;
+    for c in 0..8 {
+        lanes |= ((near[c] <= far[c]) as u32) << c;
+    }
+    lanes
+}
+
+/// [`slab_hits`] in AVX2 registers: each axis's eight quantized planes widened to floats at
+/// once, and the eight comparisons gathered by one movemask.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn slab_hits_avx2(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
+    use std::arch::x86_64::*;
+    let planes = |bytes: &[u8; 8]| {
+        // SAFETY: `bytes` is eight readable bytes, which an unaligned 64-bit load reads.
+        let packed = unsafe { _mm_loadl_epi64(bytes.as_ptr().cast()) };
+        _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(packed))
+    };
+    let corner = node.p - ray.origin;
+    let axes = [
+        (&node.child_min_x, &node.child_max_x),
+        (&node.child_min_y, &node.child_max_y),
+        (&node.child_min_z, &node.child_max_z),
+    ];
+    let mut near = _mm256_setzero_ps();
+    let mut far = _mm256_set1_ps(t_max);
+    for (a, (lo, hi)) in axes.into_iter().enumerate() {
+        let (entry, exit) = if ray.down[a] { (hi, lo) } else { (lo, hi) };
+        let grid = f32::from_bits((node.e[a] as u32) << 23);
+        let scale = _mm256_set1_ps(grid * ray.inv_dir[a]);
+        let offset = _mm256_set1_ps(corner[a] * ray.inv_dir[a]);
+        let t_in = _mm256_add_ps(_mm256_mul_ps(planes(entry), scale), offset);
+        let t_out = _mm256_add_ps(_mm256_mul_ps(planes(exit), scale), offset);
+        near = _mm256_max_ps(near, t_in);
+        far = _mm256_min_ps(far, t_out);
+    }
+    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::triangle::{ShearedRay, Triangle, intersect_watertight};
+    use obvhs::BvhBuildParams;
+    use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+    use std::cell::Cell;
+
+    thread_local! {
+        /// Groups this thread's traversals put on the heap.
+        pub static SPILLS: Cell<usize> = const { Cell::new(0) };
+    }
+
+    fn build(triangles: &[Triangle]) -> CwBvh {
+        let tris: Vec<obvhs::triangle::Triangle> = triangles
+            .iter()
+            .map(|t| obvhs::triangle::Triangle {
+                v0: t.v[0].into(),
+                v1: t.v[1].into(),
+                v2: t.v[2].into(),
+            })
+            .collect();
+        build_cwbvh_from_tris(
+            &tris,
+            BvhBuildParams::medium_build(),
+            &mut Default::default(),
+        )
+    }
+
+    /// Nearest hit by testing every triangle.
+    fn brute(tris: &[Triangle], origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
+        let sheared = ShearedRay::new(origin, dir);
+        tris.iter()
+            .filter_map(|t| intersect_watertight(&sheared, t, t_max).map(|h| h.0))
+            .min_by(f32::total_cmp)
+    }
+
+    /// Both queries against brute force on `tris` for rays from `origins` in many directions,
+    /// including ones exactly along the axes (with −0.0 components) and ones from inside boxes.
+    fn agree_with_brute_force(tris: &[Triangle], origins: &[Vec3]) {
+        let bvh = build(tris);
+        let mut directions: Vec<Vec3> = (0..200)
+            .map(|k| {
+                let (a, b) = (k as f32 * 2.399, (k as f32 * 0.618).fract() * 2.0 - 1.0);
+                Vec3::new(
+                    a.cos() * (1.0 - b * b).sqrt(),
+                    a.sin() * (1.0 - b * b).sqrt(),
+                    b,
+                )
+            })
+            .collect();
+        for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+            directions.push(axis);
+            directions.push(-axis);
+            directions.push(Vec3::select(
+                axis.cmpeq(Vec3::ZERO),
+                Vec3::splat(-0.0),
+                axis,
+            ));
+        }
+        for &origin in origins {
+            for &dir in &directions {
+                let sheared = ShearedRay::new(origin, dir);
+                let ray = BoxRay::new(origin, dir);
+                for t_max in [f32::INFINITY, 0.5] {
+                    let expected = brute(tris, origin, dir, t_max);
+                    let t = closest_hit(&bvh, &ray, t_max, |slot, range| {
+                        let tri = &tris[bvh.primitive_indices[slot] as usize];
+                        intersect_watertight(&sheared, tri, range).map(|h| h.0)
+                    });
+                    assert_eq!(
+                        (t < t_max).then_some(t),
+                        expected,
+                        "closest from {origin} along {dir} to {t_max}"
+                    );
+                    let any = any_hit(&bvh, &ray, t_max, |slot| {
+                        let tri = &tris[bvh.primitive_indices[slot] as usize];
+                        intersect_watertight(&sheared, tri, t_max).is_some()
+                    });
+                    assert_eq!(any, expected.is_some(), "any from {origin} along {dir}");
+                }
+            }
+        }
+    }
+
+    /// 400 small triangles scattered through a 4 m cube.
+    fn cloud() -> Vec<Triangle> {
+        (0..400)
+            .map(|k| {
+                let c = Vec3::new(
+                    (k as f32 * 0.37).sin() * 2.0,
+                    (k as f32 * 0.73).cos() * 2.0,
+                    (k as f32 * 1.31).sin() * 2.0,
+                );
+                let s = 0.05 + 0.1 * (k as f32 * 0.11).sin().abs();
+                Triangle {
+                    v: [
+                        c,
+                        c + Vec3::new(s, 0.0, 0.0),
+                        c + Vec3::new(0.0, s, s * 0.5),
+                    ],
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn queries_match_brute_force_on_a_cloud() {
+        let tris = cloud();
+        agree_with_brute_force(&tris, &[Vec3::ZERO, Vec3::new(5.0, -3.0, 1.0)]);
+    }
+
+    #[test]
+    fn groups_beyond_the_fixed_stack_spill_and_are_still_visited() {
+        // A one-slot stack: the second group waiting goes to the heap.
+        let tris = cloud();
+        let bvh = build(&tris);
+        SPILLS.with(|n| n.set(0));
+        for k in 0..500 {
+            let origin = Vec3::new((k as f32 * 0.3).sin(), (k as f32 * 0.7).cos(), 0.0) * 3.0;
+            let dir = (Vec3::new((k as f32 * 1.1).cos(), (k as f32 * 0.9).sin(), 0.4) - origin)
+                .normalize();
+            let sheared = ShearedRay::new(origin, dir);
+            let mut range = f32::INFINITY;
+            traverse_groups::<false, 1>(&bvh, &BoxRay::new(origin, dir), &mut range, |slot, r| {
+                let tri = &tris[bvh.primitive_indices[slot] as usize];
+                if let Some((t, ..)) = intersect_watertight(&sheared, tri, *r) {
+                    *r = t;
+                }
+                false
+            });
+            let expected = brute(&tris, origin, dir, f32::INFINITY);
+            assert_eq!(range.is_finite().then_some(range), expected, "ray {k}");
+        }
+        assert!(SPILLS.with(Cell::get) > 0, "no traversal spilled");
+    }
+
+    #[test]
+    fn boxes_are_met_from_the_origin_on() {
+        let ray = BoxRay::new(Vec3::ZERO, -Vec3::Z);
+        // A flat box 1 µm away, and one the origin lies in.
+        assert_eq!(
+            ray.enters(
+                Vec3::new(-1.0, -1.0, -1e-6),
+                Vec3::new(1.0, 1.0, -1e-6),
+                1.0
+            ),
+            Some(1e-6)
+        );
+        assert_eq!(
+            ray.enters(Vec3::splat(-1.0), Vec3::splat(1.0), 1.0),
+            Some(0.0)
+        );
+        assert_eq!(
+            ray.enters(Vec3::new(-1.0, -1.0, 1e-6), Vec3::splat(1.0), 1.0),
+            None
+        );
+        assert_eq!(
+            ray.enters(Vec3::new(-1.0, -1.0, -3.0), Vec3::new(1.0, 1.0, -2.0), 1.0),
+            None
+        );
+    }
+}
