@@ -1,6 +1,7 @@
 //! `rift bench`: performance measurements printed as tables. Timings are medians over repeats;
 //! compare ratios within one run, since the machines are shared.
 
+mod rays;
 mod stability;
 
 use anyhow::Context;
@@ -10,7 +11,6 @@ use rift_fx::Shot;
 use rift_fx::export::{self, Format};
 use rift_fx::ring::RingGenerator;
 use rift_render::Ray;
-use rift_render::geometry::every_triangle;
 use rift_render::visibility::RayClass;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -23,7 +23,7 @@ pub enum BenchCommand {
     /// Error against a converged reference as samples grow: relMSE, seconds, efficiency.
     Convergence(ConvergenceArgs),
     /// Closest-hit and occlusion ray throughput on a generated mesh.
-    Rays(RaysArgs),
+    Rays(rays::RaysArgs),
     /// The cost of one teleport, and render time per extra portal level.
     Portals(PortalsArgs),
     /// Round-curve ray throughput on many moving strand segments (and the same held still).
@@ -130,23 +130,6 @@ pub struct PortalsArgs {
     threads: Option<usize>,
 }
 
-/// Arguments of `rift bench rays`.
-#[derive(Args)]
-pub struct RaysArgs {
-    /// Grid cells per side of the generated height field (two triangles per cell).
-    #[arg(long, default_value_t = 1024)]
-    cells: usize,
-    /// Rays per measurement.
-    #[arg(long, default_value_t = 4_000_000)]
-    rays: usize,
-    /// Timed repeats (the median is reported).
-    #[arg(long, default_value_t = 3)]
-    repeats: usize,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    threads: Option<usize>,
-}
-
 /// Arguments of `rift bench convergence`.
 #[derive(Args)]
 pub struct ConvergenceArgs {
@@ -191,7 +174,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     match cmd {
         BenchCommand::Fx(args) => fx(args),
         BenchCommand::Convergence(args) => convergence(args),
-        BenchCommand::Rays(args) => rays(args),
+        BenchCommand::Rays(args) => rays::rays(args),
         BenchCommand::Portals(args) => portals(args),
         BenchCommand::Strands(args) => strands(args),
         BenchCommand::Lights(args) => lights(args),
@@ -200,7 +183,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }
@@ -360,100 +343,6 @@ fn convergence(args: ConvergenceArgs) -> anyhow::Result<()> {
     );
     crate::plot::convergence_png(&args.plot, &title, &points)?;
     println!("wrote {} and {}", args.csv.display(), args.plot.display());
-    Ok(())
-}
-
-/// A wavy height field of `cells`² quads over [−1, 1]², two triangles each.
-fn height_field(cells: usize) -> Vec<rift_render::geometry::Triangle> {
-    let height = |x: f32, z: f32| {
-        0.1 * (7.0 * x).sin() * (5.0 * z).cos() + 0.03 * (31.0 * x + 17.0 * z).sin()
-    };
-    let at = |i: usize, j: usize| {
-        let (x, z) = (
-            2.0 * i as f32 / cells as f32 - 1.0,
-            2.0 * j as f32 / cells as f32 - 1.0,
-        );
-        glam::Vec3::new(x, height(x, z), z)
-    };
-    let mut tris = Vec::with_capacity(2 * cells * cells);
-    for i in 0..cells {
-        for j in 0..cells {
-            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            tris.push(rift_render::geometry::Triangle { v: [a, b, c] });
-            tris.push(rift_render::geometry::Triangle { v: [a, c, d] });
-        }
-    }
-    tris
-}
-
-fn rays(args: RaysArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        args.cells > 0 && args.rays > 0 && args.repeats > 0,
-        "expected positive counts"
-    );
-    let tris = height_field(args.cells);
-    let t = Instant::now();
-    let accel = rift_render::geometry::TriangleBvh::build(&tris, 0);
-    let build = t.elapsed().as_secs_f64();
-    // Incoherent rays: random origins above the surface, random downward-ish directions.
-    let ray = |i: usize| {
-        let h = |k: u32| {
-            rift_render::sampling::hash32((i as u32).wrapping_mul(4).wrapping_add(k)) as f32
-                / u32::MAX as f32
-        };
-        let origin = glam::Vec3::new(2.0 * h(0) - 1.0, 0.5 + h(1), 2.0 * h(2) - 1.0);
-        let dir = glam::Vec3::new(h(3) - 0.5, -1.0, h(1) * 0.7 - 0.35).normalize();
-        (origin, dir)
-    };
-    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
-    let mut closest = Vec::new();
-    let mut occlusion = Vec::new();
-    let mut hits = 0;
-    for _ in 0..args.repeats {
-        let t = Instant::now();
-        hits = crate::with_threads(args.threads, || {
-            (0..args.rays)
-                .into_par_iter()
-                .filter(|&i| {
-                    let (o, d) = ray(i);
-                    accel
-                        .intersect(o, d, f32::INFINITY, &every_triangle)
-                        .is_some()
-                })
-                .count()
-        })?;
-        closest.push(t.elapsed().as_secs_f64());
-        let t = Instant::now();
-        let blocked = crate::with_threads(args.threads, || {
-            (0..args.rays)
-                .into_par_iter()
-                .filter(|&i| {
-                    let (o, d) = ray(i);
-                    accel.occluded(o, d, 3.0, &every_triangle)
-                })
-                .count()
-        })?;
-        occlusion.push(t.elapsed().as_secs_f64());
-        anyhow::ensure!(
-            blocked == hits,
-            "occlusion and closest-hit queries disagree"
-        );
-    }
-    println!(
-        "rift bench rays: {} triangles (BVH build {build:.2} s), {} incoherent rays ({:.1}% hit), {threads} threads, median of {}",
-        tris.len(),
-        args.rays,
-        100.0 * hits as f64 / args.rays as f64,
-        args.repeats
-    );
-    println!("{:<12} {:>10} {:>10}", "query", "seconds", "Mrays/s");
-    for (name, times) in [("closest hit", closest), ("occlusion", occlusion)] {
-        let secs = median(times);
-        println!(
-            "{name:<12} {secs:>10.3} {:>10.2}",
-            args.rays as f64 / secs / 1e6
-        );
-    }
     Ok(())
 }
 
