@@ -83,6 +83,7 @@ impl Accel {
                 top,
                 &BoxRay::new(ray.origin, ray.dir),
                 nearest,
+                NOTHING_TO_FETCH,
                 |slot, range| {
                     let i = top.primitive_indices[slot];
                     let bounded = Ray {
@@ -110,11 +111,19 @@ impl Accel {
         let Some(top) = &self.top else {
             return false;
         };
-        any_hit(top, &BoxRay::new(ray.origin, ray.dir), ray.t_max, |slot| {
-            self.instances[top.primitive_indices[slot] as usize].occluded(ray, accept)
-        })
+        any_hit(
+            top,
+            &BoxRay::new(ray.origin, ray.dir),
+            ray.t_max,
+            NOTHING_TO_FETCH,
+            |slot| self.instances[top.primitive_indices[slot] as usize].occluded(ray, accept),
+        )
     }
 }
+
+/// The top level's leaf test reads instances through `primitive_indices`, not by slot, so
+/// there is nothing to fetch ahead by slot.
+const NOTHING_TO_FETCH: &[MovingInstance] = &[];
 
 fn lift(h: TriangleHit, instance: u32) -> Hit {
     Hit {

@@ -399,13 +399,19 @@ impl Ring {
         let slice = self.slice(delta)?;
         let (o, d, to_local) = self.local_ray(origin, dir, time);
         let mut found = None;
-        closest_hit(&slice.bvh, &BoxRay::new(o, d), t_max, |slot, range| {
-            let h = slice.leaf_segments[slot]
-                .at(delta, self.moving)
-                .intersect(o, d, 0.0, range)?;
-            found = Some((h, slice.leaf_ids[slot]));
-            Some(h.t)
-        });
+        closest_hit(
+            &slice.bvh,
+            &BoxRay::new(o, d),
+            t_max,
+            &slice.leaf_segments,
+            |slot, range| {
+                let h = slice.leaf_segments[slot]
+                    .at(delta, self.moving)
+                    .intersect(o, d, 0.0, range)?;
+                found = Some((h, slice.leaf_ids[slot]));
+                Some(h.t)
+            },
+        );
         let (h, segment) = found?;
         // Normals are covectors: under a similarity the inverse's rotation maps them back.
         let normal = to_local
@@ -427,12 +433,18 @@ impl Ring {
             return false;
         };
         let (o, d, _) = self.local_ray(origin, dir, time);
-        any_hit(&slice.bvh, &BoxRay::new(o, d), t_max, |slot| {
-            slice.leaf_segments[slot]
-                .at(delta, self.moving)
-                .intersect(o, d, 0.0, t_max)
-                .is_some()
-        })
+        any_hit(
+            &slice.bvh,
+            &BoxRay::new(o, d),
+            t_max,
+            &slice.leaf_segments,
+            |slot| {
+                slice.leaf_segments[slot]
+                    .at(delta, self.moving)
+                    .intersect(o, d, 0.0, t_max)
+                    .is_some()
+            },
+        )
     }
 }
 

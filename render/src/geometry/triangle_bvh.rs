@@ -83,7 +83,8 @@ impl TriangleBvh {
         let bvh = self.bvh.as_ref()?;
         let sheared = ShearedRay::new(origin, dir);
         let mut nearest = None;
-        let t = closest_hit(bvh, &BoxRay::new(origin, dir), t_max, |slot, range| {
+        let ray = BoxRay::new(origin, dir);
+        let t = closest_hit(bvh, &ray, t_max, &self.leaf_triangles, |slot, range| {
             let (t, b1, b2) = intersect_watertight(&sheared, &self.leaf_triangles[slot], range)?;
             accept(self.leaf_ids[slot], t).then(|| {
                 nearest = Some((slot, b1, b2));
@@ -110,10 +111,16 @@ impl TriangleBvh {
             return false;
         };
         let sheared = ShearedRay::new(origin, dir);
-        any_hit(bvh, &BoxRay::new(origin, dir), t_max, |slot| {
-            intersect_watertight(&sheared, &self.leaf_triangles[slot], t_max)
-                .is_some_and(|(t, ..)| accept(self.leaf_ids[slot], t))
-        })
+        any_hit(
+            bvh,
+            &BoxRay::new(origin, dir),
+            t_max,
+            &self.leaf_triangles,
+            |slot| {
+                intersect_watertight(&sheared, &self.leaf_triangles[slot], t_max)
+                    .is_some_and(|(t, ..)| accept(self.leaf_ids[slot], t))
+            },
+        )
     }
 }
 
