@@ -32,6 +32,7 @@ use crate::geometry::Hit;
 use crate::geometry::{offset_origin, offset_target};
 use crate::lights::{Found, LightPlace, LightSample, LightSource, Receiver};
 use crate::material::{Bsdf, Side};
+use crate::medium::{Flight, Medium};
 use crate::ray::Ray;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::{Scene, SceneHit};
@@ -206,8 +207,8 @@ impl PathSample {
 enum Crossing {
     /// It passed every opening (or met none): the hit stands.
     Passed,
-    /// It teleported: the path continues along the new ray.
-    Teleported,
+    /// It teleported at this distance along the old ray: the path continues along the new one.
+    Teleported(f32),
     /// The path ends at an opening (the depth limit, or total reflection at its exit).
     Ended,
 }
@@ -258,7 +259,7 @@ fn cross_openings(
             path.lit_through = true;
         }
         path.ray = Ray::new(next.origin, next.direction, f32::INFINITY, time);
-        return Crossing::Teleported;
+        return Crossing::Teleported(ph.t);
     }
     Crossing::Passed
 }
@@ -272,10 +273,26 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
     let mut strategies: Option<Strategies> = None;
     loop {
         let hit = scene.intersect(&path.ray, path.class());
-        match cross_openings(scene, &mut path, hit.map(|h| h.t()), s, &mut out) {
+        let hit_t = hit.map(|h| h.t());
+        let collision = scene.medium.as_ref().and_then(|m| free_flight(m, hit_t, s));
+        match cross_openings(scene, &mut path, collision.or(hit_t), s, &mut out) {
             Crossing::Passed => {}
-            Crossing::Teleported => continue,
+            Crossing::Teleported(at) => {
+                if let Some(m) = &scene.medium {
+                    path.beta *= m.passage(at);
+                }
+                continue;
+            }
             Crossing::Ended => break,
+        }
+        if let Some(m) = &scene.medium {
+            if let Some(at) = collision {
+                if !scatter_in_medium(scene, m, &mut path, &mut strategies, at, s, &mut out) {
+                    break;
+                }
+                continue;
+            }
+            path.beta *= m.passage(hit_t.unwrap_or(f32::INFINITY));
         }
         let dir = path.ray.dir;
         let Some(hit) = hit else {
@@ -320,9 +337,8 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
     out
 }
 
-/// Shades the surface `hit` of the path's ray: its emission, light sampling (whose choice of
-/// strategies it leaves in `strategies`), and the BSDF sample that continues the path (with
-/// roulette). False when the path ends there.
+/// Shades the surface `hit` of the path's ray: its emission, then [`scatter_at`]. False when
+/// the path ends there.
 fn scatter(
     scene: &Scene,
     path: &mut PathState,
@@ -355,6 +371,67 @@ fn scatter(
             out.gather(path.beta * le * weight, path.lit_through);
         }
     }
+    scatter_at(scene, path, strategies, p, ng, &material.bsdf, s, out)
+}
+
+/// A free-flight distance through `medium` for the path's ray, whose surface lies at `hit_t`
+/// (`None`: it escapes): the distance of a collision before it, or `None`.
+fn free_flight(medium: &Medium, hit_t: Option<f32>, s: &mut SampleStream) -> Option<f32> {
+    let [u_channel, u_distance, ..] = s.uniform_4d();
+    match medium.sample_flight(u_channel, u_distance, hit_t.unwrap_or(f32::INFINITY)) {
+        Flight::Collision(at) => Some(at),
+        Flight::Through => None,
+    }
+}
+
+/// A collision in `medium` at distance `at` along the path's ray: the medium's emission there,
+/// then [`scatter_at`] with its phase function. False when the path ends there.
+fn scatter_in_medium(
+    scene: &Scene,
+    medium: &Medium,
+    path: &mut PathState,
+    strategies: &mut Option<Strategies>,
+    at: f32,
+    s: &mut SampleStream,
+    out: &mut PathSample,
+) -> bool {
+    let dir = path.ray.dir;
+    path.first_hit(out, at, -dir, medium.albedo());
+    let (emitted, scattered) = medium.collision(at);
+    out.gather(path.beta * emitted, path.lit_through);
+    path.beta *= scattered;
+    let phase = Bsdf::Phase {
+        g: medium.anisotropy,
+    };
+    // The "normal" faces where the path came from, so the phase function's frame has wo = +z.
+    scatter_at(
+        scene,
+        path,
+        strategies,
+        path.ray.at(at),
+        -dir,
+        &phase,
+        s,
+        out,
+    )
+}
+
+/// Light sampling at the point `p` the path's ray reached (geometric normal `ng`, or the
+/// direction back along the ray in a medium), leaving its choice of strategies in
+/// `strategies`, and the BSDF sample that continues the path (with roulette). False when the
+/// path ends there.
+#[allow(clippy::too_many_arguments)]
+fn scatter_at(
+    scene: &Scene,
+    path: &mut PathState,
+    strategies: &mut Option<Strategies>,
+    p: Vec3,
+    ng: Vec3,
+    bsdf: &Bsdf,
+    s: &mut SampleStream,
+    out: &mut PathSample,
+) -> bool {
+    let (dir, time) = (path.ray.dir, path.ray.time);
     // Dimensions of this bounce, drawn whether or not they are used.
     let [lx, ly, bx, by] = s.next_4d();
     let [u_roulette, u_lobe, u_strategy, u_technique] = s.uniform_4d();
@@ -364,14 +441,13 @@ fn scatter(
     }
 
     // Shade on the side the path arrived from.
-    let (n, side) = if cos_o >= 0.0 {
+    let (n, side) = if -dir.dot(ng) >= 0.0 {
         (ng, Side::Front)
     } else {
         (-ng, Side::Back)
     };
     let frame = Frame::new(n);
     let wo = frame.to_local(-dir);
-    let bsdf = &material.bsdf;
     let receiver = Receiver {
         p,
         n: (!bsdf.transmits()).then_some(n),
@@ -630,8 +706,11 @@ pub(crate) fn shadow(
     let portals = &scene.portals;
     let mut ray = Ray::new(from, dir, f32::INFINITY, time);
     let (mut tint, mut coins) = (Vec3::ONE, 1.0f32);
+    // Distance through the medium filling the scene, over every straight stretch.
+    let mut travelled = 0.0f32;
     for i in chain.openings() {
         let hit = portals.intersect_one(i, &ray)?;
+        travelled += hit.t;
         // Up to the opening (which wins a tie with a wall it is set in), nothing may block.
         let before = Ray {
             t_max: hit.t,
@@ -662,6 +741,12 @@ pub(crate) fn shadow(
         }
         let dist = to.length();
         ray = Ray::new(ray.origin, to / dist, dist, ray.time);
+    }
+    if let Some(medium) = &scene.medium {
+        tint *= medium.transmittance(travelled + ray.t_max);
+        if tint == Vec3::ZERO {
+            return None;
+        }
     }
     coins *= portals.transmittance(&ray);
     (coins != 0.0 && !scene.occluded(&ray)).then_some((tint, coins))

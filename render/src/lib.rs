@@ -16,6 +16,7 @@ pub mod light_visibility;
 pub mod lights;
 pub mod mask;
 pub mod material;
+pub mod medium;
 pub mod microfacet;
 pub mod portal;
 pub mod ray;

@@ -2,6 +2,7 @@
 //! shading normal turned towards the outgoing direction, so wo.z > 0 always; which side of the
 //! surface that is ([`Side`]) sets the relative index of refraction.
 
+use crate::medium::{henyey_greenstein, sample_henyey_greenstein};
 use crate::microfacet::{Ggx, SMOOTH_ALPHA, fresnel_dielectric, fresnel_schlick, reflect, refract};
 use crate::sampling::cosine_hemisphere;
 use glam::{Vec2, Vec3};
@@ -19,6 +20,10 @@ pub enum Bsdf {
     /// term; a perfectly smooth interface when smooth. `ior` is inside (behind the front face)
     /// over outside.
     Dielectric { ior: f32, ggx: Ggx },
+    /// Not a surface: the Henyey–Greenstein phase function of a point in a medium (asymmetry
+    /// `g`), so medium vertices share light sampling and MIS with surfaces. Its frame is any
+    /// whose z axis is `wo`; it has no sides, and its value carries no cosine.
+    Phase { g: f32 },
 }
 
 /// The side of the surface the path arrived from.
@@ -74,13 +79,13 @@ impl Material {
 impl Bsdf {
     /// True when light can pass through the surface (so light from behind it matters).
     pub fn transmits(&self) -> bool {
-        matches!(self, Bsdf::Dielectric { .. })
+        matches!(self, Bsdf::Dielectric { .. } | Bsdf::Phase { .. })
     }
 
     /// True when every lobe is a Dirac delta: light sampling cannot help and is skipped.
     pub fn is_delta(&self) -> bool {
         match self {
-            Bsdf::Diffuse { .. } => false,
+            Bsdf::Diffuse { .. } | Bsdf::Phase { .. } => false,
             Bsdf::Conductor { ggx, .. } | Bsdf::Dielectric { ggx, .. } => ggx.alpha <= SMOOTH_ALPHA,
         }
     }
@@ -90,7 +95,7 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse { reflectance } => *reflectance,
             Bsdf::Conductor { f0, .. } => *f0,
-            Bsdf::Dielectric { .. } => Vec3::ONE,
+            Bsdf::Dielectric { .. } | Bsdf::Phase { .. } => Vec3::ONE,
         }
     }
 
@@ -130,6 +135,7 @@ impl Bsdf {
                 };
                 Vec3::splat(value)
             }
+            Bsdf::Phase { g } => Vec3::splat(henyey_greenstein(*g, wo, wi)),
         }
     }
 
@@ -166,6 +172,7 @@ impl Bsdf {
                     ggx.pdf_visible(wo, h) * refraction_jacobian(oh, ih, eta) * (1.0 - r)
                 }
             }
+            Bsdf::Phase { g } => henyey_greenstein(*g, wo, wi),
         }
     }
 
@@ -251,6 +258,16 @@ impl Bsdf {
                     pdf,
                     delta: false,
                     eta: crossed,
+                })
+            }
+            Bsdf::Phase { g } => {
+                let wi = sample_henyey_greenstein(*g, wo, u);
+                Some(BsdfSample {
+                    wi,
+                    weight: Vec3::ONE,
+                    pdf: henyey_greenstein(*g, wo, wi),
+                    delta: false,
+                    eta: 1.0,
                 })
             }
         }

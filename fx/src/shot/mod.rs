@@ -84,6 +84,7 @@ pub struct RenderSections {
     pub render: Option<toml::Table>,
     pub objects: Vec<toml::Table>,
     pub materials: Vec<toml::Table>,
+    pub media: Vec<toml::Table>,
     pub lights: Vec<toml::Table>,
     pub environment: Option<toml::Table>,
     /// `portal[i].surface`, one entry per opening.
@@ -192,6 +193,7 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
         render: raw.render,
         objects: raw.objects,
         materials: raw.materials,
+        media: raw.media,
         lights: raw.lights,
         environment: raw.environment,
         portal_surfaces: raw.portals.iter().map(|p| p.surface.clone()).collect(),

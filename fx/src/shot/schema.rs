@@ -65,7 +65,7 @@
 //! its −Z, an opening's front is its +Z), and a uniform `scale`; or a whole 4×4 `matrix`
 //! (row-major, column vectors, translation in the last column) that must be a similarity.
 //!
-//! The sections `render`, `object`, `material`, `light`, `environment`, `camera.clip`,
+//! The sections `render`, `object`, `material`, `medium`, `light`, `environment`, `camera.clip`,
 //! `camera.stereo`, `portal.surface` and `portal.cull` belong to the renderer: `rift fx` keeps them unread.
 
 use serde::Deserialize;
@@ -86,6 +86,8 @@ pub struct ShotFile {
     pub objects: Vec<toml::Table>,
     #[serde(default, rename = "material")]
     pub materials: Vec<toml::Table>,
+    #[serde(default, rename = "medium")]
+    pub media: Vec<toml::Table>,
     #[serde(default, rename = "light")]
     pub lights: Vec<toml::Table>,
     pub environment: Option<toml::Table>,

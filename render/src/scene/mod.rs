@@ -4,6 +4,7 @@
 //! sections: [`schema`].
 
 pub mod camera;
+pub mod media;
 pub mod mesh;
 pub mod ply;
 pub mod portals;
@@ -112,6 +113,8 @@ pub struct Scene {
     pub light_visibility: crate::light_visibility::LightVisibility,
     /// Per-object visibility flags and cull volumes.
     pub visibility: Visibility,
+    /// The medium filling the scene, if any (one that does nothing counts as none).
+    pub medium: Option<crate::medium::Medium>,
     /// The rings' strands (emissive round curves).
     pub strands: Strands,
     /// Which rays see each ring's strands (by ring of [`Self::strands`]).
@@ -218,6 +221,7 @@ impl Scene {
             ..settings
         };
 
+        let medium = media::medium(file, &sections.media)?;
         let mut materials = Vec::new();
         for (i, table) in sections.materials.iter().enumerate() {
             let key = format!("material[{i}]");
@@ -491,6 +495,7 @@ impl Scene {
             stereo,
             portals,
             visibility,
+            medium,
             strands,
             strand_flags,
             frame,

@@ -33,6 +33,14 @@
 //! ior = 1.5                     # inside (behind the front face) over outside
 //! roughness = 0.0               # 0: a perfectly smooth interface
 //!
+//! [[medium]]                    # a homogeneous medium filling the scene (at most one): haze, fog
+//! name = "haze"
+//! absorption = [0.01, 0.01, 0.01]  # σ_a per metre (each optional, default 0)
+//! scattering = [0.05, 0.05, 0.05]  # σ_s per metre
+//! anisotropy = 0.3              # Henyey–Greenstein g in (-1, 1): > 0 scatters forward
+//! emission = [0.0, 0.0, 0.0]    # radiance emitted per metre of path
+//!                               # (the sky is extinguished at infinite distance)
+//!
 //! [environment]                # light from every direction where rays escape:
 //! radiance = [0.2, 0.25, 0.3]   # a constant radiance, or
 //! # map = "sky.exr"             # a lat-long EXR (RGB), relative to the shot file; top row up,
@@ -124,6 +132,17 @@ pub struct MaterialSection {
     pub ior: Option<f64>,
     pub emission: Option<[f64; 3]>,
     pub two_sided_emission: Option<bool>,
+}
+
+/// One `[[medium]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumSection {
+    pub name: String,
+    pub absorption: Option<[f64; 3]>,
+    pub scattering: Option<[f64; 3]>,
+    pub anisotropy: Option<f64>,
+    pub emission: Option<[f64; 3]>,
 }
 
 /// Material types.

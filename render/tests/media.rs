@@ -1,0 +1,225 @@
+//! Participating media: a homogeneous medium filling the scene, against closed forms (furnaces,
+//! transmittance), through openings, and its bad inputs.
+
+mod common;
+
+use common::{assert_statistically_equal, box_obj, render_at, render_shot, square, tunnel_shot};
+use glam::Vec3;
+use rift_render::Scene;
+use rift_render::rift_fx::Shot;
+use std::path::Path;
+
+/// A shot with the camera at the origin looking down −Z inside a closed box 10 m across whose
+/// black walls emit `wall` radiance from both sides, filled with `medium` (TOML keys).
+fn enclosure(dir: &Path, wall: f32, medium: &str) -> String {
+    std::fs::write(dir.join("room.obj"), box_obj([-5.0; 3], [5.0; 3], &[])).unwrap();
+    format!(
+        r#"
+[shot]
+name = "enclosure"
+fps = 24.0
+frames = [1, 1]
+[camera]
+resolution = [24, 24]
+fov_degrees = 60.0
+[camera.transform]
+position = [0.0, 0.0, 0.0]
+look_at = [0.0, 0.0, -1.0]
+[[material]]
+name = "wall"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [{wall}, {wall}, {wall}]
+two_sided_emission = true
+[[object]]
+name = "room"
+mesh = "room.obj"
+material = "wall"
+[[medium]]
+name = "fog"
+{medium}
+"#
+    )
+}
+
+fn mean(img: &rift_render::film::Image) -> Vec3 {
+    img.rgb.iter().copied().sum::<Vec3>() / img.rgb.len() as f32
+}
+
+#[test]
+fn a_lossless_scattering_medium_in_a_uniform_enclosure_shows_the_walls_radiance() {
+    // Equilibrium: the walls emit 1 everywhere and the medium neither absorbs nor emits, so the
+    // radiance is 1 at every point in every direction, whatever the optical depth and phase
+    // function. Exercises collisions, light sampling from medium points with transmittance,
+    // MIS against phase sampling, and long scattering chains.
+    let dir = tempfile::tempdir().unwrap();
+    for (scattering, g) in [(0.3f32, 0.0f32), (1.5, 0.6), (1.0, -0.5)] {
+        let medium =
+            format!("scattering = [{scattering}, {scattering}, {scattering}]\nanisotropy = {g}");
+        let img = render_shot(
+            dir.path(),
+            "furnace",
+            &enclosure(dir.path(), 1.0, &medium),
+            64,
+        );
+        let m = mean(&img);
+        assert!(
+            (m - Vec3::ONE).abs().max_element() < 0.01,
+            "σ_s {scattering}, g {g}: mean {m}"
+        );
+        assert!(img.rgb.iter().all(|c| c.is_finite()));
+        // Pixels are noisy estimates of 1 (long scattering chains): few stray far.
+        let strays = img.rgb.iter().filter(|c| (c.x - 1.0).abs() > 0.25).count();
+        assert!(
+            strays * 50 < img.rgb.len(),
+            "σ_s {scattering}, g {g}: {strays} strays"
+        );
+    }
+}
+
+#[test]
+fn an_emitting_absorbing_medium_in_balance_with_its_walls_is_uniform() {
+    // Walls at ε/σ_a: L = T·ε/σ_a + (1 − T)·ε/σ_a everywhere. A colourful medium, so every
+    // channel's extinction differs and the one-sample MIS over channels is exercised.
+    let dir = tempfile::tempdir().unwrap();
+    let medium =
+        "absorption = [0.1, 0.4, 2.0]\nemission = [0.05, 0.2, 1.0]\nscattering = [0.2, 0.1, 0.3]";
+    let img = render_shot(
+        dir.path(),
+        "balance",
+        &enclosure(dir.path(), 0.5, medium),
+        64,
+    );
+    let m = mean(&img);
+    assert!(
+        (m - Vec3::splat(0.5)).abs().max_element() < 0.006,
+        "mean {m}"
+    );
+}
+
+#[test]
+fn an_absorbing_medium_dims_an_emitter_by_its_transmittance() {
+    // A wall 8 m away emitting 1, seen through pure absorption: e^(−σ_a · distance) per
+    // channel (every camera ray meets the wall head-on within a few degrees).
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("wall.obj"), square(-8.0, 20.0)).unwrap();
+    let sigma = [0.05f32, 0.2, 0.4];
+    let text = format!(
+        r#"
+[shot]
+name = "absorb"
+fps = 24.0
+frames = [1, 1]
+[camera]
+resolution = [8, 8]
+fov_degrees = 2.0
+[camera.transform]
+position = [0.0, 0.0, 0.0]
+[[material]]
+name = "lamp"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [1.0, 1.0, 1.0]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "lamp"
+[[medium]]
+name = "ink"
+absorption = [{}, {}, {}]
+"#,
+        sigma[0], sigma[1], sigma[2]
+    );
+    let m = mean(&render_shot(dir.path(), "absorb", &text, 256));
+    let expected = Vec3::from_array(sigma.map(|s| (-s * 8.0).exp()));
+    let relative = (m - expected).abs() / expected;
+    assert!(
+        relative.max_element() < 0.03,
+        "mean {m}, expected {expected}"
+    );
+}
+
+#[test]
+fn haze_seen_through_an_identity_opening_renders_like_no_opening() {
+    // The medium fills both sides of the opening: teleporting must not change the optical
+    // depth of anything, for camera rays, bounced rays and shadow rays.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("lamp.obj"), square(-1.0, 0.4)).unwrap();
+    let scene = r#"
+[[material]]
+name = "lamp"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [20.0, 16.0, 12.0]
+[[object]]
+name = "lamp"
+mesh = "lamp.obj"
+material = "lamp"
+[[medium]]
+name = "haze"
+scattering = [0.08, 0.1, 0.12]
+absorption = [0.02, 0.02, 0.02]
+anisotropy = 0.4
+"#;
+    let identity = r#"
+[[portal]]
+name = "A"
+here = { position = [0.0, 0.0, 0.0], rotation_degrees = [0.0, 10.0, 0.0] }
+there = { position = [0.0, 0.0, 0.0], rotation_degrees = [0.0, 10.0, 0.0] }
+[portal.surface]
+radius = 1.0
+"#;
+    let none = tunnel_shot(dir.path(), scene);
+    let with = tunnel_shot(dir.path(), &format!("{scene}{identity}"));
+    let spp = 48;
+    let a = render_at(dir.path(), "none", &none, spp, 1);
+    let b = render_at(dir.path(), "none2", &none, spp, 2);
+    let c = render_at(dir.path(), "identity", &with, spp, 3);
+    let d = render_at(dir.path(), "identity2", &with, spp, 4);
+    // Camera rays that collide in the haze first never reach the opening.
+    assert!(c.portal_depth.iter().any(|&d| d > 0.3));
+    assert_statistically_equal(
+        [&c.rgb, &d.rgb],
+        [&a.rgb, &b.rgb],
+        "haze through an identity opening",
+    );
+}
+
+#[test]
+fn bad_media_are_refused_with_their_key() {
+    let dir = tempfile::tempdir().unwrap();
+    for (medium, key, says) in [
+        (
+            "scattering = [0.1, -0.1, 0.1]",
+            "medium[0].scattering",
+            "≥ 0",
+        ),
+        (
+            "absorption = [0.1, 0.1, nan]",
+            "medium[0].absorption",
+            "≥ 0",
+        ),
+        ("anisotropy = 1.0", "medium[0].anisotropy", "(-1, 1)"),
+        ("anisotropy = -1.5", "medium[0].anisotropy", "(-1, 1)"),
+        (
+            "scattering = [1e12, 0.0, 0.0]",
+            "medium[0].scattering",
+            "at most",
+        ),
+        ("density = 2.0", "medium[0]", "density"),
+        (
+            "scattering = [0.1, 0.1, 0.1]\n[[medium]]\nname = \"more\"",
+            "medium[1]",
+            "only one",
+        ),
+    ] {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, enclosure(dir.path(), 1.0, medium)).unwrap();
+        let shot = Shot::load(&path).unwrap();
+        let err = Scene::build(&shot, 1).err().expect(medium).to_string();
+        assert!(
+            err.contains("bad.toml") && err.contains(key) && err.contains(says),
+            "{medium}: {err}"
+        );
+    }
+}
