@@ -9,7 +9,8 @@
 //! divides by a tiny density): when s falls before the surface the path gathers
 //! T(s) ε / pdf(s) and scatters there with weight T(s) σ_s / pdf(s); otherwise it goes on to
 //! the surface with weight T(d) / P(d), P(d) = mean of e^(−σ_t,c d). Both weights are exactly 1
-//! per channel for a grey medium. Shadow rays multiply by T of their length.
+//! per channel for a grey medium. A medium that only absorbs draws no collisions (they could
+//! add nothing): paths pass with weight T(d). Shadow rays multiply by T of their length.
 //!
 //! Light sampling at a point in the medium uses the phase function as its "BSDF"
 //! ([`crate::material::Bsdf::Phase`]), so it shares next-event estimation, MIS and light
@@ -51,9 +52,19 @@ impl Medium {
         self.extinction.max_element() > 0.0 || self.emission.max_element() > 0.0
     }
 
+    /// True when a collision can add anything (the medium scatters or emits). A medium that
+    /// only absorbs draws no collisions: paths pass with weight T(d) instead of dying with
+    /// probability 1 − T(d), which removes the medium's own noise entirely.
+    fn collisions_matter(&self) -> bool {
+        self.scattering.max_element() > 0.0 || self.emission.max_element() > 0.0
+    }
+
     /// A free-flight distance from `u_channel` (which channel's extinction draws it) and
     /// `u_distance`, against the distance `d` to the surface (∞ for an escaping ray).
     pub fn sample_flight(&self, u_channel: f32, u_distance: f32, d: f32) -> Flight {
+        if !self.collisions_matter() {
+            return Flight::Through;
+        }
         let channel = ((u_channel * 3.0) as usize).min(2);
         let sigma = self.extinction[channel];
         if sigma <= 0.0 {
@@ -95,6 +106,9 @@ impl Medium {
     /// The weight of passing distance `d` without a collision: T(d) over its probability.
     pub fn passage(&self, d: f32) -> Vec3 {
         let t = self.transmittance(d);
+        if !self.collisions_matter() {
+            return t;
+        }
         let p = t.element_sum() / 3.0;
         if p <= 0.0 { Vec3::ZERO } else { t / p }
     }

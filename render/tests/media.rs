@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::{assert_statistically_equal, box_obj, render_at, render_shot, square, tunnel_shot};
+use common::{
+    assert_statistically_equal, box_obj, equivalence, render_at, render_shot, square, tunnel_shot,
+};
 use glam::Vec3;
 use rift_render::Scene;
 use rift_render::rift_fx::Shot;
@@ -183,6 +185,21 @@ radius = 1.0
         [&a.rgb, &b.rgb],
         "haze through an identity opening",
     );
+}
+
+#[test]
+fn through_an_opening_in_ink_equals_the_solved_camera_on_the_other_side() {
+    // Rigid openings keep lengths, so the optical depth from the camera to anything seen
+    // through the opening equals that from the solved camera; with absorption only, nothing
+    // the air scatters in can differ between the two sides.
+    equivalence("ink", |shot| {
+        let at = shot.camera.transform.at(shot.time_of(12.0));
+        shot.camera.transform = rift_render::rift_fx::rig::AnimatedTransform::constant(at);
+        shot.camera.projection.aperture_radius = 0.0;
+        let ink: toml::Table =
+            toml::from_str("name = \"ink\"\nabsorption = [0.05, 0.12, 0.25]").unwrap();
+        shot.render.media.push(ink);
+    });
 }
 
 #[test]

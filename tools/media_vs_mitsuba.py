@@ -1,0 +1,151 @@
+#!/usr/bin/env python3
+"""rift's participating media against Mitsuba 3's volpath on the Cornell box filled with fog.
+
+The Cornell reference pack (../shared/reference/cornell) in a homogeneous medium that fills the
+scene: Mitsuba attaches it to the sensor and to both sides of every shape, rift declares it in
+`[[medium]]`. Both render with several seeds; the script prints per-channel means over the image
+and over a 4 x 4 grid of regions, the difference rift - Mitsuba relative to Mitsuba, the noise
+of that difference (from the spread over seeds), and each renderer's seconds and relMSE against the
+other's mean, so efficiency can be compared. Exit status 1 when a region differs by more than
+0.5% plus three times its noise.
+
+    pip install mitsuba openexr numpy
+    python3 tools/media_vs_mitsuba.py --rift target/release/rift --spp 256 --mitsuba-spp 1024
+"""
+import argparse
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+PACK = ROOT.parent / "shared" / "reference" / "cornell"
+
+
+def fog_keys(args):
+    """The medium as rift's [[medium]] keys."""
+    sigma_s = args.sigma_t * args.albedo
+    sigma_a = args.sigma_t - sigma_s
+    return (f'name = "fog"\nabsorption = [{sigma_a}, {sigma_a}, {sigma_a}]\n'
+            f'scattering = [{sigma_s}, {sigma_s}, {sigma_s}]\nanisotropy = {args.g}\n')
+
+
+def render_rift(args, tmp, seed):
+    """rift on the pack plus the medium: (image H x W x 3, seconds)."""
+    for name in ("cornell.obj", "cornell.mtl"):
+        shutil.copy(ROOT / "examples" / name, tmp / name)
+    shot = (ROOT / "examples" / "cornell.toml").read_text() + "\n[[medium]]\n" + fog_keys(args)
+    (tmp / "fog.toml").write_text(shot)
+    out = tmp / f"rift_{seed}.exr"
+    t = time.perf_counter()
+    subprocess.run([args.rift, "render", str(tmp / "fog.toml"), "-o", str(out), "--spp",
+                    str(args.spp), "--seed", str(seed)], check=True, capture_output=True)
+    return read_exr(out), time.perf_counter() - t
+
+
+def read_exr(path):
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        channels = f.channels()
+        if "RGBA" in channels:
+            return np.asarray(channels["RGBA"].pixels, dtype=np.float64)[..., :3]
+        return np.asarray(channels["RGB"].pixels, dtype=np.float64)
+
+
+def render_mitsuba(args, seed):
+    """Mitsuba volpath on the same scene: (image H x W x 3, seconds)."""
+    import mitsuba as mi
+
+    mi.set_variant(args.variant)
+    scene = mi.cornell_box()
+    scene["fog"] = {
+        "type": "homogeneous",
+        "sigma_t": args.sigma_t,
+        "albedo": {"type": "rgb", "value": [args.albedo] * 3},
+        "phase": {"type": "hg", "g": args.g},
+    }
+    fog = {"type": "ref", "id": "fog"}
+    for key, value in scene.items():
+        if isinstance(value, dict) and value.get("type") in ("rectangle", "cube", "obj", "ply"):
+            value["interior"] = fog
+            value["exterior"] = fog
+    scene["sensor"]["medium"] = fog
+    scene["sensor"]["film"]["rfilter"] = {"type": "box"}
+    scene["sensor"]["sampler"] = {"type": "independent", "sample_count": args.mitsuba_spp}
+    scene["integrator"] = {"type": "volpath", "max_depth": -1}
+    built = mi.load_dict(scene)
+    t = time.perf_counter()
+    image = mi.render(built, seed=seed)
+    image = np.asarray(image, dtype=np.float64)[..., :3]
+    return image, time.perf_counter() - t
+
+
+def region_means(img, n=4):
+    h, w, _ = img.shape
+    return np.array([[img[i * h // n:(i + 1) * h // n, j * w // n:(j + 1) * w // n].mean((0, 1))
+                      for j in range(n)] for i in range(n)])
+
+
+def rel_mse(img, ref):
+    return float(np.mean((img - ref) ** 2 / (ref ** 2 + 0.01)))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--rift", default=str(ROOT / "target" / "release" / "rift"))
+    ap.add_argument("--spp", type=int, default=256, help="rift's samples per pixel")
+    ap.add_argument("--mitsuba-spp", type=int, default=1024)
+    ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--sigma-t", type=float, default=0.25, help="extinction per metre")
+    ap.add_argument("--albedo", type=float, default=0.8)
+    ap.add_argument("--g", type=float, default=0.4, help="Henyey-Greenstein asymmetry")
+    ap.add_argument("--seeds", type=int, default=4, help="renders per renderer (noise estimate)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        runs = {"rift": [], "mitsuba": []}
+        for seed in range(1, args.seeds + 1):
+            runs["rift"].append(render_rift(args, tmp, seed))
+            runs["mitsuba"].append(render_mitsuba(args, seed))
+    means = {k: sum(img for img, _ in v) / len(v) for k, v in runs.items()}
+    print(f"Cornell box in fog: sigma_t {args.sigma_t}/m, albedo {args.albedo}, g {args.g}; "
+          f"rift {args.spp} spp, Mitsuba {args.variant} volpath {args.mitsuba_spp} spp, "
+          f"{args.seeds} seeds each")
+    for who, pair in runs.items():
+        other = means["mitsuba" if who == "rift" else "rift"]
+        seconds = np.median([t for _, t in pair])
+        print(f"  {who:<8} seconds (median) {seconds:7.2f}   image mean "
+              f"{np.round(means[who].mean((0, 1)), 5)}   relMSE vs the other's mean "
+              f"{rel_mse(pair[0][0], other):.3e}")
+    failed = False
+    grid = {k: region_means(v) for k, v in means.items()}
+    # Noise of a region's mean difference: the standard errors of both renderers' means over
+    # their seeds, combined.
+    noise = np.zeros_like(grid["rift"])
+    for renders in runs.values():
+        regions = np.array([region_means(img) for img, _ in renders])
+        noise += regions.var(axis=0, ddof=1) / len(renders)
+    noise = np.sqrt(noise)
+    whole = {k: v.mean((0, 1)) for k, v in means.items()}
+    rel = (whole["rift"] - whole["mitsuba"]) / whole["mitsuba"]
+    print(f"whole image: rift/mitsuba - 1 = {np.round(rel * 100, 3)} %")
+    print("regions (row, col): rift/mitsuba - 1 in %, per channel, and noise in %")
+    for i in range(4):
+        for j in range(4):
+            m = grid["mitsuba"][i, j]
+            d = (grid["rift"][i, j] - m) / np.maximum(m, 1e-9)
+            s = noise[i, j] / np.maximum(m, 1e-9)
+            bad = np.any(np.abs(d) > 0.005 + 3 * s)
+            failed |= bad
+            print(f"  ({i},{j}) {np.round(d * 100, 2)} ± {np.round(s * 100, 2)}"
+                  + ("   <- off" if bad else ""))
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
