@@ -9,6 +9,23 @@ use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 
+/// obvhs' compressed wide BVH over `triangles` (its primitive indices index them).
+pub(crate) fn build_cwbvh(triangles: &[Triangle]) -> CwBvh {
+    let tris: Vec<obvhs::triangle::Triangle> = triangles
+        .iter()
+        .map(|t| obvhs::triangle::Triangle {
+            v0: t.v[0].into(),
+            v1: t.v[1].into(),
+            v2: t.v[2].into(),
+        })
+        .collect();
+    build_cwbvh_from_tris(
+        &tris,
+        BvhBuildParams::medium_build(),
+        &mut Default::default(),
+    )
+}
+
 /// A closest hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleHit {
@@ -41,19 +58,7 @@ impl TriangleBvh {
                 leaf_ids: Vec::new(),
             };
         }
-        let tris: Vec<obvhs::triangle::Triangle> = triangles
-            .iter()
-            .map(|t| obvhs::triangle::Triangle {
-                v0: t.v[0].into(),
-                v1: t.v[1].into(),
-                v2: t.v[2].into(),
-            })
-            .collect();
-        let bvh = build_cwbvh_from_tris(
-            &tris,
-            BvhBuildParams::medium_build(),
-            &mut Default::default(),
-        );
+        let bvh = build_cwbvh(triangles);
         let leaf_triangles = bvh
             .primitive_indices
             .iter()

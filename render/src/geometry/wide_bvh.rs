@@ -385,29 +385,12 @@ fn slab_hits_avx2(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
 mod tests {
     use super::*;
     use crate::geometry::triangle::{ShearedRay, Triangle, intersect_watertight};
-    use obvhs::BvhBuildParams;
-    use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+    use crate::geometry::triangle_bvh::build_cwbvh;
     use std::cell::Cell;
 
     thread_local! {
         /// Groups this thread's traversals put on the heap.
         pub static SPILLS: Cell<usize> = const { Cell::new(0) };
-    }
-
-    fn build(triangles: &[Triangle]) -> CwBvh {
-        let tris: Vec<obvhs::triangle::Triangle> = triangles
-            .iter()
-            .map(|t| obvhs::triangle::Triangle {
-                v0: t.v[0].into(),
-                v1: t.v[1].into(),
-                v2: t.v[2].into(),
-            })
-            .collect();
-        build_cwbvh_from_tris(
-            &tris,
-            BvhBuildParams::medium_build(),
-            &mut Default::default(),
-        )
     }
 
     /// Nearest hit by testing every triangle.
@@ -421,7 +404,7 @@ mod tests {
     /// Both queries against brute force on `tris` for rays from `origins` in many directions,
     /// including ones exactly along the axes (with −0.0 components) and ones from inside boxes.
     fn agree_with_brute_force(tris: &[Triangle], origins: &[Vec3]) {
-        let bvh = build(tris);
+        let bvh = build_cwbvh(tris);
         let mut directions: Vec<Vec3> = (0..200)
             .map(|k| {
                 let (a, b) = (k as f32 * 2.399, (k as f32 * 0.618).fract() * 2.0 - 1.0);
@@ -497,7 +480,7 @@ mod tests {
     fn groups_beyond_the_fixed_stack_spill_and_are_still_visited() {
         // A one-slot stack: the second group waiting goes to the heap.
         let tris = cloud();
-        let bvh = build(&tris);
+        let bvh = build_cwbvh(&tris);
         SPILLS.with(|n| n.set(0));
         for k in 0..500 {
             let origin = Vec3::new((k as f32 * 0.3).sin(), (k as f32 * 0.7).cos(), 0.0) * 3.0;

@@ -196,3 +196,32 @@ pub fn equivalence(variant: &str, adjust: impl Fn(&mut Shot)) {
         variant,
     );
 }
+
+/// An opening at the origin whose there side is its here side.
+pub const IDENTITY_OPENING: &str = r#"
+[[portal]]
+name = "A"
+here = { position = [0.0, 0.0, 0.0], rotation_degrees = [0.0, 10.0, 0.0] }
+there = { position = [0.0, 0.0, 0.0], rotation_degrees = [0.0, 10.0, 0.0] }
+[portal.surface]
+radius = 1.0
+"#;
+
+/// Renders the tunnel shot with `scene` (extra TOML) without and with [`IDENTITY_OPENING`],
+/// two seeds each at `spp`, asserts the two statistically equal, and returns the portal depth
+/// of a render with the opening.
+pub fn assert_identity_opening_changes_nothing(
+    dir: &Path,
+    scene: &str,
+    spp: u32,
+    what: &str,
+) -> Vec<f32> {
+    let none = tunnel_shot(dir, scene);
+    let with = tunnel_shot(dir, &format!("{scene}{IDENTITY_OPENING}"));
+    let a = render_at(dir, "none", &none, spp, 1);
+    let b = render_at(dir, "none2", &none, spp, 2);
+    let c = render_at(dir, "identity", &with, spp, 3);
+    let d = render_at(dir, "identity2", &with, spp, 4);
+    assert_statistically_equal([&c.rgb, &d.rgb], [&a.rgb, &b.rgb], what);
+    c.portal_depth
+}
