@@ -38,6 +38,7 @@ use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::{Scene, SceneHit};
 use crate::through::{Chain, Space, Strategies};
 use crate::visibility::RayClass;
+use crate::volumes::Inside;
 use glam::Vec3;
 
 /// Roulette starts after this many bounces.
@@ -108,6 +109,13 @@ struct PathState {
     /// The path teleported after its first scattering event: all it gathers from then on is
     /// light through openings.
     lit_through: bool,
+    /// The medium the ray travels in.
+    inside: Inside,
+    /// Distance from the last scattering event to the ray's origin (media boundaries crossed
+    /// on the way restart the ray), for the distances light selection's density needs.
+    travelled: f32,
+    /// Media boundaries crossed since the last event: a guard against a ray caught on one.
+    crossings: u32,
 }
 
 impl PathState {
@@ -128,6 +136,9 @@ impl PathState {
             coins: 1.0,
             opening_t: None,
             lit_through: false,
+            inside: Inside::Ambient,
+            travelled: 0.0,
+            crossings: 0,
         }
     }
 
@@ -167,7 +178,13 @@ impl PathState {
         let dir = self.ray.dir;
         let lights = &scene.lights;
         let pdf_light = match space {
-            None => lights.pdf_found(found, &self.prev_receiver, dir, t, &scene.strands),
+            None => lights.pdf_found(
+                found,
+                &self.prev_receiver,
+                dir,
+                self.travelled + t,
+                &scene.strands,
+            ),
             Some(space) => {
                 // Distances beyond the chain count from the mapped shading point.
                 let at = &space.receiver;
@@ -185,7 +202,7 @@ impl PathState {
     fn first_hit(&self, out: &mut PathSample, t: f32, normal: Vec3, albedo: Vec3) {
         if self.bounce == 0 {
             out.first = Some(FirstHit {
-                t: self.opening_t.unwrap_or(t),
+                t: self.opening_t.unwrap_or(self.travelled + t),
                 normal,
                 albedo,
             });
@@ -271,21 +288,26 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
     // How light sampling chose at the last scattering point (`None`: ordinary light sampling
     // only). Kept beside the path state, which stays small where no opening can matter.
     let mut strategies: Option<Strategies> = None;
+    if !scene.media.bounded.is_empty() {
+        path.inside = scene.media.at_point(camera_ray.origin);
+    }
     loop {
         let hit = scene.intersect(&path.ray, path.class());
         let hit_t = hit.map(|h| h.t());
-        let collision = scene.medium.as_ref().and_then(|m| free_flight(m, hit_t, s));
+        let medium = scene.media.medium(path.inside);
+        let collision = medium.and_then(|m| free_flight(m, hit_t, s));
         match cross_openings(scene, &mut path, collision.or(hit_t), s, &mut out) {
             Crossing::Passed => {}
             Crossing::Teleported(at) => {
-                if let Some(m) = &scene.medium {
+                if let Some(m) = medium {
                     path.beta *= m.passage(at);
                 }
+                path.inside = scene.media.at_point(path.ray.origin);
                 continue;
             }
             Crossing::Ended => break,
         }
-        if let Some(m) = &scene.medium {
+        if let Some(m) = medium {
             if let Some(at) = collision {
                 if !scatter_in_medium(scene, m, &mut path, &mut strategies, at, s, &mut out) {
                     break;
@@ -293,6 +315,14 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
                 continue;
             }
             path.beta *= m.passage(hit_t.unwrap_or(f32::INFINITY));
+        }
+        if let Some(SceneHit::Surface(h)) = &hit
+            && let Some(boundary) = scene.media.boundary(h.triangle)
+        {
+            if !cross_boundary(scene, &mut path, h, boundary) {
+                break;
+            }
+            continue;
         }
         let dir = path.ray.dir;
         let Some(hit) = hit else {
@@ -382,6 +412,32 @@ fn free_flight(medium: &Medium, hit_t: Option<f32>, s: &mut SampleStream) -> Opt
         Flight::Collision(at) => Some(at),
         Flight::Through => None,
     }
+}
+
+/// Media boundaries a path may cross in a row before it is taken to be caught on one.
+const MAX_BOUNDARY_CROSSINGS: u32 = 256;
+
+/// The path's ray passes the boundary of bounded medium `medium` at `hit` without scattering:
+/// it goes on from there in the medium on the other side. False when it has crossed too many
+/// in a row.
+fn cross_boundary(scene: &Scene, path: &mut PathState, hit: &Hit, medium: u32) -> bool {
+    path.crossings += 1;
+    if path.crossings > MAX_BOUNDARY_CROSSINGS {
+        return false;
+    }
+    let ray = path.ray;
+    let surface = scene.surface(hit, ray.time);
+    let ng = surface.ng;
+    path.inside = scene.media.crossed(medium, ray.dir, ng);
+    path.travelled += hit.t;
+    let origin = offset_origin(surface.p, if ray.dir.dot(ng) > 0.0 { ng } else { -ng });
+    path.ray = Ray {
+        origin,
+        t_min: (ray.t_min - hit.t).max(0.0),
+        t_max: ray.t_max - hit.t,
+        ..ray
+    };
+    true
 }
 
 /// A collision in `medium` at distance `at` along the path's ray: the medium's emission there,
@@ -487,6 +543,8 @@ fn scatter_at(
     path.ray = Ray::new(origin, dir, f32::INFINITY, time);
     path.chain = Chain::default();
     path.coins = 1.0;
+    path.travelled = 0.0;
+    path.crossings = 0;
     path.bounce += 1;
     if path.bounce >= ROULETTE_AFTER {
         let survive = (path.beta.max_element() * path.eta_scale / ROULETTE_THRESHOLD)
@@ -706,11 +764,12 @@ pub(crate) fn shadow(
     let portals = &scene.portals;
     let mut ray = Ray::new(from, dir, f32::INFINITY, time);
     let (mut tint, mut coins) = (Vec3::ONE, 1.0f32);
-    // Distance through the medium filling the scene, over every straight stretch.
-    let mut travelled = 0.0f32;
+    let media = (!scene.media.is_empty()).then_some(&scene.media);
     for i in chain.openings() {
         let hit = portals.intersect_one(i, &ray)?;
-        travelled += hit.t;
+        if let Some(media) = media {
+            tint *= media.transmittance(ray.origin, ray.dir, hit.t);
+        }
         // Up to the opening (which wins a tie with a wall it is set in), nothing may block.
         let before = Ray {
             t_max: hit.t,
@@ -742,8 +801,8 @@ pub(crate) fn shadow(
         let dist = to.length();
         ray = Ray::new(ray.origin, to / dist, dist, ray.time);
     }
-    if let Some(medium) = &scene.medium {
-        tint *= medium.transmittance(travelled + ray.t_max);
+    if let Some(media) = media {
+        tint *= media.transmittance(ray.origin, ray.dir, ray.t_max);
         if tint == Vec3::ZERO {
             return None;
         }

@@ -27,6 +27,7 @@ pub mod sobol;
 pub mod through;
 pub mod untrusted;
 pub mod visibility;
+pub mod volumes;
 
 pub use error::RenderError;
 pub use ray::Ray;

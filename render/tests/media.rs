@@ -295,8 +295,115 @@ fn through_an_opening_in_ink_equals_the_solved_camera_on_the_other_side() {
 }
 
 #[test]
+fn a_closed_box_of_ink_dims_what_is_seen_through_it_and_nothing_else() {
+    // An emitting wall 8 m away; a 2 m box of ink (not drawn) in front of its centre. Rays
+    // through the box are dimmed by e^(−σ·2) exactly; rays beside it not at all.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("wall.obj"), square(-8.0, 30.0)).unwrap();
+    std::fs::write(
+        dir.path().join("ink.obj"),
+        box_obj([-1.0, -1.0, -5.0], [1.0, 1.0, -3.0], &[]),
+    )
+    .unwrap();
+    let text = r#"
+[shot]
+name = "ink_box"
+fps = 24.0
+frames = [1, 1]
+[camera]
+resolution = [40, 20]
+fov_degrees = 40.0
+[camera.transform]
+position = [0.0, 0.0, 0.0]
+[[material]]
+name = "lamp"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [1.0, 1.0, 1.0]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "lamp"
+[[object]]
+name = "ink_volume"
+mesh = "ink.obj"
+[[medium]]
+name = "ink"
+object = "ink_volume"
+absorption = [0.1, 0.5, 1.5]
+"#;
+    let img = render_shot(dir.path(), "ink_box", text, 16);
+    let expected = Vec3::new(0.1f32, 0.5, 1.5).map(|s| (-2.0 * s).exp());
+    // The centre pixels look through the box's front and back faces; the corners miss it.
+    let at = |x: usize, y: usize| img.rgb[y * 40 + x];
+    for (x, y) in [(19, 9), (20, 10), (19, 10)] {
+        let c = at(x, y);
+        assert!(
+            ((c - expected).abs() / expected).max_element() < 1e-3,
+            "through the box: {c}, expected {expected}"
+        );
+    }
+    for (x, y) in [(0, 0), (39, 0), (0, 19), (39, 19)] {
+        assert!(
+            (at(x, y) - Vec3::ONE).abs().max_element() < 1e-4,
+            "beside: {}",
+            at(x, y)
+        );
+    }
+}
+
+#[test]
+fn a_scattering_volume_in_a_uniform_enclosure_is_invisible_from_inside_and_out() {
+    // The furnace again, with the lossless medium only inside a closed box (not drawn) and no
+    // medium around it: paths cross its boundary both ways, light sampling's shadow rays pass
+    // it attenuated, and the image is still 1 everywhere, whether the camera stands outside
+    // the box or inside it.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("fog.obj"),
+        box_obj([-2.0, -2.0, -4.0], [2.0, 2.0, 1.0], &[]),
+    )
+    .unwrap();
+    for (camera_z, inside) in [(4.0f32, false), (0.0, true)] {
+        let medium = "object = \"fog_volume\"\nscattering = [1.2, 1.2, 1.2]\nanisotropy = 0.3";
+        let text = enclosure(dir.path(), 1.0, medium).replace(
+            "position = [0.0, 0.0, 0.0]",
+            &format!("position = [0.0, 0.0, {camera_z}]"),
+        ) + "[[object]]\nname = \"fog_volume\"\nmesh = \"fog.obj\"\n";
+        let img = render_shot(dir.path(), "fog_box", &text, 64);
+        let m = mean(&img);
+        assert!(
+            (m - Vec3::ONE).abs().max_element() < 0.01,
+            "camera inside the box: {inside}: mean {m}"
+        );
+    }
+}
+
+#[test]
 fn bad_media_are_refused_with_their_key() {
     let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("open.obj"),
+        box_obj([-1.0; 3], [1.0; 3], &["+y"]),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("small.obj"),
+        box_obj([-1.0; 3], [1.0; 3], &[]),
+    )
+    .unwrap();
+    let objects = r#"
+[[object]]
+name = "open"
+mesh = "open.obj"
+[[object]]
+name = "small"
+mesh = "small.obj"
+[[object]]
+name = "spinning"
+mesh = "small.obj"
+transform = { keys = [{ frame = 1, position = [0, 0, 0] }, { frame = 2, position = [1, 0, 0] }] }
+"#;
     for (medium, key, says) in [
         (
             "scattering = [0.1, -0.1, 0.1]",
@@ -319,11 +426,27 @@ fn bad_media_are_refused_with_their_key() {
         (
             "scattering = [0.1, 0.1, 0.1]\n[[medium]]\nname = \"more\"",
             "medium[1]",
-            "only one",
+            "already fills the scene",
+        ),
+        (
+            "object = \"nowhere\"",
+            "medium[0].object",
+            "no object is called",
+        ),
+        ("object = \"open\"", "medium[0].object", "not closed"),
+        ("object = \"spinning\"", "medium[0].object", "stand still"),
+        (
+            "object = \"room\"\n[[medium]]\nname = \"b\"\nobject = \"small\"",
+            "medium[1].object",
+            "overlaps",
         ),
     ] {
         let path = dir.path().join("bad.toml");
-        std::fs::write(&path, enclosure(dir.path(), 1.0, medium)).unwrap();
+        // The medium's keys first, then objects (media may name them); materials are given
+        // by the enclosure, so the extra objects borrow the wall's.
+        let text = enclosure(dir.path(), 1.0, medium)
+            + &objects.replace("mesh = \"", "material = \"wall\"\nmesh = \"");
+        std::fs::write(&path, text).unwrap();
         let shot = Shot::load(&path).unwrap();
         let err = Scene::build(&shot, 1).err().expect(medium).to_string();
         assert!(

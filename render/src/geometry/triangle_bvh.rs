@@ -3,7 +3,7 @@
 //! closest-hit and occlusion queries using the watertight triangle test.
 
 use super::triangle::{ShearedRay, Triangle, intersect_watertight};
-use super::wide_bvh::{BoxRay, any_hit, closest_hit};
+use super::wide_bvh::{BoxRay, LeafTest, traverse_with};
 use glam::Vec3;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
@@ -86,17 +86,21 @@ impl TriangleBvh {
         accept: &impl Fn(u32, f32) -> bool,
     ) -> Option<TriangleHit> {
         let bvh = self.bvh.as_ref()?;
-        let sheared = ShearedRay::new(origin, dir);
-        let mut nearest = None;
-        let ray = BoxRay::new(origin, dir);
-        let t = closest_hit(bvh, &ray, t_max, &self.leaf_triangles, |slot, range| {
-            let (t, b1, b2) = intersect_watertight(&sheared, &self.leaf_triangles[slot], range)?;
-            accept(self.leaf_ids[slot], t).then(|| {
-                nearest = Some((slot, b1, b2));
-                t
-            })
-        });
-        nearest.map(|(slot, b1, b2)| TriangleHit {
+        let mut test = NearestTriangle {
+            sheared: ShearedRay::new(origin, dir),
+            bvh: self,
+            accept,
+            nearest: None,
+        };
+        let mut t = t_max;
+        traverse_with(
+            bvh,
+            &BoxRay::new(origin, dir),
+            &mut t,
+            &self.leaf_triangles,
+            &mut test,
+        );
+        test.nearest.map(|(slot, b1, b2)| TriangleHit {
             t,
             triangle: self.leaf_ids[slot],
             b1,
@@ -115,17 +119,59 @@ impl TriangleBvh {
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
-        let sheared = ShearedRay::new(origin, dir);
-        any_hit(
+        let mut test = AnyTriangle {
+            sheared: ShearedRay::new(origin, dir),
+            bvh: self,
+            accept,
+            t_max,
+        };
+        let mut range = t_max;
+        traverse_with(
             bvh,
             &BoxRay::new(origin, dir),
-            t_max,
+            &mut range,
             &self.leaf_triangles,
-            |slot| {
-                intersect_watertight(&sheared, &self.leaf_triangles[slot], t_max)
-                    .is_some_and(|(t, ..)| accept(self.leaf_ids[slot], t))
-            },
+            &mut test,
         )
+    }
+}
+
+/// The closest-hit leaf test: the watertight triangle test, then the filter.
+struct NearestTriangle<'a, A> {
+    sheared: ShearedRay,
+    bvh: &'a TriangleBvh,
+    accept: &'a A,
+    /// The nearest admitted hit so far: its slot and barycentrics.
+    nearest: Option<(usize, f32, f32)>,
+}
+
+impl<A: Fn(u32, f32) -> bool> LeafTest for NearestTriangle<'_, A> {
+    #[inline(always)]
+    fn test(&mut self, slot: usize, range: &mut f32) -> bool {
+        let triangle = &self.bvh.leaf_triangles[slot];
+        if let Some((t, b1, b2)) = intersect_watertight(&self.sheared, triangle, *range)
+            && (self.accept)(self.bvh.leaf_ids[slot], t)
+        {
+            *range = t;
+            self.nearest = Some((slot, b1, b2));
+        }
+        false
+    }
+}
+
+/// The occlusion leaf test: any admitted hit within `t_max` stops the traversal.
+struct AnyTriangle<'a, A> {
+    sheared: ShearedRay,
+    bvh: &'a TriangleBvh,
+    accept: &'a A,
+    t_max: f32,
+}
+
+impl<A: Fn(u32, f32) -> bool> LeafTest for AnyTriangle<'_, A> {
+    #[inline(always)]
+    fn test(&mut self, slot: usize, _: &mut f32) -> bool {
+        intersect_watertight(&self.sheared, &self.bvh.leaf_triangles[slot], self.t_max)
+            .is_some_and(|(t, ..)| (self.accept)(self.bvh.leaf_ids[slot], t))
     }
 }
 

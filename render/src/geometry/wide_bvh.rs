@@ -82,41 +82,83 @@ impl BoxRay {
     }
 }
 
-/// Visits the primitives of `bvh` along `ray` for t in [0, `t_max`], in an order that finds near
-/// ones early: `leaf(slot, t_max)` tests the primitive at `slot` (an index into
-/// `bvh.primitive_indices`) and returns its distance when it is hit nearer than `t_max`, which
-/// then becomes the range. Returns the final range: below `t_max` exactly when something was hit.
-/// `leaves` is what the leaf test reads, by slot (empty if nothing such), fetched ahead.
+/// The test a traversal runs on each primitive it reaches. Hot queries implement it on a type
+/// whose `test` is `#[inline(always)]`, so it lands inside the traversal loop: a closure there
+/// is inlined or not as the compiler's budget falls, which moved the Cornell box by 4%.
+pub trait LeafTest {
+    /// Tests the primitive at `slot` (an index into `bvh.primitive_indices`) against the range
+    /// [0, `range`], shrinking it to a nearer hit (closest-hit queries); true stops the
+    /// traversal (any-hit queries).
+    fn test(&mut self, slot: usize, range: &mut f32) -> bool;
+}
+
+/// Runs `test` on the primitives of `bvh` along `ray` for t in [0, `range`], in an order that
+/// finds near ones early, until it asks to stop (true) or none is left (false). `leaves` is
+/// what the test reads, by slot (empty if nothing such), fetched ahead in large trees.
+#[inline]
+pub fn traverse_with<L>(
+    bvh: &CwBvh,
+    ray: &BoxRay,
+    range: &mut f32,
+    leaves: &[L],
+    test: &mut impl LeafTest,
+) -> bool {
+    traverse(bvh, ray, range, leaves, test)
+}
+
+/// A closest-hit test from a closure: `leaf(slot, t_max)` returns the primitive's distance
+/// when it is hit nearer than `t_max`.
+struct Nearest<F>(F);
+
+impl<F: FnMut(usize, f32) -> Option<f32>> LeafTest for Nearest<F> {
+    #[inline(always)]
+    fn test(&mut self, slot: usize, range: &mut f32) -> bool {
+        if let Some(t) = (self.0)(slot, *range) {
+            *range = t;
+        }
+        false
+    }
+}
+
+/// An any-hit test from a closure: `hit(slot)`.
+struct AnyOf<F>(F);
+
+impl<F: FnMut(usize) -> bool> LeafTest for AnyOf<F> {
+    #[inline(always)]
+    fn test(&mut self, slot: usize, _: &mut f32) -> bool {
+        (self.0)(slot)
+    }
+}
+
+/// The closest primitive along `ray` for t in [0, `t_max`]: `leaf(slot, t_max)` tests the one
+/// at `slot` and returns its distance when it is hit nearer than `t_max`, which then becomes the
+/// range. Returns the final range: below `t_max` exactly when something was hit. `leaves` as in
+/// [`traverse_with`].
 #[inline]
 pub fn closest_hit<L>(
     bvh: &CwBvh,
     ray: &BoxRay,
     t_max: f32,
     leaves: &[L],
-    mut leaf: impl FnMut(usize, f32) -> Option<f32>,
+    leaf: impl FnMut(usize, f32) -> Option<f32>,
 ) -> f32 {
     let mut range = t_max;
-    traverse(bvh, ray, &mut range, leaves, |slot, range| {
-        if let Some(t) = leaf(slot, *range) {
-            *range = t;
-        }
-        false
-    });
+    traverse(bvh, ray, &mut range, leaves, &mut Nearest(leaf));
     range
 }
 
 /// True when `hit(slot)` holds for some primitive along `ray` for t in [0, `t_max`] (visited and
-/// with `leaves` as in [`closest_hit`]); stops at the first.
+/// with `leaves` as in [`traverse_with`]); stops at the first.
 #[inline]
 pub fn any_hit<L>(
     bvh: &CwBvh,
     ray: &BoxRay,
     t_max: f32,
     leaves: &[L],
-    mut hit: impl FnMut(usize) -> bool,
+    hit: impl FnMut(usize) -> bool,
 ) -> bool {
     let mut range = t_max;
-    traverse(bvh, ray, &mut range, leaves, |slot, _| hit(slot))
+    traverse(bvh, ray, &mut range, leaves, &mut AnyOf(hit))
 }
 
 /// The traversal both queries share, compiled twice: for AVX2 and for the baseline.
@@ -126,7 +168,7 @@ fn traverse<L>(
     ray: &BoxRay,
     range: &mut f32,
     leaves: &[L],
-    leaf: impl FnMut(usize, &mut f32) -> bool,
+    leaf: &mut impl LeafTest,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
@@ -143,7 +185,7 @@ fn traverse_avx2<L>(
     ray: &BoxRay,
     range: &mut f32,
     leaves: &[L],
-    leaf: impl FnMut(usize, &mut f32) -> bool,
+    leaf: &mut impl LeafTest,
 ) -> bool {
     traverse_groups::<true, STACK, L>(bvh, ray, range, leaves, leaf)
 }
@@ -167,7 +209,7 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
     ray: &BoxRay,
     range: &mut f32,
     leaves: &[L],
-    mut leaf: impl FnMut(usize, &mut f32) -> bool,
+    leaf: &mut impl LeafTest,
 ) -> bool {
     if bvh.nodes.is_empty() {
         return false;
@@ -186,7 +228,7 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
         while primitives.bits != 0 {
             let offset = 31 - primitives.bits.leading_zeros();
             primitives.bits &= !(1 << offset);
-            if leaf((primitives.base + offset) as usize, range) {
+            if leaf.test((primitives.base + offset) as usize, range) {
                 return true;
             }
         }
@@ -493,13 +535,10 @@ mod tests {
                 &BoxRay::new(origin, dir),
                 &mut range,
                 &[],
-                |slot, r| {
+                &mut Nearest(|slot: usize, r: f32| {
                     let tri = &tris[bvh.primitive_indices[slot] as usize];
-                    if let Some((t, ..)) = intersect_watertight(&sheared, tri, *r) {
-                        *r = t;
-                    }
-                    false
-                },
+                    intersect_watertight(&sheared, tri, r).map(|h| h.0)
+                }),
             );
             let expected = brute(&tris, origin, dir, f32::INFINITY);
             assert_eq!(range.is_finite().then_some(range), expected, "ray {k}");

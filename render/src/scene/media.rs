@@ -1,38 +1,79 @@
-//! The `[[medium]]` section: a homogeneous medium filling the scene (see [`crate::medium`]).
+//! The `[[medium]]` sections: at most one medium filling the scene, and any number inside the
+//! closed meshes of objects (see [`crate::medium`] and [`crate::volumes`]).
 
 use super::parse;
 use super::schema::MediumSection;
 use crate::error::{RenderError, key_error};
+use crate::geometry::Triangle;
 use crate::medium::Medium;
+use crate::volumes::{Bounded, NO_MEDIUM, Volumes};
 use glam::Vec3;
 use rift_fx::Invalid;
 use rift_fx::shot::check;
+use std::collections::HashMap;
 use std::path::Path;
 
 /// Coefficients above this (per metre: a mean free path under a nanometre) are refused.
 const MAX_COEFFICIENT: f64 = 1e9;
 
-/// The medium the `[[medium]]` tables of `file` describe, if any (at most one: it fills the
-/// scene).
-pub(crate) fn medium(file: &Path, tables: &[toml::Table]) -> Result<Option<Medium>, RenderError> {
-    if tables.len() > 1 {
-        return Err(key_error(
-            file,
-            "medium[1]",
-            "only one medium can fill the scene".to_string(),
-        ));
-    }
-    let Some(table) = tables.first() else {
-        return Ok(None);
-    };
-    let section: MediumSection = parse(file, "medium[0]", table)?;
-    let medium = checked(&section).map_err(|e| RenderError::Shot(e.in_file(file)))?;
-    Ok(medium.matters().then_some(medium))
+/// The `[[medium]]` sections, checked.
+pub(crate) struct MediaSections {
+    /// The medium filling the scene, if any.
+    pub ambient: Option<Medium>,
+    /// Media inside objects: the medium, the object's name and the section's key.
+    pub bounded: Vec<(Medium, String, String)>,
 }
 
-fn checked(m: &MediumSection) -> Result<Medium, Invalid> {
+impl MediaSections {
+    /// The index among [`Self::bounded`] of the medium inside the object called `name`.
+    pub fn inside(&self, name: &str) -> Option<usize> {
+        self.bounded
+            .iter()
+            .position(|(_, object, _)| object == name)
+    }
+}
+
+/// Reads the `[[medium]]` tables of `file`.
+pub(crate) fn sections(file: &Path, tables: &[toml::Table]) -> Result<MediaSections, RenderError> {
+    let mut out = MediaSections {
+        ambient: None,
+        bounded: Vec::new(),
+    };
+    let mut filling: Option<String> = None;
+    for (i, table) in tables.iter().enumerate() {
+        let key = format!("medium[{i}]");
+        let section: MediumSection = parse(file, &key, table)?;
+        let medium = checked(&key, &section).map_err(|e| RenderError::Shot(e.in_file(file)))?;
+        match section.object {
+            Some(object) => {
+                if out.inside(&object).is_some() {
+                    return Err(key_error(
+                        file,
+                        format!("{key}.object"),
+                        format!("another medium is already inside {object:?}"),
+                    ));
+                }
+                out.bounded.push((medium, object, key));
+            }
+            None => {
+                if let Some(first) = &filling {
+                    return Err(key_error(
+                        file,
+                        key,
+                        format!("{first} already fills the scene; give this one an `object`"),
+                    ));
+                }
+                filling = Some(key);
+                out.ambient = medium.matters().then_some(medium);
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn checked(key: &str, m: &MediumSection) -> Result<Medium, Invalid> {
     let coefficients = |field: &str, v: Option<[f64; 3]>| -> Result<Vec3, Invalid> {
-        let key = format!("medium[0].{field}");
+        let key = format!("{key}.{field}");
         let Some(v) = v else {
             return Ok(Vec3::ZERO);
         };
@@ -51,7 +92,7 @@ fn checked(m: &MediumSection) -> Result<Medium, Invalid> {
     let anisotropy = match m.anisotropy {
         Some(g) if !(g.is_finite() && g.abs() < 1.0) => {
             return Err(Invalid::new(
-                "medium[0].anisotropy",
+                format!("{key}.anisotropy"),
                 format!("expected a number in (-1, 1), got {g}"),
             ));
         }
@@ -64,5 +105,78 @@ fn checked(m: &MediumSection) -> Result<Medium, Invalid> {
         scattering,
         anisotropy,
         emission,
+    })
+}
+
+/// The scene's volumes: `media` with each bounded medium inside its object's triangles, found
+/// by `triangle_object` among `triangles` (world space for objects that stand still);
+/// `moving[o]` tells whether object `o` moves during the shutter and `names[o]` its name.
+pub(crate) fn volumes(
+    file: &Path,
+    media: MediaSections,
+    names: &[&str],
+    moving: &[bool],
+    triangles: &[Triangle],
+    triangle_object: &[u32],
+) -> Result<Volumes, RenderError> {
+    let mut boundary_of_object = vec![NO_MEDIUM; names.len()];
+    let mut bounded: Vec<Bounded> = Vec::new();
+    for (i, (medium, object, key)) in media.bounded.into_iter().enumerate() {
+        let error = |message: String| Err(key_error(file, format!("{key}.object"), message));
+        let Some(o) = names.iter().position(|n| *n == object) else {
+            return error(format!("no object is called {object:?}"));
+        };
+        if moving[o] {
+            return error(format!(
+                "{object:?} moves during the shutter; a medium's object must stand still"
+            ));
+        }
+        let mesh: Vec<Triangle> = triangles
+            .iter()
+            .zip(triangle_object)
+            .filter(|&(_, &owner)| owner as usize == o)
+            .map(|(t, _)| *t)
+            .collect();
+        if let Some(problem) = not_closed(&mesh) {
+            return error(format!("the mesh of {object:?} is not closed: {problem}"));
+        }
+        let b = Bounded::new(medium, mesh);
+        if let Some(other) = bounded.iter().find(|other| other.overlaps(&b)) {
+            return error(format!(
+                "{object:?}'s box overlaps that of the medium {:?}; media inside objects must not overlap",
+                other.medium.name
+            ));
+        }
+        boundary_of_object[o] = i as u32;
+        bounded.push(b);
+    }
+    let triangle_boundary = triangle_object
+        .iter()
+        .map(|&o| boundary_of_object[o as usize])
+        .collect();
+    Ok(Volumes::new(media.ambient, bounded, triangle_boundary))
+}
+
+/// Why `mesh` does not enclose a volume, if it does not: empty, or an edge (between vertices
+/// at equal positions) that is not met by exactly two triangles in opposite directions.
+fn not_closed(mesh: &[Triangle]) -> Option<String> {
+    if mesh.is_empty() {
+        return Some("it has no triangles".into());
+    }
+    let key = |p: Vec3| p.to_array().map(f32::to_bits);
+    // Directed edges: each must appear once, and its reverse once.
+    let mut directed: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::new();
+    for t in mesh {
+        for k in 0..3 {
+            let edge = (key(t.v[k]), key(t.v[(k + 1) % 3]));
+            *directed.entry(edge).or_default() += 1;
+        }
+    }
+    let open = directed
+        .iter()
+        .filter(|&(&(a, b), &n)| n != 1 || directed.get(&(b, a)) != Some(&1))
+        .count();
+    (open > 0).then(|| {
+        format!("{open} of its edges do not join exactly two consistently wound triangles")
     })
 }

@@ -113,8 +113,8 @@ pub struct Scene {
     pub light_visibility: crate::light_visibility::LightVisibility,
     /// Per-object visibility flags and cull volumes.
     pub visibility: Visibility,
-    /// The medium filling the scene, if any (one that does nothing counts as none).
-    pub medium: Option<crate::medium::Medium>,
+    /// The participating media and where they are.
+    pub media: crate::volumes::Volumes,
     /// The rings' strands (emissive round curves).
     pub strands: Strands,
     /// Which rays see each ring's strands (by ring of [`Self::strands`]).
@@ -144,6 +144,9 @@ struct Part {
     /// `None`: baked to world space.
     motion: Option<ObjectMotion>,
 }
+
+/// The material given to a medium's boundary when its object names none.
+const BOUNDARY_MATERIAL: &str = "(medium boundary)";
 
 /// Deserialises one renderer-owned table, naming `key` in errors.
 pub(crate) fn parse<T: DeserializeOwned>(
@@ -221,7 +224,7 @@ impl Scene {
             ..settings
         };
 
-        let medium = media::medium(file, &sections.media)?;
+        let media = media::sections(file, &sections.media)?;
         let mut materials = Vec::new();
         for (i, table) in sections.materials.iter().enumerate() {
             let key = format!("material[{i}]");
@@ -292,7 +295,12 @@ impl Scene {
                     ObjectMotion::through(transform, rig.clone(), opening, delay)
                 }
             };
-            flags.push(self::flags(o.visibility));
+            flags.push(if media.inside(&o.name).is_some() {
+                // Paths cross a medium's boundary; shadow rays pass it (attenuated by the media).
+                Flags::new(true, true, true, false)
+            } else {
+                self::flags(o.visibility)
+            });
             let Some(mesh_name) = &o.mesh else {
                 return Err(key_error(
                     file,
@@ -344,6 +352,20 @@ impl Scene {
                             materials.len() - 1
                         }
                     },
+                    (None, None) if media.inside(&o.name).is_some() => {
+                        // A medium's boundary is never shaded; it still needs an index.
+                        find(&materials, BOUNDARY_MATERIAL).unwrap_or_else(|| {
+                            materials.push(Material {
+                                name: BOUNDARY_MATERIAL.into(),
+                                bsdf: Bsdf::Diffuse {
+                                    reflectance: Vec3::ZERO,
+                                },
+                                emission: Vec3::ZERO,
+                                two_sided_emission: false,
+                            });
+                            materials.len() - 1
+                        })
+                    }
                     (None, None) => {
                         return Err(key_error(
                             file,
@@ -387,7 +409,9 @@ impl Scene {
         let mut triangle_object = Vec::new();
         let mut instances = Vec::new();
         let mut static_count = 0;
+        let mut moving = vec![false; objects.len()];
         for part in parts {
+            moving[part.object as usize] = part.motion.is_some();
             let first = triangles.len() as u32;
             let instance = match part.motion {
                 None => {
@@ -404,6 +428,8 @@ impl Scene {
             triangles.extend(part.triangles);
             triangle_material.extend(part.materials);
         }
+        let participating =
+            media::volumes(file, media, &names, &moving, &triangles, &triangle_object)?;
         let normals: Vec<Vec3> = triangles
             .iter()
             .map(|t| t.normal().normalize_or_zero())
@@ -495,7 +521,7 @@ impl Scene {
             stereo,
             portals,
             visibility,
-            medium,
+            media: participating,
             strands,
             strand_flags,
             frame,

@@ -33,13 +33,16 @@
 //! ior = 1.5                     # inside (behind the front face) over outside
 //! roughness = 0.0               # 0: a perfectly smooth interface
 //!
-//! [[medium]]                    # a homogeneous medium filling the scene (at most one): haze, fog
+//! [[medium]]                    # a homogeneous medium: haze, fog, smoke, ink
 //! name = "haze"
+//! # object = "fog_volume"       # inside this object's closed mesh (which stands still, is not
+//!                               # drawn, needs no material and overlaps no other medium's box);
+//!                               # without `object` the medium fills the rest of the scene (one such)
 //! absorption = [0.01, 0.01, 0.01]  # σ_a per metre (each optional, default 0)
 //! scattering = [0.05, 0.05, 0.05]  # σ_s per metre
 //! anisotropy = 0.3              # Henyey–Greenstein g in (-1, 1): > 0 scatters forward
 //! emission = [0.0, 0.0, 0.0]    # radiance emitted per metre of path
-//!                               # (the sky is extinguished at infinite distance)
+//!                               # (a medium filling the scene hides the sky: infinitely far)
 //!
 //! [environment]                # light from every direction where rays escape:
 //! radiance = [0.2, 0.25, 0.3]   # a constant radiance, or
@@ -139,6 +142,7 @@ pub struct MaterialSection {
 #[serde(deny_unknown_fields)]
 pub struct MediumSection {
     pub name: String,
+    pub object: Option<String>,
     pub absorption: Option<[f64; 3]>,
     pub scattering: Option<[f64; 3]>,
     pub anisotropy: Option<f64>,
