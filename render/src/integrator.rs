@@ -31,7 +31,7 @@ use crate::aperture;
 use crate::geometry::Hit;
 use crate::geometry::{offset_origin, offset_target};
 use crate::lights::{Found, LightPlace, LightSample, LightSource, Receiver};
-use crate::material::{Bsdf, Side};
+use crate::material::{Bsdf, Material, Side};
 use crate::medium::{Flight, Medium};
 use crate::ray::Ray;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
@@ -307,16 +307,16 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
             }
             Crossing::Ended => break,
         }
+        // Where the path scatters next: a collision in its medium, or the surface it hit.
+        let mut collided = None;
         if let Some(m) = medium {
-            if let Some(at) = collision {
-                if !scatter_in_medium(scene, m, &mut path, &mut strategies, at, s, &mut out) {
-                    break;
-                }
-                continue;
+            match collision {
+                Some(at) => collided = Some(Event::Collision { medium: m, at }),
+                None => path.beta *= m.passage(hit_t.unwrap_or(f32::INFINITY)),
             }
-            path.beta *= m.passage(hit_t.unwrap_or(f32::INFINITY));
         }
-        if let Some(SceneHit::Surface(h)) = &hit
+        if collided.is_none()
+            && let Some(SceneHit::Surface(h)) = &hit
             && let Some(boundary) = scene.media.boundary(h.triangle)
         {
             if !cross_boundary(scene, &mut path, h, boundary) {
@@ -324,59 +324,109 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
             }
             continue;
         }
-        let dir = path.ray.dir;
-        let Some(hit) = hit else {
-            if let Some(env) = &scene.lights.environment {
-                let weight = path.emission_weight(
-                    scene,
-                    strategies.as_ref(),
-                    Found::Environment,
-                    f32::INFINITY,
-                    None,
-                );
-                out.gather(path.beta * env.radiance(dir) * weight, path.lit_through);
-            }
-            break;
-        };
-        let hit = match hit {
-            SceneHit::Surface(h) => h,
-            SceneHit::Strand(h) => {
-                // Strands glow and absorb: their emission ends the path.
-                let found = Found::Strand {
-                    segment: h.segment,
-                    s: h.s,
-                    normal: h.normal,
-                };
-                let point = Some(path.ray.at(h.t));
-                let weight = path.emission_weight(scene, strategies.as_ref(), found, h.t, point);
-                let le = scene.strands.radiance(h.segment, h.s);
-                out.gather(path.beta * le * weight, path.lit_through);
-                let facing = if h.normal.dot(dir) <= 0.0 {
-                    h.normal
-                } else {
-                    -h.normal
-                };
-                path.first_hit(&mut out, h.t, facing, Vec3::ZERO);
+        let event = match (collided, hit) {
+            (Some(event), _) => event,
+            (None, Some(SceneHit::Surface(h))) => Event::Surface(h),
+            (None, hit) => {
+                finish(scene, &mut path, strategies.as_ref(), hit, &mut out);
                 break;
             }
         };
-        if !scatter(scene, &mut path, &mut strategies, &hit, s, &mut out) {
+        if !scatter(scene, &mut path, &mut strategies, event, s, &mut out) {
             break;
         }
     }
     out
 }
 
-/// Shades the surface `hit` of the path's ray: its emission, then [`scatter_at`]. False when
-/// the path ends there.
+/// Where a path scatters.
+enum Event<'a> {
+    /// At a surface.
+    Surface(Hit),
+    /// At a collision `at` along the ray, in `medium`.
+    Collision { medium: &'a Medium, at: f32 },
+}
+
+/// The end of a path that met no surface to scatter at: the sky it escapes to, or the strand
+/// it hits (strands glow and absorb: their emission ends the path).
+fn finish(
+    scene: &Scene,
+    path: &mut PathState,
+    strategies: Option<&Strategies>,
+    hit: Option<SceneHit>,
+    out: &mut PathSample,
+) {
+    let dir = path.ray.dir;
+    let Some(hit) = hit else {
+        if let Some(env) = &scene.lights.environment {
+            let weight =
+                path.emission_weight(scene, strategies, Found::Environment, f32::INFINITY, None);
+            out.gather(path.beta * env.radiance(dir) * weight, path.lit_through);
+        }
+        return;
+    };
+    if let SceneHit::Strand(h) = hit {
+        let found = Found::Strand {
+            segment: h.segment,
+            s: h.s,
+            normal: h.normal,
+        };
+        let point = Some(path.ray.at(h.t));
+        let weight = path.emission_weight(scene, strategies, found, h.t, point);
+        let le = scene.strands.radiance(h.segment, h.s);
+        out.gather(path.beta * le * weight, path.lit_through);
+        let facing = if h.normal.dot(dir) <= 0.0 {
+            h.normal
+        } else {
+            -h.normal
+        };
+        path.first_hit(out, h.t, facing, Vec3::ZERO);
+    }
+}
+
+/// Scatters the path at `event`: a surface's emission or a medium's, then light sampling
+/// (leaving its choice of strategies in `strategies`) and the BSDF (or phase function) sample
+/// that continues the path, with roulette. False when the path ends there.
 fn scatter(
     scene: &Scene,
     path: &mut PathState,
     strategies: &mut Option<Strategies>,
-    hit: &Hit,
+    event: Event,
     s: &mut SampleStream,
     out: &mut PathSample,
 ) -> bool {
+    let phase;
+    let (p, ng, bsdf) = match event {
+        Event::Surface(hit) => {
+            let (p, ng, material) = surface_emission(scene, path, strategies, &hit, out);
+            (p, ng, &material.bsdf)
+        }
+        Event::Collision { medium, at } => {
+            let dir = path.ray.dir;
+            path.first_hit(out, at, -dir, medium.albedo());
+            let (emitted, scattered) = medium.collision(at);
+            out.gather(path.beta * emitted, path.lit_through);
+            path.beta *= scattered;
+            phase = Bsdf::Phase {
+                g: medium.anisotropy,
+            };
+            // The "normal" faces where the path came from: the phase function's frame has
+            // wo = +z.
+            (path.ray.at(at), -dir, &phase)
+        }
+    };
+    scatter_at(scene, path, strategies, p, ng, bsdf, s, out)
+}
+
+/// The surface `hit` of the path's ray: records it for the AOVs and gathers its emission;
+/// returns its point, geometric normal and material.
+fn surface_emission<'a>(
+    scene: &'a Scene,
+    path: &PathState,
+    strategies: &Option<Strategies>,
+    hit: &Hit,
+    out: &mut PathSample,
+) -> (Vec3, Vec3, &'a Material) {
     let (dir, time) = (path.ray.dir, path.ray.time);
     let surface = scene.surface(hit, time);
     let (p, ng) = (surface.p, surface.ng);
@@ -388,7 +438,6 @@ fn scatter(
         if cos_o >= 0.0 { ng } else { -ng },
         material.bsdf.albedo(),
     );
-
     if material.emits() {
         let le = material.emitted(cos_o);
         if le != Vec3::ZERO {
@@ -401,7 +450,7 @@ fn scatter(
             out.gather(path.beta * le * weight, path.lit_through);
         }
     }
-    scatter_at(scene, path, strategies, p, ng, &material.bsdf, s, out)
+    (p, ng, material)
 }
 
 /// A free-flight distance through `medium` for the path's ray, whose surface lies at `hit_t`
@@ -440,43 +489,12 @@ fn cross_boundary(scene: &Scene, path: &mut PathState, hit: &Hit, medium: u32) -
     true
 }
 
-/// A collision in `medium` at distance `at` along the path's ray: the medium's emission there,
-/// then [`scatter_at`] with its phase function. False when the path ends there.
-fn scatter_in_medium(
-    scene: &Scene,
-    medium: &Medium,
-    path: &mut PathState,
-    strategies: &mut Option<Strategies>,
-    at: f32,
-    s: &mut SampleStream,
-    out: &mut PathSample,
-) -> bool {
-    let dir = path.ray.dir;
-    path.first_hit(out, at, -dir, medium.albedo());
-    let (emitted, scattered) = medium.collision(at);
-    out.gather(path.beta * emitted, path.lit_through);
-    path.beta *= scattered;
-    let phase = Bsdf::Phase {
-        g: medium.anisotropy,
-    };
-    // The "normal" faces where the path came from, so the phase function's frame has wo = +z.
-    scatter_at(
-        scene,
-        path,
-        strategies,
-        path.ray.at(at),
-        -dir,
-        &phase,
-        s,
-        out,
-    )
-}
-
 /// Light sampling at the point `p` the path's ray reached (geometric normal `ng`, or the
 /// direction back along the ray in a medium), leaving its choice of strategies in
 /// `strategies`, and the BSDF sample that continues the path (with roulette). False when the
 /// path ends there.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn scatter_at(
     scene: &Scene,
     path: &mut PathState,
