@@ -15,6 +15,7 @@
 use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
+use std::mem::MaybeUninit;
 
 /// Direction components are kept at least this far from zero, so inverses stay finite and a
 /// quantized plane at 0 never makes 0 × ∞; at 1e-18 a box 1e12 m across is still exact.
@@ -215,9 +216,11 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
         return false;
     }
     let fetch_ahead = bvh.nodes.len() >= LARGE_TREE_NODES;
-    let mut stack = [Group::default(); STACK_SLOTS];
+    // Uninitialised: only slots below `depth` are read, each after it was written (zeroing
+    // the stack, and making an empty spill vector, cost every query stores of its own).
+    let mut stack = [const { MaybeUninit::<Group>::uninit() }; STACK_SLOTS];
     let mut depth = 0;
-    let mut spilled: Vec<Group> = Vec::new();
+    let mut spilled: Option<Vec<Group>> = None;
     // The root is the one inner child of an imaginary parent, in the top slot.
     let mut nodes = Group {
         base: 0,
@@ -241,10 +244,10 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
             let index = nodes.base + (inner_mask & ((1 << slot) - 1)).count_ones();
             if nodes.bits & INNER_BITS != 0 {
                 if depth < STACK_SLOTS {
-                    stack[depth] = nodes;
+                    stack[depth].write(nodes);
                     depth += 1;
                 } else {
-                    spilled.push(nodes);
+                    spilled.get_or_insert_with(Vec::new).push(nodes);
                     #[cfg(test)]
                     tests::SPILLS.with(|n| n.set(n.get() + 1));
                 }
@@ -266,11 +269,12 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
                 prefetch_leaves(leaves, primitives);
             }
         } else if primitives.bits == 0 {
-            if let Some(group) = spilled.pop() {
+            if let Some(group) = spilled.as_mut().and_then(Vec::pop) {
                 nodes = group;
             } else if depth > 0 {
                 depth -= 1;
-                nodes = stack[depth];
+                // SAFETY: slot `depth` was written when `depth` last passed it going up.
+                nodes = unsafe { stack[depth].assume_init_read() };
             } else {
                 return false;
             }
