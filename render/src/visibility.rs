@@ -173,9 +173,13 @@ impl Visibility {
     }
 
     /// True when `triangle`'s surface at world point `p` lies in one of its object's cull
-    /// volumes at time `time`.
-    #[inline]
+    /// volumes at time `time`. Scenes without cull volumes answer inline, per light sample.
+    #[inline(always)]
     pub fn culled(&self, triangle: u32, p: Vec3, time: f64) -> bool {
+        !self.volumes.is_empty() && self.in_cull_volume(triangle, p, time)
+    }
+
+    fn in_cull_volume(&self, triangle: u32, p: Vec3, time: f64) -> bool {
         let Some(culls) = self.culls.get(self.object(triangle)) else {
             return false;
         };
