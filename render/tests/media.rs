@@ -46,6 +46,36 @@ fn mean(img: &rift_render::film::Image) -> Vec3 {
     img.rgb.iter().copied().sum::<Vec3>() / img.rgb.len() as f32
 }
 
+/// A shot with the camera at the origin looking down −Z at a wall 8 m away emitting 1 (and
+/// nothing else lit), at `resolution` and `fov` degrees across; `extra` adds objects and media.
+fn lamp_wall(dir: &Path, resolution: [u32; 2], fov: f32, extra: &str) -> String {
+    std::fs::write(dir.join("wall.obj"), square(-8.0, 30.0)).unwrap();
+    format!(
+        r#"
+[shot]
+name = "lamp_wall"
+fps = 24.0
+frames = [1, 1]
+[camera]
+resolution = [{}, {}]
+fov_degrees = {fov}
+[camera.transform]
+position = [0.0, 0.0, 0.0]
+[[material]]
+name = "lamp"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [1.0, 1.0, 1.0]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "lamp"
+{extra}
+"#,
+        resolution[0], resolution[1]
+    )
+}
+
 #[test]
 fn a_lossless_scattering_medium_in_a_uniform_enclosure_shows_the_walls_radiance() {
     // Equilibrium: the walls emit 1 everywhere and the medium neither absorbs nor emits, so the
@@ -102,34 +132,12 @@ fn an_absorbing_medium_dims_an_emitter_by_its_transmittance() {
     // A wall 8 m away emitting 1, seen through pure absorption: e^(−σ_a · distance) per
     // channel (every camera ray meets the wall head-on within a few degrees).
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("wall.obj"), square(-8.0, 20.0)).unwrap();
     let sigma = [0.05f32, 0.2, 0.4];
-    let text = format!(
-        r#"
-[shot]
-name = "absorb"
-fps = 24.0
-frames = [1, 1]
-[camera]
-resolution = [8, 8]
-fov_degrees = 2.0
-[camera.transform]
-position = [0.0, 0.0, 0.0]
-[[material]]
-name = "lamp"
-type = "diffuse"
-reflectance = [0.0, 0.0, 0.0]
-emission = [1.0, 1.0, 1.0]
-[[object]]
-name = "wall"
-mesh = "wall.obj"
-material = "lamp"
-[[medium]]
-name = "ink"
-absorption = [{}, {}, {}]
-"#,
+    let ink = format!(
+        "[[medium]]\nname = \"ink\"\nabsorption = [{}, {}, {}]",
         sigma[0], sigma[1], sigma[2]
     );
+    let text = lamp_wall(dir.path(), [8, 8], 2.0, &ink);
     let m = mean(&render_shot(dir.path(), "absorb", &text, 256));
     let expected = Vec3::from_array(sigma.map(|s| (-s * 8.0).exp()));
     let relative = (m - expected).abs() / expected;
@@ -299,31 +307,12 @@ fn a_closed_box_of_ink_dims_what_is_seen_through_it_and_nothing_else() {
     // An emitting wall 8 m away; a 2 m box of ink (not drawn) in front of its centre. Rays
     // through the box are dimmed by e^(−σ·2) exactly; rays beside it not at all.
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("wall.obj"), square(-8.0, 30.0)).unwrap();
     std::fs::write(
         dir.path().join("ink.obj"),
         box_obj([-1.0, -1.0, -5.0], [1.0, 1.0, -3.0], &[]),
     )
     .unwrap();
-    let text = r#"
-[shot]
-name = "ink_box"
-fps = 24.0
-frames = [1, 1]
-[camera]
-resolution = [40, 20]
-fov_degrees = 40.0
-[camera.transform]
-position = [0.0, 0.0, 0.0]
-[[material]]
-name = "lamp"
-type = "diffuse"
-reflectance = [0.0, 0.0, 0.0]
-emission = [1.0, 1.0, 1.0]
-[[object]]
-name = "wall"
-mesh = "wall.obj"
-material = "lamp"
+    let ink = r#"
 [[object]]
 name = "ink_volume"
 mesh = "ink.obj"
@@ -332,7 +321,8 @@ name = "ink"
 object = "ink_volume"
 absorption = [0.1, 0.5, 1.5]
 "#;
-    let img = render_shot(dir.path(), "ink_box", text, 16);
+    let text = lamp_wall(dir.path(), [40, 20], 40.0, ink);
+    let img = render_shot(dir.path(), "ink_box", &text, 16);
     let expected = Vec3::new(0.1f32, 0.5, 1.5).map(|s| (-2.0 * s).exp());
     // The centre pixels look through the box's front and back faces; the corners miss it.
     let at = |x: usize, y: usize| img.rgb[y * 40 + x];
