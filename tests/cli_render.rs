@@ -413,6 +413,45 @@ fn bad_environment_and_material_keys() {
     expect_failure(&dir, &["shot.toml: material[0].roughness"]);
 }
 
+#[test]
+fn bad_conductor_indices_and_metals() {
+    let metal = |keys: &str| {
+        let keys = keys.to_owned();
+        cornell_dir(move |t| t + "\n[[material]]\nname = \"m\"\ntype = \"conductor\"\n" + &keys)
+    };
+    for (keys, expected) in [
+        (
+            "eta = [0.2, 0.0, 1.0]\nk = [3.0, 2.0, 2.0]",
+            "material[0].eta",
+        ),
+        (
+            "eta = [0.2, 0.4, 1.0]\nk = [3.0, -2.0, 2.0]",
+            "material[0].k",
+        ),
+        (
+            "eta = [0.2, nan, 1.0]\nk = [3.0, 2.0, 2.0]",
+            "material[0].eta",
+        ),
+        (
+            "eta = [0.2, 0.4, 1.0]\nk = [3.0, inf, 2.0]",
+            "material[0].k",
+        ),
+        ("eta = [0.2, 0.4, 1.0]", "material[0].k"),
+        ("metal = \"brass\"", "material[0].metal"),
+        (
+            "reflectance = [0.9, 0.9, 0.9]\neta = [0.2, 0.4, 1.0]\nk = [3.0, 2.0, 2.0]",
+            "not both",
+        ),
+        ("metal = \"gold\"\nk = [3.0, 2.0, 2.0]", "not both"),
+    ] {
+        expect_failure(&metal(keys), &[expected]);
+    }
+    let dir = cornell_dir(|t| {
+        t + "\n[[material]]\nname = \"g\"\ntype = \"dielectric\"\nmetal = \"gold\"\n"
+    });
+    expect_failure(&dir, &["shot.toml: material[0].metal", "dielectric"]);
+}
+
 /// The Cornell shot with `portals` appended.
 fn cornell_with(portals: &str) -> tempfile::TempDir {
     let portals = portals.to_owned();

@@ -3,7 +3,9 @@
 //! surface that is ([`Side`]) sets the relative index of refraction.
 
 use crate::medium::{henyey_greenstein, sample_henyey_greenstein};
-use crate::microfacet::{Ggx, SMOOTH_ALPHA, fresnel_dielectric, fresnel_schlick, reflect, refract};
+use crate::microfacet::{
+    ConductorFresnel, Ggx, SMOOTH_ALPHA, fresnel_dielectric, reflect, refract,
+};
 use crate::sampling::cosine_hemisphere;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -13,9 +15,9 @@ use std::f32::consts::FRAC_1_PI;
 pub enum Bsdf {
     /// Lambertian reflection.
     Diffuse { reflectance: Vec3 },
-    /// A metal: GGX reflection with Schlick Fresnel from the normal-incidence colour `f0`;
-    /// a mirror when smooth.
-    Conductor { f0: Vec3, ggx: Ggx },
+    /// A metal: GGX reflection with Schlick's or the exact conductor Fresnel term; a mirror
+    /// when smooth.
+    Conductor { fresnel: ConductorFresnel, ggx: Ggx },
     /// Glass and the like: GGX reflection and refraction with the exact dielectric Fresnel
     /// term; a perfectly smooth interface when smooth. `ior` is inside (behind the front face)
     /// over outside.
@@ -94,7 +96,7 @@ impl Bsdf {
     pub fn albedo(&self) -> Vec3 {
         match self {
             Bsdf::Diffuse { reflectance } => *reflectance,
-            Bsdf::Conductor { f0, .. } => *f0,
+            Bsdf::Conductor { fresnel, .. } => fresnel.reflectance(1.0),
             Bsdf::Dielectric { .. } | Bsdf::Phase { .. } => Vec3::ONE,
         }
     }
@@ -112,12 +114,12 @@ impl Bsdf {
                     *reflectance * (FRAC_1_PI * wi.z)
                 }
             }
-            Bsdf::Conductor { f0, ggx } => {
+            Bsdf::Conductor { fresnel, ggx } => {
                 if wi.z <= 0.0 {
                     return Vec3::ZERO;
                 }
                 let h = (wo + wi).normalize();
-                fresnel_schlick(*f0, wo.dot(h)) * (ggx.d(h) * ggx.g2(wo, wi) / (4.0 * wo.z))
+                fresnel.reflectance(wo.dot(h)) * (ggx.d(h) * ggx.g2(wo, wi) / (4.0 * wo.z))
             }
             Bsdf::Dielectric { ior, ggx } => {
                 let eta = relative_ior(*ior, side);
@@ -192,11 +194,11 @@ impl Bsdf {
                     eta: 1.0,
                 })
             }
-            Bsdf::Conductor { f0, ggx } => {
+            Bsdf::Conductor { fresnel, ggx } => {
                 if ggx.alpha <= SMOOTH_ALPHA {
                     return Some(BsdfSample {
                         wi: Vec3::new(-wo.x, -wo.y, wo.z),
-                        weight: fresnel_schlick(*f0, wo.z),
+                        weight: fresnel.reflectance(wo.z),
                         pdf: 1.0,
                         delta: true,
                         eta: 1.0,
@@ -210,7 +212,7 @@ impl Bsdf {
                 let oh = wo.dot(h);
                 Some(BsdfSample {
                     wi,
-                    weight: fresnel_schlick(*f0, oh) * (ggx.g2(wo, wi) / ggx.g1(wo)),
+                    weight: fresnel.reflectance(oh) * (ggx.g2(wo, wi) / ggx.g1(wo)),
                     pdf: ggx.pdf_visible(wo, h) / (4.0 * oh),
                     delta: false,
                     eta: 1.0,
@@ -320,15 +322,25 @@ mod tests {
             (
                 "conductor 0.3",
                 Bsdf::Conductor {
-                    f0: Vec3::new(1.0, 0.8, 0.4),
+                    fresnel: ConductorFresnel::Schlick(Vec3::new(1.0, 0.8, 0.4)),
                     ggx: Ggx::from_roughness(0.3),
                 },
             ),
             (
                 "conductor 0.8",
                 Bsdf::Conductor {
-                    f0: Vec3::ONE,
+                    fresnel: ConductorFresnel::Schlick(Vec3::ONE),
                     ggx: Ggx::from_roughness(0.8),
+                },
+            ),
+            (
+                "gold 0.2",
+                Bsdf::Conductor {
+                    fresnel: ConductorFresnel::Complex {
+                        eta: Vec3::new(0.18, 0.42, 1.37),
+                        k: Vec3::new(3.42, 2.35, 1.77),
+                    },
+                    ggx: Ggx::from_roughness(0.2),
                 },
             ),
             (
@@ -436,7 +448,7 @@ mod tests {
     #[test]
     fn smooth_lobes_conserve_energy() {
         let mirror = Bsdf::Conductor {
-            f0: Vec3::ONE,
+            fresnel: ConductorFresnel::Schlick(Vec3::ONE),
             ggx: Ggx::from_roughness(0.0),
         };
         let glass = Bsdf::Dielectric {

@@ -117,6 +117,47 @@ pub fn fresnel_schlick(f0: Vec3, cos_i: f32) -> Vec3 {
     f0 + (Vec3::ONE - f0) * m
 }
 
+/// Exact unpolarised Fresnel reflectance of a conductor with complex index `eta` + i`k`
+/// (relative to the outside), per channel, for incidence cosine `cos_i`. With k = 0 it is the
+/// dielectric term; at normal incidence ((η−1)² + k²)/((η+1)² + k²).
+///
+/// Writing the transmitted cosine's complex square root as a + ib (with s² = sin²θ):
+/// a² + b² = √((η² − k² − s²)² + 4η²k²) and a² = ½(a² + b² + η² − k² − s²); then
+/// R⊥ = (a² + b² − 2a cosθ + cos²θ)/(a² + b² + 2a cosθ + cos²θ) and
+/// R∥ = R⊥·(cos²θ(a² + b²) − 2a cosθ s² + s⁴)/(cos²θ(a² + b²) + 2a cosθ s² + s⁴).
+pub fn fresnel_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    let c = cos_i.clamp(0.0, 1.0);
+    let (c2, s2) = (c * c, (1.0 - c * c).max(0.0));
+    let t = eta * eta - k * k - Vec3::splat(s2);
+    let a2b2 = (t * t + 4.0 * eta * eta * k * k).powf(0.5);
+    let a = (0.5 * (a2b2 + t)).max(Vec3::ZERO).powf(0.5);
+    let perpendicular =
+        (a2b2 - 2.0 * c * a + Vec3::splat(c2)) / (a2b2 + 2.0 * c * a + Vec3::splat(c2));
+    let cross = 2.0 * c * s2 * a;
+    let parallel = perpendicular * (c2 * a2b2 - cross + Vec3::splat(s2 * s2))
+        / (c2 * a2b2 + cross + Vec3::splat(s2 * s2));
+    (0.5 * (perpendicular + parallel)).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+/// How a conductor's reflectance varies with the angle of incidence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConductorFresnel {
+    /// Schlick's approximation from the colour at normal incidence (an artist's colour).
+    Schlick(Vec3),
+    /// The exact term from a complex index of refraction per channel (measured metals).
+    Complex { eta: Vec3, k: Vec3 },
+}
+
+impl ConductorFresnel {
+    /// Reflectance for incidence cosine `cos_i`.
+    pub fn reflectance(&self, cos_i: f32) -> Vec3 {
+        match *self {
+            ConductorFresnel::Schlick(f0) => fresnel_schlick(f0, cos_i),
+            ConductorFresnel::Complex { eta, k } => fresnel_conductor(cos_i, eta, k),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,5 +236,31 @@ mod tests {
         let t = refract(Vec3::new(0.6, 0.0, 0.8), Vec3::Z, 1.5).unwrap();
         assert!((t.length() - 1.0).abs() < 1e-5 && t.z < 0.0);
         assert!((0.6f32 / t.x.abs() - 1.5).abs() < 1e-4, "Snell's law");
+    }
+
+    #[test]
+    fn conductor_fresnel_limits() {
+        let (eta, k) = (Vec3::new(0.2, 0.9, 1.5), Vec3::new(3.0, 2.4, 0.0));
+        let normal = fresnel_conductor(1.0, eta, k);
+        let expected = ((eta - 1.0) * (eta - 1.0) + k * k) / ((eta + 1.0) * (eta + 1.0) + k * k);
+        assert!(
+            (normal - expected).abs().max_element() < 1e-5,
+            "{normal} vs {expected}"
+        );
+        assert!(
+            (fresnel_conductor(0.0, eta, k) - Vec3::ONE)
+                .abs()
+                .max_element()
+                < 1e-5
+        );
+        // k = 0 is a dielectric seen from outside, at every angle.
+        for cos in [0.05f32, 0.3, 0.7, 0.95] {
+            let c = fresnel_conductor(cos, Vec3::splat(1.5), Vec3::ZERO);
+            let d = fresnel_dielectric(cos, 1.5);
+            assert!(
+                (c - Vec3::splat(d)).abs().max_element() < 1e-5,
+                "cos {cos}: {c} vs {d}"
+            );
+        }
     }
 }

@@ -6,6 +6,7 @@
 pub mod camera;
 pub mod media;
 pub mod mesh;
+pub mod metals;
 pub mod ply;
 pub mod portals;
 pub mod rings;
@@ -21,7 +22,7 @@ use crate::geometry::{
 use crate::light_visibility::LightVisibility;
 use crate::lights::{Emitter, LightSelection, Lights};
 use crate::material::{Bsdf, Material};
-use crate::microfacet::Ggx;
+use crate::microfacet::{ConductorFresnel, Ggx};
 use crate::portal::Portals;
 use crate::ray::Ray;
 use crate::visibility::{Flags, RayClass, Visibility};
@@ -808,6 +809,23 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         )
     };
     let bsdf = match m.kind {
+        MaterialKind::Diffuse | MaterialKind::Dielectric
+            if m.eta.is_some() || m.k.is_some() || m.metal.is_some() =>
+        {
+            let field = if m.metal.is_some() {
+                "metal"
+            } else if m.eta.is_some() {
+                "eta"
+            } else {
+                "k"
+            };
+            let what = if m.kind == MaterialKind::Diffuse {
+                "diffuse"
+            } else {
+                "dielectric"
+            };
+            return Err(unused(field, what));
+        }
         MaterialKind::Diffuse => {
             if m.roughness.is_some() {
                 return Err(unused("roughness", "diffuse"));
@@ -822,7 +840,7 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
                 return Err(unused("ior", "conductor"));
             }
             Bsdf::Conductor {
-                f0: color(&format!("{key}.reflectance"), m.reflectance, Vec3::ONE)?,
+                fresnel: conductor_fresnel(key, m)?,
                 ggx: Ggx::from_roughness(roughness),
             }
         }
@@ -846,6 +864,64 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         emission: color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?,
         two_sided_emission: m.two_sided_emission.unwrap_or(false),
     })
+}
+
+/// A conductor's Fresnel term: Schlick's from `reflectance` (the default, white), or the exact
+/// term from `eta` and `k`, or from a named `metal`'s.
+fn conductor_fresnel(key: &str, m: &MaterialSection) -> Result<ConductorFresnel, Invalid> {
+    let conflict = |a: &str, b: &str| {
+        Invalid::new(
+            format!("{key}.{b}"),
+            format!("give `{a}` or `{b}`, not both: they are two ways to set the same colour"),
+        )
+    };
+    let complex = |field: &str, v: [f64; 3]| -> Result<Vec3, Invalid> {
+        let c = glam::DVec3::from_array(v);
+        if c.is_finite() && c.min_element() > 0.0 && c.max_element() <= 1e3 {
+            Ok(c.as_vec3())
+        } else {
+            Err(Invalid::new(
+                format!("{key}.{field}"),
+                format!(
+                    "expected three finite numbers > 0 and ≤ 1000 (one per channel), got {v:?}"
+                ),
+            ))
+        }
+    };
+    match (m.reflectance, m.eta, m.k, &m.metal) {
+        (Some(_), Some(_), _, _) => Err(conflict("reflectance", "eta")),
+        (Some(_), _, Some(_), _) => Err(conflict("reflectance", "k")),
+        (Some(_), _, _, Some(_)) => Err(conflict("reflectance", "metal")),
+        (_, Some(_), _, Some(_)) => Err(conflict("metal", "eta")),
+        (_, _, Some(_), Some(_)) => Err(conflict("metal", "k")),
+        (None, None, None, Some(name)) => {
+            let (eta, k) = metals::named(name).ok_or_else(|| {
+                let known: Vec<_> = metals::names().collect();
+                Invalid::new(
+                    format!("{key}.metal"),
+                    format!("no metal is called {name:?}; known: {}", known.join(", ")),
+                )
+            })?;
+            Ok(ConductorFresnel::Complex { eta, k })
+        }
+        (None, Some(eta), Some(k), None) => Ok(ConductorFresnel::Complex {
+            eta: complex("eta", eta)?,
+            k: complex("k", k)?,
+        }),
+        (None, Some(_), None, None) => Err(Invalid::new(
+            format!("{key}.k"),
+            "`eta` needs `k` beside it (the imaginary part of the index, per channel)",
+        )),
+        (None, None, Some(_), None) => Err(Invalid::new(
+            format!("{key}.eta"),
+            "`k` needs `eta` beside it (the real part of the index, per channel)",
+        )),
+        (reflectance, None, None, None) => Ok(ConductorFresnel::Schlick(color(
+            &format!("{key}.reflectance"),
+            reflectance,
+            Vec3::ONE,
+        )?)),
+    }
 }
 
 /// The lower and upper corners of the static triangles (a unit box around the origin when

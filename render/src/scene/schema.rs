@@ -22,9 +22,12 @@
 //! two_sided_emission = false
 //!
 //! [[material]]
-//! name = "gold"
-//! type = "conductor"            # GGX microfacets, Schlick Fresnel
-//! reflectance = [1.0, 0.78, 0.34]
+//! name = "brass"
+//! type = "conductor"            # GGX microfacets
+//! reflectance = [1.0, 0.78, 0.34] # Schlick Fresnel from this colour at normal incidence, or
+//! # eta = [0.18, 0.42, 1.37]    # the exact Fresnel term of a complex index η + ik per channel
+//! # k = [3.42, 2.35, 1.77]      # (both, each > 0), or
+//! # metal = "gold"              # a measured metal: "gold", "silver", "copper", "aluminium"
 //! roughness = 0.3               # 0 (mirror) to 1; α = roughness²
 //!
 //! [[material]]
@@ -133,6 +136,9 @@ pub struct MaterialSection {
     pub reflectance: Option<[f64; 3]>,
     pub roughness: Option<f64>,
     pub ior: Option<f64>,
+    pub eta: Option<[f64; 3]>,
+    pub k: Option<[f64; 3]>,
+    pub metal: Option<String>,
     pub emission: Option<[f64; 3]>,
     pub two_sided_emission: Option<bool>,
 }
