@@ -1,6 +1,7 @@
 //! `rift bench`: performance measurements printed as tables. Timings are medians over repeats;
 //! compare ratios within one run, since the machines are shared.
 
+mod furnace;
 mod rays;
 mod stability;
 
@@ -35,6 +36,8 @@ pub enum BenchCommand {
     /// The numerical stress table: furnaces at extreme scales, placements, radiance and
     /// roughness, and long chains of scaled teleports, each against its tolerance.
     Stability(stability::StabilityArgs),
+    /// Energy kept by lossless rough BSDFs (white furnace) across roughness.
+    Furnace(furnace::FurnaceArgs),
 }
 
 /// Arguments of `rift bench through`.
@@ -180,6 +183,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Lights(args) => lights(args),
         BenchCommand::Through(args) => through(args),
         BenchCommand::Stability(args) => stability::run(args),
+        BenchCommand::Furnace(args) => furnace::run(args),
     }
 }
 

@@ -450,6 +450,21 @@ fn bad_conductor_indices_and_metals() {
         t + "\n[[material]]\nname = \"g\"\ntype = \"dielectric\"\nmetal = \"gold\"\n"
     });
     expect_failure(&dir, &["shot.toml: material[0].metal", "dielectric"]);
+    let dir = cornell_dir(|t| {
+        t + "\n[[material]]\nname = \"g\"\ntype = \"dielectric\"\nmultiscatter = true\n"
+    });
+    expect_failure(
+        &dir,
+        &["shot.toml: material[0].multiscatter", "conductors only"],
+    );
+    let dir = cornell_dir(|t| {
+        t + "\n[[material]]\nname = \"d\"\ntype = \"diffuse\"\nshadowing = \"separable\"\n"
+    });
+    expect_failure(&dir, &["shot.toml: material[0].shadowing", "diffuse"]);
+    let dir = cornell_dir(|t| {
+        t + "\n[[material]]\nname = \"m\"\ntype = \"conductor\"\nshadowing = \"smith\"\n"
+    });
+    expect_failure(&dir, &["shot.toml", "shadowing"]);
 }
 
 /// The Cornell shot with `portals` appended.

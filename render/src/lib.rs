@@ -18,6 +18,7 @@ pub mod mask;
 pub mod material;
 pub mod medium;
 pub mod microfacet;
+pub mod multiscatter;
 pub mod portal;
 pub mod ray;
 pub mod render;

@@ -6,6 +6,7 @@ use crate::medium::{henyey_greenstein, sample_henyey_greenstein};
 use crate::microfacet::{
     ConductorFresnel, Ggx, SMOOTH_ALPHA, fresnel_dielectric, reflect, refract,
 };
+use crate::multiscatter::Multiscatter;
 use crate::sampling::cosine_hemisphere;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -16,8 +17,12 @@ pub enum Bsdf {
     /// Lambertian reflection.
     Diffuse { reflectance: Vec3 },
     /// A metal: GGX reflection with Schlick's or the exact conductor Fresnel term; a mirror
-    /// when smooth.
-    Conductor { fresnel: ConductorFresnel, ggx: Ggx },
+    /// when smooth. `multiscatter` adds back the energy of inter-facet bounces.
+    Conductor {
+        fresnel: ConductorFresnel,
+        ggx: Ggx,
+        multiscatter: Option<Multiscatter>,
+    },
     /// Glass and the like: GGX reflection and refraction with the exact dielectric Fresnel
     /// term; a perfectly smooth interface when smooth. `ior` is inside (behind the front face)
     /// over outside.
@@ -114,12 +119,16 @@ impl Bsdf {
                     *reflectance * (FRAC_1_PI * wi.z)
                 }
             }
-            Bsdf::Conductor { fresnel, ggx } => {
-                if wi.z <= 0.0 {
-                    return Vec3::ZERO;
+            Bsdf::Conductor {
+                fresnel,
+                ggx,
+                multiscatter,
+            } => {
+                let specular = conductor_specular(fresnel, ggx, wo, wi);
+                match multiscatter {
+                    Some(ms) => specular + ms.eval(*ggx, wo, wi),
+                    None => specular,
                 }
-                let h = (wo + wi).normalize();
-                fresnel.reflectance(wo.dot(h)) * (ggx.d(h) * ggx.g2(wo, wi) / (4.0 * wo.z))
             }
             Bsdf::Dielectric { ior, ggx } => {
                 let eta = relative_ior(*ior, side);
@@ -154,12 +163,19 @@ impl Bsdf {
                     wi.z * FRAC_1_PI
                 }
             }
-            Bsdf::Conductor { ggx, .. } => {
+            Bsdf::Conductor {
+                ggx, multiscatter, ..
+            } => {
                 if wi.z <= 0.0 {
                     return 0.0;
                 }
                 let h = (wo + wi).normalize();
-                ggx.pdf_visible(wo, h) / (4.0 * wo.dot(h))
+                let specular = ggx.pdf_visible(wo, h) / (4.0 * wo.dot(h));
+                if multiscatter.is_none() {
+                    return specular;
+                }
+                let p = Multiscatter::choice(*ggx, wo);
+                (1.0 - p) * specular + p * wi.z * FRAC_1_PI
             }
             Bsdf::Dielectric { ior, ggx } => {
                 let eta = relative_ior(*ior, side);
@@ -194,7 +210,14 @@ impl Bsdf {
                     eta: 1.0,
                 })
             }
-            Bsdf::Conductor { fresnel, ggx } => {
+            Bsdf::Conductor {
+                fresnel,
+                ggx,
+                multiscatter,
+            } => {
+                if multiscatter.is_some() {
+                    return self.sample_mixture(wo, u, u_lobe, Multiscatter::choice(*ggx, wo));
+                }
                 if ggx.alpha <= SMOOTH_ALPHA {
                     return Some(BsdfSample {
                         wi: Vec3::new(-wo.x, -wo.y, wo.z),
@@ -276,6 +299,38 @@ impl Bsdf {
     }
 }
 
+impl Bsdf {
+    /// A conductor with its inter-facet lobe: that lobe (cosine-distributed) with probability
+    /// `p`, else the specular one; the weight is the whole BSDF over the mixture's pdf.
+    fn sample_mixture(&self, wo: Vec3, u: Vec2, u_lobe: f32, p: f32) -> Option<BsdfSample> {
+        let Bsdf::Conductor { ggx, .. } = self else {
+            return None;
+        };
+        let wi = if u_lobe < p {
+            cosine_hemisphere(u)
+        } else {
+            reflect(wo, ggx.sample_visible(wo, u))
+        };
+        let pdf = self.pdf(wo, wi, Side::Front);
+        (wi.z > 0.0 && pdf > 0.0).then(|| BsdfSample {
+            wi,
+            weight: self.eval(wo, wi, Side::Front) / pdf,
+            pdf,
+            delta: false,
+            eta: 1.0,
+        })
+    }
+}
+
+/// A conductor's single-scattering GGX lobe, f·cos θi.
+fn conductor_specular(fresnel: &ConductorFresnel, ggx: &Ggx, wo: Vec3, wi: Vec3) -> Vec3 {
+    if wi.z <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let h = (wo + wi).normalize();
+    fresnel.reflectance(wo.dot(h)) * (ggx.d(h) * ggx.g2(wo, wi) / (4.0 * wo.z))
+}
+
 /// IOR of the far side over IOR of the side the path arrived from.
 fn relative_ior(ior: f32, side: Side) -> f32 {
     match side {
@@ -324,6 +379,7 @@ mod tests {
                 Bsdf::Conductor {
                     fresnel: ConductorFresnel::Schlick(Vec3::new(1.0, 0.8, 0.4)),
                     ggx: Ggx::from_roughness(0.3),
+                    multiscatter: None,
                 },
             ),
             (
@@ -331,6 +387,7 @@ mod tests {
                 Bsdf::Conductor {
                     fresnel: ConductorFresnel::Schlick(Vec3::ONE),
                     ggx: Ggx::from_roughness(0.8),
+                    multiscatter: None,
                 },
             ),
             (
@@ -341,8 +398,10 @@ mod tests {
                         k: Vec3::new(3.42, 2.35, 1.77),
                     },
                     ggx: Ggx::from_roughness(0.2),
+                    multiscatter: None,
                 },
             ),
+            ("copper 0.6, compensated", copper_compensated()),
             (
                 "dielectric 0.4",
                 Bsdf::Dielectric {
@@ -445,11 +504,54 @@ mod tests {
         }
     }
 
+    fn copper_compensated() -> Bsdf {
+        let fresnel = ConductorFresnel::Complex {
+            eta: Vec3::new(0.17, 0.98, 1.21),
+            k: Vec3::new(3.64, 2.62, 2.37),
+        };
+        let ggx = Ggx::from_roughness(0.6);
+        Bsdf::Conductor {
+            fresnel,
+            ggx,
+            multiscatter: Multiscatter::new(&fresnel, ggx),
+        }
+    }
+
+    /// With the inter-facet lobe a white conductor keeps all the light at every angle and
+    /// roughness, and a coloured one keeps more than without it.
+    #[test]
+    fn compensated_conductors_keep_their_energy() {
+        use crate::multiscatter::directional_albedo;
+        for roughness in [0.2f32, 0.5, 0.8, 1.0] {
+            let fresnel = ConductorFresnel::Schlick(Vec3::ONE);
+            let ggx = Ggx::from_roughness(roughness);
+            let white = Bsdf::Conductor {
+                fresnel,
+                ggx,
+                multiscatter: Multiscatter::new(&fresnel, ggx),
+            };
+            let plain = Bsdf::Conductor {
+                fresnel,
+                ggx,
+                multiscatter: None,
+            };
+            for mu in [0.1f32, 0.4, 0.7, 1.0] {
+                let kept = directional_albedo(&white, Side::Front, mu, 96);
+                let single = directional_albedo(&plain, Side::Front, mu, 96);
+                assert!(
+                    (kept - 1.0).abs() < 0.01,
+                    "roughness {roughness}, μ {mu}: {kept} (single scattering {single})"
+                );
+            }
+        }
+    }
+
     #[test]
     fn smooth_lobes_conserve_energy() {
         let mirror = Bsdf::Conductor {
             fresnel: ConductorFresnel::Schlick(Vec3::ONE),
             ggx: Ggx::from_roughness(0.0),
+            multiscatter: None,
         };
         let glass = Bsdf::Dielectric {
             ior: 1.5,

@@ -22,7 +22,8 @@ use crate::geometry::{
 use crate::light_visibility::LightVisibility;
 use crate::lights::{Emitter, LightSelection, Lights};
 use crate::material::{Bsdf, Material};
-use crate::microfacet::{ConductorFresnel, Ggx};
+use crate::microfacet::{ConductorFresnel, Ggx, Shadowing};
+use crate::multiscatter::Multiscatter;
 use crate::portal::Portals;
 use crate::ray::Ray;
 use crate::visibility::{Flags, RayClass, Visibility};
@@ -33,7 +34,7 @@ use rift_fx::shot::pose::{self, Facing};
 use rift_fx::{Invalid, Shot};
 use rings::RingSource;
 use schema::{
-    EnvironmentSection, MaterialKind, MaterialSection, ObjectSection, RenderSection,
+    EnvironmentSection, MaterialKind, MaterialSection, ObjectSection, RenderSection, ShadowingKind,
     VisibilitySection,
 };
 use serde::de::DeserializeOwned;
@@ -802,6 +803,10 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         Some(r) => check::within(&format!("{key}.roughness"), r, 0.0, 1.0, false)? as f32,
         None => 0.0,
     };
+    let ggx = Ggx::from_roughness(roughness).with_shadowing(match m.shadowing {
+        Some(ShadowingKind::HeightCorrelated) | None => Shadowing::HeightCorrelated,
+        Some(ShadowingKind::Separable) => Shadowing::Separable,
+    });
     let unused = |field: &str, what: &str| {
         Invalid::new(
             format!("{key}.{field}"),
@@ -830,6 +835,12 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
             if m.roughness.is_some() {
                 return Err(unused("roughness", "diffuse"));
             }
+            if m.shadowing.is_some() {
+                return Err(unused("shadowing", "diffuse"));
+            }
+            if m.multiscatter.is_some() {
+                return Err(unused("multiscatter", "diffuse"));
+            }
             if m.ior.is_some() {
                 return Err(unused("ior", "diffuse"));
             }
@@ -839,23 +850,32 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
             if m.ior.is_some() {
                 return Err(unused("ior", "conductor"));
             }
+            let fresnel = conductor_fresnel(key, m)?;
+            let multiscatter = match m.multiscatter {
+                Some(true) => Multiscatter::new(&fresnel, ggx),
+                _ => None,
+            };
             Bsdf::Conductor {
-                fresnel: conductor_fresnel(key, m)?,
-                ggx: Ggx::from_roughness(roughness),
+                fresnel,
+                ggx,
+                multiscatter,
             }
         }
         MaterialKind::Dielectric => {
             if m.reflectance.is_some() {
                 return Err(unused("reflectance", "dielectric"));
             }
+            if m.multiscatter.is_some() {
+                return Err(Invalid::new(
+                    format!("{key}.multiscatter"),
+                    "energy compensation is for conductors only (dielectrics: not yet)",
+                ));
+            }
             let ior = match m.ior {
                 Some(v) => check::within(&format!("{key}.ior"), v, 1e-3, 1e3, false)? as f32,
                 None => 1.5,
             };
-            Bsdf::Dielectric {
-                ior,
-                ggx: Ggx::from_roughness(roughness),
-            }
+            Bsdf::Dielectric { ior, ggx }
         }
     };
     Ok(Material {

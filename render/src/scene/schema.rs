@@ -29,6 +29,10 @@
 //! # k = [3.42, 2.35, 1.77]      # (both, each > 0), or
 //! # metal = "gold"              # a measured metal: "gold", "silver", "copper", "aluminium"
 //! roughness = 0.3               # 0 (mirror) to 1; α = roughness²
+//! shadowing = "height-correlated" # GGX masking-shadowing (conductors and dielectrics);
+//!                               # "separable" as Mitsuba 3 has it, darker at grazing angles
+//! multiscatter = false          # conductors: add back the light of inter-facet bounces, which
+//!                               # single-scattering GGX loses (12% at roughness 0.5, 59% at 1)
 //!
 //! [[material]]
 //! name = "glass"
@@ -139,6 +143,8 @@ pub struct MaterialSection {
     pub eta: Option<[f64; 3]>,
     pub k: Option<[f64; 3]>,
     pub metal: Option<String>,
+    pub shadowing: Option<ShadowingKind>,
+    pub multiscatter: Option<bool>,
     pub emission: Option<[f64; 3]>,
     pub two_sided_emission: Option<bool>,
 }
@@ -153,6 +159,14 @@ pub struct MediumSection {
     pub scattering: Option<[f64; 3]>,
     pub anisotropy: Option<f64>,
     pub emission: Option<[f64; 3]>,
+}
+
+/// `shadowing` of a rough conductor or dielectric.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum ShadowingKind {
+    HeightCorrelated,
+    Separable,
 }
 
 /// Material types.
