@@ -4,6 +4,7 @@
 mod bench;
 mod fx_cmd;
 mod memory;
+mod merge_cmd;
 mod plot;
 mod progress;
 mod render_cmd;
@@ -25,6 +26,8 @@ enum Command {
     Fx(fx_cmd::FxArgs),
     /// Render frames of a shot to EXR with the path tracer.
     Render(render_cmd::RenderArgs),
+    /// Merge parts of one frame (sample ranges, windows) into the image one render makes.
+    Merge(merge_cmd::MergeArgs),
     /// Measure performance and print tables.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -35,6 +38,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Fx(args) => fx_cmd::run(args),
         Command::Render(args) => render_cmd::run(args),
+        Command::Merge(args) => merge_cmd::run(args),
         Command::Bench(cmd) => bench::run(cmd),
     };
     match result {

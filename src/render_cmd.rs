@@ -35,6 +35,11 @@ pub struct RenderArgs {
     /// Seed (overrides the shot).
     #[arg(long)]
     seed: Option<u32>,
+    /// Render only the sample indices A ≤ i < B of every pixel, `A-B` (B is then the spp),
+    /// with the seeds a whole render uses: a part for `rift merge` (farm tasks split a frame
+    /// this way). Not with --target-error or --time-limit, which decide sample counts as they go.
+    #[arg(long, value_name = "A-B", conflicts_with = "spp")]
+    samples: Option<String>,
     /// Teleports allowed in a row before the next scattering event (overrides
     /// `[render] max_portal_depth`); an opening met past the limit shows black.
     #[arg(long, value_name = "N")]
@@ -135,6 +140,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.spp == Some(0) || args.spp.is_some_and(|s| s > 1 << 16) {
         bail!("--spp: expected 1 to 65536 samples per pixel");
     }
+    let samples = args.samples.as_deref().map(parse_samples).transpose()?;
+    if samples.is_some() && (args.target_error.is_some() || args.time_limit.is_some()) {
+        bail!(
+            "--samples: a sample range is a fixed share of a render; --target-error and \
+             --time-limit choose sample counts as they go, so they cannot split one"
+        );
+    }
     let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
     let crop = match &args.crop {
         Some(text) => {
@@ -166,7 +178,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         None => None,
     };
     let overrides = Overrides {
-        spp: args.spp,
+        spp: samples.map(|[_, end]| end).or(args.spp),
         seed: args.seed,
         max_portal_depth: args.max_portal_depth,
         light_through_openings: args.no_light_through_openings.then_some(false),
@@ -194,10 +206,44 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 None => pattern.clone(),
             };
             let path = PathBuf::from(frame_path(&pattern, frame));
-            render_one(&scene, &args, eye, crop, time_limit, frame, &path)?;
+            let part = Part {
+                crop,
+                first_sample: samples.map_or(0, |[start, _]| start),
+                shot_id: shot_id(&shot.name),
+            };
+            render_one(&scene, &args, eye, part, time_limit, frame, &path)?;
         }
     }
     Ok(())
+}
+
+/// `--samples A-B` as [A, B]: 0 ≤ A < B ≤ 65536.
+fn parse_samples(text: &str) -> anyhow::Result<[u32; 2]> {
+    let range = text
+        .split_once('-')
+        .and_then(|(a, b)| Some([a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?]));
+    match range {
+        Some([a, b]) if a < b && b <= 1 << 16 => Ok([a, b]),
+        _ => bail!(
+            "--samples: expected a range of sample indices A-B with 0 ≤ A < B ≤ 65536, such as \
+             0-64, got {text:?}"
+        ),
+    }
+}
+
+/// FNV-1a of the shot's name: parts of different shots carry different ids.
+pub fn shot_id(name: &str) -> u32 {
+    name.bytes().fold(0x811c_9dc5u32, |h, b| {
+        (h ^ b as u32).wrapping_mul(0x0100_0193)
+    })
+}
+
+/// Which share of the frame one render covers: a window and the first sample index.
+#[derive(Clone, Copy)]
+struct Part {
+    crop: Option<Window>,
+    first_sample: u32,
+    shot_id: u32,
 }
 
 /// Renders one image of `scene` (one eye, if `eye` is given) to `path`.
@@ -205,11 +251,12 @@ fn render_one(
     scene: &Scene,
     args: &RenderArgs,
     eye: Option<Eye>,
-    crop: Option<Window>,
+    part: Part,
     time_limit: Option<Duration>,
     frame: i64,
     path: &Path,
 ) -> anyhow::Result<()> {
+    let crop = part.crop;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         prepare_output_dir(dir)?;
     }
@@ -221,19 +268,21 @@ fn render_one(
         Some(eye) => format!("frame {frame} {}", eye.name()),
         None => format!("frame {frame}"),
     };
-    let progress = Progress::new(&label, pixels * spp as usize);
+    let progress = Progress::new(&label, pixels * (spp - part.first_sample) as usize);
     let advance = |n: u64| progress.advance(n);
     let options = RenderOptions {
         spp,
+        first_sample: part.first_sample,
         crop,
         target_error: args.target_error,
         time_limit,
         progress: Some(&advance),
         eye,
     };
-    let image = crate::with_threads(args.threads, || {
+    let mut image = crate::with_threads(args.threads, || {
         rift_render::render::render(scene, &options)
     })?;
+    image.metadata.shot_id = part.shot_id;
     progress.finish();
     let seconds = started.elapsed().as_secs_f64();
     let samples: u64 = image.spp.iter().map(|&n| n as u64).sum();

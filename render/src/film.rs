@@ -25,7 +25,8 @@ impl Window {
     }
 
     /// A crop window from fractions of the image `x0,x1,y0,y1` in [0, 1] (as in pbrt and
-    /// Cycles' border render), covering every pixel the fractions touch.
+    /// Cycles' border render): the pixels whose centres it holds (x0 ≤ centre < x1), so
+    /// windows that share an edge fraction tile the frame with no pixel twice or missing.
     pub fn from_fractions(text: &str, width: usize, height: usize) -> Result<Self, String> {
         let parts: Vec<&str> = text.split(',').map(str::trim).collect();
         let values: Vec<f64> = parts
@@ -47,11 +48,14 @@ impl Window {
             ));
         }
         let (w, h) = (width as f64, height as f64);
+        // The first pixel whose centre (i + 0.5) is at or past `f · size`.
+        let edge =
+            |f: f64, size: f64| ((f * size - 0.5).ceil().max(0.0) as usize).min(size as usize);
         let window = Self {
-            x0: (x0 * w).floor() as usize,
-            x1: ((x1 * w).ceil() as usize).min(width),
-            y0: (y0 * h).floor() as usize,
-            y1: ((y1 * h).ceil() as usize).min(height),
+            x0: edge(x0, w),
+            x1: edge(x1, w),
+            y0: edge(y0, h),
+            y1: edge(y1, h),
         };
         if window.width() == 0 || window.height() == 0 {
             return Err(format!("{text:?}: the window holds no pixel"));
@@ -77,8 +81,14 @@ impl Window {
 pub struct Metadata {
     pub frame: i64,
     pub render_seconds: f64,
-    /// Samples per pixel asked for (the most any pixel took).
+    /// Samples per pixel asked for (the most any pixel took); the end of the sample range.
     pub spp: u32,
+    /// The first sample index rendered: 0 unless the image is one part of a split render.
+    pub first_sample: u32,
+    /// The render's seed, so parts of different renders are never merged.
+    pub seed: u32,
+    /// A hash of the shot's name (0: unknown), for the same reason.
+    pub shot_id: u32,
     /// Row-major world-to-camera matrix at the frame (camera looks down −Z).
     pub world_to_camera: [f32; 16],
     /// Row-major world-to-NDC matrix (perspective) at the frame.
@@ -119,7 +129,8 @@ pub struct Image {
     /// Teleports the camera paths made before their first scattering event, averaged: 0 where
     /// no opening is seen, k on the k-th nested level of a portal seen in itself.
     pub portal_depth: Vec<f32>,
-    /// Samples each pixel took (adaptive sampling and time limits make them differ).
+    /// Samples that count in each pixel's mean (adaptive sampling and time limits make them
+    /// differ; non-finite samples are dropped and not counted).
     pub spp: Vec<u32>,
     /// Samples discarded for being NaN or infinite.
     pub discarded: u64,
@@ -180,6 +191,12 @@ impl Image {
             ("rift/frame", AttributeValue::I32(m.frame as i32)),
             ("rift/renderSeconds", AttributeValue::F64(m.render_seconds)),
             ("rift/spp", AttributeValue::I32(m.spp as i32)),
+            (
+                "rift/sampleStart",
+                AttributeValue::F64(m.first_sample as f64),
+            ),
+            ("rift/seed", AttributeValue::F64(m.seed as f64)),
+            ("rift/shotId", AttributeValue::F64(m.shot_id as f64)),
             (
                 "rift/discardedSamples",
                 AttributeValue::F64(self.discarded as f64),
@@ -348,6 +365,10 @@ pub struct ExrLayer {
     pub channels: std::collections::BTreeMap<String, Vec<f32>>,
     /// Custom header attributes rift writes (`rift/...`), as numbers.
     pub numbers: std::collections::BTreeMap<String, f64>,
+    /// The standard camera matrices and view name, when present.
+    pub world_to_camera: Option<[f32; 16]>,
+    pub world_to_ndc: Option<[f32; 16]>,
+    pub view: Option<String>,
 }
 
 /// Reads the first layer of an EXR with all its channels.
@@ -406,5 +427,8 @@ pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
         size: (layer.size.width(), layer.size.height()),
         channels,
         numbers,
+        world_to_camera: layer.attributes.world_to_camera,
+        world_to_ndc: layer.attributes.world_to_normalized_device,
+        view: layer.attributes.view_name.as_ref().map(|t| t.to_string()),
     })
 }

@@ -33,8 +33,13 @@ const FIRST_PASS: u32 = 4;
 
 /// How to render, beyond the scene.
 pub struct RenderOptions<'a> {
-    /// Samples per pixel (the most any pixel takes when sampling adaptively).
+    /// Samples per pixel (the most any pixel takes when sampling adaptively); with
+    /// `first_sample`, the end of the range of sample indices rendered.
     pub spp: u32,
+    /// The first sample index rendered (0 for a whole render): a render of the indices
+    /// `first_sample..spp` is a part that `rift merge` combines with the other ranges into
+    /// exactly the whole render, as every sample depends only on pixel, index and seed.
+    pub first_sample: u32,
     /// Only these pixels; `None`: the whole frame.
     pub crop: Option<Window>,
     /// Stop sampling a pixel once the estimated relative error of its mean falls below this:
@@ -55,6 +60,7 @@ impl RenderOptions<'_> {
     pub fn new(spp: u32) -> Self {
         Self {
             spp,
+            first_sample: 0,
             crop: None,
             target_error: None,
             time_limit: None,
@@ -84,9 +90,14 @@ struct Pixel {
 }
 
 impl Pixel {
+    /// Samples that count in the pixel's mean, of those from index `first` on.
+    fn kept(&self, first: u32) -> u32 {
+        self.samples - first - self.discarded
+    }
+
     /// Standard error of the mean luminance over sqrt(mean² + 0.01).
-    fn relative_error(&self) -> f64 {
-        let n = (self.samples - self.discarded) as f64;
+    fn relative_error(&self, first: u32) -> f64 {
+        let n = self.kept(first) as f64;
         if n < 2.0 {
             return f64::INFINITY;
         }
@@ -111,6 +122,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
     let still_lens = (!scene.camera_moves()).then(|| lens_at(open));
     let seed = hash32(scene.settings.seed.wrapping_add(0x9e37_79b9));
     let clipped = !scene.clip.is_none();
+    let first = options.first_sample.min(options.spp);
 
     // Each tile owns its pixels (row-major within the tile), so passes can run tiles in
     // parallel and carry their sums from pass to pass.
@@ -124,7 +136,11 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
                     y0,
                     y1: (y0 + TILE).min(window.y1),
                 };
-                (tile, vec![Pixel::default(); tile.area()])
+                let fresh = Pixel {
+                    samples: first,
+                    ..Pixel::default()
+                };
+                (tile, vec![fresh; tile.area()])
             })
         })
         .collect();
@@ -179,19 +195,20 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
 
     let progressive = options.target_error.is_some() || options.time_limit.is_some();
     let deadline = options.time_limit.map(|limit| started + limit);
-    let mut done = 0u32;
+    let mut done = first;
     let mut seconds_per_sample = 0.0f64;
     while done < options.spp {
+        let left = options.spp - done;
         // Progressive passes double the samples so far: 4, 4, 8, 16, ...
         let mut size = if !progressive {
-            options.spp
-        } else if done == 0 {
-            FIRST_PASS.min(options.spp)
+            left
+        } else if done == first {
+            FIRST_PASS.min(left)
         } else {
-            done.min(options.spp - done)
+            (done - first).min(left)
         };
         // Under a time limit, shrink the pass to what the remaining time is predicted to fit.
-        if let Some(deadline) = deadline.filter(|_| done > 0) {
+        if let Some(deadline) = deadline.filter(|_| done > first) {
             let left = deadline
                 .saturating_duration_since(Instant::now())
                 .as_secs_f64();
@@ -203,7 +220,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
         }
         let last = done + size;
         let pass_started = Instant::now();
-        let first_pass = done == 0;
+        let first_pass = done == first;
         tiles.par_iter_mut().for_each(|(tile, tile_pixels)| {
             if !first_pass && deadline.is_some_and(|d| Instant::now() > d) {
                 return;
@@ -222,8 +239,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
                 );
                 taken += (px.samples - before) as u64;
                 if let Some(target) = options.target_error {
-                    px.converged =
-                        px.samples >= MIN_ADAPTIVE_SPP && px.relative_error() <= target as f64;
+                    px.converged = px.samples - first >= MIN_ADAPTIVE_SPP
+                        && px.relative_error(first) <= target as f64;
                 }
             }
             if let Some(report) = options.progress {
@@ -264,7 +281,8 @@ fn finish(
     started: Instant,
 ) -> Image {
     let spp = options.spp;
-    let kept = |p: &Pixel| (p.samples - p.discarded).max(1) as f64;
+    let first = options.first_sample.min(spp);
+    let kept = |p: &Pixel| p.kept(first).max(1) as f64;
     let per_hit = |p: &Pixel| p.hits.max(1) as f32;
     let lens = scene_lens(scene, options.eye, scene.shutter[0]);
     let view = scene
@@ -302,12 +320,15 @@ fn finish(
             .iter()
             .map(|p| (p.portal_depth as f64 / kept(p)) as f32)
             .collect(),
-        spp: pixels.iter().map(|p| p.samples).collect(),
+        spp: pixels.iter().map(|p| p.kept(first)).collect(),
         discarded: pixels.iter().map(|p| p.discarded as u64).sum(),
         metadata: Metadata {
             frame: scene.frame,
             render_seconds: started.elapsed().as_secs_f64(),
             spp,
+            first_sample: first,
+            seed: scene.settings.seed,
+            shot_id: 0,
             world_to_camera: lens.world_to_camera(),
             world_to_ndc: lens.world_to_ndc(),
             view,

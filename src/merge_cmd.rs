@@ -1,0 +1,355 @@
+//! `rift merge`: parts of one frame (sample ranges from `rift render --samples`, windows from
+//! `--crop`, or both) back into the image one render would have made.
+//!
+//! Each part's pixels are means over the samples that counted (its `spp` channel). Radiance-like
+//! channels (beauty, through-openings light, alpha, portal depth) merge as means weighted by
+//! those counts; first-hit AOVs (albedo, normal, depth) are means over the samples that hit,
+//! so they are weighted by count × alpha. The not-through-openings layer is written again as
+//! beauty − through. Sums in single precision are the only difference from a whole render:
+//! the result equals it to float rounding.
+
+use anyhow::{Context, bail};
+use clap::Args;
+use glam::Vec3;
+use rift_render::film::{
+    BACKGROUND_DEPTH, ExrLayer, Image, Metadata, THROUGH_LAYER, Window, read_exr_layer,
+};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `rift merge`.
+#[derive(Args)]
+pub struct MergeArgs {
+    /// The merged EXR to write.
+    output: PathBuf,
+    /// The parts: EXRs `rift render` wrote for one frame with --samples and/or --crop.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+}
+
+/// One part, read and checked.
+struct Part {
+    path: PathBuf,
+    layer: ExrLayer,
+    window: Window,
+    range: [u32; 2],
+}
+
+/// The header numbers parts must share, and the name each is reported by.
+const SHARED: [(&str, &str); 3] = [
+    ("rift/frame", "frame"),
+    ("rift/seed", "seed"),
+    ("rift/shotId", "shot"),
+];
+
+/// Channels every part must hold.
+const REQUIRED: [&str; 13] = [
+    "R",
+    "G",
+    "B",
+    "A",
+    "Z",
+    "spp",
+    "portalDepth",
+    "albedo.R",
+    "albedo.G",
+    "albedo.B",
+    "N.X",
+    "N.Y",
+    "N.Z",
+];
+
+pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    let parts = args
+        .parts
+        .iter()
+        .map(|p| read_part(p))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    check_compatible(&parts)?;
+    let (window, total) = check_coverage(&parts)?;
+    let image = merge(&parts, window, total);
+    image
+        .write_exr(&args.output)
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    eprintln!(
+        "rift merge: {} parts -> {} ({}x{} pixels, {} samples per pixel)",
+        parts.len(),
+        args.output.display(),
+        window.width(),
+        window.height(),
+        total
+    );
+    Ok(())
+}
+
+fn read_part(path: &Path) -> anyhow::Result<Part> {
+    let layer = read_exr_layer(path).with_context(|| format!("reading {}", path.display()))?;
+    let fail = |what: String| anyhow::anyhow!("{}: {what}", path.display());
+    for name in REQUIRED {
+        if !layer.channels.contains_key(name) {
+            return Err(fail(format!(
+                "no `{name}` channel: not an image `rift render` wrote"
+            )));
+        }
+    }
+    let number = |key: &str| {
+        layer
+            .numbers
+            .get(key)
+            .copied()
+            .ok_or_else(|| fail(format!("no `{key}` header: written by an older rift?")))
+    };
+    let (start, end) = (number("rift/sampleStart")?, number("rift/spp")?);
+    for (key, _) in SHARED {
+        number(key)?;
+    }
+    let (x0, y0) = layer.position;
+    let (w, h) = layer.size;
+    if x0 < 0 || y0 < 0 || x0 as usize + w > layer.display.0 || y0 as usize + h > layer.display.1 {
+        return Err(fail("its data window leaves the frame".into()));
+    }
+    if !(start >= 0.0 && start < end) {
+        return Err(fail(format!("an empty sample range {start}-{end}")));
+    }
+    let window = Window {
+        x0: x0 as usize,
+        x1: x0 as usize + w,
+        y0: y0 as usize,
+        y1: y0 as usize + h,
+    };
+    Ok(Part {
+        path: path.to_owned(),
+        layer,
+        window,
+        range: [start as u32, end as u32],
+    })
+}
+
+/// Every part is of the same frame of the same shot, seed and resolution.
+fn check_compatible(parts: &[Part]) -> anyhow::Result<()> {
+    let first = &parts[0];
+    for p in &parts[1..] {
+        if p.layer.display != first.layer.display {
+            bail!(
+                "{}: a {}x{} frame, but {} is {}x{}",
+                p.path.display(),
+                p.layer.display.0,
+                p.layer.display.1,
+                first.path.display(),
+                first.layer.display.0,
+                first.layer.display.1
+            );
+        }
+        for (key, what) in SHARED {
+            if p.layer.numbers[key] != first.layer.numbers[key] {
+                bail!(
+                    "{}: another {what} than {} ({} against {}): parts of different renders",
+                    p.path.display(),
+                    first.path.display(),
+                    p.layer.numbers[key],
+                    first.layer.numbers[key]
+                );
+            }
+        }
+        if p.layer.channels.contains_key(&format!("{THROUGH_LAYER}.R"))
+            != first
+                .layer
+                .channels
+                .contains_key(&format!("{THROUGH_LAYER}.R"))
+        {
+            bail!(
+                "{}: its layers differ from {}'s (through-openings light)",
+                p.path.display(),
+                first.path.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The window the parts cover and the samples per pixel they add up to: every pixel of the
+/// window must be covered by sample ranges that neither overlap nor leave a gap from 0.
+fn check_coverage(parts: &[Part]) -> anyhow::Result<(Window, u32)> {
+    let window = parts.iter().skip(1).fold(parts[0].window, |w, p| Window {
+        x0: w.x0.min(p.window.x0),
+        x1: w.x1.max(p.window.x1),
+        y0: w.y0.min(p.window.y0),
+        y1: w.y1.max(p.window.y1),
+    });
+    let total = parts.iter().map(|p| p.range[1]).max().unwrap_or(0);
+    // Per pixel, the ranges met so far (sorted), to find overlaps and gaps.
+    let mut ranges: Vec<Vec<(u32, u32, usize)>> = vec![Vec::new(); window.area()];
+    for (k, p) in parts.iter().enumerate() {
+        for y in p.window.y0..p.window.y1 {
+            for x in p.window.x0..p.window.x1 {
+                ranges[(y - window.y0) * window.width() + (x - window.x0)]
+                    .push((p.range[0], p.range[1], k));
+            }
+        }
+    }
+    for (i, list) in ranges.iter_mut().enumerate() {
+        let (x, y) = (
+            window.x0 + i % window.width(),
+            window.y0 + i / window.width(),
+        );
+        list.sort_unstable();
+        let mut next = 0;
+        for &(start, end, k) in list.iter() {
+            if start < next {
+                bail!(
+                    "{}: samples {start}-{end} overlap another part's at pixel ({x}, {y})",
+                    parts[k].path.display()
+                );
+            }
+            if start > next {
+                bail!("samples {next}-{start} of pixel ({x}, {y}) are in no part: one is missing");
+            }
+            next = end;
+        }
+        if next < total {
+            bail!("samples {next}-{total} of pixel ({x}, {y}) are in no part: one is missing");
+        }
+    }
+    Ok((window, total))
+}
+
+/// Weighted sums of every part over the window, divided out.
+fn merge(parts: &[Part], window: Window, total: u32) -> Image {
+    let n = window.area();
+    let through = parts[0]
+        .layer
+        .channels
+        .contains_key(&format!("{THROUGH_LAYER}.R"));
+    let mut acc = Accumulator::new(n);
+    for p in parts {
+        let c = &p.layer.channels;
+        let rgb = |prefix: &str, i: usize| {
+            Vec3::new(
+                c[&format!("{prefix}R")][i],
+                c[&format!("{prefix}G")][i],
+                c[&format!("{prefix}B")][i],
+            )
+        };
+        for y in p.window.y0..p.window.y1 {
+            for x in p.window.x0..p.window.x1 {
+                let i = (y - p.window.y0) * p.window.width() + (x - p.window.x0);
+                let o = (y - window.y0) * window.width() + (x - window.x0);
+                let count = c["spp"][i] as f64;
+                let hits = count * c["A"][i] as f64;
+                acc.count[o] += count;
+                acc.hits[o] += hits;
+                acc.rgb[o] += rgb("", i).as_dvec3() * count;
+                if through {
+                    acc.through[o] += rgb(&format!("{THROUGH_LAYER}."), i).as_dvec3() * count;
+                }
+                acc.portal_depth[o] += c["portalDepth"][i] as f64 * count;
+                acc.albedo[o] += rgb("albedo.", i).as_dvec3() * hits;
+                let normal = Vec3::new(c["N.X"][i], c["N.Y"][i], c["N.Z"][i]);
+                acc.normal[o] += normal.as_dvec3() * hits;
+                if hits > 0.0 {
+                    acc.depth[o] += c["Z"][i] as f64 * hits;
+                }
+            }
+        }
+    }
+    acc.finish(parts, window, total, through)
+}
+
+/// Per output pixel: sample counts, hit counts and the weighted sums.
+struct Accumulator {
+    count: Vec<f64>,
+    hits: Vec<f64>,
+    rgb: Vec<glam::DVec3>,
+    through: Vec<glam::DVec3>,
+    portal_depth: Vec<f64>,
+    albedo: Vec<glam::DVec3>,
+    normal: Vec<glam::DVec3>,
+    depth: Vec<f64>,
+}
+
+impl Accumulator {
+    fn new(n: usize) -> Self {
+        Self {
+            count: vec![0.0; n],
+            hits: vec![0.0; n],
+            rgb: vec![glam::DVec3::ZERO; n],
+            through: vec![glam::DVec3::ZERO; n],
+            portal_depth: vec![0.0; n],
+            albedo: vec![glam::DVec3::ZERO; n],
+            normal: vec![glam::DVec3::ZERO; n],
+            depth: vec![0.0; n],
+        }
+    }
+
+    fn finish(self, parts: &[Part], window: Window, total: u32, through: bool) -> Image {
+        let per_sample = |i: usize| self.count[i].max(1.0);
+        let per_hit = |i: usize| self.hits[i].max(f64::MIN_POSITIVE);
+        let n = self.count.len();
+        let first = &parts[0].layer;
+        let number = |key: &str| first.numbers.get(key).copied().unwrap_or(0.0);
+        Image {
+            width: first.display.0,
+            height: first.display.1,
+            window,
+            rgb: (0..n)
+                .map(|i| (self.rgb[i] / per_sample(i)).as_vec3())
+                .collect(),
+            through: through.then(|| {
+                (0..n)
+                    .map(|i| (self.through[i] / per_sample(i)).as_vec3())
+                    .collect()
+            }),
+            alpha: (0..n)
+                .map(|i| (self.hits[i] / per_sample(i)) as f32)
+                .collect(),
+            albedo: (0..n)
+                .map(|i| (self.albedo[i] / per_hit(i)).as_vec3())
+                .collect(),
+            normal: (0..n)
+                .map(|i| (self.normal[i] / per_hit(i)).as_vec3())
+                .collect(),
+            depth: (0..n)
+                .map(|i| {
+                    if self.hits[i] > 0.0 {
+                        (self.depth[i] / self.hits[i]) as f32
+                    } else {
+                        BACKGROUND_DEPTH
+                    }
+                })
+                .collect(),
+            portal_depth: (0..n)
+                .map(|i| (self.portal_depth[i] / per_sample(i)) as f32)
+                .collect(),
+            spp: self.count.iter().map(|&c| c as u32).collect(),
+            discarded: parts
+                .iter()
+                .map(|p| {
+                    p.layer
+                        .numbers
+                        .get("rift/discardedSamples")
+                        .copied()
+                        .unwrap_or(0.0) as u64
+                })
+                .sum(),
+            metadata: Metadata {
+                frame: number("rift/frame") as i64,
+                render_seconds: parts
+                    .iter()
+                    .map(|p| {
+                        p.layer
+                            .numbers
+                            .get("rift/renderSeconds")
+                            .copied()
+                            .unwrap_or(0.0)
+                    })
+                    .sum(),
+                spp: total,
+                first_sample: 0,
+                seed: number("rift/seed") as u32,
+                shot_id: number("rift/shotId") as u32,
+                world_to_camera: first.world_to_camera.unwrap_or_default(),
+                world_to_ndc: first.world_to_ndc.unwrap_or_default(),
+                view: first.view.clone(),
+            },
+        }
+    }
+}
