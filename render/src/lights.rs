@@ -337,6 +337,7 @@ impl Lights {
     /// the light samples of a pixel stay stratified across the emitters' surface. `moving`
     /// gives the world-space triangle of an emitter on a moving object at the receiver's time;
     /// strands are taken at that time too.
+    #[inline(always)]
     pub fn sample(
         &self,
         u: Vec2,

@@ -11,8 +11,11 @@ use crate::sampling::cosine_hemisphere;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
-/// How a surface scatters light.
+/// How a surface scatters light. A plain one-byte tag (`repr(u8)`): left to itself the
+/// compiler hides the variant in a niche of the conductor's fields, and every `match` in the
+/// hot loops then decodes it (2% of Cornell's instructions).
 #[derive(Clone, Debug, PartialEq)]
+#[repr(u8)]
 pub enum Bsdf {
     /// Lambertian reflection.
     Diffuse { reflectance: Vec3 },
