@@ -414,6 +414,34 @@ fn bad_environment_and_material_keys() {
 }
 
 #[test]
+fn a_usemtl_name_the_shot_defines_is_used_and_an_unknown_one_named() {
+    let glass = |t: String| t.replace("cornell.obj", "glass.obj");
+    let dir = cornell_dir(glass);
+    let obj = std::fs::read_to_string(dir.path().join("cornell.obj")).unwrap();
+    let obj = obj.replace("o large-box\nusemtl white", "o large-box\nusemtl glass");
+    std::fs::write(dir.path().join("glass.obj"), obj).unwrap();
+    expect_failure(&dir, &["part \"large-box\"", "\"glass\"", "neither"]);
+    let shot = std::fs::read_to_string(dir.path().join("shot.toml")).unwrap()
+        + "\n[[material]]\nname = \"glass\"\ntype = \"dielectric\"\n";
+    std::fs::write(dir.path().join("shot.toml"), shot).unwrap();
+    let r = rift(
+        dir.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--spp",
+            "1",
+            "--res",
+            "16",
+            "16",
+            "-o",
+            "out/g.exr",
+        ],
+    );
+    assert!(r.status.success(), "{}", stderr(&r));
+}
+
+#[test]
 fn bad_conductor_indices_and_metals() {
     let metal = |keys: &str| {
         let keys = keys.to_owned();

@@ -6,13 +6,19 @@ use crate::error::RenderError;
 use glam::Vec3;
 use std::path::Path;
 
-/// Material values an MTL file gives.
+/// The material a part's `usemtl` names, with the values its MTL gives.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MtlMaterial {
     pub name: String,
     pub diffuse: Option<Vec3>,
     pub emission: Option<Vec3>,
+    /// False when no MTL defines the name: only the shot's `[[material]]` can supply it.
+    pub declared: bool,
 }
+
+/// The MTL rift hands the OBJ parser itself, declaring every `usemtl` name (so a name that
+/// only the shot defines still reaches the part); real MTLs, read after it, override it.
+const USEMTL_NAMES: &str = "rift-usemtl-names.mtl";
 
 /// One part of a mesh file: triangles in the file's space and the material it names.
 #[derive(Clone, Debug)]
@@ -50,21 +56,40 @@ pub fn parse_obj(
     };
     // What the MTL parser would panic on, found first.
     let mtl_problem = std::cell::RefCell::new(None);
+    let declared = std::cell::RefCell::new(std::collections::HashSet::new());
+    let names = usemtl_names(bytes);
     let load_mtl = |mtl: &Path| {
-        let bytes = read_mtl(mtl).ok_or(tobj::LoadError::OpenFileFailed)?;
+        if mtl == Path::new(USEMTL_NAMES) {
+            let text: String = names.iter().map(|n| format!("newmtl {n}\n")).collect();
+            return tobj::load_mtl_buf(&mut text.as_bytes());
+        }
+        let Some(bytes) = read_mtl(mtl) else {
+            *mtl_problem.borrow_mut() = Some(format!("{} could not be read", mtl.display()));
+            return Err(tobj::LoadError::OpenFileFailed);
+        };
         if let Err(problem) = check_mtl(&bytes) {
             *mtl_problem.borrow_mut() = Some(format!("{}: {problem}", mtl.display()));
             return Err(tobj::LoadError::MaterialParseError);
         }
+        declared
+            .borrow_mut()
+            .extend(keyword_arguments(&bytes, "newmtl"));
         tobj::load_mtl_buf(&mut bytes.as_slice())
     };
-    let mut reader = bytes;
+    let prefixed;
+    let mut reader = if names.is_empty() {
+        bytes
+    } else {
+        prefixed = [format!("mtllib {USEMTL_NAMES}\n").as_bytes(), bytes].concat();
+        prefixed.as_slice()
+    };
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, load_mtl)
         .map_err(|e| format!("malformed OBJ: {e}"))?;
-    let materials = materials.map_err(|e| match mtl_problem.take() {
-        Some(problem) => format!("its MTL {problem}"),
-        None => format!("its MTL could not be read: {e}"),
-    })?;
+    // With several MTLs (ours among them) the parser may keep going past one that failed.
+    if let Some(problem) = mtl_problem.take() {
+        return Err(format!("its MTL {problem}"));
+    }
+    let materials = materials.map_err(|e| format!("its MTL could not be read: {e}"))?;
     let mut parts = Vec::with_capacity(models.len());
     for model in models {
         let m = &model.mesh;
@@ -101,6 +126,7 @@ pub fn parse_obj(
                 name: mat.name.clone(),
                 diffuse: mat.diffuse.map(Vec3::from_array),
                 emission: mat.emissive.map(Vec3::from_array),
+                declared: declared.borrow().contains(&mat.name),
             });
         parts.push(MeshPart {
             name: model.name,
@@ -112,6 +138,29 @@ pub fn parse_obj(
         return Err("malformed OBJ: no faces".into());
     }
     Ok(parts)
+}
+
+/// The distinct `usemtl` names of an OBJ, in order of first use.
+fn usemtl_names(obj: &[u8]) -> Vec<String> {
+    let mut names = Vec::new();
+    for name in keyword_arguments(obj, "usemtl") {
+        if !names.contains(&name) {
+            names.push(name);
+        }
+    }
+    names
+}
+
+/// The argument of every `keyword` line of an OBJ or MTL text.
+fn keyword_arguments(text: &[u8], keyword: &str) -> Vec<String> {
+    String::from_utf8_lossy(text)
+        .lines()
+        .filter_map(|line| {
+            let rest = line.trim_start().strip_prefix(keyword)?;
+            let name = rest.trim();
+            (rest.starts_with(char::is_whitespace) && !name.is_empty()).then(|| name.to_owned())
+        })
+        .collect()
 }
 
 /// Checks what the MTL parser takes on trust: a colour line (`Ka`, `Kd`, `Ks`, `Ke`) has at
@@ -147,5 +196,24 @@ mod tests {
             parts[0].material.as_ref().unwrap().diffuse,
             Some(Vec3::splat(0.5))
         );
+    }
+
+    /// A `usemtl` name no MTL defines still reaches its part (for the shot's [[material]]),
+    /// marked undeclared; a name the MTL defines keeps the MTL's values.
+    #[test]
+    fn usemtl_names_reach_their_parts_with_or_without_an_mtl() {
+        let obj = b"mtllib a.mtl\no one\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\
+                    o two\nusemtl glass\nf 1 3 2\n";
+        let mtl = b"newmtl m\nKd 0.25 0.5 0.75\n".to_vec();
+        let parts = parse_obj(obj, |_| Some(mtl.clone())).unwrap();
+        let m = parts[0].material.as_ref().unwrap();
+        assert_eq!((m.name.as_str(), m.declared), ("m", true));
+        assert_eq!(m.diffuse, Some(Vec3::new(0.25, 0.5, 0.75)));
+        let glass = parts[1].material.as_ref().unwrap();
+        assert_eq!((glass.name.as_str(), glass.declared), ("glass", false));
+        // Without any mtllib line.
+        let bare = b"usemtl glass\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        let parts = parse_obj(bare, |_| None).unwrap();
+        assert_eq!(parts[0].material.as_ref().unwrap().name, "glass");
     }
 }

@@ -341,6 +341,17 @@ impl Scene {
                     })?,
                     (None, Some(mtl)) => match find(&materials, &mtl.name) {
                         Some(i) => i,
+                        None if !mtl.declared => {
+                            return Err(key_error(
+                                file,
+                                format!("{key}.material"),
+                                format!(
+                                    "part {:?} of {mesh_name} uses material {:?}, which is \
+                                     neither a [[material]] nor in its MTL",
+                                    mesh_part.name, mtl.name
+                                ),
+                            ));
+                        }
                         None => {
                             // From the MTL: Kd as diffuse reflectance, Ke as one-sided emission.
                             materials.push(Material {
