@@ -232,7 +232,7 @@ fn parse_samples(text: &str) -> anyhow::Result<[u32; 2]> {
 }
 
 /// FNV-1a of the shot's name: parts of different shots carry different ids.
-pub fn shot_id(name: &str) -> u32 {
+fn shot_id(name: &str) -> u32 {
     name.bytes().fold(0x811c_9dc5u32, |h, b| {
         (h ^ b as u32).wrapping_mul(0x0100_0193)
     })

@@ -95,16 +95,8 @@ impl Table {
                 ggx,
                 multiscatter: None,
             };
-            let mut e = [0.0f32; N];
-            for (k, value) in e.iter_mut().enumerate() {
-                *value = single_scatter_albedo(&white, mu_at(k));
-            }
-            *m = e
-                .iter()
-                .enumerate()
-                .map(|(k, v)| 2.0 * v * mu_at(k))
-                .sum::<f32>()
-                / N as f32;
+            let e = albedo_row(&white, Side::Front, STRATA);
+            *m = cosine_weighted_mean(&e);
             albedo.push(e);
         }
         Self { albedo, mean }
@@ -137,13 +129,28 @@ fn cell(x: f32) -> (usize, usize, f32) {
     (i, i + 1, x - i as f32)
 }
 
-/// Directional albedo of `bsdf` seen at cosine `mu`: the mean of its sampled weights on
-/// stratified samples (times η² after refraction, undoing radiance compression).
-pub fn single_scatter_albedo(bsdf: &Bsdf, mu: f32) -> f32 {
-    directional_albedo(bsdf, Side::Front, mu, STRATA)
+/// E(μ) of `bsdf` from `side` at the table's cosines.
+fn albedo_row(bsdf: &Bsdf, side: Side, strata: u32) -> [f32; N] {
+    std::array::from_fn(|k| directional_albedo(bsdf, side, mu_at(k), strata))
 }
 
-/// Directional albedo of `bsdf` from `side` at cosine `mu`, on `strata`² stratified samples.
+/// 2∫E(μ)μ dμ from E at the table's cosines (the midpoint rule).
+fn cosine_weighted_mean(row: &[f32; N]) -> f32 {
+    row.iter()
+        .enumerate()
+        .map(|(k, e)| 2.0 * e * mu_at(k))
+        .sum::<f32>()
+        / N as f32
+}
+
+/// The cosine-weighted mean albedo of `bsdf` seen from `side` (what a white furnace keeps
+/// under uniform light), on `strata`² samples per angle.
+pub fn mean_albedo(bsdf: &Bsdf, side: Side, strata: u32) -> f32 {
+    cosine_weighted_mean(&albedo_row(bsdf, side, strata))
+}
+
+/// Directional albedo of `bsdf` from `side` at cosine `mu`: the mean of its sampled weights
+/// on `strata`² stratified samples (times η² after refraction, undoing radiance compression).
 pub fn directional_albedo(bsdf: &Bsdf, side: Side, mu: f32, strata: u32) -> f32 {
     let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
     let mut total = 0.0f64;

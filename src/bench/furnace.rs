@@ -10,7 +10,7 @@ use clap::Args;
 use glam::Vec3;
 use rift_render::material::{Bsdf, Side};
 use rift_render::microfacet::{ConductorFresnel, Ggx, Shadowing};
-use rift_render::multiscatter::{Multiscatter, directional_albedo};
+use rift_render::multiscatter::{Multiscatter, directional_albedo, mean_albedo};
 
 /// Arguments of `rift bench furnace`.
 #[derive(Args)]
@@ -24,17 +24,6 @@ pub struct FurnaceArgs {
 type Material = (&'static str, fn(Ggx) -> Bsdf, Side);
 
 const ROUGHNESSES: [f32; 7] = [0.1, 0.2, 0.3, 0.5, 0.7, 0.85, 1.0];
-
-/// The cosine-weighted mean of E(μ) over incidence: 2∫E(μ)μ dμ, by the midpoint rule.
-fn mean_albedo(bsdf: &Bsdf, side: Side, strata: u32) -> f64 {
-    let n = 32;
-    (0..n)
-        .map(|k| {
-            let mu = (k as f32 + 0.5) / n as f32;
-            2.0 * directional_albedo(bsdf, side, mu, strata) as f64 * mu as f64 / n as f64
-        })
-        .sum()
-}
 
 pub fn run(args: FurnaceArgs) -> anyhow::Result<()> {
     let strata = args.strata.clamp(4, 1024);
@@ -71,7 +60,7 @@ pub fn run(args: FurnaceArgs) -> anyhow::Result<()> {
                 for r in ROUGHNESSES {
                     let bsdf = make(Ggx::from_roughness(r).with_shadowing(shadowing));
                     let value = match what {
-                        "mean" => mean_albedo(&bsdf, side, strata),
+                        "mean" => mean_albedo(&bsdf, side, strata) as f64,
                         "normal" => directional_albedo(&bsdf, side, 1.0, strata) as f64,
                         _ => directional_albedo(&bsdf, side, 0.2, strata) as f64,
                     };
