@@ -8,6 +8,7 @@ mod merge_cmd;
 mod plot;
 mod progress;
 mod render_cmd;
+mod resume;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -43,10 +44,16 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("rift: error: {e:#}");
-            ExitCode::FAILURE
-        }
+        Err(e) => match e.downcast_ref::<resume::Interrupted>() {
+            Some(stopped) => {
+                eprintln!("rift: {stopped}");
+                ExitCode::from(stopped.exit_code())
+            }
+            None => {
+                eprintln!("rift: error: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
     }
 }
 

@@ -9,10 +9,14 @@ use rift_render::Scene;
 use rift_render::camera::Eye;
 use rift_render::film::Window;
 use rift_render::lights::LightSelection;
-use rift_render::render::RenderOptions;
+use rift_render::checkpoint::{Checkpoint, Key};
+use rift_render::film::Image;
+use rift_render::render::{Checkpointing, Pixel, RenderOptions};
 use rift_render::scene::Overrides;
 use rift_render::scene::rings::frame_path;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 /// Arguments of `rift render`.
@@ -70,6 +74,16 @@ pub struct RenderArgs {
     /// available); a frame whose film needs more is refused before anything is allocated.
     #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
     max_memory: Option<u64>,
+    /// Save the render's state every S seconds (and when SIGINT or SIGTERM stops it) to
+    /// `<output>.checkpoint.exr`, a partial image any viewer opens; removed once the frame is
+    /// written. A second signal ends the process at once.
+    #[arg(long, value_name = "S")]
+    checkpoint: Option<f64>,
+    /// Continue from the frame's checkpoint when there is one (otherwise start afresh): the
+    /// finished frame equals an uninterrupted render. A checkpoint of another shot, shot file,
+    /// build or settings is refused.
+    #[arg(long)]
+    resume: bool,
     /// Also write an sRGB PNG preview beside each EXR.
     #[arg(long)]
     png: bool,
@@ -177,6 +191,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Some(s) => bail!("--time-limit: expected a positive number of seconds, got {s}"),
         None => None,
     };
+    let checkpoint_every = match args.checkpoint {
+        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
+        Some(s) => bail!("--checkpoint: expected a positive number of seconds, got {s}"),
+        None => None,
+    };
+    let stop = match checkpoint_every {
+        Some(_) => Some(crate::resume::stop_on_signals()?),
+        None => None,
+    };
     let overrides = Overrides {
         spp: samples.map(|[_, end]| end).or(args.spp),
         seed: args.seed,
@@ -186,6 +209,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         light_selection: args.light_selection.map(Into::into),
     };
     for frame in frames.iter() {
+        if crate::resume::stop_requested() {
+            return Err(crate::resume::Interrupted {
+                message: format!("stopped by a signal before frame {frame}"),
+            }
+            .into());
+        }
         let scene = Scene::build_with(&shot, frame, &overrides)?;
         let eyes: Vec<Option<Eye>> = match (&scene.stereo, args.eye) {
             (None, Some(_)) => bail!("--eye: {} has no [camera.stereo]", args.shot.display()),
@@ -211,7 +240,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 first_sample: samples.map_or(0, |[start, _]| start),
                 shot_id: shot_id(&shot.name),
             };
-            render_one(&scene, &args, eye, part, time_limit, frame, &path)?;
+            let run = Run {
+                time_limit,
+                checkpoint_every,
+                resume: args.resume,
+                stop,
+                key: checkpoint_key(&args, &shot.name, &scene, &overrides, eye, part)?,
+            };
+            render_one(&scene, &args, eye, part, &run, frame, &path)?;
         }
     }
     Ok(())
@@ -246,13 +282,59 @@ struct Part {
     shot_id: u32,
 }
 
+/// How one image is run: its time limit, and its checkpoints and their key.
+struct Run {
+    time_limit: Option<Duration>,
+    checkpoint_every: Option<Duration>,
+    resume: bool,
+    stop: Option<&'static AtomicBool>,
+    key: Key,
+}
+
+/// The key tying a checkpoint to this image: the shot file, and every setting that decides
+/// its pixels.
+fn checkpoint_key(
+    args: &RenderArgs,
+    shot: &str,
+    scene: &Scene,
+    overrides: &Overrides,
+    eye: Option<Eye>,
+    part: Part,
+) -> anyhow::Result<Key> {
+    let [w, h] = scene.camera.projection.resolution;
+    let window = part.crop.unwrap_or(Window::full(w as usize, h as usize));
+    let s = &scene.settings;
+    let settings = [
+        ("frame", scene.frame.to_string()),
+        ("eye", eye.map_or("-", |e| e.name()).to_owned()),
+        ("res", format!("{w}x{h}")),
+        (
+            "window",
+            format!("{}-{},{}-{}", window.x0, window.x1, window.y0, window.y1),
+        ),
+        ("samples", format!("{}-{}", part.first_sample, s.spp)),
+        ("seed", s.seed.to_string()),
+        ("target_error", format!("{:?}", args.target_error)),
+        ("max_bounces", format!("{:?}", s.max_bounces)),
+        ("max_portal_depth", s.max_portal_depth.to_string()),
+        ("light_through_openings", s.light_through_openings.to_string()),
+        ("light_selection", format!("{:?}", overrides.light_selection)),
+        ("rings", format!("{:?}", overrides.rings)),
+    ];
+    let settings = settings
+        .into_iter()
+        .map(|(k, v)| (k.to_owned(), v))
+        .collect();
+    crate::resume::key(&args.shot, shot, settings)
+}
+
 /// Renders one image of `scene` (one eye, if `eye` is given) to `path`.
 fn render_one(
     scene: &Scene,
     args: &RenderArgs,
     eye: Option<Eye>,
     part: Part,
-    time_limit: Option<Duration>,
+    run: &Run,
     frame: i64,
     path: &Path,
 ) -> anyhow::Result<()> {
@@ -263,32 +345,74 @@ fn render_one(
     let started = Instant::now();
     let spp = scene.settings.spp;
     let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
-    let pixels = crop.map_or(w * h, |c| c.area());
+    let window = crop.unwrap_or(Window::full(w, h));
     let label = match eye {
         Some(eye) => format!("frame {frame} {}", eye.name()),
         None => format!("frame {frame}"),
     };
-    let progress = Progress::new(&label, pixels * (spp - part.first_sample) as usize);
+    let checkpoint_file = crate::resume::checkpoint_path(path);
+    let resumed = match run.resume {
+        true => load_checkpoint(&checkpoint_file, &run.key, window)?,
+        false => None,
+    };
+    let progress = Progress::new(&label, window.area() * (spp - part.first_sample) as usize);
+    if let Some(checkpoint) = &resumed {
+        progress.advance(checkpoint.samples_taken(part.first_sample));
+    }
     let advance = |n: u64| progress.advance(n);
+    let save_error = Mutex::new(None);
+    let save = |image: &Image, pixels: Vec<Pixel>| {
+        let checkpoint = Checkpoint {
+            key: run.key.clone(),
+            window,
+            pixels,
+        };
+        let result = checkpoint.write(image, &checkpoint_file);
+        if let Err(e) = &result {
+            eprintln!("rift render: warning: {e}");
+        }
+        *save_error.lock().unwrap_or_else(|e| e.into_inner()) = result.err();
+    };
     let options = RenderOptions {
         spp,
         first_sample: part.first_sample,
         crop,
         target_error: args.target_error,
-        time_limit,
+        time_limit: run.time_limit,
         progress: Some(&advance),
         eye,
+        resume: resumed.as_ref().map(|c| c.pixels.as_slice()),
+        checkpoint: run.checkpoint_every.map(|every| Checkpointing {
+            every,
+            save: &save,
+        }),
+        stop: run.stop,
     };
-    let mut image = crate::with_threads(args.threads, || {
-        rift_render::render::render(scene, &options)
+    let rendered = crate::with_threads(args.threads, || {
+        rift_render::render::render_resumable(scene, &options)
     })?;
-    image.metadata.shot_id = part.shot_id;
     progress.finish();
+    if !rendered.complete {
+        let message = match save_error.into_inner().unwrap_or_else(|e| e.into_inner()) {
+            None => format!(
+                "{label}: stopped by a signal; its state is saved in {} (a partial image); run \
+                 the same command with --resume to finish it",
+                checkpoint_file.display()
+            ),
+            Some(e) => format!("{label}: stopped by a signal, and its checkpoint failed: {e}"),
+        };
+        return Err(crate::resume::Interrupted { message }.into());
+    }
+    let mut image = rendered.image;
+    image.metadata.shot_id = part.shot_id;
     let seconds = started.elapsed().as_secs_f64();
     let samples: u64 = image.spp.iter().map(|&n| n as u64).sum();
     image.write_exr(path)?;
     if args.png {
         image.write_png(&path.with_extension("png"))?;
+    }
+    if run.checkpoint_every.is_some() || resumed.is_some() {
+        remove_checkpoint(&checkpoint_file)?;
     }
     eprintln!(
         "rift render: {label}: {}x{} at {:.1} spp (mean; at most {spp}) in {seconds:.2} s ({:.2} Mpaths/s) -> {}{}",
@@ -304,6 +428,39 @@ fn render_one(
         }
     );
     Ok(())
+}
+
+/// The checkpoint at `file` when there is one that continues this render (`key`, `window`);
+/// one of anything else is an error naming the difference.
+fn load_checkpoint(file: &Path, key: &Key, window: Window) -> anyhow::Result<Option<Checkpoint>> {
+    if !file.exists() {
+        eprintln!(
+            "rift render: no checkpoint at {}; starting from the first sample",
+            file.display()
+        );
+        return Ok(None);
+    }
+    let checkpoint = Checkpoint::read(file)?;
+    let refusal = checkpoint.key.refusal(key).or_else(|| {
+        (checkpoint.window != window).then(|| "its pixel window differs from this render's".into())
+    });
+    if let Some(why) = refusal {
+        bail!(
+            "{}: cannot resume from this checkpoint: {why}; delete it to render afresh",
+            file.display()
+        );
+    }
+    Ok(Some(checkpoint))
+}
+
+/// Removes a finished frame's checkpoint (there may be none).
+fn remove_checkpoint(file: &Path) -> anyhow::Result<()> {
+    match std::fs::remove_file(file) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            bail!("{}: cannot remove the finished frame's checkpoint: {e}", file.display())
+        }
+        _ => Ok(()),
+    }
 }
 
 /// The output pattern of one stereo eye: `%v` becomes the eye's name; without one, `.<name>`

@@ -142,11 +142,47 @@ impl Image {
     /// scenes with openings) the through/not-through light layers, the crop as the data
     /// window, and the metadata as header attributes.
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
+        self.write_exr_with(path, Vec::new(), Vec::new())
+    }
+
+    /// [`Self::write_exr`] with more channels and header attributes (a checkpoint's state).
+    pub fn write_exr_with(
+        &self,
+        path: &Path,
+        extra_channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
+        extra_attributes: Vec<(String, exr::meta::attribute::AttributeValue)>,
+    ) -> Result<(), RenderError> {
         use exr::prelude::*;
         let err = |message: String| RenderError::Write {
             path: path.to_owned(),
             message,
         };
+        let mut channels = self.exr_channels();
+        channels.extend(extra_channels);
+        let mut attributes = self.exr_attributes();
+        for (key, value) in extra_attributes {
+            attributes.other.insert(Text::from(key.as_str()), value);
+        }
+        let layer = Layer::new(
+            (self.window.width(), self.window.height()),
+            attributes,
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(SmallVec::from_vec(channels)),
+        );
+        let display = IntegerBounds::from_dimensions((self.width, self.height));
+        let image = exr::image::Image::new(ImageAttributes::new(display), layer);
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        image
+            .write()
+            .to_buffered(&mut bytes)
+            .map_err(|e| err(e.to_string()))?;
+        rift_fx::export::atomic::write(path, |out| out.write_all(bytes.get_ref()))
+            .map_err(|e| err(e.to_string()))
+    }
+
+    /// The beauty, AOV and light-layer channels, unsorted.
+    fn exr_channels(&self) -> Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>> {
+        use exr::prelude::*;
         let channel =
             |name: &str, values: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(values));
         let split = |v: &[Vec3], k: usize| v.iter().map(|c| c[k]).collect::<Vec<f32>>();
@@ -178,6 +214,12 @@ impl Image {
                 ));
             }
         }
+        channels
+    }
+
+    /// The data window's position, the camera matrices, the view and the `rift/...` numbers.
+    fn exr_attributes(&self) -> exr::meta::header::LayerAttributes {
+        use exr::prelude::*;
         let mut attributes = LayerAttributes {
             layer_position: Vec2(self.window.x0 as i32, self.window.y0 as i32),
             software_name: Some(Text::from(concat!("rift ", env!("CARGO_PKG_VERSION")))),
@@ -204,21 +246,7 @@ impl Image {
         ] {
             attributes.other.insert(Text::from(key), value);
         }
-        let layer = Layer::new(
-            (self.window.width(), self.window.height()),
-            attributes,
-            Encoding::SMALL_LOSSLESS,
-            AnyChannels::sort(SmallVec::from_vec(channels)),
-        );
-        let display = IntegerBounds::from_dimensions((self.width, self.height));
-        let image = exr::image::Image::new(ImageAttributes::new(display), layer);
-        let mut bytes = std::io::Cursor::new(Vec::new());
-        image
-            .write()
-            .to_buffered(&mut bytes)
-            .map_err(|e| err(e.to_string()))?;
-        rift_fx::export::atomic::write(path, |out| out.write_all(bytes.get_ref()))
-            .map_err(|e| err(e.to_string()))
+        attributes
     }
 
     /// Writes an 8-bit sRGB PNG preview (values clipped to [0, 1], alpha dropped).
@@ -290,7 +318,7 @@ pub const MAX_EXR_PIXELS: usize = 1 << 27;
 
 /// Refuses, before any pixel is allocated, an EXR whose header declares more than
 /// `max_pixels` in a layer (a few bytes of header can ask for terabytes).
-fn check_exr_size(bytes: &[u8], max_pixels: usize) -> Result<(), String> {
+pub(crate) fn check_exr_size(bytes: &[u8], max_pixels: usize) -> Result<(), String> {
     let meta = exr::meta::MetaData::read_from_buffered(bytes, false).map_err(|e| e.to_string())?;
     for header in meta.headers.iter() {
         let size = header.layer_size;

@@ -6,6 +6,7 @@
 
 pub mod aperture;
 pub mod camera;
+pub mod checkpoint;
 pub mod environment;
 pub mod error;
 pub mod film;

@@ -13,6 +13,9 @@ use crate::sampling::{SampleStream, hash32};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::RecvTimeoutError;
 use std::time::{Duration, Instant};
 
 const TILE: usize = 16;
@@ -53,6 +56,12 @@ pub struct RenderOptions<'a> {
     /// Which eye of the scene's stereo pair to render; `None` (or a scene without stereo):
     /// the shot camera itself.
     pub eye: Option<Eye>,
+    /// Sums to continue from (a checkpoint's, row-major over the window) instead of nothing.
+    pub resume: Option<&'a [Pixel]>,
+    /// Hand the running sums out every so often, and once more if `stop` ends the render.
+    pub checkpoint: Option<Checkpointing<'a>>,
+    /// Set (from a signal handler) to end the render early: no pixel starts after it is set.
+    pub stop: Option<&'a AtomicBool>,
 }
 
 impl RenderOptions<'_> {
@@ -66,33 +75,46 @@ impl RenderOptions<'_> {
             time_limit: None,
             progress: None,
             eye: None,
+            resume: None,
+            checkpoint: None,
+            stop: None,
         }
     }
 }
 
-/// One pixel's running sums.
-#[derive(Clone, Copy, Default)]
-struct Pixel {
-    sum: DVec3,
+/// How often the running sums are handed out, and to what.
+#[derive(Clone, Copy)]
+pub struct Checkpointing<'a> {
+    pub every: Duration,
+    /// Called from a background thread with the partial image and the sums it was made
+    /// from; rendering goes on meanwhile.
+    pub save: &'a (dyn Fn(&Image, Vec<Pixel>) + Sync),
+}
+
+/// One pixel's running sums: what passes carry forward and a checkpoint keeps.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Pixel {
+    pub(crate) sum: DVec3,
     /// The part of `sum` that arrived through openings.
-    through: DVec3,
+    pub(crate) through: DVec3,
     /// Sum of squared luminance, for the error estimate.
-    lum_sq: f64,
-    hits: u32,
-    albedo: Vec3,
-    normal: Vec3,
-    depth: f64,
+    pub(crate) lum_sq: f64,
+    pub(crate) hits: u32,
+    pub(crate) albedo: Vec3,
+    pub(crate) normal: Vec3,
+    pub(crate) depth: f64,
     /// Sum of the camera paths' teleport counts.
-    portal_depth: u32,
-    samples: u32,
-    discarded: u32,
-    converged: bool,
+    pub(crate) portal_depth: u32,
+    /// The next sample index to take.
+    pub(crate) samples: u32,
+    pub(crate) discarded: u32,
+    pub(crate) converged: bool,
 }
 
 impl Pixel {
     /// Samples that count in the pixel's mean, of those from index `first` on.
     fn kept(&self, first: u32) -> u32 {
-        self.samples - first - self.discarded
+        self.samples.saturating_sub(first + self.discarded)
     }
 
     /// Standard error of the mean luminance over sqrt(mean² + 0.01).
@@ -105,28 +127,75 @@ impl Pixel {
         let variance = ((self.lum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0);
         (variance / n).sqrt() / (mean * mean + 0.01).sqrt()
     }
+
+    /// Whether the pixel needs no more samples below index `spp`.
+    fn finished(&self, spp: u32) -> bool {
+        self.converged || self.samples >= spp
+    }
 }
 
 fn luminance(c: DVec3) -> f64 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
+/// A finished render, or one a stop ended early.
+pub struct Rendered {
+    pub image: Image,
+    /// False when `stop` ended the render before every pixel had its samples.
+    pub complete: bool,
+}
+
 /// Renders `scene` through its camera; each sample has its own time within the shutter.
 pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
-    let started = Instant::now();
-    let camera = &scene.camera;
-    let [w, h] = camera.projection.resolution.map(|v| v as usize);
-    let window = options.crop.unwrap_or(Window::full(w, h));
-    let [open, close] = scene.shutter;
-    let lens_at = |t: f64| scene_lens(scene, options.eye, t);
-    let still_lens = (!scene.camera_moves()).then(|| lens_at(open));
-    let seed = hash32(scene.settings.seed.wrapping_add(0x9e37_79b9));
-    let clipped = !scene.clip.is_none();
-    let first = options.first_sample.min(options.spp);
+    render_resumable(scene, options).image
+}
 
-    // Each tile owns its pixels (row-major within the tile), so passes can run tiles in
-    // parallel and carry their sums from pass to pass.
-    let mut tiles: Vec<(Window, Vec<Pixel>)> = (window.y0..window.y1)
+/// [`render`], continuing from `options.resume`, handing out checkpoints and honouring
+/// `options.stop`.
+pub fn render_resumable(scene: &Scene, options: &RenderOptions) -> Rendered {
+    let started = Instant::now();
+    let frame = FrameSampler::new(scene, options);
+    let window = frame.window;
+    let tiles = tiles(window, frame.first, options.resume);
+    std::thread::scope(|threads| {
+        let (finished, wait) = std::sync::mpsc::channel::<()>();
+        if let Some(checkpoint) = options.checkpoint {
+            let tiles = &tiles;
+            threads.spawn(move || {
+                while let Err(RecvTimeoutError::Timeout) = wait.recv_timeout(checkpoint.every) {
+                    let pixels = rows(tiles, window);
+                    (checkpoint.save)(&finish(scene, options, window, &pixels, started), pixels);
+                }
+            });
+        }
+        run_passes(&frame, options, &tiles, started);
+        drop(finished);
+    });
+    let pixels = rows(&tiles, window);
+    let image = finish(scene, options, window, &pixels, started);
+    let stopped = options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
+    let complete = !stopped || pixels.iter().all(|p| p.finished(options.spp));
+    if !complete && let Some(checkpoint) = options.checkpoint {
+        (checkpoint.save)(&image, pixels);
+    }
+    Rendered { image, complete }
+}
+
+/// A tile of pixels and their sums (row-major within the tile).
+type Tile = Mutex<(Window, Vec<Pixel>)>;
+
+/// The window cut in tiles, each owning its pixels so passes can run tiles in parallel and
+/// carry their sums from pass to pass; their sums start from `resume` when given.
+fn tiles(window: Window, first: u32, resume: Option<&[Pixel]>) -> Vec<Tile> {
+    let resume = resume.filter(|r| r.len() == window.area());
+    let start = |x: usize, y: usize| match resume {
+        Some(r) => r[(y - window.y0) * window.width() + (x - window.x0)],
+        None => Pixel {
+            samples: first,
+            ..Pixel::default()
+        },
+    };
+    (window.y0..window.y1)
         .step_by(TILE)
         .flat_map(|y0| {
             (window.x0..window.x1).step_by(TILE).map(move |x0| {
@@ -136,18 +205,145 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
                     y0,
                     y1: (y0 + TILE).min(window.y1),
                 };
-                let fresh = Pixel {
-                    samples: first,
-                    ..Pixel::default()
-                };
-                (tile, vec![fresh; tile.area()])
+                let pixels = (tile.y0..tile.y1)
+                    .flat_map(|y| (tile.x0..tile.x1).map(move |x| start(x, y)))
+                    .collect();
+                Mutex::new((tile, pixels))
             })
         })
-        .collect();
+        .collect()
+}
 
-    // Samples `px` (the pixel at column x, row y) up to sample index `last` (exclusive).
-    let sample_pixel = |x: usize, y: usize, px: &mut Pixel, last: u32| {
-        let pixel_seed = hash32(hash32((y * w + x) as u32) ^ seed);
+/// The tiles' sums in rows over the window (each tile locked in turn, so a tile is never
+/// copied halfway through a pass).
+fn rows(tiles: &[Tile], window: Window) -> Vec<Pixel> {
+    let mut pixels = vec![Pixel::default(); window.area()];
+    for tile in tiles {
+        let guard = tile.lock().unwrap_or_else(|e| e.into_inner());
+        let (tile, tile_pixels) = &*guard;
+        for (k, px) in tile_pixels.iter().enumerate() {
+            let (x, y) = (tile.x0 + k % tile.width(), tile.y0 + k / tile.width());
+            pixels[(y - window.y0) * window.width() + (x - window.x0)] = *px;
+        }
+    }
+    pixels
+}
+
+/// Passes of samples over the tiles until every pixel has its samples, the time runs out or a
+/// stop is asked for.
+fn run_passes(frame: &FrameSampler, options: &RenderOptions, tiles: &[Tile], started: Instant) {
+    let first = frame.first;
+    let stopping = || options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
+    // Progressive passes (4, 4, 8, 16, ... samples) let adaptive sampling and the time limit
+    // decide as they go, and give checkpoints an even image; a pixel's samples are the same
+    // whatever the passes.
+    let progressive = options.target_error.is_some()
+        || options.time_limit.is_some()
+        || options.checkpoint.is_some()
+        || options.stop.is_some();
+    let deadline = options.time_limit.map(|limit| started + limit);
+    // A resumed render continues the pass its unfinished pixels are in.
+    let mut done = tiles
+        .iter()
+        .flat_map(|t| {
+            let guard = t.lock().unwrap_or_else(|e| e.into_inner());
+            guard.1.iter().filter(|p| !p.finished(options.spp)).map(|p| p.samples).min()
+        })
+        .min()
+        .unwrap_or(options.spp)
+        .max(first);
+    let mut seconds_per_sample = 0.0f64;
+    while done < options.spp && !stopping() {
+        let left = options.spp - done;
+        let mut size = if !progressive {
+            left
+        } else if done == first {
+            FIRST_PASS.min(left)
+        } else {
+            (done - first).min(left)
+        };
+        // Under a time limit, shrink the pass to what the remaining time is predicted to fit.
+        if let Some(deadline) = deadline.filter(|_| done > first) {
+            let left = deadline
+                .saturating_duration_since(Instant::now())
+                .as_secs_f64();
+            let fits = (left / seconds_per_sample.max(1e-12)).floor() as u32;
+            if fits == 0 {
+                break;
+            }
+            size = size.min(fits);
+        }
+        let last = done + size;
+        let pass_started = Instant::now();
+        let first_pass = done == first;
+        tiles.par_iter().for_each(|tile| {
+            if !first_pass && deadline.is_some_and(|d| Instant::now() > d) {
+                return;
+            }
+            let mut guard = tile.lock().unwrap_or_else(|e| e.into_inner());
+            let (tile, tile_pixels) = &mut *guard;
+            let mut taken = 0u64;
+            for (k, px) in tile_pixels.iter_mut().enumerate() {
+                if stopping() {
+                    break;
+                }
+                if px.converged {
+                    continue;
+                }
+                let before = px.samples;
+                let (x, y) = (tile.x0 + k % tile.width(), tile.y0 + k / tile.width());
+                frame.sample_pixel(x, y, px, last);
+                taken += (px.samples - before) as u64;
+                if let Some(target) = options.target_error {
+                    px.converged = px.samples - first >= MIN_ADAPTIVE_SPP
+                        && px.relative_error(first) <= target as f64;
+                }
+            }
+            if let Some(report) = options.progress {
+                report(taken);
+            }
+        });
+        seconds_per_sample = pass_started.elapsed().as_secs_f64() / size as f64;
+        done = last;
+    }
+}
+
+/// What every sample of the frame shares: the camera, the window and the seeds.
+struct FrameSampler<'a> {
+    scene: &'a Scene,
+    eye: Option<Eye>,
+    /// The full frame's size.
+    size: (usize, usize),
+    window: Window,
+    shutter: [f64; 2],
+    still_lens: Option<Lens>,
+    seed: u32,
+    clipped: bool,
+    first: u32,
+}
+
+impl<'a> FrameSampler<'a> {
+    fn new(scene: &'a Scene, options: &RenderOptions) -> Self {
+        let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
+        Self {
+            scene,
+            eye: options.eye,
+            size: (w, h),
+            window: options.crop.unwrap_or(Window::full(w, h)),
+            shutter: scene.shutter,
+            still_lens: (!scene.camera_moves()).then(|| scene_lens(scene, options.eye, scene.shutter[0])),
+            seed: hash32(scene.settings.seed.wrapping_add(0x9e37_79b9)),
+            clipped: !scene.clip.is_none(),
+            first: options.first_sample.min(options.spp),
+        }
+    }
+
+    /// Samples `px` (the pixel at column x, row y) up to sample index `last` (exclusive).
+    fn sample_pixel(&self, x: usize, y: usize, px: &mut Pixel, last: u32) {
+        let (w, h) = self.size;
+        let [open, close] = self.shutter;
+        let scene = self.scene;
+        let pixel_seed = hash32(hash32((y * w + x) as u32) ^ self.seed);
         for i in px.samples..last {
             let mut s = SampleStream::new(i, pixel_seed);
             let [jx, jy, lx, ly] = s.next_4d();
@@ -158,9 +354,11 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
             };
             let ndc =
                 (Vec2::new(x as f32, y as f32) + Vec2::new(jx, jy)) / Vec2::new(w as f32, h as f32);
-            let lens = still_lens.unwrap_or_else(|| lens_at(time));
+            let lens = self
+                .still_lens
+                .unwrap_or_else(|| scene_lens(scene, self.eye, time));
             let (o, d) = lens.ray(ndc, Vec2::new(lx, ly));
-            let range = if clipped {
+            let range = if self.clipped {
                 scene.clip.interval(&lens, o, d)
             } else {
                 Some((0.0, f32::INFINITY))
@@ -191,75 +389,7 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
             }
         }
         px.samples = px.samples.max(last);
-    };
-
-    let progressive = options.target_error.is_some() || options.time_limit.is_some();
-    let deadline = options.time_limit.map(|limit| started + limit);
-    let mut done = first;
-    let mut seconds_per_sample = 0.0f64;
-    while done < options.spp {
-        let left = options.spp - done;
-        // Progressive passes double the samples so far: 4, 4, 8, 16, ...
-        let mut size = if !progressive {
-            left
-        } else if done == first {
-            FIRST_PASS.min(left)
-        } else {
-            (done - first).min(left)
-        };
-        // Under a time limit, shrink the pass to what the remaining time is predicted to fit.
-        if let Some(deadline) = deadline.filter(|_| done > first) {
-            let left = deadline
-                .saturating_duration_since(Instant::now())
-                .as_secs_f64();
-            let fits = (left / seconds_per_sample.max(1e-12)).floor() as u32;
-            if fits == 0 {
-                break;
-            }
-            size = size.min(fits);
-        }
-        let last = done + size;
-        let pass_started = Instant::now();
-        let first_pass = done == first;
-        tiles.par_iter_mut().for_each(|(tile, tile_pixels)| {
-            if !first_pass && deadline.is_some_and(|d| Instant::now() > d) {
-                return;
-            }
-            let mut taken = 0u64;
-            for (k, px) in tile_pixels.iter_mut().enumerate() {
-                if px.converged {
-                    continue;
-                }
-                let before = px.samples;
-                sample_pixel(
-                    tile.x0 + k % tile.width(),
-                    tile.y0 + k / tile.width(),
-                    px,
-                    last,
-                );
-                taken += (px.samples - before) as u64;
-                if let Some(target) = options.target_error {
-                    px.converged = px.samples - first >= MIN_ADAPTIVE_SPP
-                        && px.relative_error(first) <= target as f64;
-                }
-            }
-            if let Some(report) = options.progress {
-                report(taken);
-            }
-        });
-        seconds_per_sample = pass_started.elapsed().as_secs_f64() / size as f64;
-        done = last;
     }
-
-    // Tile-major sums back to rows over the window.
-    let mut pixels = vec![Pixel::default(); window.area()];
-    for (tile, tile_pixels) in &tiles {
-        for (k, px) in tile_pixels.iter().enumerate() {
-            let (x, y) = (tile.x0 + k % tile.width(), tile.y0 + k / tile.width());
-            pixels[(y - window.y0) * window.width() + (x - window.x0)] = *px;
-        }
-    }
-    finish(scene, options, window, (w, h), &pixels, started)
 }
 
 /// The camera of `scene` at time `t`, as `eye` of its stereo pair when it has one.
@@ -276,10 +406,10 @@ fn finish(
     scene: &Scene,
     options: &RenderOptions,
     window: Window,
-    (w, h): (usize, usize),
     pixels: &[Pixel],
     started: Instant,
 ) -> Image {
+    let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
     let spp = options.spp;
     let first = options.first_sample.min(spp);
     let kept = |p: &Pixel| p.kept(first).max(1) as f64;
