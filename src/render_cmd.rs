@@ -7,10 +7,10 @@ use clap::{Args, ValueEnum};
 use rift_fx::{FrameRange, Shot};
 use rift_render::Scene;
 use rift_render::camera::Eye;
-use rift_render::film::Window;
-use rift_render::lights::LightSelection;
 use rift_render::checkpoint::{Checkpoint, Key};
 use rift_render::film::Image;
+use rift_render::film::Window;
+use rift_render::lights::LightSelection;
 use rift_render::render::{Checkpointing, Pixel, RenderOptions};
 use rift_render::scene::Overrides;
 use rift_render::scene::rings::frame_path;
@@ -56,7 +56,7 @@ pub struct RenderArgs {
     #[arg(long)]
     threads: Option<usize>,
     /// Image size in pixels, overriding the shot (the vertical field of view is kept).
-    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    #[arg(long, num_args = 2, value_names = ["W", "H"], action = clap::ArgAction::Set)]
     res: Option<Vec<u32>>,
     /// Render only a window, as fractions of the frame `x0,x1,y0,y1` (0 to 1, y down); the EXR
     /// keeps the full frame as its display window.
@@ -317,8 +317,14 @@ fn checkpoint_key(
         ("target_error", format!("{:?}", args.target_error)),
         ("max_bounces", format!("{:?}", s.max_bounces)),
         ("max_portal_depth", s.max_portal_depth.to_string()),
-        ("light_through_openings", s.light_through_openings.to_string()),
-        ("light_selection", format!("{:?}", overrides.light_selection)),
+        (
+            "light_through_openings",
+            s.light_through_openings.to_string(),
+        ),
+        (
+            "light_selection",
+            format!("{:?}", overrides.light_selection),
+        ),
         ("rings", format!("{:?}", overrides.rings)),
     ];
     let settings = settings
@@ -382,10 +388,9 @@ fn render_one(
         progress: Some(&advance),
         eye,
         resume: resumed.as_ref().map(|c| c.pixels.as_slice()),
-        checkpoint: run.checkpoint_every.map(|every| Checkpointing {
-            every,
-            save: &save,
-        }),
+        checkpoint: run
+            .checkpoint_every
+            .map(|every| Checkpointing { every, save: &save }),
         stop: run.stop,
     };
     let rendered = crate::with_threads(args.threads, || {
@@ -457,7 +462,10 @@ fn load_checkpoint(file: &Path, key: &Key, window: Window) -> anyhow::Result<Opt
 fn remove_checkpoint(file: &Path) -> anyhow::Result<()> {
     match std::fs::remove_file(file) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-            bail!("{}: cannot remove the finished frame's checkpoint: {e}", file.display())
+            bail!(
+                "{}: cannot remove the finished frame's checkpoint: {e}",
+                file.display()
+            )
         }
         _ => Ok(()),
     }

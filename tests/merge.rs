@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{files_in, rift, root, stderr};
+use common::{files_in, largest_difference, rift, root, stderr};
 use rift_render::film::read_exr_layer;
 use std::path::Path;
 
@@ -28,24 +28,6 @@ fn merge(dir: &Path, out: &str, parts: &[&str]) -> std::process::Output {
     let mut args = vec!["merge", out];
     args.extend_from_slice(parts);
     rift(dir, &args)
-}
-
-/// Largest difference between two EXRs over every channel, relative to max(|value|, 1e-3).
-fn largest_difference(a: &Path, b: &Path) -> f64 {
-    let (a, b) = (read_exr_layer(a).unwrap(), read_exr_layer(b).unwrap());
-    assert_eq!((a.position, a.size), (b.position, b.size), "data windows");
-    assert_eq!(
-        a.channels.keys().collect::<Vec<_>>(),
-        b.channels.keys().collect::<Vec<_>>()
-    );
-    let mut worst = 0.0f64;
-    for (name, x) in &a.channels {
-        for (u, v) in x.iter().zip(&b.channels[name]) {
-            let d = (*u as f64 - *v as f64).abs() / (u.abs() as f64).max(1e-3);
-            worst = worst.max(d);
-        }
-    }
-    worst
 }
 
 #[test]

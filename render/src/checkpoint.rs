@@ -368,7 +368,10 @@ mod tests {
         other.settings[1].1 = "16x8".into();
         other.settings[2].1 = "3".into();
         let why = other.refusal(&k).unwrap();
-        assert!(why.contains("res 16x8 (now 8x4)") && why.contains("seed 3 (now 7)"), "{why}");
+        assert!(
+            why.contains("res 16x8 (now 8x4)") && why.contains("seed 3 (now 7)"),
+            "{why}"
+        );
         let mut other = key();
         other.build = "rift 0.1.0 abcd".into();
         assert!(other.refusal(&k).unwrap().contains("another build"));

@@ -247,7 +247,12 @@ fn run_passes(frame: &FrameSampler, options: &RenderOptions, tiles: &[Tile], sta
         .iter()
         .flat_map(|t| {
             let guard = t.lock().unwrap_or_else(|e| e.into_inner());
-            guard.1.iter().filter(|p| !p.finished(options.spp)).map(|p| p.samples).min()
+            guard
+                .1
+                .iter()
+                .filter(|p| !p.finished(options.spp))
+                .map(|p| p.samples)
+                .min()
         })
         .min()
         .unwrap_or(options.spp)
@@ -331,7 +336,8 @@ impl<'a> FrameSampler<'a> {
             size: (w, h),
             window: options.crop.unwrap_or(Window::full(w, h)),
             shutter: scene.shutter,
-            still_lens: (!scene.camera_moves()).then(|| scene_lens(scene, options.eye, scene.shutter[0])),
+            still_lens: (!scene.camera_moves())
+                .then(|| scene_lens(scene, options.eye, scene.shutter[0])),
             seed: hash32(scene.settings.seed.wrapping_add(0x9e37_79b9)),
             clipped: !scene.clip.is_none(),
             first: options.first_sample.min(options.spp),

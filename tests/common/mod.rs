@@ -68,3 +68,22 @@ pub fn fx_frames(dir: &Path, shot: &Path, extra: &[&str]) -> Vec<PathBuf> {
     assert!(out.status.success(), "{}", stderr(&out));
     files_in(&dir.join("o"))
 }
+
+/// Largest difference between two EXRs over every channel, relative to max(|value|, 1e-3).
+pub fn largest_difference(a: &Path, b: &Path) -> f64 {
+    let read = |p: &Path| rift_render::film::read_exr_layer(p).unwrap();
+    let (a, b) = (read(a), read(b));
+    assert_eq!((a.position, a.size), (b.position, b.size), "data windows");
+    assert_eq!(
+        a.channels.keys().collect::<Vec<_>>(),
+        b.channels.keys().collect::<Vec<_>>()
+    );
+    let mut worst = 0.0f64;
+    for (name, x) in &a.channels {
+        for (u, v) in x.iter().zip(&b.channels[name]) {
+            let d = (*u as f64 - *v as f64).abs() / (u.abs() as f64).max(1e-3);
+            worst = worst.max(d);
+        }
+    }
+    worst
+}
