@@ -237,8 +237,11 @@ impl Checkpoint {
 
 const RGB: [&str; 3] = ["R", "G", "B"];
 
+/// Reads one count of a pixel.
+type Count = fn(&Pixel) -> u32;
+
 /// The counting channels and the field each holds.
-const COUNTS: [(&str, fn(&Pixel) -> u32); 5] = [
+const COUNTS: [(&str, Count); 5] = [
     ("state.hits", |p| p.hits),
     ("state.portalDepth", |p| p.portal_depth),
     ("state.samples", |p| p.samples),
