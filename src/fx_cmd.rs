@@ -24,6 +24,11 @@ pub struct FxArgs {
     /// Formats to write, comma-separated: usd, ply, cache.
     #[arg(long, default_value = "usd,ply,cache")]
     format: String,
+    /// Image size in pixels, overriding the shot's, as `rift render --res` does: rings are
+    /// tessellated for their size on screen, so caches for a render at another size are baked
+    /// at that size.
+    #[arg(long, num_args = 2, value_names = ["W", "H"], action = clap::ArgAction::Set)]
+    res: Option<Vec<u32>>,
     /// Worker threads (default: all cores). Output is identical for any count.
     #[arg(long)]
     threads: Option<usize>,
@@ -39,7 +44,10 @@ pub struct FxArgs {
 
 /// Runs `rift fx`.
 pub fn run(args: FxArgs) -> anyhow::Result<()> {
-    let shot = Shot::load(&args.shot)?;
+    let mut shot = Shot::load(&args.shot)?;
+    if let Some(res) = &args.res {
+        shot.camera.projection.resolution = crate::render_cmd::parse_res(res)?;
+    }
     let frames = match &args.frames {
         Some(text) => FrameRange::parse(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
         None => shot.frames,

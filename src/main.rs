@@ -2,6 +2,7 @@
 //! everything else lives in the library crates.
 
 mod bench;
+mod farm;
 mod fx_cmd;
 mod memory;
 mod merge_cmd;
@@ -29,6 +30,9 @@ enum Command {
     Render(render_cmd::RenderArgs),
     /// Merge parts of one frame (sample ranges, windows) into the image one render makes.
     Merge(merge_cmd::MergeArgs),
+    /// Write a farm job for a shot: frames split in sample chunks, rendered, merged.
+    #[command(subcommand)]
+    Farm(farm::FarmCommand),
     /// Measure performance and print tables.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -40,6 +44,7 @@ fn main() -> ExitCode {
         Command::Fx(args) => fx_cmd::run(args),
         Command::Render(args) => render_cmd::run(args),
         Command::Merge(args) => merge_cmd::run(args),
+        Command::Farm(cmd) => farm::run(cmd),
         Command::Bench(cmd) => bench::run(cmd),
     };
     match result {

@@ -14,6 +14,7 @@ use glam::Vec3;
 use rift_render::film::{
     BACKGROUND_DEPTH, ExrLayer, Image, Metadata, THROUGH_LAYER, Window, read_exr_layer,
 };
+use rift_render::scene::rings::frame_path;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `rift merge`.
@@ -24,6 +25,10 @@ pub struct MergeArgs {
     /// The parts: EXRs `rift render` wrote for one frame with --samples and/or --crop.
     #[arg(required = true)]
     parts: Vec<PathBuf>,
+    /// The frame: `#`s in the output and part names become its number, zero-padded to their
+    /// count as `rift render` writes them (for farm jobs, whose task knows only the number).
+    #[arg(long)]
+    frame: Option<i64>,
 }
 
 /// One part, read and checked.
@@ -59,6 +64,17 @@ const REQUIRED: [&str; 13] = [
 ];
 
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    let args = match args.frame {
+        Some(frame) => {
+            let numbered = |p: &PathBuf| PathBuf::from(frame_path(&p.to_string_lossy(), frame));
+            MergeArgs {
+                output: numbered(&args.output),
+                parts: args.parts.iter().map(numbered).collect(),
+                frame: None,
+            }
+        }
+        None => args,
+    };
     let parts = args
         .parts
         .iter()

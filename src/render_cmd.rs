@@ -138,10 +138,7 @@ impl From<EyeArg> for Eye {
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut shot = Shot::load(&args.shot)?;
     if let Some(res) = &args.res {
-        if res.iter().any(|&v| v == 0 || v > 65536) {
-            bail!("--res: expected a width and height from 1 to 65536 pixels");
-        }
-        shot.camera.projection.resolution = [res[0], res[1]];
+        shot.camera.projection.resolution = parse_res(res)?;
     }
     let frames = match (&args.frames, args.frame) {
         (Some(text), _) => FrameRange::parse(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
@@ -251,6 +248,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// `--res W H`, checked.
+pub fn parse_res(res: &[u32]) -> anyhow::Result<[u32; 2]> {
+    match res {
+        &[w, h] if (1..=65536).contains(&w) && (1..=65536).contains(&h) => Ok([w, h]),
+        _ => bail!("--res: expected a width and height from 1 to 65536 pixels"),
+    }
 }
 
 /// `--samples A-B` as [A, B]: 0 ≤ A < B ≤ 65536.

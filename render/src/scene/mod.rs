@@ -54,6 +54,63 @@ pub struct Settings {
     pub light_through_openings: bool,
     /// Output path pattern; `#`s become the frame number.
     pub output: String,
+    /// `[render] rings`: where the shot's rings come from (`None`: generated in memory).
+    pub rings: Option<String>,
+}
+
+impl Settings {
+    /// The shot's `[render]` settings with `overrides` applied (what the scene is built with;
+    /// also what farm jobs are split by).
+    pub fn read(shot: &Shot, overrides: &Overrides) -> Result<Self, RenderError> {
+        let file = &shot.source;
+        let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
+        let render: RenderSection = match &shot.render.render {
+            Some(t) => parse(file, "render", t)?,
+            None => RenderSection::default(),
+        };
+        let settings = Settings {
+            spp: match render.spp {
+                Some(v) => check::integer("render.spp", v, 1, 1 << 16, "a positive integer")
+                    .map_err(invalid)?,
+                None => 16,
+            },
+            seed: match render.seed {
+                Some(v) => check::integer("render.seed", v, 0, u32::MAX as i64, "an integer ≥ 0")
+                    .map_err(invalid)?,
+                None => 0,
+            },
+            max_bounces: match render.max_bounces {
+                Some(v) => Some(
+                    check::integer("render.max_bounces", v, 0, 1 << 16, "an integer ≥ 0")
+                        .map_err(invalid)?,
+                ),
+                None => None,
+            },
+            max_portal_depth: match render.max_portal_depth {
+                Some(v) => {
+                    check::integer("render.max_portal_depth", v, 0, 1 << 16, "an integer ≥ 0")
+                        .map_err(invalid)?
+                }
+                None => portals::DEFAULT_MAX_PORTAL_DEPTH,
+            },
+            light_through_openings: render.light_through_openings.unwrap_or(true),
+            output: render
+                .output
+                .unwrap_or_else(|| format!("out/{}.####.exr", shot.name)),
+            rings: render.rings,
+        };
+        Ok(Settings {
+            spp: overrides.spp.unwrap_or(settings.spp),
+            seed: overrides.seed.unwrap_or(settings.seed),
+            max_portal_depth: overrides
+                .max_portal_depth
+                .unwrap_or(settings.max_portal_depth),
+            light_through_openings: overrides
+                .light_through_openings
+                .unwrap_or(settings.light_through_openings),
+            ..settings
+        })
+    }
 }
 
 /// Settings given outside the shot (the command line), applied before the scene is built
@@ -180,52 +237,7 @@ impl Scene {
         let base = file.parent().unwrap_or(Path::new("."));
         let sections = &shot.render;
 
-        let render: RenderSection = match &sections.render {
-            Some(t) => parse(file, "render", t)?,
-            None => RenderSection::default(),
-        };
-        let settings = Settings {
-            spp: match render.spp {
-                Some(v) => check::integer("render.spp", v, 1, 1 << 16, "a positive integer")
-                    .map_err(invalid)?,
-                None => 16,
-            },
-            seed: match render.seed {
-                Some(v) => check::integer("render.seed", v, 0, u32::MAX as i64, "an integer ≥ 0")
-                    .map_err(invalid)?,
-                None => 0,
-            },
-            max_bounces: match render.max_bounces {
-                Some(v) => Some(
-                    check::integer("render.max_bounces", v, 0, 1 << 16, "an integer ≥ 0")
-                        .map_err(invalid)?,
-                ),
-                None => None,
-            },
-            max_portal_depth: match render.max_portal_depth {
-                Some(v) => {
-                    check::integer("render.max_portal_depth", v, 0, 1 << 16, "an integer ≥ 0")
-                        .map_err(invalid)?
-                }
-                None => portals::DEFAULT_MAX_PORTAL_DEPTH,
-            },
-            light_through_openings: render.light_through_openings.unwrap_or(true),
-            output: render
-                .output
-                .unwrap_or_else(|| format!("out/{}.####.exr", shot.name)),
-        };
-        let settings = Settings {
-            spp: overrides.spp.unwrap_or(settings.spp),
-            seed: overrides.seed.unwrap_or(settings.seed),
-            max_portal_depth: overrides
-                .max_portal_depth
-                .unwrap_or(settings.max_portal_depth),
-            light_through_openings: overrides
-                .light_through_openings
-                .unwrap_or(settings.light_through_openings),
-            ..settings
-        };
-
+        let settings = Settings::read(shot, overrides)?;
         let media = media::sections(file, &sections.media)?;
         let mut materials = Vec::new();
         for (i, table) in sections.materials.iter().enumerate() {
@@ -250,7 +262,7 @@ impl Scene {
                 pattern: pattern.clone(),
                 key: None,
             },
-            None => rings::shot_source(shot, render.rings.as_deref()),
+            None => rings::shot_source(shot, settings.rings.as_deref()),
         };
         let ring_frame = rings::load(shot, frame, &ring_source)?;
         let (portals, strand_looks) = portals::portals(
