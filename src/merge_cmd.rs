@@ -10,7 +10,7 @@
 
 use anyhow::{Context, bail};
 use clap::Args;
-use glam::Vec3;
+use rayon::prelude::*;
 use rift_render::film::{
     BACKGROUND_DEPTH, ExrLayer, Image, Metadata, THROUGH_LAYER, Window, read_exr_layer,
 };
@@ -77,7 +77,7 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     };
     let parts = args
         .parts
-        .iter()
+        .par_iter()
         .map(|p| read_part(p))
         .collect::<anyhow::Result<Vec<_>>>()?;
     check_compatible(&parts)?;
@@ -184,6 +184,9 @@ fn check_compatible(parts: &[Part]) -> anyhow::Result<()> {
 
 /// The window the parts cover and the samples per pixel they add up to: every pixel of the
 /// window must be covered by sample ranges that neither overlap nor leave a gap from 0.
+///
+/// The parts' window edges cut the frame into cells that every part either covers whole or
+/// misses, so checking one pixel per cell checks them all.
 fn check_coverage(parts: &[Part]) -> anyhow::Result<(Window, u32)> {
     let window = parts.iter().skip(1).fold(parts[0].window, |w, p| Window {
         x0: w.x0.min(p.window.x0),
@@ -192,40 +195,49 @@ fn check_coverage(parts: &[Part]) -> anyhow::Result<(Window, u32)> {
         y1: w.y1.max(p.window.y1),
     });
     let total = parts.iter().map(|p| p.range[1]).max().unwrap_or(0);
-    // Per pixel, the ranges met so far (sorted), to find overlaps and gaps.
-    let mut ranges: Vec<Vec<(u32, u32, usize)>> = vec![Vec::new(); window.area()];
-    for (k, p) in parts.iter().enumerate() {
-        for y in p.window.y0..p.window.y1 {
-            for x in p.window.x0..p.window.x1 {
-                ranges[(y - window.y0) * window.width() + (x - window.x0)]
-                    .push((p.range[0], p.range[1], k));
-            }
-        }
-    }
-    for (i, list) in ranges.iter_mut().enumerate() {
-        let (x, y) = (
-            window.x0 + i % window.width(),
-            window.y0 + i / window.width(),
-        );
-        list.sort_unstable();
-        let mut next = 0;
-        for &(start, end, k) in list.iter() {
-            if start < next {
-                bail!(
-                    "{}: samples {start}-{end} overlap another part's at pixel ({x}, {y})",
-                    parts[k].path.display()
-                );
-            }
-            if start > next {
-                bail!("samples {next}-{start} of pixel ({x}, {y}) are in no part: one is missing");
-            }
-            next = end;
-        }
-        if next < total {
-            bail!("samples {next}-{total} of pixel ({x}, {y}) are in no part: one is missing");
+    let edges = |ends: &dyn Fn(&Window) -> [usize; 2]| {
+        let mut e: Vec<usize> = parts.iter().flat_map(|p| ends(&p.window)).collect();
+        e.sort_unstable();
+        e.dedup();
+        e
+    };
+    let (xs, ys) = (edges(&|w| [w.x0, w.x1]), edges(&|w| [w.y0, w.y1]));
+    for cell_y in ys.windows(2) {
+        for cell_x in xs.windows(2) {
+            check_pixel(parts, cell_x[0], cell_y[0], total)?;
         }
     }
     Ok((window, total))
+}
+
+/// The parts holding pixel (x, y) give it the samples 0..total, each once.
+fn check_pixel(parts: &[Part], x: usize, y: usize, total: u32) -> anyhow::Result<()> {
+    let mut ranges: Vec<(u32, u32, usize)> = parts
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| {
+            (p.window.x0..p.window.x1).contains(&x) && (p.window.y0..p.window.y1).contains(&y)
+        })
+        .map(|(k, p)| (p.range[0], p.range[1], k))
+        .collect();
+    ranges.sort_unstable();
+    let mut next = 0;
+    for (start, end, k) in ranges {
+        if start < next {
+            bail!(
+                "{}: samples {start}-{end} overlap another part's at pixel ({x}, {y})",
+                parts[k].path.display()
+            );
+        }
+        if start > next {
+            bail!("samples {next}-{start} of pixel ({x}, {y}) are in no part: one is missing");
+        }
+        next = end;
+    }
+    if next < total {
+        bail!("samples {next}-{total} of pixel ({x}, {y}) are in no part: one is missing");
+    }
+    Ok(())
 }
 
 /// Weighted sums of every part over the window, divided out.
@@ -238,31 +250,37 @@ fn merge(parts: &[Part], window: Window, total: u32) -> Image {
     let mut acc = Accumulator::new(n);
     for p in parts {
         let c = &p.layer.channels;
-        let rgb = |prefix: &str, i: usize| {
-            Vec3::new(
-                c[&format!("{prefix}R")][i],
-                c[&format!("{prefix}G")][i],
-                c[&format!("{prefix}B")][i],
-            )
+        let rgb = |prefix: &str| {
+            [
+                c[&format!("{prefix}R")].as_slice(),
+                c[&format!("{prefix}G")].as_slice(),
+                c[&format!("{prefix}B")].as_slice(),
+            ]
+        };
+        let (beauty, albedo) = (rgb(""), rgb("albedo."));
+        let light = through.then(|| rgb(&format!("{THROUGH_LAYER}.")));
+        let normal = [&c["N.X"], &c["N.Y"], &c["N.Z"]];
+        let (spp, alpha, z, portal_depth) = (&c["spp"], &c["A"], &c["Z"], &c["portalDepth"]);
+        let at = |v: [&[f32]; 3], i: usize| {
+            glam::DVec3::new(v[0][i] as f64, v[1][i] as f64, v[2][i] as f64)
         };
         for y in p.window.y0..p.window.y1 {
             for x in p.window.x0..p.window.x1 {
                 let i = (y - p.window.y0) * p.window.width() + (x - p.window.x0);
                 let o = (y - window.y0) * window.width() + (x - window.x0);
-                let count = c["spp"][i] as f64;
-                let hits = count * c["A"][i] as f64;
+                let count = spp[i] as f64;
+                let hits = count * alpha[i] as f64;
                 acc.count[o] += count;
                 acc.hits[o] += hits;
-                acc.rgb[o] += rgb("", i).as_dvec3() * count;
-                if through {
-                    acc.through[o] += rgb(&format!("{THROUGH_LAYER}."), i).as_dvec3() * count;
+                acc.rgb[o] += at(beauty, i) * count;
+                if let Some(light) = light {
+                    acc.through[o] += at(light, i) * count;
                 }
-                acc.portal_depth[o] += c["portalDepth"][i] as f64 * count;
-                acc.albedo[o] += rgb("albedo.", i).as_dvec3() * hits;
-                let normal = Vec3::new(c["N.X"][i], c["N.Y"][i], c["N.Z"][i]);
-                acc.normal[o] += normal.as_dvec3() * hits;
+                acc.portal_depth[o] += portal_depth[i] as f64 * count;
+                acc.albedo[o] += at(albedo, i) * hits;
+                acc.normal[o] += at(normal.map(|v| v.as_slice()), i) * hits;
                 if hits > 0.0 {
-                    acc.depth[o] += c["Z"][i] as f64 * hits;
+                    acc.depth[o] += z[i] as f64 * hits;
                 }
             }
         }
