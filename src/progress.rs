@@ -2,11 +2,16 @@
 
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Reports progress over `total` items.
 pub struct Progress {
     bar: Option<ProgressBar>,
     label: String,
+    total: u64,
+    /// Off a terminal: units done, and the next tenth of the total to report.
+    done: AtomicU64,
+    next_tenth: AtomicU64,
 }
 
 impl Progress {
@@ -25,6 +30,9 @@ impl Progress {
         Self {
             bar,
             label: label.to_owned(),
+            total: total as u64,
+            done: AtomicU64::new(0),
+            next_tenth: AtomicU64::new(1),
         }
     }
 
@@ -39,11 +47,23 @@ impl Progress {
         }
     }
 
-    /// `n` more units of work are done, without a line of its own (for fine-grained work such
-    /// as samples; off a terminal only the caller's summary is printed).
+    /// `n` more units of work are done (fine-grained work such as samples): off a terminal, a
+    /// line at each tenth of the total, for farm logs.
     pub fn advance(&self, n: u64) {
         if let Some(bar) = &self.bar {
             bar.inc(n);
+            return;
+        }
+        let done = self.done.fetch_add(n, Ordering::Relaxed) + n;
+        let tenths = (done.saturating_mul(10) / self.total.max(1)).min(10);
+        let next = self.next_tenth.load(Ordering::Relaxed);
+        if tenths >= next
+            && self
+                .next_tenth
+                .compare_exchange(next, tenths + 1, Ordering::Relaxed, Ordering::Relaxed)
+                .is_ok()
+        {
+            eprintln!("{}: {}%", self.label, tenths * 10);
         }
     }
 

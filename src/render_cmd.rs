@@ -171,9 +171,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         None => 2 * rift_fx::ring::RingGenerator::new(&shot, frames).frame_bytes_bound(frames),
         Some(_) => 0,
     };
+    let checkpoints = match args.checkpoint {
+        Some(_) => rift_render::checkpoint::checkpoint_bytes(pixels),
+        None => 0,
+    };
     crate::memory::ensure_fits(
-        &format!("a {w}x{h} frame ({pixels} pixels rendered) with its rings"),
-        rift_render::render::film_bytes(pixels).saturating_add(rings),
+        &format!("a {w}x{h} frame ({pixels} pixels rendered) with its rings and checkpoints"),
+        rift_render::render::film_bytes(pixels)
+            .saturating_add(rings)
+            .saturating_add(checkpoints),
         crate::memory::budget(args.max_memory),
         "lower --res (or the shot's resolution), render a window of the frame at a time with \
          --crop, or lower fx.max_segments or [portal.ring] strands",

@@ -44,6 +44,20 @@ fn start(dir: &Path, args: &[&str]) -> Child {
         .unwrap()
 }
 
+/// Waits until a render started by `start` reports progress (a line with `%`), so that it is
+/// past setting up and has samples to save; the rest of its standard error is collected.
+fn wait_for_progress(child: &mut Child) -> std::thread::JoinHandle<String> {
+    use std::io::BufRead;
+    let stderr = child.stderr.take().unwrap();
+    let mut lines = std::io::BufReader::new(stderr).lines();
+    let seen = lines
+        .by_ref()
+        .map_while(Result::ok)
+        .any(|l| l.contains('%'));
+    assert!(seen, "the render ended without reporting progress");
+    std::thread::spawn(move || lines.map_while(Result::ok).collect::<Vec<_>>().join("\n"))
+}
+
 /// Sends `signal` (by name) to a child process.
 fn signal(child: &Child, signal: &str) {
     let ok = Command::new("kill")
@@ -107,8 +121,11 @@ fn killed_three_times_at_random_and_resumed_equals_one_render() {
     let resumable = render_args(&shot, "out.exr", &["--checkpoint", "0.05", "--resume"]);
     let mut progress = Vec::new();
     for _ in 0..3 {
-        let wait = whole_seconds * (0.1 + 0.2 * uniform());
+        // A random moment once the render is under way (setting up takes longer on a busy
+        // machine than the whole render's share suggests).
+        let wait = whole_seconds * (0.05 + 0.2 * uniform());
         let mut child = start(d, &resumable);
+        let _rest = wait_for_progress(&mut child);
         std::thread::sleep(Duration::from_secs_f64(wait));
         signal(&child, "KILL");
         child.wait().unwrap();
@@ -169,11 +186,10 @@ fn sigterm_and_sigint_stop_cleanly_and_the_render_resumes_exactly() {
 
 /// Stops a render of `shot` with SIGTERM so that `out.checkpoint.exr` is left in `dir`.
 fn leave_checkpoint(dir: &Path, shot: &Path) {
-    let child = start(dir, &render_args(shot, "out.exr", &["--checkpoint", "60"]));
-    std::thread::sleep(Duration::from_millis(300));
+    let mut child = start(dir, &render_args(shot, "out.exr", &["--checkpoint", "60"]));
+    wait_for_progress(&mut child);
     signal(&child, "TERM");
-    let out = child.wait_with_output().unwrap();
-    assert_eq!(out.status.code(), Some(143), "{}", stderr(&out));
+    assert_eq!(child.wait().unwrap().code(), Some(143));
 }
 
 /// A resume that must be refused: exit 1, the checkpoint named, `expect` in the message, the

@@ -8,7 +8,7 @@
 //! of being mixed in.
 
 use crate::error::RenderError;
-use crate::film::{Image, MAX_EXR_PIXELS, Window};
+use crate::film::{ExrExtras, Image, MAX_EXR_PIXELS, Window};
 use crate::render::Pixel;
 use exr::meta::attribute::AttributeValue;
 use exr::prelude::{AnyChannel, FlatSamples, Text};
@@ -117,6 +117,16 @@ pub struct Checkpoint {
     pub pixels: Vec<Pixel>,
 }
 
+/// Bytes a checkpoint of `pixels` pixels takes while it is written, beside the render's own
+/// film: the copied sums, the partial image, and its 5 image channels and 27 state channels as
+/// the EXR writer holds them (copied once more by the encoder).
+pub fn checkpoint_bytes(pixels: usize) -> u64 {
+    const CHANNELS: usize = 5 + 27;
+    let partial_image = 4 * std::mem::size_of::<Vec3>() + 4 * std::mem::size_of::<f32>();
+    let per_pixel = std::mem::size_of::<Pixel>() + partial_image + 2 * 4 * CHANNELS;
+    (pixels as u64).saturating_mul(per_pixel as u64)
+}
+
 impl Checkpoint {
     /// Samples taken so far over all pixels, from each pixel's first sample index `first`.
     pub fn samples_taken(&self, first: u32) -> u64 {
@@ -126,9 +136,17 @@ impl Checkpoint {
             .sum()
     }
 
-    /// Writes the checkpoint with `image` (the partial image of the same sums) atomically.
+    /// Writes the checkpoint with `image` (the partial image of the same sums: its beauty,
+    /// alpha and sample counts) atomically. Uncompressed, on the calling thread: the render
+    /// goes on meanwhile, and compressing a frame's sums costs it more than writing them.
     pub fn write(&self, image: &Image, path: &Path) -> Result<(), RenderError> {
-        image.write_exr_with(path, self.state_channels(), self.key.attributes())
+        let extras = ExrExtras {
+            channels: self.state_channels(),
+            attributes: self.key.attributes(),
+            only: Some(&["R", "G", "B", "A", "spp"]),
+            fast: true,
+        };
+        image.write_exr_with(path, extras)
     }
 
     /// Reads a checkpoint `write` made; anything else is refused with the reason.
@@ -137,16 +155,16 @@ impl Checkpoint {
             path: path.to_owned(),
             message: e.to_string(),
         })?;
-        Self::decode(&bytes).map_err(|message| RenderError::Image {
+        Self::decode(&bytes, MAX_EXR_PIXELS).map_err(|message| RenderError::Image {
             path: path.to_owned(),
             message,
         })
     }
 
-    /// A checkpoint from EXR bytes (the reader the fuzz target drives).
-    pub fn decode(bytes: &[u8]) -> Result<Self, String> {
+    /// A checkpoint from EXR bytes of at most `max_pixels` (the reader the fuzz target drives).
+    pub fn decode(bytes: &[u8], max_pixels: usize) -> Result<Self, String> {
         use exr::prelude::*;
-        crate::film::check_exr_size(bytes, MAX_EXR_PIXELS)?;
+        crate::film::check_exr_size(bytes, max_pixels)?;
         let image = read()
             .no_deep_data()
             .largest_resolution_level()

@@ -106,6 +106,17 @@ pub const BACKGROUND_DEPTH: f32 = 1e10;
 pub const THROUGH_LAYER: &str = "throughOpenings";
 pub const LOCAL_LAYER: &str = "notThroughOpenings";
 
+/// What [`Image::write_exr_with`] adds to or leaves out of an image's EXR.
+#[derive(Default)]
+pub struct ExrExtras {
+    pub channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
+    pub attributes: Vec<(String, exr::meta::attribute::AttributeValue)>,
+    /// Only these of the image's own channels; `None`: all of them.
+    pub only: Option<&'static [&'static str]>,
+    /// Uncompressed and encoded on the calling thread.
+    pub fast: bool,
+}
+
 /// A finished image: the beauty pass and the AOVs over a data window of a full frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
@@ -142,40 +153,45 @@ impl Image {
     /// scenes with openings) the through/not-through light layers, the crop as the data
     /// window, and the metadata as header attributes.
     pub fn write_exr(&self, path: &Path) -> Result<(), RenderError> {
-        self.write_exr_with(path, Vec::new(), Vec::new())
+        self.write_exr_with(path, ExrExtras::default())
     }
 
-    /// [`Self::write_exr`] with more channels and header attributes (a checkpoint's state).
-    pub fn write_exr_with(
-        &self,
-        path: &Path,
-        extra_channels: Vec<exr::prelude::AnyChannel<exr::prelude::FlatSamples>>,
-        extra_attributes: Vec<(String, exr::meta::attribute::AttributeValue)>,
-    ) -> Result<(), RenderError> {
+    /// [`Self::write_exr`] with `extra`'s channels and attributes, keeping only its `only`
+    /// channels of the image when given, and uncompressed when `extra.fast` (a checkpoint,
+    /// written while rendering goes on).
+    pub fn write_exr_with(&self, path: &Path, extra: ExrExtras) -> Result<(), RenderError> {
         use exr::prelude::*;
         let err = |message: String| RenderError::Write {
             path: path.to_owned(),
             message,
         };
         let mut channels = self.exr_channels();
-        channels.extend(extra_channels);
+        if let Some(only) = extra.only {
+            channels.retain(|c| only.contains(&c.name.to_string().as_str()));
+        }
+        channels.extend(extra.channels);
         let mut attributes = self.exr_attributes();
-        for (key, value) in extra_attributes {
+        for (key, value) in extra.attributes {
             attributes.other.insert(Text::from(key.as_str()), value);
         }
+        let encoding = match extra.fast {
+            true => Encoding::UNCOMPRESSED,
+            false => Encoding::SMALL_LOSSLESS,
+        };
         let layer = Layer::new(
             (self.window.width(), self.window.height()),
             attributes,
-            Encoding::SMALL_LOSSLESS,
+            encoding,
             AnyChannels::sort(SmallVec::from_vec(channels)),
         );
         let display = IntegerBounds::from_dimensions((self.width, self.height));
         let image = exr::image::Image::new(ImageAttributes::new(display), layer);
         let mut bytes = std::io::Cursor::new(Vec::new());
-        image
-            .write()
-            .to_buffered(&mut bytes)
-            .map_err(|e| err(e.to_string()))?;
+        let written = match extra.fast {
+            true => image.write().non_parallel().to_buffered(&mut bytes),
+            false => image.write().to_buffered(&mut bytes),
+        };
+        written.map_err(|e| err(e.to_string()))?;
         rift_fx::export::atomic::write(path, |out| out.write_all(bytes.get_ref()))
             .map_err(|e| err(e.to_string()))
     }
@@ -401,12 +417,16 @@ pub struct ExrLayer {
 
 /// Reads the first layer of an EXR with all its channels.
 pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
-    use exr::prelude::*;
-    let bytes = read_exr_bytes(path)?;
-    check_exr_size(&bytes, MAX_EXR_PIXELS).map_err(|message| RenderError::Image {
+    decode_exr_layer(&read_exr_bytes(path)?, MAX_EXR_PIXELS).map_err(|message| RenderError::Image {
         path: path.to_owned(),
         message,
-    })?;
+    })
+}
+
+/// The first layer of EXR bytes with at most `max_pixels` in a layer, with all its channels.
+pub fn decode_exr_layer(bytes: &[u8], max_pixels: usize) -> Result<ExrLayer, String> {
+    use exr::prelude::*;
+    check_exr_size(bytes, max_pixels)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -414,15 +434,12 @@ pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
         .all_layers()
         .all_attributes()
         .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| RenderError::Image {
-            path: path.to_owned(),
-            message: e.to_string(),
-        })?;
+        .map_err(|e| e.to_string())?;
     let display = image.attributes.display_window.size;
-    let layer = image.layer_data.first().ok_or_else(|| RenderError::Image {
-        path: path.to_owned(),
-        message: "the file has no layer".into(),
-    })?;
+    let layer = image
+        .layer_data
+        .first()
+        .ok_or_else(|| "the file has no layer".to_owned())?;
     let channels = layer
         .channel_data
         .list

@@ -14,13 +14,15 @@ const MAX_FUZZED_STRANDS: u32 = 256;
 pub type Reader = fn(&[u8]);
 
 /// The readers, by the name of their fuzz target.
-pub const TARGETS: [(&str, Reader); 6] = [
+pub const TARGETS: [(&str, Reader); 8] = [
     ("shot", shot),
     ("obj", obj),
     ("ply_mesh", ply_mesh),
     ("ring_ply", ring_ply),
     ("ring_cache", ring_cache),
     ("exr", exr),
+    ("exr_layer", exr_layer),
+    ("checkpoint", checkpoint),
 ];
 
 /// A shot file: parsed, validated and, when it is small, built into a scene (meshes are
@@ -68,4 +70,15 @@ pub fn ring_cache(bytes: &[u8]) {
 /// ([`crate::film::MAX_EXR_PIXELS`]) takes gigabytes to reach, which only slows the fuzzer.
 pub fn exr(bytes: &[u8]) {
     let _ = crate::film::decode_exr_rgb(bytes, 1 << 20);
+}
+
+/// An EXR read whole with every channel, as `rift merge` reads its parts, of at most 2^20
+/// pixels.
+pub fn exr_layer(bytes: &[u8]) {
+    let _ = crate::film::decode_exr_layer(bytes, 1 << 20);
+}
+
+/// A checkpoint `rift render --resume` continues from, of at most 2^20 pixels.
+pub fn checkpoint(bytes: &[u8]) {
+    let _ = crate::checkpoint::Checkpoint::decode(bytes, 1 << 20);
 }
