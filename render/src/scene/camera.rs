@@ -1,8 +1,8 @@
 //! The renderer's camera sections: `[camera.clip]` and `[camera.stereo]`. Syntax:
 //! [`super::schema`].
 
-use super::parse;
 use super::schema::{ClipSection, StereoSection};
+use super::{optional, parse};
 use crate::camera::{Clip, Stereo};
 use crate::error::RenderError;
 use glam::Vec4;
@@ -32,14 +32,12 @@ pub fn clip(file: &Path, table: Option<&toml::Table>) -> Result<Clip, RenderErro
         return Ok(Clip::default());
     };
     let c: ClipSection = parse(file, "camera.clip", table)?;
-    let near = match c.near {
-        Some(v) => check::non_negative("camera.clip.near", v).map_err(invalid)? as f32,
-        None => 0.0,
-    };
-    let far = match c.far {
-        Some(v) => check::positive("camera.clip.far", v).map_err(invalid)? as f32,
-        None => f32::INFINITY,
-    };
+    let near = optional(c.near, 0.0, |v| check::non_negative("camera.clip.near", v))
+        .map_err(invalid)? as f32;
+    let far = optional(c.far, f64::INFINITY, |v| {
+        check::positive("camera.clip.far", v)
+    })
+    .map_err(invalid)? as f32;
     if far <= near {
         return Err(invalid(Invalid::new(
             "camera.clip.far",

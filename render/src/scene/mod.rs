@@ -4,9 +4,11 @@
 //! sections: [`schema`].
 
 pub mod camera;
+mod materials;
 pub mod media;
 pub mod mesh;
 pub mod metals;
+mod objects;
 pub mod ply;
 pub mod portals;
 pub mod rings;
@@ -16,27 +18,21 @@ use crate::camera::{Clip, Stereo};
 use crate::environment::{Environment, LatLong};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{
-    Accel, Hit, MovingInstance, ObjectMotion, RingFrame, STATIC, StrandHit, Strands, Triangle,
-    changes_during, every_triangle,
+    Accel, Hit, STATIC, StrandHit, Strands, Triangle, changes_during, every_triangle,
 };
 use crate::light_visibility::LightVisibility;
-use crate::lights::{Emitter, LightSelection, Lights};
-use crate::material::{Bsdf, Material};
-use crate::microfacet::{ConductorFresnel, Ggx, Shadowing};
-use crate::multiscatter::Multiscatter;
+use crate::lights::{LightSelection, Lights};
+use crate::material::Material;
 use crate::portal::Portals;
 use crate::ray::Ray;
 use crate::visibility::{Flags, RayClass, Visibility};
 use glam::Vec3;
+use materials::color;
 use rift_fx::rig::{AnimatedTransform, Camera};
 use rift_fx::shot::check;
-use rift_fx::shot::pose::{self, Facing};
 use rift_fx::{Invalid, Shot};
 use rings::RingSource;
-use schema::{
-    EnvironmentSection, MaterialKind, MaterialSection, ObjectSection, RenderSection, ShadowingKind,
-    VisibilitySection,
-};
+use schema::{EnvironmentSection, RenderSection, VisibilitySection};
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -69,30 +65,24 @@ impl Settings {
             None => RenderSection::default(),
         };
         let settings = Settings {
-            spp: match render.spp {
-                Some(v) => check::integer("render.spp", v, 1, 1 << 16, "a positive integer")
-                    .map_err(invalid)?,
-                None => 16,
-            },
-            seed: match render.seed {
-                Some(v) => check::integer("render.seed", v, 0, u32::MAX as i64, "an integer ≥ 0")
-                    .map_err(invalid)?,
-                None => 0,
-            },
-            max_bounces: match render.max_bounces {
-                Some(v) => Some(
-                    check::integer("render.max_bounces", v, 0, 1 << 16, "an integer ≥ 0")
-                        .map_err(invalid)?,
-                ),
-                None => None,
-            },
-            max_portal_depth: match render.max_portal_depth {
-                Some(v) => {
-                    check::integer("render.max_portal_depth", v, 0, 1 << 16, "an integer ≥ 0")
-                        .map_err(invalid)?
-                }
-                None => portals::DEFAULT_MAX_PORTAL_DEPTH,
-            },
+            spp: optional(render.spp, 16, |v| {
+                check::integer("render.spp", v, 1, 1 << 16, "a positive integer")
+            })
+            .map_err(invalid)?,
+            seed: optional(render.seed, 0, |v| {
+                check::integer("render.seed", v, 0, u32::MAX as i64, "an integer ≥ 0")
+            })
+            .map_err(invalid)?,
+            max_bounces: optional(render.max_bounces, None, |v| {
+                check::integer("render.max_bounces", v, 0, 1 << 16, "an integer ≥ 0").map(Some)
+            })
+            .map_err(invalid)?,
+            max_portal_depth: optional(
+                render.max_portal_depth,
+                portals::DEFAULT_MAX_PORTAL_DEPTH,
+                |v| check::integer("render.max_portal_depth", v, 0, 1 << 16, "an integer ≥ 0"),
+            )
+            .map_err(invalid)?,
             light_through_openings: render.light_through_openings.unwrap_or(true),
             output: render
                 .output
@@ -194,18 +184,15 @@ pub struct SurfacePoint {
     pub area_scale: f32,
 }
 
-/// One object's triangles on their way into the scene.
-struct Part {
-    /// Index of the `[[object]]`.
-    object: u32,
-    triangles: Vec<Triangle>,
-    materials: Vec<u32>,
-    /// `None`: baked to world space.
-    motion: Option<ObjectMotion>,
+/// An optional key's value: `value` passed through its `check` when the shot gives one,
+/// `default` when it does not.
+pub(crate) fn optional<T, U>(
+    value: Option<T>,
+    default: U,
+    check: impl FnOnce(T) -> Result<U, Invalid>,
+) -> Result<U, Invalid> {
+    value.map_or(Ok(default), check)
 }
-
-/// The material given to a medium's boundary when its object names none.
-const BOUNDARY_MATERIAL: &str = "(medium boundary)";
 
 /// Deserialises one renderer-owned table, naming `key` in errors.
 pub(crate) fn parse<T: DeserializeOwned>(
@@ -233,25 +220,12 @@ impl Scene {
     /// Builds the scene of `shot` at `frame`, with `overrides` replacing the shot's settings.
     pub fn build_with(shot: &Shot, frame: i64, overrides: &Overrides) -> Result<Self, RenderError> {
         let file = &shot.source;
-        let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
         let base = file.parent().unwrap_or(Path::new("."));
         let sections = &shot.render;
 
         let settings = Settings::read(shot, overrides)?;
         let media = media::sections(file, &sections.media)?;
-        let mut materials = Vec::new();
-        for (i, table) in sections.materials.iter().enumerate() {
-            let key = format!("material[{i}]");
-            let m: MaterialSection = parse(file, &key, table)?;
-            if materials.iter().any(|x: &Material| x.name == m.name) {
-                return Err(key_error(
-                    file,
-                    format!("{key}.name"),
-                    format!("another material is already called {:?}", m.name),
-                ));
-            }
-            materials.push(material(&key, &m).map_err(invalid)?);
-        }
+        let mut materials = materials::materials(file, &sections.materials)?;
 
         let shutter = shot
             .shutter_seconds()
@@ -265,6 +239,7 @@ impl Scene {
             None => rings::shot_source(shot, settings.rings.as_deref()),
         };
         let ring_frame = rings::load(shot, frame, &ring_source)?;
+        let environment = environment_section(file, base, sections.environment.as_ref())?;
         let (portals, strand_looks) = portals::portals(
             shot,
             shutter,
@@ -274,255 +249,54 @@ impl Scene {
         // Every time a ray can have: objects that move within it are blurred, the rest baked.
         let times = portals.times();
         let rig = Arc::new(shot.rig.clone());
-        let objects = object_sections(file, &sections.objects)?;
+        let objects = objects::object_sections(file, &sections.objects)?;
         // The remaining sections are read before any mesh is loaded, so their mistakes are
         // reported at once.
         let names: Vec<&str> = objects.iter().map(|o| o.name.as_str()).collect();
         let volumes = portals::cull_volumes(shot, &names)?;
         let clip = camera::clip(file, sections.camera_clip.as_ref())?;
         let stereo = camera::stereo(file, sections.camera_stereo.as_ref())?;
-        let mut parts = Vec::new();
-        let mut flags = Vec::new();
-        for (i, o) in objects.iter().enumerate() {
-            let key = format!("object[{i}]");
-            let transform = match &o.transform {
-                Some(spec) => pose::animated(
-                    &format!("{key}.transform"),
-                    spec,
-                    Facing::PositiveZ,
-                    shot.fps,
-                )
-                .map_err(invalid)?,
-                None => AnimatedTransform::constant(rift_fx::rig::Similarity::IDENTITY),
-            };
-            let motion = match &o.through {
-                None => ObjectMotion::new(transform),
-                Some(name) => {
-                    let opening = shot.rig.find(name).ok_or_else(|| {
-                        key_error(
-                            file,
-                            format!("{key}.through"),
-                            format!("no portal opening is called {name:?}"),
-                        )
-                    })?;
-                    let delay = portals.look(opening).time_offset;
-                    ObjectMotion::through(transform, rig.clone(), opening, delay)
-                }
-            };
-            flags.push(if media.inside(&o.name).is_some() {
-                // Paths cross a medium's boundary; shadow rays pass it (attenuated by the media).
-                Flags::new(true, true, true, false)
-            } else {
-                self::flags(o.visibility)
-            });
-            let Some(mesh_name) = &o.mesh else {
-                return Err(key_error(
-                    file,
-                    format!("{key}.mesh"),
-                    "missing: give `mesh`, or `copy_of` another object",
-                ));
-            };
-            let mesh_path = base.join(mesh_name);
-            let mesh_parts = match mesh_path.extension().and_then(|e| e.to_str()) {
-                Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)?,
-                Some(ext) if ext.eq_ignore_ascii_case("ply") => ply::load_ply(&mesh_path)?,
-                _ => {
-                    return Err(key_error(
-                        file,
-                        format!("{key}.mesh"),
-                        format!("{mesh_name:?}: expected an .obj or .ply file"),
-                    ));
-                }
-            };
-            let moves = motion.moves_during(times);
-            let placed = motion.at(times[0]);
-            let mut part = Part {
-                object: i as u32,
-                triangles: Vec::new(),
-                materials: Vec::new(),
-                motion: moves.then_some(motion),
-            };
-            for mesh_part in mesh_parts {
-                let index = match (&o.material, &mesh_part.material) {
-                    (Some(name), _) => find(&materials, name).ok_or_else(|| {
-                        key_error(
-                            file,
-                            format!("{key}.material"),
-                            format!("no material is called {name:?}"),
-                        )
-                    })?,
-                    (None, Some(mtl)) => match find(&materials, &mtl.name) {
-                        Some(i) => i,
-                        None if !mtl.declared => {
-                            return Err(key_error(
-                                file,
-                                format!("{key}.material"),
-                                format!(
-                                    "part {:?} of {mesh_name} uses material {:?}, which is \
-                                     neither a [[material]] nor in its MTL",
-                                    mesh_part.name, mtl.name
-                                ),
-                            ));
-                        }
-                        None => {
-                            // From the MTL: Kd as diffuse reflectance, Ke as one-sided emission.
-                            materials.push(Material {
-                                name: mtl.name.clone(),
-                                bsdf: Bsdf::Diffuse {
-                                    reflectance: mtl.diffuse.unwrap_or(Vec3::splat(0.8)),
-                                },
-                                emission: mtl.emission.unwrap_or(Vec3::ZERO),
-                                two_sided_emission: false,
-                            });
-                            materials.len() - 1
-                        }
-                    },
-                    (None, None) if media.inside(&o.name).is_some() => {
-                        // A medium's boundary is never shaded; it still needs an index.
-                        find(&materials, BOUNDARY_MATERIAL).unwrap_or_else(|| {
-                            materials.push(Material {
-                                name: BOUNDARY_MATERIAL.into(),
-                                bsdf: Bsdf::Diffuse {
-                                    reflectance: Vec3::ZERO,
-                                },
-                                emission: Vec3::ZERO,
-                                two_sided_emission: false,
-                            });
-                            materials.len() - 1
-                        })
-                    }
-                    (None, None) => {
-                        return Err(key_error(
-                            file,
-                            format!("{key}.material"),
-                            format!(
-                                "part {:?} of {mesh_name} names no material; set `material`",
-                                mesh_part.name
-                            ),
-                        ));
-                    }
-                };
-                for tri in mesh_part.triangles {
-                    let v = if moves {
-                        tri
-                    } else {
-                        tri.map(|p| placed.transform_point(p.as_dvec3()).as_vec3())
-                    };
-                    if !v.iter().all(|&p| within_single_precision(p)) {
-                        return Err(key_error(
-                            file,
-                            format!("{key}.transform"),
-                            format!(
-                                "it places {mesh_name} beyond ±{:e} m, more than single-precision \
-                                 rendering can hold",
-                                check::MAX_LENGTH
-                            ),
-                        ));
-                    }
-                    part.triangles.push(Triangle { v });
-                    part.materials.push(index as u32);
-                }
-            }
-            parts.push(part);
-        }
-        // Static parts first so their triangles take the indices the static BVH starts at.
-        parts.sort_by_key(|p| p.motion.is_some());
-
-        let mut triangles = Vec::new();
-        let mut triangle_material = Vec::new();
-        let mut triangle_instance = Vec::new();
-        let mut triangle_object = Vec::new();
-        let mut instances = Vec::new();
-        let mut static_count = 0;
-        let mut moving = vec![false; objects.len()];
-        for part in parts {
-            moving[part.object as usize] = part.motion.is_some();
-            let first = triangles.len() as u32;
-            let instance = match part.motion {
-                None => {
-                    static_count += part.triangles.len();
-                    STATIC
-                }
-                Some(motion) => {
-                    instances.push(MovingInstance::new(&part.triangles, first, motion, times));
-                    instances.len() as u32 - 1
-                }
-            };
-            triangle_instance.extend(std::iter::repeat_n(instance, part.triangles.len()));
-            triangle_object.extend(std::iter::repeat_n(part.object, part.triangles.len()));
-            triangles.extend(part.triangles);
-            triangle_material.extend(part.materials);
-        }
-        let participating =
-            media::volumes(file, media, &names, &moving, &triangles, &triangle_object)?;
-        let normals: Vec<Vec3> = triangles
+        let loader = objects::Loader {
+            shot,
+            base,
+            times,
+            rig: &rig,
+            portals: &portals,
+            media: &media,
+        };
+        let (parts, flags) = loader.parts(&objects, &mut materials)?;
+        let g = objects::Geometry::assemble(parts, objects.len(), times);
+        let participating = media::volumes(
+            file,
+            media,
+            &names,
+            &g.moving,
+            &g.triangles,
+            &g.triangle_object,
+        )?;
+        let normals: Vec<Vec3> = g
+            .triangles
             .iter()
             .map(|t| t.normal().normalize_or_zero())
             .collect();
 
-        let emitters = triangles
-            .iter()
-            .enumerate()
-            .filter_map(|(i, tri)| {
-                let m = &materials[triangle_material[i] as usize];
-                (m.emits() && tri.area() > 0.0).then(|| Emitter {
-                    triangle: i as u32,
-                    instance: triangle_instance[i],
-                    radiance: m.emission,
-                    two_sided: m.two_sided_emission,
-                    vertices: *tri,
-                    normal: normals[i],
-                    area: tri.area(),
-                })
-            })
-            .collect();
-        let environment = match &sections.environment {
-            Some(t) => Some(environment(
-                file,
-                base,
-                &parse::<EnvironmentSection>(file, "environment", t)?,
-            )?),
-            None => None,
-        };
-        let mut strands = Strands::default();
-        let mut strand_flags = Vec::new();
-        for curves in ring_frame.iter().flat_map(|f| &f.rings) {
-            let opening = shot
-                .rig
-                .find(&curves.opening)
-                .expect("rings::load checks every ring names an opening");
-            let frame = if moves_during(&shot.rig.openings[opening].here, times) {
-                let rig = rig.clone();
-                RingFrame::Moving(Box::new(move |t| rig.here_at(opening, t)))
-            } else {
-                let to_world = shot.rig.here_at(opening, times[0]);
-                RingFrame::Fixed {
-                    to_world,
-                    to_local: to_world.inverse(),
-                }
-            };
-            let look = strand_looks[opening];
-            strands.add_ring(
-                curves,
-                frame,
-                ring_frame.as_ref().map_or(0.0, |f| f.time),
-                times,
-                look.intensity,
-            );
-            strand_flags.push(look.flags);
-        }
+        let emitters = objects::emitters(&g, &normals, &materials);
+        let (strands, strand_flags) =
+            rings::strands(shot, ring_frame.as_ref(), &strand_looks, times, &rig);
         let lights = Lights::new(
             emitters,
-            triangles.len(),
+            g.triangles.len(),
             &strands,
             times,
-            &instances,
+            &g.instances,
             environment,
             light_selection,
         );
-        let accel = Accel::build(&triangles[..static_count], instances);
+        let still = &g.triangles[..g.static_count];
+        let accel = Accel::build(still, g.instances);
+        let bounds = static_bounds(still);
         let visibility = Visibility::new(
-            triangle_object,
+            g.triangle_object,
             flags,
             volumes,
             rig,
@@ -530,13 +304,12 @@ impl Scene {
             times[0],
         );
         let apertures = crate::through::Apertures::new(&portals, &lights);
-        let bounds = static_bounds(&triangles[..static_count]);
         let mut scene = Self {
             apertures,
             light_visibility: Default::default(),
-            triangles,
+            triangles: g.triangles,
             normals,
-            triangle_material,
+            triangle_material: g.triangle_material,
             materials,
             accel,
             lights,
@@ -704,35 +477,20 @@ pub(crate) fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) ->
     !transform.is_static() && changes_during(|t| transform.at(t), &keys, interval)
 }
 
-/// The `[[object]]` sections, with names checked unique and each `copy_of` filled in from the
-/// earlier object it names (mesh, material and transform, where the copy gives none).
-fn object_sections(file: &Path, tables: &[toml::Table]) -> Result<Vec<ObjectSection>, RenderError> {
-    let mut out: Vec<ObjectSection> = Vec::new();
-    for (i, table) in tables.iter().enumerate() {
-        let key = format!("object[{i}]");
-        let mut o: ObjectSection = parse(file, &key, table)?;
-        if out.iter().any(|x| x.name == o.name) {
-            return Err(key_error(
-                file,
-                format!("{key}.name"),
-                format!("another object is already called {:?}", o.name),
-            ));
-        }
-        if let Some(source) = &o.copy_of {
-            let Some(from) = out.iter().find(|x| &x.name == source) else {
-                return Err(key_error(
-                    file,
-                    format!("{key}.copy_of"),
-                    format!("no earlier object is called {source:?}"),
-                ));
-            };
-            o.mesh = o.mesh.or_else(|| from.mesh.clone());
-            o.material = o.material.or_else(|| from.material.clone());
-            o.transform = o.transform.or_else(|| from.transform.clone());
-        }
-        out.push(o);
+/// The `[environment]` section's light, when the shot has one.
+fn environment_section(
+    file: &Path,
+    base: &Path,
+    table: Option<&toml::Table>,
+) -> Result<Option<Environment>, RenderError> {
+    match table {
+        Some(t) => Ok(Some(environment(
+            file,
+            base,
+            &parse::<EnvironmentSection>(file, "environment", t)?,
+        )?)),
+        None => Ok(None),
     }
-    Ok(out)
 }
 
 /// The environment light of `[environment]`: a constant or a lat-long map.
@@ -766,14 +524,14 @@ fn environment(
             ))
         }
         (None, Some(map)) => {
-            let intensity = match e.intensity {
-                Some(v) => check::non_negative("environment.intensity", v).map_err(invalid)?,
-                None => 1.0,
-            };
-            let degrees = match e.rotation_degrees {
-                Some(v) => check::finite("environment.rotation_degrees", v).map_err(invalid)?,
-                None => 0.0,
-            };
+            let intensity = optional(e.intensity, 1.0, |v| {
+                check::non_negative("environment.intensity", v)
+            })
+            .map_err(invalid)?;
+            let degrees = optional(e.rotation_degrees, 0.0, |v| {
+                check::finite("environment.rotation_degrees", v)
+            })
+            .map_err(invalid)?;
             let path = base.join(map);
             let (w, h, texels) = crate::film::read_exr_rgb(&path)
                 .map_err(|cause| key_error(file, "environment.map", format!("{map:?}: {cause}")))?;
@@ -799,171 +557,6 @@ fn environment(
                 degrees as f32,
             )))
         }
-    }
-}
-
-fn find(materials: &[Material], name: &str) -> Option<usize> {
-    materials.iter().position(|m| m.name == name)
-}
-
-fn color(key: &str, v: Option<[f64; 3]>, default: Vec3) -> Result<Vec3, Invalid> {
-    v.map_or(Ok(default), |c| check::color(key, c).map(|c| c.as_vec3()))
-}
-
-fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
-    let reflectance = color(
-        &format!("{key}.reflectance"),
-        m.reflectance,
-        Vec3::splat(0.8),
-    )?;
-    if reflectance.max_element() > 1.0 {
-        return Err(Invalid::new(
-            format!("{key}.reflectance"),
-            "a reflectance above 1 creates energy",
-        ));
-    }
-    let roughness = match m.roughness {
-        Some(r) => check::within(&format!("{key}.roughness"), r, 0.0, 1.0, false)? as f32,
-        None => 0.0,
-    };
-    let ggx = Ggx::from_roughness(roughness).with_shadowing(match m.shadowing {
-        Some(ShadowingKind::HeightCorrelated) | None => Shadowing::HeightCorrelated,
-        Some(ShadowingKind::Separable) => Shadowing::Separable,
-    });
-    let unused = |field: &str, what: &str| {
-        Invalid::new(
-            format!("{key}.{field}"),
-            format!("a {what} material has no {field}"),
-        )
-    };
-    let bsdf = match m.kind {
-        MaterialKind::Diffuse | MaterialKind::Dielectric
-            if m.eta.is_some() || m.k.is_some() || m.metal.is_some() =>
-        {
-            let field = if m.metal.is_some() {
-                "metal"
-            } else if m.eta.is_some() {
-                "eta"
-            } else {
-                "k"
-            };
-            let what = if m.kind == MaterialKind::Diffuse {
-                "diffuse"
-            } else {
-                "dielectric"
-            };
-            return Err(unused(field, what));
-        }
-        MaterialKind::Diffuse => {
-            if m.roughness.is_some() {
-                return Err(unused("roughness", "diffuse"));
-            }
-            if m.shadowing.is_some() {
-                return Err(unused("shadowing", "diffuse"));
-            }
-            if m.multiscatter.is_some() {
-                return Err(unused("multiscatter", "diffuse"));
-            }
-            if m.ior.is_some() {
-                return Err(unused("ior", "diffuse"));
-            }
-            Bsdf::Diffuse { reflectance }
-        }
-        MaterialKind::Conductor => {
-            if m.ior.is_some() {
-                return Err(unused("ior", "conductor"));
-            }
-            let fresnel = conductor_fresnel(key, m)?;
-            let multiscatter = match m.multiscatter {
-                Some(true) => Multiscatter::new(&fresnel, ggx),
-                _ => None,
-            };
-            Bsdf::Conductor {
-                fresnel,
-                ggx,
-                multiscatter,
-            }
-        }
-        MaterialKind::Dielectric => {
-            if m.reflectance.is_some() {
-                return Err(unused("reflectance", "dielectric"));
-            }
-            if m.multiscatter.is_some() {
-                return Err(Invalid::new(
-                    format!("{key}.multiscatter"),
-                    "energy compensation is for conductors only (dielectrics: not yet)",
-                ));
-            }
-            let ior = match m.ior {
-                Some(v) => check::within(&format!("{key}.ior"), v, 1e-3, 1e3, false)? as f32,
-                None => 1.5,
-            };
-            Bsdf::Dielectric { ior, ggx }
-        }
-    };
-    Ok(Material {
-        name: m.name.clone(),
-        bsdf,
-        emission: color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?,
-        two_sided_emission: m.two_sided_emission.unwrap_or(false),
-    })
-}
-
-/// A conductor's Fresnel term: Schlick's from `reflectance` (the default, white), or the exact
-/// term from `eta` and `k`, or from a named `metal`'s.
-fn conductor_fresnel(key: &str, m: &MaterialSection) -> Result<ConductorFresnel, Invalid> {
-    let conflict = |a: &str, b: &str| {
-        Invalid::new(
-            format!("{key}.{b}"),
-            format!("give `{a}` or `{b}`, not both: they are two ways to set the same colour"),
-        )
-    };
-    let complex = |field: &str, v: [f64; 3]| -> Result<Vec3, Invalid> {
-        let c = glam::DVec3::from_array(v);
-        if c.is_finite() && c.min_element() > 0.0 && c.max_element() <= 1e3 {
-            Ok(c.as_vec3())
-        } else {
-            Err(Invalid::new(
-                format!("{key}.{field}"),
-                format!(
-                    "expected three finite numbers > 0 and ≤ 1000 (one per channel), got {v:?}"
-                ),
-            ))
-        }
-    };
-    match (m.reflectance, m.eta, m.k, &m.metal) {
-        (Some(_), Some(_), _, _) => Err(conflict("reflectance", "eta")),
-        (Some(_), _, Some(_), _) => Err(conflict("reflectance", "k")),
-        (Some(_), _, _, Some(_)) => Err(conflict("reflectance", "metal")),
-        (_, Some(_), _, Some(_)) => Err(conflict("metal", "eta")),
-        (_, _, Some(_), Some(_)) => Err(conflict("metal", "k")),
-        (None, None, None, Some(name)) => {
-            let (eta, k) = metals::named(name).ok_or_else(|| {
-                let known: Vec<_> = metals::names().collect();
-                Invalid::new(
-                    format!("{key}.metal"),
-                    format!("no metal is called {name:?}; known: {}", known.join(", ")),
-                )
-            })?;
-            Ok(ConductorFresnel::Complex { eta, k })
-        }
-        (None, Some(eta), Some(k), None) => Ok(ConductorFresnel::Complex {
-            eta: complex("eta", eta)?,
-            k: complex("k", k)?,
-        }),
-        (None, Some(_), None, None) => Err(Invalid::new(
-            format!("{key}.k"),
-            "`eta` needs `k` beside it (the imaginary part of the index, per channel)",
-        )),
-        (None, None, Some(_), None) => Err(Invalid::new(
-            format!("{key}.eta"),
-            "`k` needs `eta` beside it (the real part of the index, per channel)",
-        )),
-        (reflectance, None, None, None) => Ok(ConductorFresnel::Schlick(color(
-            &format!("{key}.reflectance"),
-            reflectance,
-            Vec3::ONE,
-        )?)),
     }
 }
 

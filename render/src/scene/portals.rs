@@ -2,7 +2,7 @@
 //! ior, distortion, time offset, strand look), `[[portal.cull]]` and the portal depth limit. Syntax: [`super::schema`].
 
 use super::schema::{CullSection, CullSide, PortalSurfaceSection, StrandsSection};
-use super::{flags, moves_during, parse};
+use super::{flags, moves_during, optional, parse};
 use crate::error::RenderError;
 use crate::mask::{Mask, Polygon, RingBoundary};
 use crate::portal::{Distortion, OpeningLook, Portals};
@@ -95,10 +95,9 @@ pub fn portals(
 }
 
 fn strand_look(key: &str, s: Option<&StrandsSection>) -> Result<StrandLook, Invalid> {
-    let intensity = match s.and_then(|s| s.intensity) {
-        Some(v) => check::non_negative(&format!("{key}.strands.intensity"), v)? as f32,
-        None => 1.0,
-    };
+    let intensity = optional(s.and_then(|s| s.intensity), 1.0, |v| {
+        check::non_negative(&format!("{key}.strands.intensity"), v)
+    })? as f32;
     Ok(StrandLook {
         intensity,
         flags: flags(s.and_then(|s| s.visibility)),
@@ -150,9 +149,10 @@ pub fn cull_volumes(shot: &Shot, objects: &[&str]) -> Result<Vec<CullVolume>, Re
                     "name at least one object to hide",
                 )));
             }
-            let limit = |name: &str, v: Option<f64>| match v {
-                Some(v) => check::positive(&format!("{key}.{name}"), v),
-                None => Ok(f64::INFINITY),
+            let limit = |name: &str, v: Option<f64>| {
+                optional(v, f64::INFINITY, |v| {
+                    check::positive(&format!("{key}.{name}"), v)
+                })
             };
             volumes.push(CullVolume {
                 opening: i,
@@ -232,18 +232,13 @@ fn surface_look(key: &str, s: &PortalSurfaceSection, fps: f64) -> Result<Opening
         let dk = |name: &str| format!("{key}.distortion.{name}");
         look.distortion = Some(Distortion::new(
             check::non_negative(&dk("amplitude"), d.amplitude)?,
-            match d.frequency {
-                Some(f) => check::positive(&dk("frequency"), f)?,
-                None => 3.0,
-            },
-            match d.evolution {
-                Some(e) => check::non_negative(&dk("evolution"), e)?,
-                None => 0.5,
-            },
-            match d.seed {
-                Some(v) => check::integer(&dk("seed"), v, 0, u32::MAX as i64, "an integer ≥ 0")?,
-                None => 0,
-            },
+            optional(d.frequency, 3.0, |f| check::positive(&dk("frequency"), f))?,
+            optional(d.evolution, 0.5, |e| {
+                check::non_negative(&dk("evolution"), e)
+            })?,
+            optional(d.seed, 0, |v| {
+                check::integer(&dk("seed"), v, 0, u32::MAX as i64, "an integer ≥ 0")
+            })?,
         ));
     }
     Ok(look)

@@ -4,10 +4,16 @@
 //! the shot's ring looks when no file is named. Either way every opening with a ring look gets
 //! exactly one ring, at the frame being rendered.
 
+use super::moves_during;
+use super::portals::StrandLook;
 use crate::error::{RenderError, key_error};
+use crate::geometry::{self, Strands};
+use crate::visibility::Flags;
+use rift_fx::rig::Rig;
 use rift_fx::ring::{RingFrame, RingGenerator};
 use rift_fx::{FrameRange, Shot};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Where to read a frame's rings from.
 #[derive(Clone, Debug)]
@@ -174,4 +180,43 @@ pub fn shot_source(shot: &Shot, rings: Option<&str>) -> RingSource {
         },
         None => RingSource::Generate,
     }
+}
+
+/// The frame's rings as render geometry, each in its opening's frame (followed over time when
+/// the opening moves within `times`), with each ring's visibility flags.
+pub(super) fn strands(
+    shot: &Shot,
+    rings: Option<&RingFrame>,
+    looks: &[StrandLook],
+    times: [f64; 2],
+    rig: &Arc<Rig>,
+) -> (Strands, Vec<Flags>) {
+    let mut strands = Strands::default();
+    let mut flags = Vec::new();
+    for curves in rings.iter().flat_map(|f| &f.rings) {
+        let opening = shot
+            .rig
+            .find(&curves.opening)
+            .expect("rings::load checks every ring names an opening");
+        let frame = if moves_during(&shot.rig.openings[opening].here, times) {
+            let rig = rig.clone();
+            geometry::RingFrame::Moving(Box::new(move |t| rig.here_at(opening, t)))
+        } else {
+            let to_world = shot.rig.here_at(opening, times[0]);
+            geometry::RingFrame::Fixed {
+                to_world,
+                to_local: to_world.inverse(),
+            }
+        };
+        let look = looks[opening];
+        strands.add_ring(
+            curves,
+            frame,
+            rings.map_or(0.0, |f| f.time),
+            times,
+            look.intensity,
+        );
+        flags.push(look.flags);
+    }
+    (strands, flags)
 }

@@ -1,0 +1,314 @@
+//! `[[object]]` sections into triangles: each object's mesh loaded, its material found, and its
+//! triangles baked to world space when it stands still within the times rays can reach, or kept
+//! in object space under its motion (keyed, or carried through an opening) when it moves; then
+//! all of them gathered, still ones first, into the arrays the scene holds.
+
+use super::materials::{self, BOUNDARY_MATERIAL};
+use super::media::MediaSections;
+use super::schema::ObjectSection;
+use super::{flags, mesh, parse, ply, within_single_precision};
+use crate::error::{RenderError, key_error};
+use crate::geometry::{MovingInstance, ObjectMotion, STATIC, Triangle};
+use crate::lights::Emitter;
+use crate::material::Material;
+use crate::portal::Portals;
+use crate::visibility::Flags;
+use glam::Vec3;
+use rift_fx::rig::{AnimatedTransform, Rig, Similarity};
+use rift_fx::shot::check;
+use rift_fx::shot::pose::{self, Facing};
+use rift_fx::{Invalid, Shot};
+use std::path::Path;
+use std::sync::Arc;
+
+/// One object's triangles on their way into the scene.
+pub(super) struct Part {
+    /// Index of the `[[object]]`.
+    object: u32,
+    triangles: Vec<Triangle>,
+    materials: Vec<u32>,
+    /// `None`: baked to world space.
+    motion: Option<ObjectMotion>,
+}
+
+/// The `[[object]]` sections, with names checked unique and each `copy_of` filled in from the
+/// earlier object it names (mesh, material and transform, where the copy gives none).
+pub(super) fn object_sections(
+    file: &Path,
+    tables: &[toml::Table],
+) -> Result<Vec<ObjectSection>, RenderError> {
+    let mut out: Vec<ObjectSection> = Vec::new();
+    for (i, table) in tables.iter().enumerate() {
+        let key = format!("object[{i}]");
+        let mut o: ObjectSection = parse(file, &key, table)?;
+        if out.iter().any(|x| x.name == o.name) {
+            return Err(key_error(
+                file,
+                format!("{key}.name"),
+                format!("another object is already called {:?}", o.name),
+            ));
+        }
+        if let Some(source) = &o.copy_of {
+            let Some(from) = out.iter().find(|x| &x.name == source) else {
+                return Err(key_error(
+                    file,
+                    format!("{key}.copy_of"),
+                    format!("no earlier object is called {source:?}"),
+                ));
+            };
+            o.mesh = o.mesh.or_else(|| from.mesh.clone());
+            o.material = o.material.or_else(|| from.material.clone());
+            o.transform = o.transform.or_else(|| from.transform.clone());
+        }
+        out.push(o);
+    }
+    Ok(out)
+}
+
+/// What loading objects needs from the rest of the scene.
+pub(super) struct Loader<'a> {
+    pub shot: &'a Shot,
+    /// The shot file's directory, which mesh paths are relative to.
+    pub base: &'a Path,
+    /// Every time a ray can have.
+    pub times: [f64; 2],
+    pub rig: &'a Arc<Rig>,
+    pub portals: &'a Portals,
+    pub media: &'a MediaSections,
+}
+
+impl Loader<'_> {
+    /// Every object's part and visibility flags; materials an OBJ brings are added to
+    /// `materials`.
+    pub fn parts(
+        &self,
+        objects: &[ObjectSection],
+        materials: &mut Vec<Material>,
+    ) -> Result<(Vec<Part>, Vec<Flags>), RenderError> {
+        let mut parts = Vec::new();
+        let mut flags = Vec::new();
+        for (i, o) in objects.iter().enumerate() {
+            flags.push(if self.media.inside(&o.name).is_some() {
+                // Paths cross a medium's boundary; shadow rays pass it (attenuated by the media).
+                Flags::new(true, true, true, false)
+            } else {
+                self::flags(o.visibility)
+            });
+            parts.push(self.part(i, o, materials)?);
+        }
+        Ok((parts, flags))
+    }
+
+    fn invalid(&self, e: Invalid) -> RenderError {
+        RenderError::Shot(e.in_file(&self.shot.source))
+    }
+
+    fn error(&self, key: String, message: String) -> RenderError {
+        key_error(&self.shot.source, key, message)
+    }
+
+    /// Object `i`'s triangles, placed and with their materials.
+    fn part(
+        &self,
+        i: usize,
+        o: &ObjectSection,
+        materials: &mut Vec<Material>,
+    ) -> Result<Part, RenderError> {
+        let key = format!("object[{i}]");
+        let motion = self.motion(&key, o)?;
+        let Some(mesh_name) = &o.mesh else {
+            return Err(self.error(
+                format!("{key}.mesh"),
+                "missing: give `mesh`, or `copy_of` another object".into(),
+            ));
+        };
+        let mesh_path = self.base.join(mesh_name);
+        let mesh_parts = match mesh_path.extension().and_then(|e| e.to_str()) {
+            Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)?,
+            Some(ext) if ext.eq_ignore_ascii_case("ply") => ply::load_ply(&mesh_path)?,
+            _ => {
+                return Err(self.error(
+                    format!("{key}.mesh"),
+                    format!("{mesh_name:?}: expected an .obj or .ply file"),
+                ));
+            }
+        };
+        let moves = motion.moves_during(self.times);
+        let placed = motion.at(self.times[0]);
+        let mut part = Part {
+            object: i as u32,
+            triangles: Vec::new(),
+            materials: Vec::new(),
+            motion: moves.then_some(motion),
+        };
+        for mesh_part in mesh_parts {
+            let index = self.material_of(&key, o, mesh_name, &mesh_part, materials)?;
+            for tri in mesh_part.triangles {
+                let v = if moves {
+                    tri
+                } else {
+                    tri.map(|p| placed.transform_point(p.as_dvec3()).as_vec3())
+                };
+                if !v.iter().all(|&p| within_single_precision(p)) {
+                    return Err(self.error(
+                        format!("{key}.transform"),
+                        format!(
+                            "it places {mesh_name} beyond ±{:e} m, more than single-precision \
+                             rendering can hold",
+                            check::MAX_LENGTH
+                        ),
+                    ));
+                }
+                part.triangles.push(Triangle { v });
+                part.materials.push(index as u32);
+            }
+        }
+        Ok(part)
+    }
+
+    /// The object's placement over time: its keyed transform, carried through an opening by
+    /// the constraint solver when it names one.
+    fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
+        let transform = match &o.transform {
+            Some(spec) => pose::animated(
+                &format!("{key}.transform"),
+                spec,
+                Facing::PositiveZ,
+                self.shot.fps,
+            )
+            .map_err(|e| self.invalid(e))?,
+            None => AnimatedTransform::constant(Similarity::IDENTITY),
+        };
+        Ok(match &o.through {
+            None => ObjectMotion::new(transform),
+            Some(name) => {
+                let opening = self.shot.rig.find(name).ok_or_else(|| {
+                    self.error(
+                        format!("{key}.through"),
+                        format!("no portal opening is called {name:?}"),
+                    )
+                })?;
+                let delay = self.portals.look(opening).time_offset;
+                ObjectMotion::through(transform, self.rig.clone(), opening, delay)
+            }
+        })
+    }
+
+    /// The material of one part of an object's mesh: the object's, else the part's own from
+    /// its MTL (a `[[material]]` of that name wins), else a medium boundary's.
+    fn material_of(
+        &self,
+        key: &str,
+        o: &ObjectSection,
+        mesh_name: &str,
+        mesh_part: &mesh::MeshPart,
+        materials: &mut Vec<Material>,
+    ) -> Result<usize, RenderError> {
+        match (&o.material, &mesh_part.material) {
+            (Some(name), _) => materials::find(materials, name).ok_or_else(|| {
+                self.error(
+                    format!("{key}.material"),
+                    format!("no material is called {name:?}"),
+                )
+            }),
+            (None, Some(mtl))
+                if !mtl.declared && materials::find(materials, &mtl.name).is_none() =>
+            {
+                Err(self.error(
+                    format!("{key}.material"),
+                    format!(
+                        "part {:?} of {mesh_name} uses material {:?}, which is neither a \
+                         [[material]] nor in its MTL",
+                        mesh_part.name, mtl.name
+                    ),
+                ))
+            }
+            (None, Some(mtl)) => Ok(materials::find_or_add(materials, &mtl.name, || {
+                materials::from_mtl(&mtl.name, mtl.diffuse, mtl.emission)
+            })),
+            (None, None) if self.media.inside(&o.name).is_some() => Ok(materials::find_or_add(
+                materials,
+                BOUNDARY_MATERIAL,
+                materials::boundary,
+            )),
+            (None, None) => Err(self.error(
+                format!("{key}.material"),
+                format!(
+                    "part {:?} of {mesh_name} names no material; set `material`",
+                    mesh_part.name
+                ),
+            )),
+        }
+    }
+}
+
+/// Every object's triangles in the arrays the scene holds: still parts first, so their
+/// triangles take the indices the static BVH starts at, then one instance per moving part.
+pub(super) struct Geometry {
+    pub triangles: Vec<Triangle>,
+    pub triangle_material: Vec<u32>,
+    pub triangle_instance: Vec<u32>,
+    pub triangle_object: Vec<u32>,
+    pub instances: Vec<MovingInstance>,
+    /// How many triangles (from the first) stand still.
+    pub static_count: usize,
+    /// Per object: whether it moves within the times rays can reach.
+    pub moving: Vec<bool>,
+}
+
+impl Geometry {
+    pub fn assemble(mut parts: Vec<Part>, objects: usize, times: [f64; 2]) -> Self {
+        parts.sort_by_key(|p| p.motion.is_some());
+        let mut g = Geometry {
+            triangles: Vec::new(),
+            triangle_material: Vec::new(),
+            triangle_instance: Vec::new(),
+            triangle_object: Vec::new(),
+            instances: Vec::new(),
+            static_count: 0,
+            moving: vec![false; objects],
+        };
+        for part in parts {
+            g.moving[part.object as usize] = part.motion.is_some();
+            let first = g.triangles.len() as u32;
+            let instance = match part.motion {
+                None => {
+                    g.static_count += part.triangles.len();
+                    STATIC
+                }
+                Some(motion) => {
+                    let moving = MovingInstance::new(&part.triangles, first, motion, times);
+                    g.instances.push(moving);
+                    g.instances.len() as u32 - 1
+                }
+            };
+            let n = part.triangles.len();
+            g.triangle_instance.extend(std::iter::repeat_n(instance, n));
+            g.triangle_object
+                .extend(std::iter::repeat_n(part.object, n));
+            g.triangles.extend(part.triangles);
+            g.triangle_material.extend(part.materials);
+        }
+        g
+    }
+}
+
+/// The emissive triangles (of non-zero area) as emitters.
+pub(super) fn emitters(g: &Geometry, normals: &[Vec3], materials: &[Material]) -> Vec<Emitter> {
+    g.triangles
+        .iter()
+        .enumerate()
+        .filter_map(|(i, tri)| {
+            let m = &materials[g.triangle_material[i] as usize];
+            (m.emits() && tri.area() > 0.0).then(|| Emitter {
+                triangle: i as u32,
+                instance: g.triangle_instance[i],
+                radiance: m.emission,
+                two_sided: m.two_sided_emission,
+                vertices: *tri,
+                normal: normals[i],
+                area: tri.area(),
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,101 @@
+//! `rift bench lights`: light selection on a ring-lit shot: the light tree against power-proportional choice.
+
+use super::{Threads, alternate};
+use clap::Args;
+use rift_fx::Shot;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `rift bench lights`.
+#[derive(Args)]
+pub struct LightsArgs {
+    /// A shot lit only by its rings.
+    #[arg(default_value = "examples/shots/ring_on_wall.toml")]
+    shot: PathBuf,
+    /// Samples per pixel of the measured renders.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Samples per pixel of the reference (rendered with the light tree).
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+    /// Image width (the height follows the shot's aspect).
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    /// Let shadow rays pass through strands, so the light reaching a point no longer depends
+    /// on which strands hide others: what is left is what light selection controls.
+    #[arg(long)]
+    no_strand_shadows: bool,
+    /// Timed repeats (the median is reported), each with its own seed.
+    #[arg(long, default_value_t = 5)]
+    repeats: usize,
+    #[command(flatten)]
+    threads: Threads,
+}
+
+pub fn run(args: LightsArgs) -> anyhow::Result<()> {
+    use rift_render::lights::LightSelection;
+    use rift_render::render::{RenderOptions, render};
+    use rift_render::scene::Overrides;
+    anyhow::ensure!(
+        args.spp > 0 && args.reference_spp > 0 && args.repeats > 0 && args.width > 0,
+        "expected positive counts"
+    );
+    let mut shot = Shot::load(&args.shot)?;
+    let [w, h] = shot.camera.projection.resolution;
+    let height = ((args.width as f64 * h as f64 / w as f64).round() as u32).max(1);
+    shot.camera.projection.resolution = [args.width, height];
+    let build = |selection, seed| -> anyhow::Result<rift_render::Scene> {
+        let mut scene = rift_render::Scene::build_with(
+            &shot,
+            shot.frames.first,
+            &Overrides {
+                light_selection: Some(selection),
+                seed: Some(seed),
+                ..Default::default()
+            },
+        )?;
+        if args.no_strand_shadows {
+            for flags in &mut scene.strand_flags {
+                *flags = flags.without(rift_render::visibility::RayClass::Shadow);
+            }
+        }
+        Ok(scene)
+    };
+    let threads = crate::with_threads(args.threads.threads, rayon::current_num_threads)?;
+    let t = Instant::now();
+    let reference_scene = build(LightSelection::Tree, 9_999)?;
+    let reference = crate::with_threads(args.threads.threads, || {
+        render(&reference_scene, &RenderOptions::new(args.reference_spp))
+    })?;
+    let emitters = build(LightSelection::Tree, 0)?.strands.segments.len();
+    println!(
+        "rift bench lights: {}{} ({}x{height}, {emitters} strand segments), reference {} spp in {:.1} s, {threads} threads, median of {}",
+        args.shot.display(),
+        if args.no_strand_shadows {
+            " without strand shadows"
+        } else {
+            ""
+        },
+        args.width,
+        args.reference_spp,
+        t.elapsed().as_secs_f64(),
+        args.repeats
+    );
+    println!(
+        "{:<8} {:>5} {:>10} {:>10} {:>14}",
+        "choice", "spp", "seconds", "relMSE", "relMSE·s"
+    );
+    let choices = [LightSelection::Tree, LightSelection::Power];
+    let products = alternate(
+        ["tree", "power"],
+        |k, seed| build(choices[k], seed),
+        (args.spp, args.repeats, args.threads.threads),
+        &reference.rgb,
+        |_| true,
+    )?;
+    println!(
+        "power-proportional needs {:.1}x the time of the light tree for the same error",
+        products[1] / products[0]
+    );
+    Ok(())
+}

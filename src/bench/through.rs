@@ -1,0 +1,89 @@
+//! `rift bench through`: light sampling through openings, on against off.
+
+use super::{Timing, alternate};
+use clap::Args;
+use rift_fx::Shot;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `rift bench through`.
+#[derive(Args)]
+pub struct ThroughArgs {
+    /// A shot with a room lit through openings.
+    #[arg(default_value = "examples/shots/lit_through.toml")]
+    shot: PathBuf,
+    /// Frame to render (default: the shot's first).
+    #[arg(long)]
+    frame: Option<i64>,
+    /// Samples per pixel of the measured renders.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Samples per pixel of the reference (light sampling through openings on).
+    #[arg(long, default_value_t = 2048)]
+    reference_spp: u32,
+    /// Image width (the height follows the shot's aspect).
+    #[arg(long, default_value_t = 160)]
+    width: u32,
+    #[command(flatten)]
+    timing: Timing,
+}
+
+/// Efficiency of light sampling through openings: on and off in turn, against a reference
+/// rendered with it on, over the pixels of the room the camera stands in (no teleport).
+pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
+    use rift_render::render::{RenderOptions, render};
+    use rift_render::scene::Overrides;
+    anyhow::ensure!(
+        args.spp > 0 && args.reference_spp > 0 && args.timing.repeats > 0 && args.width > 0,
+        "expected positive counts"
+    );
+    let mut shot = Shot::load(&args.shot)?;
+    let frame = args.frame.unwrap_or(shot.frames.first);
+    let [w, h] = shot.camera.projection.resolution;
+    let height = ((args.width as f64 * h as f64 / w as f64).round() as u32).max(1);
+    shot.camera.projection.resolution = [args.width, height];
+    let build = |on: bool, seed| {
+        rift_render::Scene::build_with(
+            &shot,
+            frame,
+            &Overrides {
+                light_through_openings: Some(on),
+                seed: Some(seed),
+                ..Default::default()
+            },
+        )
+    };
+    let threads = crate::with_threads(args.timing.threads, rayon::current_num_threads)?;
+    let t = Instant::now();
+    let reference_scene = build(true, 9_999)?;
+    let reference = crate::with_threads(args.timing.threads, || {
+        render(&reference_scene, &RenderOptions::new(args.reference_spp))
+    })?;
+    let room = |i: usize| reference.portal_depth[i] == 0.0;
+    let pixels = (0..reference.rgb.len()).filter(|&i| room(i)).count();
+    anyhow::ensure!(
+        pixels > 0,
+        "{}: the camera sees no pixel without an opening",
+        args.shot.display()
+    );
+    println!(
+        "rift bench through: {} frame {frame} ({}x{height}, {pixels} pixels in the camera's room), reference {} spp in {:.1} s, {threads} threads, median of {}",
+        args.shot.display(),
+        args.width,
+        args.reference_spp,
+        t.elapsed().as_secs_f64(),
+        args.timing.repeats
+    );
+    let products = alternate(
+        ["on", "off"],
+        |k, seed| Ok(build(k == 0, seed)?),
+        (args.spp, args.timing.repeats, args.timing.threads),
+        &reference.rgb,
+        room,
+    )?;
+    println!(
+        "light sampling through openings is {:.1}x as efficient (1/(relMSE·s)) as without it",
+        products[1] / products[0]
+    );
+    Ok(())
+}
