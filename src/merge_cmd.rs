@@ -29,6 +29,10 @@ pub struct MergeArgs {
     /// count as `rift render` writes them (for farm jobs, whose task knows only the number).
     #[arg(long)]
     frame: Option<i64>,
+    /// The most memory the merge may take, such as `8G` (default: what the system has
+    /// available); parts that need more are refused before their pixels are read.
+    #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
+    max_memory: Option<u64>,
 }
 
 /// One part, read and checked.
@@ -71,10 +75,12 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
                 output: numbered(&args.output),
                 parts: args.parts.iter().map(numbered).collect(),
                 frame: None,
+                max_memory: args.max_memory,
             }
         }
         None => args,
     };
+    ensure_parts_fit(&args.parts, args.max_memory)?;
     let parts = args
         .parts
         .par_iter()
@@ -95,6 +101,26 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
         total
     );
     Ok(())
+}
+
+/// Refuses, from their headers, parts whose pixels (each channel as read and as the merge
+/// weighs it) and the merged image would not fit in memory.
+fn ensure_parts_fit(paths: &[PathBuf], max_memory: Option<u64>) -> anyhow::Result<()> {
+    let mut needed = 0u64;
+    let mut largest = 0usize;
+    for path in paths {
+        let (pixels, channels) = rift_render::film::exr_layer_shape(path)?;
+        needed = needed.saturating_add((pixels as u64).saturating_mul(channels as u64 * 8));
+        largest = largest.max(pixels);
+    }
+    // The merged window is at least the largest part; its sums take about 160 bytes a pixel.
+    let merged = rift_render::render::film_bytes(largest).saturating_add(largest as u64 * 160);
+    crate::memory::ensure_fits(
+        &format!("merging {} parts", paths.len()),
+        needed.saturating_add(merged),
+        crate::memory::budget(max_memory),
+        "merge fewer parts at a time (merged parts merge again), or give more with --max-memory",
+    )
 }
 
 fn read_part(path: &Path) -> anyhow::Result<Part> {

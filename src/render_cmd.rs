@@ -175,12 +175,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Some(_) => rift_render::checkpoint::checkpoint_bytes(pixels),
         None => 0,
     };
+    let film = rift_render::render::film_bytes(pixels)
+        .saturating_add(rings)
+        .saturating_add(checkpoints);
+    let budget = crate::memory::budget(args.max_memory);
     crate::memory::ensure_fits(
         &format!("a {w}x{h} frame ({pixels} pixels rendered) with its rings and checkpoints"),
-        rift_render::render::film_bytes(pixels)
-            .saturating_add(rings)
-            .saturating_add(checkpoints),
-        crate::memory::budget(args.max_memory),
+        film,
+        budget,
         "lower --res (or the shot's resolution), render a window of the frame at a time with \
          --crop, or lower fx.max_segments or [portal.ring] strands",
     )?;
@@ -210,6 +212,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         light_through_openings: args.no_light_through_openings.then_some(false),
         rings: args.rings.clone(),
         light_selection: args.light_selection.map(Into::into),
+        memory_budget: budget.map(|b| b.saturating_sub(film)),
     };
     for frame in frames.iter() {
         if crate::resume::stop_requested() {

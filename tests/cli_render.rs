@@ -908,6 +908,53 @@ fn a_frame_larger_than_memory_is_refused_at_once() {
         &render(&["--max-memory", "1M"]),
         &["1.0 MiB available"],
     );
+    // Meshes whose BVH would not fit: a grid of 180,000 triangles (about 70 MiB to build)
+    // under a 48 MiB budget that the small film fits in.
+    let mut obj = String::new();
+    let n = 300;
+    for j in 0..=n {
+        for i in 0..=n {
+            obj.push_str(&format!(
+                "v {} {} 0\n",
+                i as f32 / n as f32,
+                j as f32 / n as f32
+            ));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let v = |di: usize, dj: usize| (j + dj) * (n + 1) + i + di + 1;
+            obj.push_str(&format!(
+                "f {} {} {}\nf {} {} {}\n",
+                v(0, 0),
+                v(1, 0),
+                v(1, 1),
+                v(0, 0),
+                v(1, 1),
+                v(0, 1)
+            ));
+        }
+    }
+    std::fs::write(dir.path().join("grid.obj"), obj).unwrap();
+    let shot = std::fs::read_to_string(dir.path().join("shot.toml")).unwrap();
+    let grid = "\n[[material]]\nname = \"grey\"\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n\
+                \n[[object]]\nname = \"grid\"\nmesh = \"grid.obj\"\nmaterial = \"grey\"\n";
+    std::fs::write(dir.path().join("big.toml"), shot + grid).unwrap();
+    expect_failure_of(
+        &dir,
+        &[
+            "render",
+            "big.toml",
+            "-o",
+            "out/img.exr",
+            "--res",
+            "8",
+            "8",
+            "--max-memory",
+            "48M",
+        ],
+        &["big.toml", "180", "triangles", "--max-memory"],
+    );
     // A size that does not parse is clap's usage error (exit 2).
     let out = rift(dir.path(), &render(&["--max-memory", "lots"]));
     assert_eq!(out.status.code(), Some(2));

@@ -108,6 +108,12 @@ fn parts_that_do_not_make_one_render_are_refused() {
     let bytes = std::fs::read(d.join("s4-8.exr")).unwrap();
     std::fs::write(d.join("cut.exr"), &bytes[..bytes.len() / 2]).unwrap();
     expect_refused(d, &["s0-4.exr", "cut.exr"], &["cut.exr"]);
+    // More memory than allowed, refused from the headers before any pixel is read.
+    expect_refused(
+        d,
+        &["--max-memory", "64K", "s0-4.exr", "s4-8.exr"],
+        &["merging 2 parts", "--max-memory"],
+    );
     // Not a rift image at all.
     std::fs::write(d.join("text.exr"), "hello").unwrap();
     expect_refused(d, &["text.exr"], &["text.exr"]);

@@ -415,6 +415,25 @@ pub struct ExrLayer {
     pub view: Option<String>,
 }
 
+/// Pixels and channels of an EXR's first layer, from its header alone (to size work before
+/// reading the pixels).
+pub fn exr_layer_shape(path: &Path) -> Result<(usize, usize), RenderError> {
+    let fail = |message: String| RenderError::Image {
+        path: path.to_owned(),
+        message,
+    };
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| fail(e.to_string()))?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or_else(|| fail("the file has no layer".into()))?;
+    let size = header.layer_size;
+    Ok((
+        size.width().saturating_mul(size.height()),
+        header.channels.list.len(),
+    ))
+}
+
 /// Reads the first layer of an EXR with all its channels.
 pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
     decode_exr_layer(&read_exr_bytes(path)?, MAX_EXR_PIXELS).map_err(|message| RenderError::Image {

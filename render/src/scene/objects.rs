@@ -242,6 +242,11 @@ impl Loader<'_> {
     }
 }
 
+/// Triangles in all `parts`.
+pub(super) fn triangle_count(parts: &[Part]) -> usize {
+    parts.iter().map(|p| p.triangles.len()).sum()
+}
+
 /// Every object's triangles in the arrays the scene holds: still parts first, so their
 /// triangles take the indices the static BVH starts at, then one instance per moving part.
 pub(super) struct Geometry {
