@@ -5,15 +5,18 @@
 //! channels (beauty, through-openings light, alpha, portal depth) merge as means weighted by
 //! those counts; first-hit AOVs (albedo, normal, depth) are means over the samples that hit,
 //! so they are weighted by count × alpha. The not-through-openings layer is written again as
-//! beauty − through. Sums in single precision are the only difference from a whole render:
+//! beauty − through. Light-group layers (`lightgroup.<name>`) merge like the beauty, and every
+//! part must hold the same ones. Sums in single precision are the only difference from a whole render:
 //! the result equals it to float rounding.
 
 use anyhow::{Context, bail};
 use clap::Args;
 use rayon::prelude::*;
 use rift_render::film::{
-    BACKGROUND_DEPTH, ExrLayer, Image, Metadata, THROUGH_LAYER, Window, read_exr_layer,
+    BACKGROUND_DEPTH, ExrLayer, Image, LIGHT_GROUP_PREFIX, Metadata, THROUGH_LAYER, Window,
+    read_exr_layer,
 };
+use rift_render::scene::light_groups::DEFAULT_GROUP;
 use rift_render::scene::rings::frame_path;
 use std::path::{Path, PathBuf};
 
@@ -204,6 +207,15 @@ fn check_compatible(parts: &[Part]) -> anyhow::Result<()> {
                 first.path.display()
             );
         }
+        if light_groups(&p.layer) != light_groups(&first.layer) {
+            bail!(
+                "{}: its light groups ({}) differ from {}'s ({})",
+                p.path.display(),
+                light_groups(&p.layer).join(", "),
+                first.path.display(),
+                light_groups(&first.layer).join(", ")
+            );
+        }
     }
     Ok(())
 }
@@ -266,6 +278,19 @@ fn check_pixel(parts: &[Part], x: usize, y: usize, total: u32) -> anyhow::Result
     Ok(())
 }
 
+/// The light groups a part holds (`lightgroup.<name>.R/G/B` layers), in the order written.
+fn light_groups(layer: &ExrLayer) -> Vec<String> {
+    let mut names: Vec<String> = layer
+        .channels
+        .keys()
+        .filter_map(|k| k.strip_prefix(LIGHT_GROUP_PREFIX)?.strip_suffix(".R"))
+        .map(str::to_owned)
+        .collect();
+    // The default group first, as the renderer writes them.
+    names.sort_by_key(|n| n != DEFAULT_GROUP);
+    names
+}
+
 /// Weighted sums of every part over the window, divided out.
 fn merge(parts: &[Part], window: Window, total: u32) -> Image {
     let n = window.area();
@@ -273,7 +298,8 @@ fn merge(parts: &[Part], window: Window, total: u32) -> Image {
         .layer
         .channels
         .contains_key(&format!("{THROUGH_LAYER}.R"));
-    let mut acc = Accumulator::new(n);
+    let groups = light_groups(&parts[0].layer);
+    let mut acc = Accumulator::new(n, groups.len());
     for p in parts {
         let c = &p.layer.channels;
         let rgb = |prefix: &str| {
@@ -285,6 +311,10 @@ fn merge(parts: &[Part], window: Window, total: u32) -> Image {
         };
         let (beauty, albedo) = (rgb(""), rgb("albedo."));
         let light = through.then(|| rgb(&format!("{THROUGH_LAYER}.")));
+        let group_layers: Vec<_> = groups
+            .iter()
+            .map(|g| rgb(&format!("{LIGHT_GROUP_PREFIX}{g}.")))
+            .collect();
         let normal = [&c["N.X"], &c["N.Y"], &c["N.Z"]];
         let (spp, alpha, z, portal_depth) = (&c["spp"], &c["A"], &c["Z"], &c["portalDepth"]);
         let at = |v: [&[f32]; 3], i: usize| {
@@ -303,6 +333,9 @@ fn merge(parts: &[Part], window: Window, total: u32) -> Image {
                     acc.through[o] += at(light, i) * count;
                 }
                 acc.portal_depth[o] += portal_depth[i] as f64 * count;
+                for (sum, layer) in acc.groups.iter_mut().zip(&group_layers) {
+                    sum[o] += at(*layer, i) * count;
+                }
                 acc.albedo[o] += at(albedo, i) * hits;
                 acc.normal[o] += at(normal.map(|v| v.as_slice()), i) * hits;
                 if hits > 0.0 {
@@ -311,7 +344,7 @@ fn merge(parts: &[Part], window: Window, total: u32) -> Image {
             }
         }
     }
-    acc.finish(parts, window, total, through)
+    acc.finish(parts, window, total, through, groups)
 }
 
 /// Per output pixel: sample counts, hit counts and the weighted sums.
@@ -324,10 +357,12 @@ struct Accumulator {
     albedo: Vec<glam::DVec3>,
     normal: Vec<glam::DVec3>,
     depth: Vec<f64>,
+    /// Per light group, its count-weighted radiance.
+    groups: Vec<Vec<glam::DVec3>>,
 }
 
 impl Accumulator {
-    fn new(n: usize) -> Self {
+    fn new(n: usize, groups: usize) -> Self {
         Self {
             count: vec![0.0; n],
             hits: vec![0.0; n],
@@ -337,10 +372,18 @@ impl Accumulator {
             albedo: vec![glam::DVec3::ZERO; n],
             normal: vec![glam::DVec3::ZERO; n],
             depth: vec![0.0; n],
+            groups: vec![vec![glam::DVec3::ZERO; n]; groups],
         }
     }
 
-    fn finish(self, parts: &[Part], window: Window, total: u32, through: bool) -> Image {
+    fn finish(
+        self,
+        parts: &[Part],
+        window: Window,
+        total: u32,
+        through: bool,
+        group_names: Vec<String>,
+    ) -> Image {
         let per_sample = |i: usize| self.count[i].max(1.0);
         let per_hit = |i: usize| self.hits[i].max(f64::MIN_POSITIVE);
         let n = self.count.len();
@@ -378,6 +421,16 @@ impl Accumulator {
                 .collect(),
             portal_depth: (0..n)
                 .map(|i| (self.portal_depth[i] / per_sample(i)) as f32)
+                .collect(),
+            light_groups: group_names
+                .into_iter()
+                .zip(&self.groups)
+                .map(|(name, sums)| {
+                    let means = (0..n)
+                        .map(|i| (sums[i] / per_sample(i)).as_vec3())
+                        .collect();
+                    (name, means)
+                })
                 .collect(),
             spp: self.count.iter().map(|&c| c as u32).collect(),
             discarded: parts

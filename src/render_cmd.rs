@@ -11,7 +11,7 @@ use rift_render::checkpoint::{Checkpoint, Key};
 use rift_render::film::Image;
 use rift_render::film::Window;
 use rift_render::lights::LightSelection;
-use rift_render::render::{Checkpointing, Pixel, RenderOptions};
+use rift_render::render::{Checkpointing, RenderOptions, Sums};
 use rift_render::scene::Overrides;
 use rift_render::scene::rings::frame_path;
 use std::path::{Path, PathBuf};
@@ -381,11 +381,11 @@ fn render_one(
     }
     let advance = |n: u64| progress.advance(n);
     let save_error = Mutex::new(None);
-    let save = |image: &Image, pixels: Vec<Pixel>| {
+    let save = |image: &Image, sums: Sums| {
         let checkpoint = Checkpoint {
             key: run.key.clone(),
             window,
-            pixels,
+            sums,
         };
         let result = checkpoint.write(image, &checkpoint_file);
         if let Err(e) = &result {
@@ -401,7 +401,7 @@ fn render_one(
         time_limit: run.time_limit,
         progress: Some(&advance),
         eye,
-        resume: resumed.as_ref().map(|c| c.pixels.as_slice()),
+        resume: resumed.as_ref().map(|c| &c.sums),
         checkpoint: run
             .checkpoint_every
             .map(|every| Checkpointing { every, save: &save }),

@@ -5,10 +5,10 @@
 
 mod common;
 
-use common::{files_in, largest_difference, rift, root, stderr};
+use common::{files_in, largest_difference, rift, root, signal, start, stderr, wait_for_progress};
 use rift_render::film::read_exr_layer;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 const SPP: &str = "64";
@@ -32,39 +32,6 @@ fn render_args<'a>(shot: &'a Path, out: &'a str, extra: &[&'a str]) -> Vec<&'a s
     }
     args.extend_from_slice(extra);
     args
-}
-
-fn start(dir: &Path, args: &[&str]) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_rift"))
-        .args(args)
-        .current_dir(dir)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap()
-}
-
-/// Waits until a render started by `start` reports progress (a line with `%`), so that it is
-/// past setting up and has samples to save; the rest of its standard error is collected.
-fn wait_for_progress(child: &mut Child) -> std::thread::JoinHandle<String> {
-    use std::io::BufRead;
-    let stderr = child.stderr.take().unwrap();
-    let mut lines = std::io::BufReader::new(stderr).lines();
-    let seen = lines
-        .by_ref()
-        .map_while(Result::ok)
-        .any(|l| l.contains('%'));
-    assert!(seen, "the render ended without reporting progress");
-    std::thread::spawn(move || lines.map_while(Result::ok).collect::<Vec<_>>().join("\n"))
-}
-
-/// Sends `signal` (by name) to a child process.
-fn signal(child: &Child, signal: &str) {
-    let ok = Command::new("kill")
-        .args([&format!("-{signal}"), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(ok.success());
 }
 
 /// Mean samples per pixel a checkpoint holds (it is a readable image with an `spp` channel).

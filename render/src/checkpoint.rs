@@ -9,7 +9,8 @@
 
 use crate::error::RenderError;
 use crate::film::{ExrExtras, Image, MAX_EXR_PIXELS, Window};
-use crate::render::Pixel;
+use crate::render::{Pixel, Sums};
+use crate::scene::light_groups::MAX_LIGHT_GROUPS;
 use exr::meta::attribute::AttributeValue;
 use exr::prelude::{AnyChannel, FlatSamples, Text};
 use glam::{DVec3, Vec3};
@@ -114,14 +115,14 @@ impl Key {
 pub struct Checkpoint {
     pub key: Key,
     pub window: Window,
-    pub pixels: Vec<Pixel>,
+    pub sums: Sums,
 }
 
 /// Bytes a checkpoint of `pixels` pixels takes while it is written, beside the render's own
 /// film: the copied sums, the partial image, and its 5 image channels and 27 state channels as
 /// the EXR writer holds them (copied once more by the encoder).
 pub fn checkpoint_bytes(pixels: usize) -> u64 {
-    const CHANNELS: usize = 5 + 27;
+    const CHANNELS: usize = 5 + 27 + 6 * MAX_LIGHT_GROUPS;
     let partial_image = 4 * std::mem::size_of::<Vec3>() + 4 * std::mem::size_of::<f32>();
     let per_pixel = std::mem::size_of::<Pixel>() + partial_image + 2 * 4 * CHANNELS;
     (pixels as u64).saturating_mul(per_pixel as u64)
@@ -130,7 +131,8 @@ pub fn checkpoint_bytes(pixels: usize) -> u64 {
 impl Checkpoint {
     /// Samples taken so far over all pixels, from each pixel's first sample index `first`.
     pub fn samples_taken(&self, first: u32) -> u64 {
-        self.pixels
+        self.sums
+            .pixels
             .iter()
             .map(|p| p.samples.saturating_sub(first) as u64)
             .sum()
@@ -203,29 +205,29 @@ impl Checkpoint {
             .iter()
             .map(|c| (c.name.to_string(), &c.sample_data))
             .collect();
-        let pixels = StateChannels::read(&channels, window.area())?.pixels();
-        Ok(Self {
-            key,
-            window,
-            pixels,
-        })
+        let state = StateChannels::read(&channels, window.area())?;
+        let sums = Sums {
+            pixels: state.pixels(),
+            groups: state.groups()?,
+        };
+        Ok(Self { key, window, sums })
     }
 
     fn state_channels(&self) -> Vec<AnyChannel<FlatSamples>> {
-        let p = &self.pixels;
+        let p = &self.sums.pixels;
         let mut out = Vec::new();
+        let n = self.sums.group_count();
+        for g in 0..n {
+            for (k, c) in RGB.iter().enumerate() {
+                let values: Vec<f64> = (0..p.len())
+                    .map(|i| self.sums.groups[i * n + g][k])
+                    .collect();
+                out.extend(wide_channels(&format!("group{g}{c}"), &values));
+            }
+        }
         let mut wide = |name: &str, value: &dyn Fn(&Pixel) -> f64| {
-            let bits: Vec<u64> = p.iter().map(|px| value(px).to_bits()).collect();
-            let hi = bits.iter().map(|b| (b >> 32) as u32).collect();
-            let lo = bits.iter().map(|&b| b as u32).collect();
-            out.push(AnyChannel::new(
-                format!("state.{name}.hi").as_str(),
-                FlatSamples::U32(hi),
-            ));
-            out.push(AnyChannel::new(
-                format!("state.{name}.lo").as_str(),
-                FlatSamples::U32(lo),
-            ));
+            let values: Vec<f64> = p.iter().map(value).collect();
+            out.extend(wide_channels(name, &values));
         };
         for (k, c) in RGB.iter().enumerate() {
             wide(&format!("sum{c}"), &|px| px.sum[k]);
@@ -254,6 +256,17 @@ impl Checkpoint {
 }
 
 const RGB: [&str; 3] = ["R", "G", "B"];
+
+/// `state.<name>.hi` and `.lo`: each f64 of `values` as its two 32-bit halves.
+fn wide_channels(name: &str, values: &[f64]) -> [AnyChannel<FlatSamples>; 2] {
+    let bits: Vec<u64> = values.iter().map(|v| v.to_bits()).collect();
+    let hi = bits.iter().map(|b| (b >> 32) as u32).collect();
+    let lo = bits.iter().map(|&b| b as u32).collect();
+    [
+        AnyChannel::new(format!("state.{name}.hi").as_str(), FlatSamples::U32(hi)),
+        AnyChannel::new(format!("state.{name}.lo").as_str(), FlatSamples::U32(lo)),
+    ]
+}
 
 /// Reads one count of a pixel.
 type Count = fn(&Pixel) -> u32;
@@ -316,6 +329,30 @@ impl<'a> StateChannels<'a> {
             .iter()
             .zip(lo)
             .map(|(&h, &l)| f64::from_bits((h as u64) << 32 | l as u64))
+            .collect())
+    }
+
+    /// The light-group sums, pixel after pixel: `state.group<g><C>` for g = 0, 1, … while
+    /// present.
+    fn groups(&self) -> Result<Vec<DVec3>, String> {
+        let mut groups: Vec<[Vec<f64>; 3]> = Vec::new();
+        while self
+            .channels
+            .contains_key(&format!("state.group{}R.hi", groups.len()))
+        {
+            let g = groups.len();
+            if g == MAX_LIGHT_GROUPS {
+                return Err(format!("more than {MAX_LIGHT_GROUPS} light groups"));
+            }
+            let [r, gr, b] = RGB.map(|c| self.wide(&format!("group{g}{c}")));
+            groups.push([r?, gr?, b?]);
+        }
+        let n = groups.len();
+        Ok((0..self.len * n)
+            .map(|k| {
+                let (i, g) = (k / n, k % n);
+                DVec3::new(groups[g][0][i], groups[g][1][i], groups[g][2][i])
+            })
             .collect())
     }
 

@@ -106,6 +106,9 @@ pub const BACKGROUND_DEPTH: f32 = 1e10;
 pub const THROUGH_LAYER: &str = "throughOpenings";
 pub const LOCAL_LAYER: &str = "notThroughOpenings";
 
+/// EXR layers of light groups are named this followed by the group's name.
+pub const LIGHT_GROUP_PREFIX: &str = "lightgroup.";
+
 /// What [`Image::write_exr_with`] adds to or leaves out of an image's EXR.
 #[derive(Default)]
 pub struct ExrExtras {
@@ -140,6 +143,9 @@ pub struct Image {
     /// Teleports the camera paths made before their first scattering event, averaged: 0 where
     /// no opening is seen, k on the k-th nested level of a portal seen in itself.
     pub portal_depth: Vec<f32>,
+    /// Each light group's part of `rgb`, by name (the default group first; empty when the
+    /// shot names no group): written as `lightgroup.<name>.R/G/B`, they sum to the beauty.
+    pub light_groups: Vec<(String, Vec<Vec3>)>,
     /// Samples that count in each pixel's mean (adaptive sampling and time limits make them
     /// differ; non-finite samples are dropped and not counted).
     pub spp: Vec<u32>,
@@ -216,6 +222,14 @@ impl Image {
         }
         for (k, suffix) in ["X", "Y", "Z"].iter().enumerate() {
             channels.push(channel(&format!("N.{suffix}"), split(&self.normal, k)));
+        }
+        for (name, light) in &self.light_groups {
+            for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
+                channels.push(channel(
+                    &format!("{LIGHT_GROUP_PREFIX}{name}.{suffix}"),
+                    split(light, k),
+                ));
+            }
         }
         if let Some(through) = &self.through {
             let local: Vec<Vec3> = self.rgb.iter().zip(through).map(|(c, t)| c - t).collect();

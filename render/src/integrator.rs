@@ -35,6 +35,7 @@ use crate::material::{Bsdf, Material, Side};
 use crate::medium::{Flight, Medium};
 use crate::ray::Ray;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
+use crate::scene::light_groups::MAX_LIGHT_GROUPS;
 use crate::scene::{Scene, SceneHit};
 use crate::through::{Chain, Space, Strategies};
 use crate::visibility::RayClass;
@@ -65,6 +66,9 @@ pub struct PathSample {
     /// from the emitter to the first surface the camera sees (what the camera itself sees
     /// through an opening does not count; `portal_depth` tells that apart).
     pub through: Vec3,
+    /// `radiance` by the light group of the emitter it came from (the scene's
+    /// [`Scene::light_groups`]; all in group 0 when it has none).
+    pub groups: [Vec3; MAX_LIGHT_GROUPS],
     /// The camera ray's hit, for alpha and the AOVs.
     pub first: Option<FirstHit>,
     /// Teleports before the camera path's first scattering event.
@@ -211,9 +215,12 @@ impl PathState {
 }
 
 impl PathSample {
-    /// Adds light to the path's radiance, and to its through-openings part when `through`.
-    fn gather(&mut self, light: Vec3, through: bool) {
+    /// Adds light from an emitter of light group `group` to the path's radiance, and to its
+    /// through-openings part when `through`.
+    #[inline]
+    fn gather(&mut self, light: Vec3, through: bool, group: u8) {
         self.radiance += light;
+        self.groups[group as usize & (MAX_LIGHT_GROUPS - 1)] += light;
         if through {
             self.through += light;
         }
@@ -361,7 +368,8 @@ fn finish(
         if let Some(env) = &scene.lights.environment {
             let weight =
                 path.emission_weight(scene, strategies, Found::Environment, f32::INFINITY, None);
-            out.gather(path.beta * env.radiance(dir) * weight, path.lit_through);
+            let light = path.beta * env.radiance(dir) * weight;
+            out.gather(light, path.lit_through, scene.environment_group);
         }
         return;
     };
@@ -374,7 +382,8 @@ fn finish(
         let point = Some(path.ray.at(h.t));
         let weight = path.emission_weight(scene, strategies, found, h.t, point);
         let le = scene.strands.radiance(h.segment, h.s);
-        out.gather(path.beta * le * weight, path.lit_through);
+        let group = scene.strand_light_group(h.segment);
+        out.gather(path.beta * le * weight, path.lit_through, group);
         let facing = if h.normal.dot(dir) <= 0.0 {
             h.normal
         } else {
@@ -405,7 +414,7 @@ fn scatter(
             let dir = path.ray.dir;
             path.first_hit(out, at, -dir, medium.albedo());
             let (emitted, scattered) = medium.collision(at);
-            out.gather(path.beta * emitted, path.lit_through);
+            out.gather(path.beta * emitted, path.lit_through, 0);
             path.beta *= scattered;
             phase = Bsdf::Phase {
                 g: medium.anisotropy,
@@ -447,7 +456,8 @@ fn surface_emission<'a>(
                 normal: ng,
             };
             let weight = path.emission_weight(scene, strategies.as_ref(), found, hit.t, Some(p));
-            out.gather(path.beta * le * weight, path.lit_through);
+            let group = scene.triangle_light_group(hit.triangle);
+            out.gather(path.beta * le * weight, path.lit_through, group);
         }
     }
     (p, ng, material)
@@ -545,8 +555,8 @@ fn scatter_at(
             None => (None, 1.0),
         };
         let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
-        let light = next_event(scene, &shading, space, q, u_light, u_technique);
-        out.gather(path.beta * light, through);
+        let (light, group) = next_event(scene, &shading, space, q, u_light, u_technique);
+        out.gather(path.beta * light, through, group);
     }
     let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
         return false;
@@ -600,17 +610,18 @@ fn next_event(
     q: f32,
     u: glam::Vec2,
     u_technique: f32,
-) -> Vec3 {
+) -> (Vec3, u8) {
+    const NONE: (Vec3, u8) = (Vec3::ZERO, 0);
     if q <= 0.0 {
-        return Vec3::ZERO;
+        return NONE;
     }
     let Some(incoming) = incoming(scene, at.receiver, space, u, u_technique) else {
-        return Vec3::ZERO;
+        return NONE;
     };
     let wi = at.frame.to_local(incoming.dir);
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
-        return Vec3::ZERO;
+        return NONE;
     }
     // The shadow ray leaves from the side of the surface it goes to.
     let ng = at.ng;
@@ -619,7 +630,7 @@ fn next_event(
     let chain = space.map_or(Chain::default(), |s| s.chain);
     let Some((tint, coins)) = shadow(scene, &chain, from, dir, incoming.target, at.receiver.time)
     else {
-        return Vec3::ZERO;
+        return NONE;
     };
     let pdf_light = q * incoming.pdf;
     let weight = if incoming.bsdf_can_find {
@@ -627,7 +638,8 @@ fn next_event(
     } else {
         1.0
     };
-    f * incoming.radiance * tint * (weight * coins / pdf_light)
+    let light = f * incoming.radiance * tint * (weight * coins / pdf_light);
+    (light, incoming.group)
 }
 
 /// One sample of light that may reach a point, before its shadow ray.
@@ -642,6 +654,8 @@ pub(crate) struct Incoming {
     pub pdf: f32,
     /// False when rays that scatter cannot see the emitter, so BSDF sampling cannot find it.
     bsdf_can_find: bool,
+    /// The light group of the emitter.
+    pub group: u8,
 }
 
 /// Draws light for `at` with the strategy of `space` (`None`: ordinary light sampling): a
@@ -708,6 +722,7 @@ fn sky_through_aperture(
         target: None,
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
+        group: scene.environment_group,
     })
 }
 
@@ -716,16 +731,22 @@ fn sky_through_aperture(
 #[inline]
 fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming> {
     let time = at.time;
-    let bsdf_can_find = match light.place {
+    let (bsdf_can_find, group) = match light.place {
         LightPlace::Point {
             source: LightSource::Triangle(triangle),
             ..
-        } => scene.visibility.sees(triangle, RayClass::Indirect),
+        } => (
+            scene.visibility.sees(triangle, RayClass::Indirect),
+            scene.triangle_light_group(triangle),
+        ),
         LightPlace::Point {
             source: LightSource::Strand(segment),
             ..
-        } => scene.strand_sees(segment, RayClass::Indirect),
-        LightPlace::Direction(_) => true,
+        } => (
+            scene.strand_sees(segment, RayClass::Indirect),
+            scene.strand_light_group(segment),
+        ),
+        LightPlace::Direction(_) => (true, scene.environment_group),
     };
     match light.place {
         LightPlace::Direction(dir) => Some(Incoming {
@@ -734,6 +755,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
             target: None,
             pdf: light.pdf,
             bsdf_can_find,
+            group,
         }),
         LightPlace::Point {
             point,
@@ -760,6 +782,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
                 target: Some(offset_target(point, light_side)),
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find,
+                group,
             })
         }
     }

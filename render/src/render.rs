@@ -57,7 +57,7 @@ pub struct RenderOptions<'a> {
     /// the shot camera itself.
     pub eye: Option<Eye>,
     /// Sums to continue from (a checkpoint's, row-major over the window) instead of nothing.
-    pub resume: Option<&'a [Pixel]>,
+    pub resume: Option<&'a Sums>,
     /// Hand the running sums out every so often, and once more if `stop` ends the render.
     pub checkpoint: Option<Checkpointing<'a>>,
     /// Set (from a signal handler) to end the render early: no pixel starts after it is set.
@@ -88,7 +88,26 @@ pub struct Checkpointing<'a> {
     pub every: Duration,
     /// Called from a background thread with the partial image and the sums it was made
     /// from; rendering goes on meanwhile.
-    pub save: &'a (dyn Fn(&Image, Vec<Pixel>) + Sync),
+    pub save: &'a (dyn Fn(&Image, Sums) + Sync),
+}
+
+/// A window's running sums, row-major: each pixel's, and its light groups' radiance (`groups`
+/// holds [`Scene::light_groups`]`.len()` sums per pixel, pixel after pixel; empty without
+/// groups).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sums {
+    pub pixels: Vec<Pixel>,
+    pub groups: Vec<DVec3>,
+}
+
+impl Sums {
+    /// Light groups per pixel.
+    pub fn group_count(&self) -> usize {
+        self.groups
+            .len()
+            .checked_div(self.pixels.len())
+            .unwrap_or(0)
+    }
 }
 
 /// One pixel's running sums: what passes carry forward and a checkpoint keeps.
@@ -156,44 +175,55 @@ pub fn render_resumable(scene: &Scene, options: &RenderOptions) -> Rendered {
     let started = Instant::now();
     let frame = FrameSampler::new(scene, options);
     let window = frame.window;
-    let tiles = tiles(window, frame.first, options.resume);
+    let groups = scene.light_groups.len();
+    let tiles = tiles(window, frame.first, groups, options.resume);
     std::thread::scope(|threads| {
         let (finished, wait) = std::sync::mpsc::channel::<()>();
         if let Some(checkpoint) = options.checkpoint {
             let tiles = &tiles;
             threads.spawn(move || {
                 while let Err(RecvTimeoutError::Timeout) = wait.recv_timeout(checkpoint.every) {
-                    let pixels = rows(tiles, window);
-                    (checkpoint.save)(&finish(scene, options, window, &pixels, started), pixels);
+                    let sums = rows(tiles, window, groups);
+                    (checkpoint.save)(&finish(scene, options, window, &sums, started), sums);
                 }
             });
         }
         run_passes(&frame, options, &tiles, started);
         drop(finished);
     });
-    let pixels = rows(&tiles, window);
-    let image = finish(scene, options, window, &pixels, started);
+    let sums = rows(&tiles, window, groups);
+    let image = finish(scene, options, window, &sums, started);
     let stopped = options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
-    let complete = !stopped || pixels.iter().all(|p| p.finished(options.spp));
+    let complete = !stopped || sums.pixels.iter().all(|p| p.finished(options.spp));
     if !complete && let Some(checkpoint) = options.checkpoint {
-        (checkpoint.save)(&image, pixels);
+        (checkpoint.save)(&image, sums);
     }
     Rendered { image, complete }
 }
 
-/// A tile of pixels and their sums (row-major within the tile).
-type Tile = Mutex<(Window, Vec<Pixel>)>;
+/// A tile of pixels and their sums (row-major within the tile), with `groups` light-group
+/// sums per pixel.
+struct Tile {
+    window: Window,
+    pixels: Vec<Pixel>,
+    groups: Vec<DVec3>,
+}
 
 /// The window cut in tiles, each owning its pixels so passes can run tiles in parallel and
 /// carry their sums from pass to pass; their sums start from `resume` when given.
-fn tiles(window: Window, first: u32, resume: Option<&[Pixel]>) -> Vec<Tile> {
-    let resume = resume.filter(|r| r.len() == window.area());
+fn tiles(window: Window, first: u32, groups: usize, resume: Option<&Sums>) -> Vec<Mutex<Tile>> {
+    let resume = resume.filter(|r| r.pixels.len() == window.area() && r.group_count() == groups);
+    let index = |x: usize, y: usize| (y - window.y0) * window.width() + (x - window.x0);
     let start = |x: usize, y: usize| match resume {
-        Some(r) => r[(y - window.y0) * window.width() + (x - window.x0)],
+        Some(r) => r.pixels[index(x, y)],
         None => Pixel {
             samples: first,
             ..Pixel::default()
         },
+    };
+    let start_groups = |x: usize, y: usize| match resume {
+        Some(r) => r.groups[index(x, y) * groups..][..groups].to_vec(),
+        None => vec![DVec3::ZERO; groups],
     };
     (window.y0..window.y1)
         .step_by(TILE)
@@ -208,7 +238,14 @@ fn tiles(window: Window, first: u32, resume: Option<&[Pixel]>) -> Vec<Tile> {
                 let pixels = (tile.y0..tile.y1)
                     .flat_map(|y| (tile.x0..tile.x1).map(move |x| start(x, y)))
                     .collect();
-                Mutex::new((tile, pixels))
+                let groups = (tile.y0..tile.y1)
+                    .flat_map(|y| (tile.x0..tile.x1).flat_map(move |x| start_groups(x, y)))
+                    .collect();
+                Mutex::new(Tile {
+                    window: tile,
+                    pixels,
+                    groups,
+                })
             })
         })
         .collect()
@@ -216,22 +253,33 @@ fn tiles(window: Window, first: u32, resume: Option<&[Pixel]>) -> Vec<Tile> {
 
 /// The tiles' sums in rows over the window (each tile locked in turn, so a tile is never
 /// copied halfway through a pass).
-fn rows(tiles: &[Tile], window: Window) -> Vec<Pixel> {
-    let mut pixels = vec![Pixel::default(); window.area()];
+fn rows(tiles: &[Mutex<Tile>], window: Window, groups: usize) -> Sums {
+    let mut sums = Sums {
+        pixels: vec![Pixel::default(); window.area()],
+        groups: vec![DVec3::ZERO; window.area() * groups],
+    };
     for tile in tiles {
-        let guard = tile.lock().unwrap_or_else(|e| e.into_inner());
-        let (tile, tile_pixels) = &*guard;
-        for (k, px) in tile_pixels.iter().enumerate() {
-            let (x, y) = (tile.x0 + k % tile.width(), tile.y0 + k / tile.width());
-            pixels[(y - window.y0) * window.width() + (x - window.x0)] = *px;
+        let tile = tile.lock().unwrap_or_else(|e| e.into_inner());
+        let w = tile.window;
+        for (k, px) in tile.pixels.iter().enumerate() {
+            let (x, y) = (w.x0 + k % w.width(), w.y0 + k / w.width());
+            let i = (y - window.y0) * window.width() + (x - window.x0);
+            sums.pixels[i] = *px;
+            sums.groups[i * groups..][..groups]
+                .copy_from_slice(&tile.groups[k * groups..][..groups]);
         }
     }
-    pixels
+    sums
 }
 
 /// Passes of samples over the tiles until every pixel has its samples, the time runs out or a
 /// stop is asked for.
-fn run_passes(frame: &FrameSampler, options: &RenderOptions, tiles: &[Tile], started: Instant) {
+fn run_passes(
+    frame: &FrameSampler,
+    options: &RenderOptions,
+    tiles: &[Mutex<Tile>],
+    started: Instant,
+) {
     let first = frame.first;
     let stopping = || options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
     // Progressive passes (4, 4, 8, 16, ... samples) let adaptive sampling and the time limit
@@ -246,9 +294,8 @@ fn run_passes(frame: &FrameSampler, options: &RenderOptions, tiles: &[Tile], sta
     let mut done = tiles
         .iter()
         .flat_map(|t| {
-            let guard = t.lock().unwrap_or_else(|e| e.into_inner());
-            guard
-                .1
+            let tile = t.lock().unwrap_or_else(|e| e.into_inner());
+            tile.pixels
                 .iter()
                 .filter(|p| !p.finished(options.spp))
                 .map(|p| p.samples)
@@ -286,9 +333,14 @@ fn run_passes(frame: &FrameSampler, options: &RenderOptions, tiles: &[Tile], sta
                 return;
             }
             let mut guard = tile.lock().unwrap_or_else(|e| e.into_inner());
-            let (tile, tile_pixels) = &mut *guard;
+            let Tile {
+                window: tile,
+                pixels,
+                groups,
+            } = &mut *guard;
+            let n = frame.groups;
             let mut taken = 0u64;
-            for (k, px) in tile_pixels.iter_mut().enumerate() {
+            for (k, px) in pixels.iter_mut().enumerate() {
                 if stopping() {
                     break;
                 }
@@ -297,7 +349,7 @@ fn run_passes(frame: &FrameSampler, options: &RenderOptions, tiles: &[Tile], sta
                 }
                 let before = px.samples;
                 let (x, y) = (tile.x0 + k % tile.width(), tile.y0 + k / tile.width());
-                frame.sample_pixel(x, y, px, last);
+                frame.sample_pixel(x, y, px, &mut groups[k * n..][..n], last);
                 taken += (px.samples - before) as u64;
                 if let Some(target) = options.target_error {
                     px.converged = px.samples - first >= MIN_ADAPTIVE_SPP
@@ -325,6 +377,8 @@ struct FrameSampler<'a> {
     seed: u32,
     clipped: bool,
     first: u32,
+    /// Light groups tracked per pixel (0: none).
+    groups: usize,
 }
 
 impl<'a> FrameSampler<'a> {
@@ -341,11 +395,13 @@ impl<'a> FrameSampler<'a> {
             seed: hash32(scene.settings.seed.wrapping_add(0x9e37_79b9)),
             clipped: !scene.clip.is_none(),
             first: options.first_sample.min(options.spp),
+            groups: scene.light_groups.len(),
         }
     }
 
-    /// Samples `px` (the pixel at column x, row y) up to sample index `last` (exclusive).
-    fn sample_pixel(&self, x: usize, y: usize, px: &mut Pixel, last: u32) {
+    /// Samples `px` (the pixel at column x, row y, whose light-group sums are `groups`) up to
+    /// sample index `last` (exclusive).
+    fn sample_pixel(&self, x: usize, y: usize, px: &mut Pixel, groups: &mut [DVec3], last: u32) {
         let (w, h) = self.size;
         let [open, close] = self.shutter;
         let scene = self.scene;
@@ -386,6 +442,9 @@ impl<'a> FrameSampler<'a> {
             px.through += sample.through.as_dvec3();
             px.lum_sq += luminance(c) * luminance(c);
             px.portal_depth += sample.portal_depth;
+            for (sum, light) in groups.iter_mut().zip(&sample.groups) {
+                *sum += light.as_dvec3();
+            }
             if let Some(first) = sample.first {
                 px.hits += 1;
                 px.albedo += first.albedo;
@@ -412,9 +471,10 @@ fn finish(
     scene: &Scene,
     options: &RenderOptions,
     window: Window,
-    pixels: &[Pixel],
+    sums: &Sums,
     started: Instant,
 ) -> Image {
+    let pixels = &sums.pixels;
     let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
     let spp = options.spp;
     let first = options.first_sample.min(spp);
@@ -456,6 +516,7 @@ fn finish(
             .iter()
             .map(|p| (p.portal_depth as f64 / kept(p)) as f32)
             .collect(),
+        light_groups: light_group_means(scene, sums, first),
         spp: pixels.iter().map(|p| p.kept(first)).collect(),
         discarded: pixels.iter().map(|p| p.discarded as u64).sum(),
         metadata: Metadata {
@@ -470,4 +531,23 @@ fn finish(
             view,
         },
     }
+}
+
+/// Each light group's mean radiance per pixel, named.
+fn light_group_means(scene: &Scene, sums: &Sums, first: u32) -> Vec<(String, Vec<Vec3>)> {
+    let n = sums.group_count();
+    scene
+        .light_groups
+        .iter()
+        .enumerate()
+        .map(|(g, name)| {
+            let means = sums
+                .pixels
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (sums.groups[i * n + g] / p.kept(first).max(1) as f64).as_vec3())
+                .collect();
+            (name.clone(), means)
+        })
+        .collect()
 }

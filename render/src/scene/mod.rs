@@ -4,6 +4,7 @@
 //! sections: [`schema`].
 
 pub mod camera;
+pub mod light_groups;
 mod materials;
 pub mod media;
 pub mod mesh;
@@ -179,6 +180,14 @@ pub struct Scene {
     pub strands: Strands,
     /// Which rays see each ring's strands (by ring of [`Self::strands`]).
     pub strand_flags: Vec<Flags>,
+    /// Light groups ([`light_groups`]): their names, the default first; empty when the shot
+    /// names none.
+    pub light_groups: Vec<String>,
+    /// Light group per triangle, and per ring of strands (empty without groups).
+    pub triangle_group: Vec<u8>,
+    pub strand_group: Vec<u8>,
+    /// The environment's light group.
+    pub environment_group: u8,
     /// The frame rendered.
     pub frame: i64,
     /// Shutter open and close, seconds.
@@ -250,12 +259,15 @@ impl Scene {
             None => rings::shot_source(shot, settings.rings.as_deref()),
         };
         let ring_frame = rings::load(shot, frame, &ring_source)?;
-        let environment = environment_section(file, base, sections.environment.as_ref())?;
+        let mut groups = light_groups::LightGroups::new();
+        let (environment, environment_group) =
+            environment_section(file, base, sections.environment.as_ref(), &mut groups)?;
         let (portals, strand_looks) = portals::portals(
             shot,
             shutter,
             settings.max_portal_depth,
             ring_frame.as_ref(),
+            &mut groups,
         )?;
         // Every time a ray can have: objects that move within it are blurred, the rest baked.
         let times = portals.times();
@@ -275,7 +287,7 @@ impl Scene {
             portals: &portals,
             media: &media,
         };
-        let (parts, flags) = loader.parts(&objects, &mut materials)?;
+        let (parts, flags) = loader.parts(&objects, &mut materials, &mut groups)?;
         let count = objects::triangle_count(&parts);
         if let Some(budget) = overrides.memory_budget
             && scene_bytes(count) > budget
@@ -305,8 +317,16 @@ impl Scene {
             .collect();
 
         let emitters = objects::emitters(&g, &normals, &materials);
-        let (strands, strand_flags) =
+        let (strands, ring_looks) =
             rings::strands(shot, ring_frame.as_ref(), &strand_looks, times, &rig);
+        let light_groups = groups.names();
+        let grouped = |v: Vec<u8>| {
+            if light_groups.is_empty() {
+                Vec::new()
+            } else {
+                v
+            }
+        };
         let lights = Lights::new(
             emitters,
             g.triangles.len(),
@@ -345,7 +365,11 @@ impl Scene {
             visibility,
             media: participating,
             strands,
-            strand_flags,
+            strand_flags: ring_looks.iter().map(|l| l.flags).collect(),
+            strand_group: grouped(ring_looks.iter().map(|l| l.group).collect()),
+            triangle_group: grouped(g.triangle_group),
+            light_groups,
+            environment_group,
             frame,
             shutter,
         };
@@ -477,6 +501,19 @@ impl Scene {
         self.strand_flags[self.strands.segment_ring[segment as usize] as usize].sees(class)
     }
 
+    /// The light group of the light triangle `t` emits.
+    #[inline]
+    pub fn triangle_light_group(&self, t: u32) -> u8 {
+        self.triangle_group.get(t as usize).copied().unwrap_or(0)
+    }
+
+    /// The light group of the light strand segment `segment` emits.
+    #[inline]
+    pub fn strand_light_group(&self, segment: u32) -> u8 {
+        let ring = self.strands.segment_ring[segment as usize] as usize;
+        self.strand_group.get(ring).copied().unwrap_or(0)
+    }
+
     /// The material of triangle `i`.
     pub fn material(&self, triangle: u32) -> &Material {
         &self.materials[self.triangle_material[triangle as usize] as usize]
@@ -501,20 +538,23 @@ pub(crate) fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) ->
     !transform.is_static() && changes_during(|t| transform.at(t), &keys, interval)
 }
 
-/// The `[environment]` section's light, when the shot has one.
+/// The `[environment]` section's light, when the shot has one, and its light group.
 fn environment_section(
     file: &Path,
     base: &Path,
     table: Option<&toml::Table>,
-) -> Result<Option<Environment>, RenderError> {
-    match table {
-        Some(t) => Ok(Some(environment(
-            file,
-            base,
-            &parse::<EnvironmentSection>(file, "environment", t)?,
-        )?)),
-        None => Ok(None),
-    }
+    groups: &mut light_groups::LightGroups,
+) -> Result<(Option<Environment>, u8), RenderError> {
+    let Some(t) = table else {
+        return Ok((None, 0));
+    };
+    let section = parse::<EnvironmentSection>(file, "environment", t)?;
+    let group = groups.index(
+        file,
+        "environment.light_group",
+        section.light_group.as_deref(),
+    )?;
+    Ok((Some(environment(file, base, &section)?), group))
 }
 
 /// The environment light of `[environment]`: a constant or a lat-long map.

@@ -3,6 +3,7 @@
 //! in object space under its motion (keyed, or carried through an opening) when it moves; then
 //! all of them gathered, still ones first, into the arrays the scene holds.
 
+use super::light_groups::LightGroups;
 use super::materials::{self, BOUNDARY_MATERIAL};
 use super::media::MediaSections;
 use super::schema::ObjectSection;
@@ -29,6 +30,8 @@ pub(super) struct Part {
     materials: Vec<u32>,
     /// `None`: baked to world space.
     motion: Option<ObjectMotion>,
+    /// The light group of its emissive triangles.
+    group: u8,
 }
 
 /// The `[[object]]` sections, with names checked unique and each `copy_of` filled in from the
@@ -84,6 +87,7 @@ impl Loader<'_> {
         &self,
         objects: &[ObjectSection],
         materials: &mut Vec<Material>,
+        groups: &mut LightGroups,
     ) -> Result<(Vec<Part>, Vec<Flags>), RenderError> {
         let mut parts = Vec::new();
         let mut flags = Vec::new();
@@ -94,7 +98,10 @@ impl Loader<'_> {
             } else {
                 self::flags(o.visibility)
             });
-            parts.push(self.part(i, o, materials)?);
+            let mut part = self.part(i, o, materials)?;
+            let key = format!("object[{i}].light_group");
+            part.group = groups.index(&self.shot.source, &key, o.light_group.as_deref())?;
+            parts.push(part);
         }
         Ok((parts, flags))
     }
@@ -140,6 +147,7 @@ impl Loader<'_> {
             triangles: Vec::new(),
             materials: Vec::new(),
             motion: moves.then_some(motion),
+            group: 0,
         };
         for mesh_part in mesh_parts {
             let index = self.material_of(&key, o, mesh_name, &mesh_part, materials)?;
@@ -254,6 +262,7 @@ pub(super) struct Geometry {
     pub triangle_material: Vec<u32>,
     pub triangle_instance: Vec<u32>,
     pub triangle_object: Vec<u32>,
+    pub triangle_group: Vec<u8>,
     pub instances: Vec<MovingInstance>,
     /// How many triangles (from the first) stand still.
     pub static_count: usize,
@@ -269,6 +278,7 @@ impl Geometry {
             triangle_material: Vec::new(),
             triangle_instance: Vec::new(),
             triangle_object: Vec::new(),
+            triangle_group: Vec::new(),
             instances: Vec::new(),
             static_count: 0,
             moving: vec![false; objects],
@@ -291,6 +301,7 @@ impl Geometry {
             g.triangle_instance.extend(std::iter::repeat_n(instance, n));
             g.triangle_object
                 .extend(std::iter::repeat_n(part.object, n));
+            g.triangle_group.extend(std::iter::repeat_n(part.group, n));
             g.triangles.extend(part.triangles);
             g.triangle_material.extend(part.materials);
         }

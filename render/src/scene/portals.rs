@@ -1,6 +1,7 @@
 //! The renderer's side of a shot's openings: `[portal.surface]` (teleport mask, tint, opacity,
 //! ior, distortion, time offset, strand look), `[[portal.cull]]` and the portal depth limit. Syntax: [`super::schema`].
 
+use super::light_groups::LightGroups;
 use super::schema::{CullSection, CullSide, PortalSurfaceSection, StrandsSection};
 use super::{flags, moves_during, optional, parse};
 use crate::error::RenderError;
@@ -22,16 +23,19 @@ pub struct StrandLook {
     /// Scales the baked Cd · intensity.
     pub intensity: f32,
     pub flags: Flags,
+    /// The light group of the ring's light.
+    pub group: u8,
 }
 
 /// The openings of `shot` over the shutter `[open, close]` (seconds), with chains of up to
 /// `max_portal_depth` teleports in a row; `rings` are the frame's baked rings, whose boundaries
 /// become the teleport masks. Also returns each opening's strand look.
-pub fn portals(
+pub(crate) fn portals(
     shot: &Shot,
     shutter: [f64; 2],
     max_portal_depth: u32,
     rings: Option<&RingFrame>,
+    groups: &mut LightGroups,
 ) -> Result<(Portals, Vec<StrandLook>), RenderError> {
     let file = &shot.source;
     let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
@@ -48,7 +52,10 @@ pub fn portals(
         let look = surface_look(&key, &s, shot.fps).map_err(invalid)?;
         shapes.push(shape);
         looks.push(look);
-        strand_looks.push(strand_look(&key, s.strands.as_ref()).map_err(invalid)?);
+        let mut strand = strand_look(&key, s.strands.as_ref()).map_err(invalid)?;
+        let group = s.strands.as_ref().and_then(|s| s.light_group.as_deref());
+        strand.group = groups.index(file, &format!("{key}.strands.light_group"), group)?;
+        strand_looks.push(strand);
     }
     let times = reachable_times(shutter, &looks, max_portal_depth);
     let masks = shot
@@ -101,6 +108,7 @@ fn strand_look(key: &str, s: Option<&StrandsSection>) -> Result<StrandLook, Inva
     Ok(StrandLook {
         intensity,
         flags: flags(s.and_then(|s| s.visibility)),
+        group: 0,
     })
 }
 

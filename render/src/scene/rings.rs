@@ -8,7 +8,6 @@ use super::moves_during;
 use super::portals::StrandLook;
 use crate::error::{RenderError, key_error};
 use crate::geometry::{self, Strands};
-use crate::visibility::Flags;
 use rift_fx::rig::Rig;
 use rift_fx::ring::{RingFrame, RingGenerator};
 use rift_fx::{FrameRange, Shot};
@@ -183,16 +182,16 @@ pub fn shot_source(shot: &Shot, rings: Option<&str>) -> RingSource {
 }
 
 /// The frame's rings as render geometry, each in its opening's frame (followed over time when
-/// the opening moves within `times`), with each ring's visibility flags.
+/// the opening moves within `times`), with each ring's look (visibility flags, light group).
 pub(super) fn strands(
     shot: &Shot,
     rings: Option<&RingFrame>,
     looks: &[StrandLook],
     times: [f64; 2],
     rig: &Arc<Rig>,
-) -> (Strands, Vec<Flags>) {
+) -> (Strands, Vec<StrandLook>) {
     let mut strands = Strands::default();
-    let mut flags = Vec::new();
+    let mut ring_looks = Vec::new();
     for curves in rings.iter().flat_map(|f| &f.rings) {
         let opening = shot
             .rig
@@ -216,7 +215,7 @@ pub(super) fn strands(
             times,
             look.intensity,
         );
-        flags.push(look.flags);
+        ring_looks.push(look);
     }
-    (strands, flags)
+    (strands, ring_looks)
 }

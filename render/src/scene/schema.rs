@@ -56,6 +56,7 @@
 //! # map = "sky.exr"             # a lat-long EXR (RGB), relative to the shot file; top row up,
 //! # intensity = 1.0             # middle column towards −Z; scaled by intensity and turned
 //! # rotation_degrees = 0.0      # about +Y
+//! # light_group = "sky"         # its light in its own EXR layer, lightgroup.sky (see below)
 //!
 //! [[object]]
 //! name = "room"
@@ -77,6 +78,11 @@
 //! through_portal = true         # camera rays after one or more openings, before any scattering
 //! indirect = true               # rays after a scattering event
 //! shadow = true                 # shadow rays: false casts no shadows
+//! # light_group = "practicals"  # (on any [[object]]) the light its emissive parts give goes to
+//!                               # the EXR layer lightgroup.practicals; emitters that name no
+//!                               # group go to lightgroup.default, and the layers sum to the
+//!                               # beauty (light through openings included). At most 7 groups;
+//!                               # names of letters, digits and `_`.
 //!
 //! [camera.stereo]               # renders a left and a right image: off-axis (parallel) eyes
 //! interaxial = 0.065            # meters between the eyes, along the camera's X
@@ -107,6 +113,7 @@
 //! [portal.surface.strands]      # the ring's strands: round curves emitting Cd · intensity
 //! intensity = 1.0               # scales their emission (0: dark strands that still block)
 //! visibility = { camera = true, through_portal = true, indirect = true, shadow = true }
+//! # light_group = "ring"        # the ring's light in its own EXR layer, lightgroup.ring
 //!
 //! [[portal.cull]]               # hides linked objects where they poke out behind the opening
 //! objects = ["ball"]            # [[object]] names
@@ -189,6 +196,7 @@ pub struct ObjectSection {
     pub copy_of: Option<String>,
     pub through: Option<String>,
     pub visibility: Option<VisibilitySection>,
+    pub light_group: Option<String>,
 }
 
 /// `[object.visibility]`: which rays see the object (each defaults to true).
@@ -229,6 +237,7 @@ pub struct EnvironmentSection {
     pub map: Option<String>,
     pub intensity: Option<f64>,
     pub rotation_degrees: Option<f64>,
+    pub light_group: Option<String>,
 }
 
 /// `[camera.stereo]`.
@@ -270,6 +279,7 @@ pub struct PortalSurfaceSection {
 pub struct StrandsSection {
     pub intensity: Option<f64>,
     pub visibility: Option<VisibilitySection>,
+    pub light_group: Option<String>,
 }
 
 /// `[portal.surface.distortion]`.
