@@ -91,6 +91,11 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
     })?;
     progress.finish();
+    let stage = if formats.contains(&Format::Usd) && outcome.iter().all(Result::is_ok) {
+        Some(export::write_stage(&args.output, &shot, frames)?)
+    } else {
+        None
+    };
 
     let mut vertices = 0;
     let mut files = 0;
@@ -113,6 +118,14 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
         args.output.display(),
         started.elapsed().as_secs_f64()
     );
+    if let Some(stage) = stage {
+        eprintln!(
+            "rift fx: {} plays frames {}-{} with the camera and openings",
+            stage.display(),
+            frames.first,
+            frames.last
+        );
+    }
     if let Some(m) = worst {
         eprintln!(
             "rift fx: motion reconstruction across the shutter: max error {:.3e} = {:.3e} × ring radius \

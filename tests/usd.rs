@@ -5,7 +5,8 @@
 
 mod common;
 
-use common::{fx_frames, root};
+use common::{fx_frames, rift, root, stderr};
+use std::path::Path;
 use std::process::Command;
 
 #[test]
@@ -16,7 +17,12 @@ fn example_shot_usd_passes_usd_core_validators() {
         .iter()
         .map(|p| p.to_string_lossy().into_owned())
         .collect();
-    assert_eq!(usda.len(), 3);
+    // Three frames and the shot's stage over them.
+    assert_eq!(usda.len(), 4);
+    assert!(
+        usda.iter().any(|p| p.ends_with("o/portal_pair.usda")),
+        "{usda:?}"
+    );
 
     let probe = Command::new("python3")
         .args(["-c", "import pxr.UsdValidation"])
@@ -39,5 +45,86 @@ fn example_shot_usd_passes_usd_core_validators() {
         "usd validation failed:\n{report}{}",
         String::from_utf8_lossy(&check.stderr)
     );
-    assert_eq!(report.matches(": ok").count(), 3, "{report}");
+    assert_eq!(report.matches(": ok").count(), 4, "{report}");
+}
+
+/// Runs a Python script of `tests/support` with `args`; panics with its output unless it
+/// succeeds.
+fn python(script: &str, args: &[&str], cwd: &Path) -> String {
+    let out = Command::new("python3")
+        .arg(root().join("tests/support").join(script))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{script} failed:\n{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+#[test]
+fn the_shot_stage_carries_camera_openings_and_rings_as_rift_has_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let shot = root().join("examples/shots/portal_pair.toml");
+    fx_frames(d, &shot, &["--format", "usd"]);
+    let shot = shot.to_str().unwrap();
+    for frame in ["1001", "1002", "1003"] {
+        let out = format!("r.{frame}.exr");
+        let args = [
+            "render", shot, "--frame", frame, "--res", "16", "9", "--spp", "1", "-o", &out,
+        ];
+        let r = rift(d, &args);
+        assert!(r.status.success(), "{}", stderr(&r));
+    }
+    // portal_pair's shutter opens a quarter frame early; the EXR holds the camera then.
+    let args = [
+        "o/portal_pair.usda",
+        "r.{frame}.exr",
+        "-0.25",
+        "1001",
+        "1002",
+        "1003",
+    ];
+    let report = python("usd_stage_check.py", &args, d);
+    assert_eq!(report.matches("camera differs").count(), 3, "{report}");
+}
+
+#[test]
+fn blender_plays_the_shot_stage_as_moving_curves() {
+    let probe = Command::new("python3")
+        .args(["-c", "import sys, bpy; print(sys.version_info[:2])"])
+        .output()
+        .unwrap();
+    if !probe.status.success() {
+        let version = Command::new("python3")
+            .args(["-c", "import sys; print(sys.version_info[:2] == (3, 11))"])
+            .output()
+            .unwrap();
+        // bpy 4.5 is built for Python 3.11 only (tests/requirements.txt).
+        assert!(
+            String::from_utf8_lossy(&version.stdout).trim() != "True",
+            "Blender's Python module is needed: tests/setup.sh (pip install -r tests/requirements.txt)"
+        );
+        eprintln!("skipped: bpy 4.5 needs Python 3.11, which this machine's python3 is not");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fx_frames(
+        d,
+        &root().join("examples/shots/portal_pair.toml"),
+        &["--format", "usd"],
+    );
+    let report = python(
+        "blender_import.py",
+        &["o/portal_pair.usda", "1001", "1002", "1003"],
+        d,
+    );
+    // Both openings' rings, at each of the three frames.
+    assert_eq!(report.matches(" points in ").count(), 6, "{report}");
 }

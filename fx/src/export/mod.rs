@@ -1,4 +1,5 @@
-//! Writing baked rings: USD (`.usda` BasisCurves), a binary PLY point cloud of the boundary, and a
+//! Writing baked rings: USD (`.usda` BasisCurves per frame, and one stage over the frame range
+//! that plays them as an animation with the camera and openings), a binary PLY point cloud of the boundary, and a
 //! compact native cache that the renderer loads. Every file is written to a temporary name beside
 //! its destination and renamed into place, so a failed or interrupted job leaves no partial file.
 
@@ -6,6 +7,7 @@ pub mod atomic;
 pub mod cache;
 pub mod ply;
 pub mod ply_table;
+pub mod usd_stage;
 pub mod usda;
 
 use crate::error::FxError;
@@ -52,6 +54,27 @@ impl Format {
 /// Output file names for a shot called `shot`.
 pub fn usda_path(dir: &Path, shot: &str, frame: i64) -> PathBuf {
     dir.join(format!("{shot}.{frame:04}.usda"))
+}
+
+/// The shot's stage over a frame range, beside its per-frame files.
+pub fn stage_path(dir: &Path, shot: &str) -> PathBuf {
+    dir.join(format!("{shot}.usda"))
+}
+
+/// Writes the stage of `frames` of `shot` into `dir`, where the frames' `.usda` files are (or
+/// will be); returns its path.
+pub fn write_stage(
+    dir: &Path,
+    shot: &crate::Shot,
+    frames: crate::FrameRange,
+) -> Result<PathBuf, FxError> {
+    let path = stage_path(dir, &shot.name);
+    let frame_file = |f: i64| {
+        let file = usda_path(Path::new("."), &shot.name, f);
+        file.to_string_lossy().into_owned()
+    };
+    atomic::write(&path, |w| usd_stage::write(w, shot, frames, frame_file))?;
+    Ok(path)
 }
 
 /// One PLY per opening and frame.

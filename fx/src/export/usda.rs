@@ -4,7 +4,8 @@
 //!
 //! Authored per curve vertex: `points`, `widths`, `velocities`, `accelerations`,
 //! `primvars:displayColor` (linear Rec.709) and `primvars:intensity`; per curve:
-//! `primvars:direction` (+1 or −1, the way the strand turns). Stage metadata: `defaultPrim`,
+//! `primvars:direction` (+1 or −1, the way the strand turns). Every value is a time sample at the
+//! frame (topology included), so the files serve as value clips of the shot's stage. Stage metadata: `defaultPrim`,
 //! `timeCodesPerSecond` and `framesPerSecond` (the shot's fps, so velocities are per second),
 //! `upAxis = "Y"`, `metersPerUnit = 1`.
 
@@ -58,14 +59,7 @@ fn write_ring(w: &mut dyn Write, frame: &RingFrame, ring: &RingCurves) -> io::Re
             continue;
         }
         last = tc;
-        let m = here.to_mat4();
-        write!(w, "            {}: (", fmt_time(tc))?;
-        for c in 0..4 {
-            let col = m.col(c);
-            let sep = if c < 3 { ", " } else { "" };
-            write!(w, "({}, {}, {}, {}){sep}", col.x, col.y, col.z, col.w)?;
-        }
-        writeln!(w, "),")?;
+        writeln!(w, "            {}: {},", fmt_time(tc), matrix(&here))?;
     }
     writeln!(w, "        }}")?;
     writeln!(
@@ -78,14 +72,23 @@ fn write_ring(w: &mut dyn Write, frame: &RingFrame, ring: &RingCurves) -> io::Re
     writeln!(w, "            uniform token type = \"linear\"")?;
     writeln!(w, "            uniform token wrap = \"periodic\"")?;
     let tc = fmt_time(code);
-    write!(w, "            int[] curveVertexCounts = [")?;
+    // Topology as time samples too, so a stage taking this file as one value clip of many
+    // (`usd_stage`) gets it frame by frame.
+    write!(
+        w,
+        "            int[] curveVertexCounts.timeSamples = {{ {tc}: ["
+    )?;
     write_list(w, &ring.vertex_counts, |w, n| write!(w, "{n}"))?;
-    writeln!(w, "]")?;
-    write!(w, "            int[] primvars:direction = [")?;
-    write_list(w, &ring.directions, |w, d| write!(w, "{d}"))?;
-    writeln!(w, "] (")?;
+    writeln!(w, "] }}")?;
+    writeln!(w, "            int[] primvars:direction (")?;
     writeln!(w, "                interpolation = \"uniform\"")?;
     writeln!(w, "            )")?;
+    write!(
+        w,
+        "            int[] primvars:direction.timeSamples = {{ {tc}: ["
+    )?;
+    write_list(w, &ring.directions, |w, d| write!(w, "{d}"))?;
+    writeln!(w, "] }}")?;
     let (lo, hi) = ring.extent();
     writeln!(
         w,
@@ -106,12 +109,25 @@ fn write_ring(w: &mut dyn Write, frame: &RingFrame, ring: &RingCurves) -> io::Re
 }
 
 /// Time codes print without a trailing `.0` when whole.
-fn fmt_time(tc: f64) -> String {
+pub(crate) fn fmt_time(tc: f64) -> String {
     if tc.fract() == 0.0 {
         format!("{}", tc as i64)
     } else {
         format!("{tc}")
     }
+}
+
+/// A similarity as a USD `matrix4d`: rows are the matrix's columns (USD multiplies row vectors
+/// from the left).
+pub(crate) fn matrix(m: &crate::rig::Similarity) -> String {
+    let m = m.to_mat4();
+    let rows: Vec<String> = (0..4)
+        .map(|c| {
+            let col = m.col(c);
+            format!("({}, {}, {}, {})", col.x, col.y, col.z, col.w)
+        })
+        .collect();
+    format!("({})", rows.join(", "))
 }
 
 fn vertex_interpolation(w: &mut dyn Write, decl: &str) -> io::Result<()> {
