@@ -245,6 +245,58 @@ fn zero_strands() {
 }
 
 #[test]
+fn preset_mistakes() {
+    // An unknown preset, named with the ones there are.
+    let text = small_shot().replacen("radius = 0.8", "preset = \"wobbly\"\nradius = 0.8", 1);
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &[
+            "portal[0].ring.preset",
+            "\"wobbly\"",
+            "rift, calm, crackling",
+            "line",
+        ],
+    );
+    // Overriding instability the calm preset does not have.
+    let text = small_shot().replacen(
+        "radius = 0.8",
+        "preset = \"calm\"\nradius = 0.8\ninstability = { flare = 0.1 }",
+        1,
+    );
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &[
+            "portal[0].ring.instability",
+            "\"calm\" preset has no instability",
+        ],
+    );
+    // Without a preset, the strand count is required.
+    let text = small_shot().replace("strands = 4\n", "");
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["portal[0].ring.strands", "missing"],
+    );
+    // An override out of range names its key.
+    let text = small_shot().replacen(
+        "radius = 0.8",
+        "preset = \"rift\"\nradius = 0.8\ninstability = { flare = 3.0 }",
+        1,
+    );
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["portal[0].ring.instability.flare"],
+    );
+}
+
+#[test]
 fn negative_radius() {
     let text = small_shot().replacen("radius = 0.8", "radius = -0.8", 1);
     expect_failure(

@@ -1,23 +1,23 @@
-//! Curve regression: a small shot's baked curves against committed golden data, with tolerances.
+//! Curve regression: small shots' baked curves against committed golden data, with tolerances:
+//! `small_shot` (explicit looks) and `presets_shot` (one ring per named preset).
 //!
 //! Every 6th vertex of every strand of two frames is compared (position, velocity,
 //! acceleration, width, colour, intensity), plus every strand's vertex count. After an intended
 //! change to the effect, re-bless with `RIFT_BLESS=1 cargo test --release --test golden` and
-//! commit tests/golden/small_shot.csv.
+//! commit tests/golden/*.csv.
 
 mod common;
 
 use rift_fx::Shot;
 use rift_fx::ring::RingGenerator;
 
-const GOLDEN: &str = "tests/golden/small_shot.csv";
 const FRAMES: [i64; 2] = [1001, 1009];
 const STRIDE: usize = 6;
 const COLUMNS: usize = 14;
 
 /// Rows: opening, frame, strand, vertex (or -1 for the count row), then 14 values.
-fn current() -> Vec<(String, Vec<f64>)> {
-    let shot = Shot::load(&common::root().join("tests/data/small_shot.toml")).unwrap();
+fn current(name: &str) -> Vec<(String, Vec<f64>)> {
+    let shot = Shot::load(&common::root().join(format!("tests/data/{name}.toml"))).unwrap();
     let generator = RingGenerator::new(&shot, shot.frames);
     let mut rows = Vec::new();
     for frame in FRAMES {
@@ -57,8 +57,17 @@ fn tolerance(c: usize, g: f64) -> f64 {
 
 #[test]
 fn curves_match_golden_data() {
-    let rows = current();
-    let path = common::root().join(GOLDEN);
+    check_against_golden("small_shot");
+}
+
+#[test]
+fn every_preset_matches_golden_data() {
+    check_against_golden("presets_shot");
+}
+
+fn check_against_golden(name: &str) {
+    let rows = current(name);
+    let path = common::root().join(format!("tests/golden/{name}.csv"));
     if std::env::var_os("RIFT_BLESS").is_some() {
         let mut text = String::from(
             "# opening,frame,strand,vertex (-1: vertex count row),x,y,z,vx,vy,vz,ax,ay,az,width,r,g,b,intensity\n",

@@ -17,6 +17,21 @@ pub struct RingLook {
     pub noise: NoiseLook,
     pub speed: SpeedLook,
     pub color: ColorLook,
+    /// Strands drifting apart and flaring; `None`: a steady ring.
+    pub instability: Option<InstabilityLook>,
+}
+
+/// How unstable a ring is: each strand drifts from its place in the band and back on a slow
+/// signal of its own (strands separate and re-form), and flares burst outward along strands
+/// where a noise channel peaks (kinks in the curve that come and go).
+#[derive(Clone, Debug, PartialEq)]
+pub struct InstabilityLook {
+    /// Largest drift of a strand, in units of the band's width.
+    pub separation: f64,
+    /// Height of the tallest flares, in units of the radius.
+    pub flare: f64,
+    /// How fast drift and flares change, in cycles per second.
+    pub rate: f64,
 }
 
 /// Shape noise: radial and axial displacement, its frequency and how it evolves.
@@ -119,16 +134,26 @@ impl RingLook {
                 flicker: 0.15,
                 flicker_rate: 9.0,
             },
+            instability: None,
         }
     }
 
     /// Largest distance of any strand centreline from the ring centre in the opening plane.
     pub fn max_radius(&self) -> f64 {
-        self.radius + 0.5 * self.band + self.noise.amplitude
+        let (drift, flare) = self.instability_reach();
+        self.radius + 0.5 * self.band + self.noise.amplitude + drift + flare
     }
 
     /// Smallest distance of any strand centreline from the ring centre.
     pub fn min_radius(&self) -> f64 {
-        self.radius - 0.5 * self.band - self.noise.amplitude
+        let (drift, _) = self.instability_reach();
+        self.radius - 0.5 * self.band - self.noise.amplitude - drift
+    }
+
+    /// How far instability moves a strand: its drift either way and its flares outward.
+    fn instability_reach(&self) -> (f64, f64) {
+        self.instability.as_ref().map_or((0.0, 0.0), |i| {
+            (i.separation * self.band, i.flare * self.radius)
+        })
     }
 }

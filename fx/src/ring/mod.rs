@@ -3,10 +3,11 @@
 
 pub mod look;
 
-pub use look::{ColorLook, ColorRamp, NoiseLook, RingLook, SpeedLook};
+pub use look::{ColorLook, ColorRamp, InstabilityLook, NoiseLook, RingLook, SpeedLook};
 pub mod bake;
 pub mod curves;
 pub mod noise_field;
+pub mod presets;
 pub mod strand;
 pub mod timing;
 

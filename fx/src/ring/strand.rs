@@ -10,6 +10,11 @@
 //! width   = width · (1 + width_variation · N_heat(u, t))
 //! ```
 //!
+//! An unstable look adds to r a drift of the whole strand, separation · band · S_s(rate · t) (a
+//! slow 1-D signal per strand: strands separate and re-form), and flares,
+//! flare · radius · max(0, (N_flare(u, rate · t) − ¼) / ¾)³ (sparse outward bursts that kink the
+//! curve and fall back).
+//!
 //! Width and heat share one noise channel: hotter parts of a strand are thicker, as a glowing
 //! filament looks, and the effect costs a quarter less to evaluate.
 //!
@@ -33,8 +38,8 @@ pub struct Strand {
     pub speed: f64,
     base_radius: f64,
     phase: f64,
-    /// Noise-space offsets of the radial, axial, heat and flicker channels.
-    channels: [[f64; 3]; 4],
+    /// Noise-space offsets of the radial, axial, heat, flicker, drift and flare channels.
+    channels: [[f64; 3]; 6],
 }
 
 /// What a strand shares across its vertices at one instant.
@@ -44,6 +49,10 @@ pub struct StrandInstant {
     sin_angle: f64,
     tau: f64,
     octaves: Octaves,
+    /// Instability: the strand's drift from its place (a length), and where its flares are in
+    /// their evolution.
+    drift: f64,
+    flare_tau: f64,
 }
 
 impl StrandInstant {
@@ -83,7 +92,7 @@ impl RingModel {
             .map(|s| {
                 let h = |c: u32| unit_hash(look.seed, s, c);
                 let counter = ((s + 1) as f64 * q).floor() > (s as f64 * q).floor();
-                let mut channels = [[0.0; 3]; 4];
+                let mut channels = [[0.0; 3]; 6];
                 for (c, ch) in channels.iter_mut().enumerate() {
                     let c = 10 + 3 * c as u32;
                     *ch = [1e3 * h(c), 1e3 * h(c + 1), 1e3 * h(c + 2)];
@@ -114,11 +123,20 @@ impl RingModel {
     /// The per-instant state of strand `s` at time `t`.
     pub fn instant(&self, s: &Strand, t: f64) -> StrandInstant {
         let angle = s.phase + s.direction * s.speed * self.timing.angle(t);
+        let (drift, flare_tau) = match &self.look.instability {
+            Some(i) => (
+                i.separation * self.look.band * self.field.signal(i.rate * t, s.channels[4]),
+                i.rate * t,
+            ),
+            None => (0.0, 0.0),
+        };
         StrandInstant {
             cos_angle: angle.cos(),
             sin_angle: angle.sin(),
             tau: self.look.noise.evolution * t,
             octaves: self.field.octaves(self.timing.lod(t)),
+            drift,
+            flare_tau,
         }
     }
 
@@ -144,7 +162,26 @@ impl RingModel {
         } else {
             0.0
         };
-        [s.base_radius + n.amplitude * radial, z]
+        let mut r = s.base_radius + n.amplitude * radial;
+        if let Some(i) = &self.look.instability {
+            r += at.drift + i.flare * self.look.radius * self.flare(s, at, cos_u, sin_u);
+        }
+        [r, z]
+    }
+
+    /// A flare's height in [0, 1] at material angle u: zero where the strand's flare channel is
+    /// below a threshold, rising smoothly (and sharply) towards its peaks, so flares are sparse
+    /// bursts rather than a swell of the whole strand.
+    #[inline]
+    fn flare(&self, s: &Strand, at: &StrandInstant, cos_u: f64, sin_u: f64) -> f64 {
+        const THRESHOLD: f64 = 0.25;
+        let v = self
+            .field
+            .sample(&at.octaves, cos_u, sin_u, at.flare_tau, s.channels[5]);
+        let x = ((v - THRESHOLD) / (1.0 - THRESHOLD)).max(0.0);
+        // Cubed: smooth to the second derivative where a flare starts, which the baked
+        // quadratic motion needs.
+        x * x * x
     }
 
     /// Width and heat (0..1) of material angle (cos u, sin u) of strand `s`.

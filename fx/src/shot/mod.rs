@@ -422,11 +422,72 @@ fn rig(portals: &[PortalSection], fps: f64) -> Result<(Rig, Vec<Option<RingLook>
     Ok((Rig { openings }, rings))
 }
 
+/// `[portal.ring.instability]` over the look's own (a preset's, or none): a preset without
+/// instability has no such keys to override.
+fn instability(key: &str, r: &RingSection, look: &mut RingLook) -> Result<(), Invalid> {
+    let Some(section) = &r.instability else {
+        return Ok(());
+    };
+    let k = |name: &str| format!("{key}.{name}");
+    let base = match (&look.instability, &r.preset) {
+        (Some(own), _) => own.clone(),
+        (None, Some(name)) => {
+            return Err(Invalid::new(
+                key,
+                format!(
+                    "the {name:?} preset has no instability to override; use the \"rift\" or \
+                     \"crackling\" preset, or no preset"
+                ),
+            ));
+        }
+        (None, None) => crate::ring::InstabilityLook {
+            separation: 0.0,
+            flare: 0.0,
+            rate: 1.0,
+        },
+    };
+    let mut own = base;
+    set(
+        &mut own.separation,
+        section.separation,
+        &k("separation"),
+        |key, v| check::within(key, v, 0.0, 10.0, false),
+    )?;
+    set(&mut own.flare, section.flare, &k("flare"), |key, v| {
+        check::within(key, v, 0.0, 1.0, false)
+    })?;
+    set(&mut own.rate, section.rate, &k("rate"), |key, v| {
+        check::within(key, v, 0.0, 100.0, false)
+    })?;
+    look.instability = Some(own);
+    Ok(())
+}
+
 fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
     let k = |name: &str| format!("{key}.{name}");
     let radius = check::positive_length(&k("radius"), r.radius)?;
-    let strands = check::integer(&k("strands"), r.strands, 1, 100_000, "a positive integer")?;
-    let mut look = RingLook::with_defaults(radius, strands);
+    let mut look = match &r.preset {
+        Some(name) => crate::ring::presets::preset(name, radius).ok_or_else(|| {
+            Invalid::new(
+                k("preset"),
+                format!(
+                    "no ring preset is called {name:?}; known: {}",
+                    crate::ring::presets::NAMES.join(", ")
+                ),
+            )
+        })?,
+        None if r.strands.is_none() => {
+            return Err(Invalid::new(
+                k("strands"),
+                "missing: give `strands`, or a `preset` that sets it",
+            ));
+        }
+        None => RingLook::with_defaults(radius, 1),
+    };
+    if let Some(strands) = r.strands {
+        look.strands = check::integer(&k("strands"), strands, 1, 100_000, "a positive integer")?;
+    }
+    instability(&k("instability"), r, &mut look)?;
     let unit = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, false);
     let unit_open = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, true);
     let roughness = |key: &str, v: f64| check::within(key, v, 1e-6, 1.0, false);

@@ -30,9 +30,11 @@
 //! here = { position = [-2.0, 1.5, 0.0], rotation_degrees = [0.0, 20.0, 0.0], scale = 1.0 }
 //! pair = "B"                    # or an explicit `there` pose, as `here`
 //! [portal.ring]                 # omit for an opening without a ring
+//! preset = "rift"               # a named look: "rift" (unstable: strands separate, flare and
+//!                               # re-form), "calm" or "crackling"; every key below overrides it
 //! radius = 1.0                  # mean radius in the opening's frame
 //! band = 0.06                   # ring thickness: radial spread of the strands' base radii
-//! strands = 24
+//! strands = 24                  # required without a preset
 //! counter_rotating = 0.5        # fraction of strands that turn the other way
 //! width = 0.012                 # strand width (diameter)
 //! width_variation = 0.5         # 0..1, noise modulation of width
@@ -46,6 +48,10 @@
 //! roughness = 0.5               # amplitude gain per octave
 //! evolution = 0.5               # how fast the shape changes (instability), noise units per second
 //! size_compensation = 1.0       # 0: fixed frequency; 1: features keep their size on screen
+//! [portal.ring.instability]     # optional (the rift and crackling presets have it)
+//! separation = 1.2              # how far strands drift apart and back, in band widths
+//! flare = 0.07                  # height of outward flares along strands, in radii
+//! rate = 0.7                    # how fast drift and flares change, cycles per second
 //! [portal.ring.speed]
 //! turns_per_second = 0.4        # how fast the ring looks when it is `reference_size` on screen
 //! reference_size = 0.25         # ring radius as a fraction of the image height
@@ -191,9 +197,10 @@ pub struct PortalSection {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RingSection {
+    pub preset: Option<String>,
     pub radius: f64,
     pub band: Option<f64>,
-    pub strands: i64,
+    pub strands: Option<i64>,
     pub counter_rotating: Option<f64>,
     pub width: Option<f64>,
     pub width_variation: Option<f64>,
@@ -205,6 +212,16 @@ pub struct RingSection {
     pub speed: SpeedSection,
     #[serde(default)]
     pub color: ColorSection,
+    pub instability: Option<InstabilitySection>,
+}
+
+/// `[portal.ring.instability]`.
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct InstabilitySection {
+    pub separation: Option<f64>,
+    pub flare: Option<f64>,
+    pub rate: Option<f64>,
 }
 
 /// `[portal.ring.noise]`.
