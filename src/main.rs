@@ -4,6 +4,7 @@
 mod bench;
 mod farm;
 mod fx_cmd;
+mod looks_cmd;
 mod memory;
 mod merge_cmd;
 mod plot;
@@ -26,6 +27,8 @@ struct Cli {
 enum Command {
     /// Generate portal rings for a shot and write them as USD, PLY and ring caches.
     Fx(fx_cmd::FxArgs),
+    /// List the ring look presets, and draw them as a contact sheet (`--contact-sheet PNG`).
+    Looks(looks_cmd::LooksArgs),
     /// Render frames of a shot to EXR with the path tracer.
     Render(render_cmd::RenderArgs),
     /// Merge parts of one frame (sample ranges, windows) into the image one render makes.
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Fx(args) => fx_cmd::run(args),
+        Command::Looks(args) => looks_cmd::run(args),
         Command::Render(args) => render_cmd::run(args),
         Command::Merge(args) => merge_cmd::run(args),
         Command::Farm(cmd) => farm::run(cmd),

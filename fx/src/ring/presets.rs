@@ -38,8 +38,8 @@ pub fn preset(name: &str, radius: f64) -> Option<RingLook> {
             look.color.flicker_rate = 7.0;
             look.instability = Some(InstabilityLook {
                 separation: 1.2,
-                flare: 0.06,
-                rate: 0.5,
+                flare: 0.2,
+                rate: 0.25,
             });
         }
         "calm" => {
@@ -85,8 +85,8 @@ pub fn preset(name: &str, radius: f64) -> Option<RingLook> {
             look.color.flicker_rate = 16.0;
             look.instability = Some(InstabilityLook {
                 separation: 0.4,
-                flare: 0.05,
-                rate: 1.5,
+                flare: 0.1,
+                rate: 0.6,
             });
         }
         _ => return None,

@@ -12,7 +12,7 @@
 //!
 //! An unstable look adds to r a drift of the whole strand, separation · band · S_s(rate · t) (a
 //! slow 1-D signal per strand: strands separate and re-form), and flares,
-//! flare · radius · max(0, (N_flare(u, rate · t) − ¼) / ¾)³ (sparse outward bursts that kink the
+//! flare · radius · x³ / (1 + x³) with x = max(0, (N_flare(u, rate · t) − 0.15) / 0.3) (sparse outward bursts that kink the
 //! curve and fall back).
 //!
 //! Width and heat share one noise channel: hotter parts of a strand are thicker, as a glowing
@@ -72,6 +72,10 @@ pub struct RingModel {
     pub timing: RingTiming,
     pub field: NoiseField,
     pub strands: Vec<Strand>,
+    /// The octaves flares are drawn with: fixed, so that a flare changes only with time and
+    /// not with the ring's size on screen (its steep rise would turn a level-of-detail change
+    /// into a jump the baked motion cannot follow).
+    flare_octaves: Octaves,
 }
 
 /// Uniform number in [0, 1) from a seed, a strand and a channel (SplitMix64 finaliser).
@@ -112,11 +116,13 @@ impl RingModel {
             look.noise.octaves,
             look.noise.roughness,
         );
+        let flare_octaves = field.octaves(0.0);
         Self {
             look,
             timing,
             field,
             strands,
+            flare_octaves,
         }
     }
 
@@ -169,19 +175,27 @@ impl RingModel {
         [r, z]
     }
 
-    /// A flare's height in [0, 1] at material angle u: zero where the strand's flare channel is
-    /// below a threshold, rising smoothly (and sharply) towards its peaks, so flares are sparse
-    /// bursts rather than a swell of the whole strand.
+    /// A flare's height in [0, 1) at material angle u: zero where the strand's flare channel is
+    /// below a threshold, then x³ / (1 + x³) of how far above it: smooth (to the second
+    /// derivative at the threshold, everywhere else beyond), steep, and saturating, so flares
+    /// are sparse bursts rather than a swell of the whole strand, and the baked quadratic motion
+    /// can follow them.
     #[inline]
     fn flare(&self, s: &Strand, at: &StrandInstant, cos_u: f64, sin_u: f64) -> f64 {
-        const THRESHOLD: f64 = 0.25;
-        let v = self
-            .field
-            .sample(&at.octaves, cos_u, sin_u, at.flare_tau, s.channels[5]);
-        let x = ((v - THRESHOLD) / (1.0 - THRESHOLD)).max(0.0);
-        // Cubed: smooth to the second derivative where a flare starts, which the baked
-        // quadratic motion needs.
-        x * x * x
+        // The channel's octave sums exceed 0.15 a fifth of the time and 0.45 about one time in
+        // a hundred, where a flare is at half its height.
+        const THRESHOLD: f64 = 0.15;
+        const HALF: f64 = 0.45;
+        let v = self.field.sample(
+            &self.flare_octaves,
+            cos_u,
+            sin_u,
+            at.flare_tau,
+            s.channels[5],
+        );
+        let x = ((v - THRESHOLD) / (HALF - THRESHOLD)).max(0.0);
+        let x3 = x * x * x;
+        x3 / (1.0 + x3)
     }
 
     /// Width and heat (0..1) of material angle (cos u, sin u) of strand `s`.
