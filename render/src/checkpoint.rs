@@ -167,12 +167,17 @@ impl Checkpoint {
     pub fn decode(bytes: &[u8], max_pixels: usize) -> Result<Self, String> {
         use exr::prelude::*;
         crate::film::check_exr_size(bytes, max_pixels)?;
-        let image = read()
+        let reader = read()
             .no_deep_data()
             .largest_resolution_level()
             .all_channels()
             .first_valid_layer()
-            .all_attributes()
+            .all_attributes();
+        let reader = match bytes.len() < crate::film::PARALLEL_DECODE_FROM {
+            true => reader.non_parallel(),
+            false => reader,
+        };
+        let image = reader
             .from_buffered(std::io::Cursor::new(bytes))
             .map_err(|e| e.to_string())?;
         let layer = &image.layer_data;

@@ -342,6 +342,11 @@ pub fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
     sum / (3 * image.len()) as f64
 }
 
+/// EXR files smaller than this are decoded on the calling thread: below it, starting the
+/// decoder's own thread pool costs more than it saves (and a reader called many times, as a
+/// fuzzer calls it, would start one pool per file).
+pub(crate) const PARALLEL_DECODE_FROM: usize = 4 << 20;
+
 /// The most pixels an EXR rift reads may hold per layer (2^27: a 16k × 8k lat-long map, about
 /// 5 GiB while it is decoded).
 pub const MAX_EXR_PIXELS: usize = 1 << 27;
@@ -387,7 +392,7 @@ pub fn decode_exr_rgb(
 ) -> Result<(usize, usize, Vec<Vec3>), String> {
     use exr::prelude::*;
     check_exr_size(bytes, max_pixels)?;
-    let image = read()
+    let reader = read()
         .no_deep_data()
         .largest_resolution_level()
         .rgba_channels(
@@ -402,7 +407,12 @@ pub fn decode_exr_rgb(
             },
         )
         .first_valid_layer()
-        .all_attributes()
+        .all_attributes();
+    let reader = match bytes.len() < PARALLEL_DECODE_FROM {
+        true => reader.non_parallel(),
+        false => reader,
+    };
+    let image = reader
         .from_buffered(std::io::Cursor::new(bytes))
         .map_err(|e| e.to_string())?;
     let size = image.layer_data.size;
@@ -460,12 +470,17 @@ pub fn read_exr_layer(path: &Path) -> Result<ExrLayer, RenderError> {
 pub fn decode_exr_layer(bytes: &[u8], max_pixels: usize) -> Result<ExrLayer, String> {
     use exr::prelude::*;
     check_exr_size(bytes, max_pixels)?;
-    let image = read()
+    let reader = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .all_layers()
-        .all_attributes()
+        .all_attributes();
+    let reader = match bytes.len() < PARALLEL_DECODE_FROM {
+        true => reader.non_parallel(),
+        false => reader,
+    };
+    let image = reader
         .from_buffered(std::io::Cursor::new(bytes))
         .map_err(|e| e.to_string())?;
     let display = image.attributes.display_window.size;
