@@ -152,3 +152,29 @@ fn camera_sync_through_a_teleport_keeps_the_picture() {
     let d_there = (teleport.transform_point(world) - c1).length();
     assert!((d_there - 2.5 * (world - c0).length()).abs() < 1e-12);
 }
+
+/// Every ring preset keeps perceptual speed: a ring twice as far turns twice as fast, so its
+/// rim crosses the screen equally fast (the presets compensate fully for size).
+#[test]
+fn every_preset_keeps_the_rim_speed_on_screen() {
+    for preset in rift_fx::ring::presets::NAMES {
+        let at = |distance: f64| {
+            let text = format!(
+                "[shot]\nname = \"p\"\nfps = 24.0\nframes = [1, 48]\n[camera]\n\
+                 resolution = [1000, 500]\nfov_degrees = 30.0\n[camera.transform]\n\
+                 position = [0.0, 0.0, {distance}]\n[[portal]]\nname = \"a\"\nhere = {{ position = [0.0, 0.0, 0.0] }}\n\
+                 there = {{ position = [5.0, 0.0, 0.0] }}\n[portal.ring]\npreset = \"{preset}\"\n\
+                 radius = 1.0\nspeed = {{ min_visible_turn = 0.0 }}\n"
+            );
+            let shot = Shot::parse(&text, Path::new("p.toml")).unwrap();
+            timing(&shot).angular_velocity(1.0)
+        };
+        let (near, far) = (at(4.0), at(8.0));
+        assert!(near > 0.0, "{preset}: the ring does not turn");
+        assert!(
+            (far / near - 2.0).abs() < 1e-9,
+            "{preset}: ratio {}",
+            far / near
+        );
+    }
+}

@@ -111,7 +111,7 @@ mod tests {
         let text = doc.to_text();
         assert_eq!(
             text,
-            "name: \"a \\\"b\\\"\\n\"\nsteps:\n- n: 2\n  args:\n  - \"x\"\n  - \"{{y}}\"\nnone: []\n"
+            "name: \"a \\\"b\\\"\\n\"\nsteps:\n  - n: 2\n    args:\n      - \"x\"\n      - \"{{y}}\"\nnone: []\n"
         );
     }
 }

@@ -8,7 +8,7 @@
 //! Clips carry time samples only, so the stage declares what they cannot: the curves' `type` and
 //! `wrap`, and each primvar with its interpolation.
 
-use super::usda::{fmt_time, matrix};
+use super::usda::{fmt_time, matrix, write_header};
 use crate::FrameRange;
 use crate::rig::Similarity;
 use crate::shot::Shot;
@@ -27,22 +27,11 @@ pub fn write(
     frame_file: impl Fn(i64) -> String,
 ) -> io::Result<()> {
     let name = &shot.name;
-    writeln!(w, "#usda 1.0")?;
-    writeln!(w, "(")?;
-    writeln!(w, "    defaultPrim = \"{name}\"")?;
-    writeln!(
-        w,
-        "    doc = \"rift fx: shot {name}, frames {}-{}: camera, openings and rings\"",
+    let doc = format!(
+        "rift fx: shot {name}, frames {}-{}: camera, openings and rings",
         frames.first, frames.last
-    )?;
-    writeln!(w, "    startTimeCode = {}", frames.first)?;
-    writeln!(w, "    endTimeCode = {}", frames.last)?;
-    writeln!(w, "    framesPerSecond = {}", shot.fps)?;
-    writeln!(w, "    timeCodesPerSecond = {}", shot.fps)?;
-    writeln!(w, "    metersPerUnit = 1")?;
-    writeln!(w, "    upAxis = \"Y\"")?;
-    writeln!(w, ")")?;
-    writeln!(w)?;
+    );
+    write_header(w, name, &doc, [frames.first, frames.last], shot.fps)?;
     writeln!(w, "def Xform \"{name}\"")?;
     writeln!(w, "{{")?;
     write_camera(w, shot, frames)?;

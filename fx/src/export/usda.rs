@@ -16,21 +16,8 @@ use std::io::{self, Write};
 /// Writes one frame.
 pub fn write(w: &mut dyn Write, shot: &str, frame: &RingFrame) -> io::Result<()> {
     let code = frame.frame;
-    writeln!(w, "#usda 1.0")?;
-    writeln!(w, "(")?;
-    writeln!(w, "    defaultPrim = \"{shot}\"")?;
-    writeln!(
-        w,
-        "    doc = \"rift fx portal rings: shot {shot}, frame {code}\""
-    )?;
-    writeln!(w, "    startTimeCode = {code}")?;
-    writeln!(w, "    endTimeCode = {code}")?;
-    writeln!(w, "    framesPerSecond = {}", frame.fps)?;
-    writeln!(w, "    timeCodesPerSecond = {}", frame.fps)?;
-    writeln!(w, "    metersPerUnit = 1")?;
-    writeln!(w, "    upAxis = \"Y\"")?;
-    writeln!(w, ")")?;
-    writeln!(w)?;
+    let doc = format!("rift fx portal rings: shot {shot}, frame {code}");
+    write_header(w, shot, &doc, [code, code], frame.fps)?;
     writeln!(w, "def Xform \"{shot}\"")?;
     writeln!(w, "{{")?;
     for (i, ring) in frame.rings.iter().enumerate() {
@@ -40,6 +27,28 @@ pub fn write(w: &mut dyn Write, shot: &str, frame: &RingFrame) -> io::Result<()>
         write_ring(w, frame, ring)?;
     }
     writeln!(w, "}}")
+}
+
+/// The layer's metadata: `shot` as the default prim, time codes `range` at `fps`, metres, Y up.
+pub(crate) fn write_header(
+    w: &mut dyn Write,
+    shot: &str,
+    doc: &str,
+    range: [i64; 2],
+    fps: f64,
+) -> io::Result<()> {
+    writeln!(w, "#usda 1.0")?;
+    writeln!(w, "(")?;
+    writeln!(w, "    defaultPrim = \"{shot}\"")?;
+    writeln!(w, "    doc = \"{doc}\"")?;
+    writeln!(w, "    startTimeCode = {}", range[0])?;
+    writeln!(w, "    endTimeCode = {}", range[1])?;
+    writeln!(w, "    framesPerSecond = {fps}")?;
+    writeln!(w, "    timeCodesPerSecond = {fps}")?;
+    writeln!(w, "    metersPerUnit = 1")?;
+    writeln!(w, "    upAxis = \"Y\"")?;
+    writeln!(w, ")")?;
+    writeln!(w)
 }
 
 fn write_ring(w: &mut dyn Write, frame: &RingFrame, ring: &RingCurves) -> io::Result<()> {
