@@ -32,6 +32,11 @@ use std::f64::consts::TAU;
 /// `tessellation_meets_the_chord_error_tolerance`).
 const PERLIN_SHARPNESS: f64 = 1.0;
 
+/// Flares' share of a strand's curvature, per unit of flare height and of the flare channel's
+/// mean squared feature frequency: calibrated so the chord-error test on `portal_pair` (the
+/// rift preset's flares) stays at a fifth to a third of its tolerance.
+const FLARE_SHARPNESS: f64 = 0.6;
+
 /// Generates baked rings for the frames of a shot.
 #[derive(Clone, Debug)]
 pub struct RingGenerator<'a> {
@@ -144,8 +149,14 @@ impl<'a> RingGenerator<'a> {
             settings.chord_error_px * nearest / camera.projection.focal_pixels() / here.scale;
         let octaves = model.field.octaves(model.timing.lod(t));
         let r = look.min_radius();
+        // Flares bend the curve as noise of FLARE_SHARPNESS times their height would, at the
+        // flare channel's own feature size.
+        let flares = look.instability.as_ref().map_or(0.0, |i| {
+            i.flare * look.radius * FLARE_SHARPNESS * model.flare_octaves().mean_square_features()
+        });
         let curvature = 1.0 / r
-            + look.noise.amplitude * PERLIN_SHARPNESS * octaves.mean_square_features() / (r * r);
+            + (look.noise.amplitude * octaves.mean_square_features() + flares) * PERLIN_SHARPNESS
+                / (r * r);
         let step = (8.0 * tolerance / curvature).sqrt();
         let n = (TAU * look.max_radius() / step).ceil();
         (n.min(settings.max_segments as f64) as u32).max(settings.min_segments)

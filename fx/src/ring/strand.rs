@@ -175,6 +175,11 @@ impl RingModel {
         [r, z]
     }
 
+    /// The octaves flares are drawn with (fixed: flares do not follow the level of detail).
+    pub fn flare_octaves(&self) -> &Octaves {
+        &self.flare_octaves
+    }
+
     /// A flare's height in [0, 1) at material angle u: zero where the strand's flare channel is
     /// below a threshold, then x³ / (1 + x³) of how far above it: smooth (to the second
     /// derivative at the threshold, everywhere else beyond), steep, and saturating, so flares
