@@ -132,12 +132,12 @@ fn sigterm_and_sigint_stop_cleanly_and_the_render_resumes_exactly() {
     let mut args = render_args(&shot, "out.exr", &adaptive);
     args.extend(["--checkpoint", "60", "--resume"]);
     for (name, code) in [("TERM", 143), ("INT", 130)] {
-        let child = start(d, &args);
-        std::thread::sleep(Duration::from_millis(400));
+        let mut child = start(d, &args);
+        let rest = wait_for_progress(&mut child);
         signal(&child, name);
-        let out = child.wait_with_output().unwrap();
-        let msg = stderr(&out);
-        assert_eq!(out.status.code(), Some(code), "SIG{name}: {msg}");
+        let status = child.wait().unwrap();
+        let msg = rest.join().unwrap();
+        assert_eq!(status.code(), Some(code), "SIG{name}: {msg}");
         assert!(
             msg.contains("--resume") && !msg.contains("panicked"),
             "{msg}"

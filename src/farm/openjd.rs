@@ -31,7 +31,6 @@ pub fn template(plan: &Plan, job_dir: &Path) -> anyhow::Result<Template> {
             plan.frames.first
         );
     }
-    let frames = format!("{}-{}", plan.frames.first, plan.frames.last);
     for value in [&plan.rift, &plan.shot_file, &plan.output, &plan.work_dir] {
         if value.contains("{{") {
             bail!(
@@ -39,6 +38,40 @@ pub fn template(plan: &Plan, job_dir: &Path) -> anyhow::Result<Template> {
             );
         }
     }
+    let (parameters, given) = parameters(plan, job_dir);
+    let run_here: String = given
+        .iter()
+        .map(|(name, value)| format!(" -p {name}={value}"))
+        .collect();
+    let doc = Yaml::map([
+        ("specificationVersion", Yaml::str("jobtemplate-2023-09")),
+        ("name", Yaml::str(format!("rift {}", plan.shot_name))),
+        (
+            "description",
+            Yaml::str(format!(
+                "Renders shot {} in {} sample chunk(s) per frame and merges them; written by rift farm openjd.",
+                plan.shot_name,
+                plan.chunks.len()
+            )),
+        ),
+        ("parameterDefinitions", Yaml::List(parameters)),
+        ("steps", Yaml::List(steps(plan))),
+    ]);
+    Ok(Template {
+        text: format!(
+            "# Open Job Description job template for shot {} (rift farm openjd).\n\
+             # Check it: openjd check FILE\n\
+             # Run it here: openjd run FILE{run_here} --step Merge --run-dependencies\n{}",
+            plan.shot_name,
+            doc.to_text()
+        ),
+        run_here,
+    })
+}
+
+/// The steps: Rings (when the rings are generated), Render (every frame with every sample
+/// chunk) after it, Merge after Render.
+fn steps(plan: &Plan) -> Vec<Yaml> {
     let mut steps = Vec::new();
     if plan.bake_rings {
         steps.push(step(
@@ -48,7 +81,6 @@ pub fn template(plan: &Plan, job_dir: &Path) -> anyhow::Result<Template> {
             action(&plan.fx_args(), false),
         ));
     }
-    let render_after = plan.bake_rings.then_some("Rings");
     let chunks = Yaml::map([
         ("name", Yaml::str("Samples")),
         ("type", Yaml::str("STRING")),
@@ -56,7 +88,7 @@ pub fn template(plan: &Plan, job_dir: &Path) -> anyhow::Result<Template> {
     ]);
     steps.push(step(
         "Render",
-        render_after,
+        plan.bake_rings.then_some("Rings"),
         vec![frame_parameter(), chunks],
         action(&plan.render_args(), true),
     ));
@@ -66,28 +98,36 @@ pub fn template(plan: &Plan, job_dir: &Path) -> anyhow::Result<Template> {
         vec![frame_parameter()],
         action(&plan.merge_args(), false),
     ));
+    steps
+}
+
+/// The job parameters, and the PATH values that cannot be defaults (outside `job_dir`).
+fn parameters(plan: &Plan, job_dir: &Path) -> (Vec<Yaml>, Vec<(&'static str, String)>) {
     let mut given = Vec::new();
+    let string = |name: &str, about: &str, default: String| {
+        Yaml::map([
+            ("name", Yaml::str(name)),
+            ("type", Yaml::str("STRING")),
+            ("description", Yaml::str(about)),
+            ("default", Yaml::str(default)),
+        ])
+    };
     let mut path = |spec, value: &str| path_parameter(spec, value, job_dir, &mut given);
     let parameters = vec![
-        Yaml::map([
-            ("name", Yaml::str("RiftExecutable")),
-            ("type", Yaml::str("STRING")),
-            (
-                "description",
-                Yaml::str("The rift program on the worker (a name on PATH, or a path)."),
-            ),
-            ("default", Yaml::str(plan.rift.as_str())),
-        ]),
+        string(
+            "RiftExecutable",
+            "The rift program on the worker (a name on PATH, or a path).",
+            plan.rift.clone(),
+        ),
         path(
             ("ShotFile", "FILE", "IN", "The shot file (TOML)."),
             &plan.shot_file,
         ),
-        Yaml::map([
-            ("name", Yaml::str("Frames")),
-            ("type", Yaml::str("STRING")),
-            ("description", Yaml::str("The frames to render, A-B.")),
-            ("default", Yaml::str(frames)),
-        ]),
+        string(
+            "Frames",
+            "The frames to render, A-B.",
+            format!("{}-{}", plan.frames.first, plan.frames.last),
+        ),
         path(
             (
                 "Output",
@@ -107,34 +147,7 @@ pub fn template(plan: &Plan, job_dir: &Path) -> anyhow::Result<Template> {
             &plan.work_dir,
         ),
     ];
-    let run_here: String = given
-        .iter()
-        .map(|(name, value)| format!(" -p {name}={value}"))
-        .collect();
-    let doc = Yaml::map([
-        ("specificationVersion", Yaml::str("jobtemplate-2023-09")),
-        ("name", Yaml::str(format!("rift {}", plan.shot_name))),
-        (
-            "description",
-            Yaml::str(format!(
-                "Renders shot {} in {} sample chunk(s) per frame and merges them; written by rift farm openjd.",
-                plan.shot_name,
-                plan.chunks.len()
-            )),
-        ),
-        ("parameterDefinitions", Yaml::List(parameters)),
-        ("steps", Yaml::List(steps)),
-    ]);
-    Ok(Template {
-        text: format!(
-            "# Open Job Description job template for shot {} (rift farm openjd).\n\
-             # Check it: openjd check FILE\n\
-             # Run it here: openjd run FILE{run_here} --step Merge --run-dependencies\n{}",
-            plan.shot_name,
-            doc.to_text()
-        ),
-        run_here,
-    })
+    (parameters, given)
 }
 
 /// `target` (absolute) relative to `base` (absolute) when it lies inside it. OpenJD joins a PATH
