@@ -165,42 +165,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let pixels = crop.map_or(w * h, |c| c.area());
-    // Generated rings are held as curves and again as the renderer's strands.
-    let rings = match args.rings {
-        None => 2 * rift_fx::ring::RingGenerator::new(&shot, frames).frame_bytes_bound(frames),
-        Some(_) => 0,
-    };
-    let checkpoints = match args.checkpoint {
-        Some(_) => rift_render::checkpoint::checkpoint_bytes(pixels),
-        None => 0,
-    };
-    let film = rift_render::render::film_bytes(pixels)
-        .saturating_add(rings)
-        .saturating_add(checkpoints);
-    let budget = crate::memory::budget(args.max_memory);
-    crate::memory::ensure_fits(
-        &format!("a {w}x{h} frame ({pixels} pixels rendered) with its rings and checkpoints"),
-        film,
-        budget,
-        "lower --res (or the shot's resolution), render a window of the frame at a time with \
-         --crop, or lower fx.max_segments or [portal.ring] strands",
-    )?;
+    let (film, budget) = ensure_film_fits(&args, &shot, frames, crop)?;
     if let Some(e) = args.target_error
         && !(e.is_finite() && e > 0.0)
     {
         bail!("--target-error: expected a positive relative error such as 0.01, got {e}");
     }
-    let time_limit = match args.time_limit {
-        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
-        Some(s) => bail!("--time-limit: expected a positive number of seconds, got {s}"),
-        None => None,
-    };
-    let checkpoint_every = match args.checkpoint {
-        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
-        Some(s) => bail!("--checkpoint: expected a positive number of seconds, got {s}"),
-        None => None,
-    };
+    let time_limit = seconds("--time-limit", args.time_limit)?;
+    let checkpoint_every = seconds("--checkpoint", args.checkpoint)?;
     let stop = match checkpoint_every {
         Some(_) => Some(crate::resume::stop_on_signals()?),
         None => None,
@@ -257,6 +229,48 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Refuses a frame whose film (with its generated rings and checkpoints) cannot fit in memory;
+/// returns the film's bytes and the memory budget.
+fn ensure_film_fits(
+    args: &RenderArgs,
+    shot: &Shot,
+    frames: FrameRange,
+    crop: Option<Window>,
+) -> anyhow::Result<(u64, Option<u64>)> {
+    let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
+    let pixels = crop.map_or(w * h, |c| c.area());
+    // Generated rings are held as curves and again as the renderer's strands.
+    let rings = match args.rings {
+        None => 2 * rift_fx::ring::RingGenerator::new(shot, frames).frame_bytes_bound(frames),
+        Some(_) => 0,
+    };
+    let checkpoints = match args.checkpoint {
+        Some(_) => rift_render::checkpoint::checkpoint_bytes(pixels),
+        None => 0,
+    };
+    let film = rift_render::render::film_bytes(pixels)
+        .saturating_add(rings)
+        .saturating_add(checkpoints);
+    let budget = crate::memory::budget(args.max_memory);
+    crate::memory::ensure_fits(
+        &format!("a {w}x{h} frame ({pixels} pixels rendered) with its rings and checkpoints"),
+        film,
+        budget,
+        "lower --res (or the shot's resolution), render a window of the frame at a time with \
+         --crop, or lower fx.max_segments or [portal.ring] strands",
+    )?;
+    Ok((film, budget))
+}
+
+/// An optional positive number of seconds given to `flag`.
+fn seconds(flag: &str, value: Option<f64>) -> anyhow::Result<Option<Duration>> {
+    match value {
+        Some(s) if s.is_finite() && s > 0.0 => Ok(Some(Duration::from_secs_f64(s))),
+        Some(s) => bail!("{flag}: expected a positive number of seconds, got {s}"),
+        None => Ok(None),
+    }
 }
 
 /// `--res W H`, checked.

@@ -16,8 +16,11 @@ use glam::{DVec2, Vec2};
 use rift_fx::ring::RingCurves;
 use std::f64::consts::TAU;
 
-/// Angular bins of the boundary table.
-const ANGLE_BINS: usize = 1024;
+/// Angular bins of the boundary table. Where strands cross, the inner envelope has a peak
+/// that linear interpolation between bins cuts short; at 1024 bins the rift preset's 28
+/// drifting strands left the showcase's mask 0.38 px short of them, at 2048 it is within
+/// 0.08 px (`render/tests/ring_edge.rs`).
+const ANGLE_BINS: usize = 2048;
 /// Most time samples of the boundary table.
 const MAX_TIME_SAMPLES: usize = 256;
 
