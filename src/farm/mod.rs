@@ -104,6 +104,9 @@ pub fn run(command: FarmCommand) -> anyhow::Result<()> {
             (slurm.common, text)
         }
     };
+    if let Some(dir) = args.job_file.parent().filter(|d| !d.as_os_str().is_empty()) {
+        crate::fx_cmd::prepare_output_dir(dir)?;
+    }
     rift_fx::export::atomic::write(&args.job_file, |out| out.write_all(text.as_bytes()))?;
     if matches!(args.job_file.extension(), Some(e) if e == "sh") {
         make_executable(&args.job_file)?;

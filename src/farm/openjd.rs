@@ -41,7 +41,13 @@ pub fn template(plan: &Plan, job_dir: &Path) -> anyhow::Result<Template> {
     let (parameters, given) = parameters(plan, job_dir);
     let run_here: String = given
         .iter()
-        .map(|(name, value)| format!(" -p {name}={value}"))
+        .map(
+            |(name, value)| match value.contains(|c: char| c.is_whitespace() || c == '\'') {
+                // Quoted for a POSIX shell, as the printed command is meant to be pasted.
+                true => format!(" -p '{name}={}'", value.replace('\'', "'\\''")),
+                false => format!(" -p {name}={value}"),
+            },
+        )
         .collect();
     let doc = Yaml::map([
         ("specificationVersion", Yaml::str("jobtemplate-2023-09")),
