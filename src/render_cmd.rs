@@ -223,7 +223,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 checkpoint_every,
                 resume: args.resume,
                 stop,
-                key: checkpoint_key(&args, &shot.name, &scene, &overrides, eye, part)?,
+                // Hashing the shot file and the program is done only where a checkpoint
+                // is written or read.
+                key: match checkpoint_every.is_some() || args.resume {
+                    true => Some(checkpoint_key(
+                        &args, &shot.name, &scene, &overrides, eye, part,
+                    )?),
+                    false => None,
+                },
             };
             render_one(&scene, &args, eye, part, &run, frame, &path)?;
         }
@@ -316,7 +323,8 @@ struct Run {
     checkpoint_every: Option<Duration>,
     resume: bool,
     stop: Option<&'static AtomicBool>,
-    key: Key,
+    /// Present when checkpoints are written or read.
+    key: Option<Key>,
 }
 
 /// The key tying a checkpoint to this image: the shot file, and every setting that decides
@@ -385,9 +393,9 @@ fn render_one(
         None => format!("frame {frame}"),
     };
     let checkpoint_file = crate::resume::checkpoint_path(path);
-    let resumed = match run.resume {
-        true => load_checkpoint(&checkpoint_file, &run.key, window)?,
-        false => None,
+    let resumed = match (run.resume, &run.key) {
+        (true, Some(key)) => load_checkpoint(&checkpoint_file, key, window)?,
+        _ => None,
     };
     let progress = Progress::new(&label, window.area() * (spp - part.first_sample) as usize);
     if let Some(checkpoint) = &resumed {
@@ -396,8 +404,11 @@ fn render_one(
     let advance = |n: u64| progress.advance(n);
     let save_error = Mutex::new(None);
     let save = |image: &Image, sums: Sums| {
+        let Some(key) = &run.key else {
+            return;
+        };
         let checkpoint = Checkpoint {
-            key: run.key.clone(),
+            key: key.clone(),
             window,
             sums,
         };
