@@ -180,30 +180,14 @@ impl Sheet {
         }
     }
 
-    /// The light tone-mapped (1 − e^−x), sRGB-encoded, as an 8-bit PNG, written atomically.
+    /// The light tone-mapped (1 − e^−x), as an 8-bit sRGB PNG, written atomically.
     fn write_png(&self, path: &Path) -> anyhow::Result<()> {
-        let mut bytes = Vec::with_capacity(self.light.len() * 3);
-        for c in &self.light {
-            for v in c.to_array() {
-                let v = 1.0 - (-v.max(0.0)).exp();
-                let s = if v <= 0.003_130_8 {
-                    12.92 * v
-                } else {
-                    1.055 * v.powf(1.0 / 2.4) - 0.055
-                };
-                bytes.push((s.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
-            }
-        }
-        let mut encoded = Vec::new();
-        {
-            let mut encoder =
-                png::Encoder::new(&mut encoded, self.width as u32, self.height as u32);
-            encoder.set_color(png::ColorType::Rgb);
-            encoder.set_depth(png::BitDepth::Eight);
-            let mut writer = encoder.write_header()?;
-            writer.write_image_data(&bytes)?;
-        }
-        rift_fx::export::atomic::write(path, |out| out.write_all(&encoded))?;
+        let mapped: Vec<Vec3> = self
+            .light
+            .iter()
+            .map(|c| Vec3::ONE - (-c.max(Vec3::ZERO)).exp())
+            .collect();
+        rift_render::film::write_srgb_png(path, self.width, self.height, &mapped)?;
         Ok(())
     }
 }

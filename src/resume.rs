@@ -6,6 +6,7 @@
 //! is asked for; `--resume` continues from them, and the finished frame has exactly the pixels
 //! of an uninterrupted render.
 
+use rift_fx::export::cache::fnv1a;
 use rift_render::checkpoint::Key;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -72,7 +73,7 @@ pub fn key(shot_file: &Path, shot: &str, settings: Vec<(String, String)>) -> any
     Ok(Key {
         build: build_id().to_owned(),
         shot: shot.to_owned(),
-        shot_hash: format!("{:016x}", fingerprint(&bytes)),
+        shot_hash: format!("{:016x}", fnv1a(&bytes)),
         settings,
     })
 }
@@ -83,25 +84,11 @@ fn build_id() -> &'static str {
     ID.get_or_init(|| {
         let exe = std::env::current_exe().map(|path| rift_fx::io::read(&path));
         let hash = match exe {
-            Ok(Ok(bytes)) => format!("{:016x}", fingerprint(&bytes)),
+            Ok(Ok(bytes)) => format!("{:016x}", fnv1a(&bytes)),
             _ => "unknown".to_owned(),
         };
         format!("rift {} {hash}", env!("CARGO_PKG_VERSION"))
     })
-}
-
-/// A 64-bit FNV-style hash taking eight bytes a step (fast enough for an executable).
-fn fingerprint(bytes: &[u8]) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
-    let mut chunks = bytes.chunks_exact(8);
-    for chunk in &mut chunks {
-        let word = u64::from_le_bytes(chunk.try_into().unwrap_or_default());
-        h = (h ^ word).wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    for &b in chunks.remainder() {
-        h = (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
 }
 
 #[cfg(test)]
@@ -118,13 +105,5 @@ mod tests {
             checkpoint_path(Path::new("a")),
             Path::new("a.checkpoint.exr")
         );
-    }
-
-    #[test]
-    fn the_hash_sees_every_byte() {
-        let a = fingerprint(b"0123456789abcdef!");
-        assert_ne!(a, fingerprint(b"0123456789abcdeF!"));
-        assert_ne!(a, fingerprint(b"0123456789abcdef?"));
-        assert_ne!(a, fingerprint(b"0123456789abcdef"));
     }
 }

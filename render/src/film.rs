@@ -281,32 +281,39 @@ impl Image {
 
     /// Writes an 8-bit sRGB PNG preview (values clipped to [0, 1], alpha dropped).
     pub fn write_png(&self, path: &Path) -> Result<(), RenderError> {
-        let err = |message: String| RenderError::Write {
-            path: path.to_owned(),
-            message,
-        };
-        let mut bytes = Vec::with_capacity(self.rgb.len() * 3);
-        for c in &self.rgb {
-            bytes.extend(c.to_array().map(|v| (srgb_encode(v) * 255.0 + 0.5) as u8));
-        }
-        let mut encoded = Vec::new();
-        {
-            let mut encoder = png::Encoder::new(
-                &mut encoded,
-                self.window.width() as u32,
-                self.window.height() as u32,
-            );
-            encoder.set_color(png::ColorType::Rgb);
-            encoder.set_depth(png::BitDepth::Eight);
-            encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-            let mut writer = encoder.write_header().map_err(|e| err(e.to_string()))?;
-            writer
-                .write_image_data(&bytes)
-                .map_err(|e| err(e.to_string()))?;
-        }
-        rift_fx::export::atomic::write(path, |out| out.write_all(&encoded))
-            .map_err(|e| err(e.to_string()))
+        write_srgb_png(path, self.window.width(), self.window.height(), &self.rgb)
     }
+}
+
+/// Writes linear RGB pixels (row-major, top first) as an 8-bit sRGB PNG, values clipped to
+/// [0, 1], atomically.
+pub fn write_srgb_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    rgb: &[Vec3],
+) -> Result<(), RenderError> {
+    let err = |message: String| RenderError::Write {
+        path: path.to_owned(),
+        message,
+    };
+    let mut bytes = Vec::with_capacity(rgb.len() * 3);
+    for c in rgb {
+        bytes.extend(c.to_array().map(|v| (srgb_encode(v) * 255.0 + 0.5) as u8));
+    }
+    let mut encoded = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut encoded, width as u32, height as u32);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut writer = encoder.write_header().map_err(|e| err(e.to_string()))?;
+        writer
+            .write_image_data(&bytes)
+            .map_err(|e| err(e.to_string()))?;
+    }
+    rift_fx::export::atomic::write(path, |out| out.write_all(&encoded))
+        .map_err(|e| err(e.to_string()))
 }
 
 /// The sRGB transfer function, for values clipped to [0, 1].
