@@ -173,10 +173,7 @@ impl Checkpoint {
             .all_channels()
             .first_valid_layer()
             .all_attributes();
-        let reader = match bytes.len() < crate::film::PARALLEL_DECODE_FROM {
-            true => reader.non_parallel(),
-            false => reader,
-        };
+        let reader = crate::film::threads_for(reader, bytes.len());
         let image = reader
             .from_buffered(std::io::Cursor::new(bytes))
             .map_err(|e| e.to_string())?;

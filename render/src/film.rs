@@ -352,7 +352,19 @@ pub fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
 /// EXR files smaller than this are decoded on the calling thread: below it, starting the
 /// decoder's own thread pool costs more than it saves (and a reader called many times, as a
 /// fuzzer calls it, would start one pool per file).
-pub(crate) const PARALLEL_DECODE_FROM: usize = 4 << 20;
+const PARALLEL_DECODE_FROM: usize = 4 << 20;
+
+/// `reader`, decoding on the calling thread when the file is smaller than
+/// [`PARALLEL_DECODE_FROM`] bytes.
+pub(crate) fn threads_for<F: FnMut(f64), L>(
+    reader: exr::image::read::image::ReadImage<F, L>,
+    bytes: usize,
+) -> exr::image::read::image::ReadImage<F, L> {
+    match bytes < PARALLEL_DECODE_FROM {
+        true => reader.non_parallel(),
+        false => reader,
+    }
+}
 
 /// The most pixels an EXR rift reads may hold per layer (2^27: a 16k × 8k lat-long map, about
 /// 5 GiB while it is decoded).
@@ -415,10 +427,7 @@ pub fn decode_exr_rgb(
         )
         .first_valid_layer()
         .all_attributes();
-    let reader = match bytes.len() < PARALLEL_DECODE_FROM {
-        true => reader.non_parallel(),
-        false => reader,
-    };
+    let reader = threads_for(reader, bytes.len());
     let image = reader
         .from_buffered(std::io::Cursor::new(bytes))
         .map_err(|e| e.to_string())?;
@@ -483,10 +492,7 @@ pub fn decode_exr_layer(bytes: &[u8], max_pixels: usize) -> Result<ExrLayer, Str
         .all_channels()
         .all_layers()
         .all_attributes();
-    let reader = match bytes.len() < PARALLEL_DECODE_FROM {
-        true => reader.non_parallel(),
-        false => reader,
-    };
+    let reader = threads_for(reader, bytes.len());
     let image = reader
         .from_buffered(std::io::Cursor::new(bytes))
         .map_err(|e| e.to_string())?;
