@@ -28,8 +28,10 @@ pub mod scene;
 pub mod sobol;
 pub mod through;
 pub mod untrusted;
+pub mod vdb;
 pub mod visibility;
 pub mod volumes;
+pub mod voxels;
 
 pub use error::RenderError;
 pub use ray::Ray;
