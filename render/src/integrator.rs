@@ -30,6 +30,7 @@
 use crate::aperture;
 use crate::geometry::Hit;
 use crate::geometry::{offset_origin, offset_target};
+use crate::grid_medium::{Rng, Tracked};
 use crate::lights::{Found, LightPlace, LightSample, LightSource, Receiver};
 use crate::material::{Bsdf, Material, Side};
 use crate::medium::{Flight, Medium};
@@ -120,6 +121,9 @@ struct PathState {
     travelled: f32,
     /// Media boundaries crossed since the last event: a guard against a ray caught on one.
     crossings: u32,
+    /// Draws for tracking through density grids (seeded from the sample stream when the
+    /// scene has grids).
+    rng: Rng,
 }
 
 impl PathState {
@@ -143,6 +147,7 @@ impl PathState {
             inside: Inside::Ambient,
             travelled: 0.0,
             crossings: 0,
+            rng: Rng::new(0),
         }
     }
 
@@ -235,6 +240,8 @@ enum Crossing {
     Teleported(f32),
     /// The path ends at an opening (the depth limit, or total reflection at its exit).
     Ended,
+    /// A density grid stopped the path before the hit (or the next opening).
+    InGrid(Tracked),
 }
 
 /// Follows the path's ray through the openings before `hit_t` (its hit, or `None` if it
@@ -248,13 +255,17 @@ fn cross_openings(
     out: &mut PathSample,
 ) -> Crossing {
     let portals = &scene.portals;
-    if portals.is_empty() {
-        return Crossing::Passed;
-    }
     let ray = path.ray;
+    let end = hit_t.unwrap_or(ray.t_max);
+    if portals.is_empty() {
+        return track_grids(scene, path, ray.t_min, end, out).unwrap_or(Crossing::Passed);
+    }
     let limit = hit_t.map_or(ray.t_max, |t| t * (1.0 + PORTAL_TIE));
     let mut from = ray.t_min;
     while let Some(ph) = portals.intersect(&ray.between(from, limit)) {
+        if let Some(stopped) = track_grids(scene, path, from, ph.t, out) {
+            return stopped;
+        }
         let look = portals.look(ph.opening);
         if look.opacity < 1.0 {
             if s.uniform() >= look.opacity {
@@ -285,7 +296,39 @@ fn cross_openings(
         path.ray = Ray::new(next.origin, next.direction, f32::INFINITY, time);
         return Crossing::Teleported(ph.t);
     }
-    Crossing::Passed
+    track_grids(scene, path, from, end, out).unwrap_or(Crossing::Passed)
+}
+
+/// Delta-tracks the path's ray through the scene's density grids over [`from`, `to`],
+/// gathering their emission and weighting the throughput: `Some` when the path collides
+/// there (the caller's homogeneous medium had drawn no collision before `to`).
+fn track_grids(
+    scene: &Scene,
+    path: &mut PathState,
+    from: f32,
+    to: f32,
+    out: &mut PathSample,
+) -> Option<Crossing> {
+    let grids = &scene.media.grids;
+    if grids.is_empty() || from >= to || from.is_nan() || to.is_nan() {
+        return None;
+    }
+    let ray = path.ray;
+    let mut emitted = Vec3::ZERO;
+    let tracked = grids.track(
+        ray.origin,
+        ray.dir,
+        ray.time,
+        from,
+        to,
+        &mut path.rng,
+        &mut path.beta,
+        &mut emitted,
+    );
+    if emitted != Vec3::ZERO {
+        out.gather(emitted, path.lit_through, 0);
+    }
+    (tracked != Tracked::Passed).then_some(Crossing::InGrid(tracked))
 }
 
 /// Traces one path along `camera_ray`, whose range is the camera's clipping interval.
@@ -298,11 +341,17 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
     if !scene.media.bounded.is_empty() {
         path.inside = scene.media.at_point(camera_ray.origin);
     }
+    if !scene.media.grids.is_empty() {
+        path.rng = Rng::new(crate::sampling::hash32(s.uniform().to_bits()));
+    }
     loop {
         let hit = scene.intersect(&path.ray, path.class());
         let hit_t = hit.map(|h| h.t());
         let medium = scene.media.medium(path.inside);
         let collision = medium.and_then(|m| free_flight(m, hit_t, s));
+        // Where the path scatters next: a collision in a grid or in its medium, or the
+        // surface it hit.
+        let mut collided = None;
         match cross_openings(scene, &mut path, collision.or(hit_t), s, &mut out) {
             Crossing::Passed => {}
             Crossing::Teleported(at) => {
@@ -312,11 +361,26 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
                 path.inside = scene.media.at_point(path.ray.origin);
                 continue;
             }
-            Crossing::Ended => break,
+            Crossing::Ended | Crossing::InGrid(Tracked::Absorbed { .. }) => break,
+            Crossing::InGrid(Tracked::Scattered {
+                at,
+                anisotropy,
+                albedo,
+            }) => {
+                if let Some(m) = medium {
+                    path.beta *= m.passage(at);
+                }
+                collided = Some(Event::Scattered {
+                    at,
+                    anisotropy,
+                    albedo,
+                });
+            }
+            Crossing::InGrid(Tracked::Passed) => {}
         }
-        // Where the path scatters next: a collision in its medium, or the surface it hit.
-        let mut collided = None;
-        if let Some(m) = medium {
+        if let Some(m) = medium
+            && collided.is_none()
+        {
             match collision {
                 Some(at) => collided = Some(Event::Collision { medium: m, at }),
                 None => path.beta *= m.passage(hit_t.unwrap_or(f32::INFINITY)),
@@ -352,6 +416,13 @@ enum Event<'a> {
     Surface(Hit),
     /// At a collision `at` along the ray, in `medium`.
     Collision { medium: &'a Medium, at: f32 },
+    /// At a scattering event `at` along the ray in a density grid, whose weight the tracking
+    /// has applied.
+    Scattered {
+        at: f32,
+        anisotropy: f32,
+        albedo: Vec3,
+    },
 }
 
 /// The end of a path that met no surface to scatter at: the sky it escapes to, or the strand
@@ -411,20 +482,30 @@ fn scatter(
             (p, ng, &material.bsdf)
         }
         Event::Collision { medium, at } => {
-            let dir = path.ray.dir;
-            path.first_hit(out, at, -dir, medium.albedo());
             let (emitted, scattered) = medium.collision(at);
             out.gather(path.beta * emitted, path.lit_through, 0);
             path.beta *= scattered;
-            phase = Bsdf::Phase {
-                g: medium.anisotropy,
-            };
-            // The "normal" faces where the path came from: the phase function's frame has
-            // wo = +z.
-            (path.ray.at(at), -dir, &phase)
+            phase = medium_vertex(path, out, at, medium.anisotropy, medium.albedo());
+            (path.ray.at(at), -path.ray.dir, &phase)
+        }
+        Event::Scattered {
+            at,
+            anisotropy,
+            albedo,
+        } => {
+            phase = medium_vertex(path, out, at, anisotropy, albedo);
+            (path.ray.at(at), -path.ray.dir, &phase)
         }
     };
     scatter_at(scene, path, strategies, p, ng, bsdf, s, out)
+}
+
+/// A scattering point `at` along the path's ray in a medium: recorded for the AOVs; its
+/// phase function is the "BSDF", whose frame's "normal" faces where the path came from
+/// (wo = +z).
+fn medium_vertex(path: &PathState, out: &mut PathSample, at: f32, g: f32, albedo: Vec3) -> Bsdf {
+    path.first_hit(out, at, -path.ray.dir, albedo);
+    Bsdf::Phase { g }
 }
 
 /// The surface `hit` of the path's ray: records it for the AOVs and gathers its emission;
@@ -809,7 +890,7 @@ pub(crate) fn shadow(
     for i in chain.openings() {
         let hit = portals.intersect_one(i, &ray)?;
         if let Some(media) = media {
-            tint *= media.transmittance(ray.origin, ray.dir, hit.t);
+            tint *= media.transmittance(ray.origin, ray.dir, hit.t, ray.time);
         }
         // Up to the opening (which wins a tie with a wall it is set in), nothing may block.
         let before = Ray {
@@ -843,7 +924,7 @@ pub(crate) fn shadow(
         ray = Ray::new(ray.origin, to / dist, dist, ray.time);
     }
     if let Some(media) = media {
-        tint *= media.transmittance(ray.origin, ray.dir, ray.t_max);
+        tint *= media.transmittance(ray.origin, ray.dir, ray.t_max, ray.time);
         if tint == Vec3::ZERO {
             return None;
         }

@@ -11,6 +11,7 @@ pub mod environment;
 pub mod error;
 pub mod film;
 pub mod geometry;
+pub mod grid_medium;
 pub mod integrator;
 pub mod light_tree;
 pub mod light_visibility;

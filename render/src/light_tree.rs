@@ -694,7 +694,7 @@ mod tests {
         let radius = 0.9f32;
         let turn = std::f32::consts::TAU / 20.0;
         let place = |i: usize, tau: f32| {
-            let spin = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let spin = if i.is_multiple_of(2) { 1.0 } else { -1.0 };
             let a = std::f32::consts::TAU * i as f32 / count as f32 + spin * turn * (tau - 0.5);
             Vec3::new(radius * a.cos(), radius * a.sin(), 0.1)
         };

@@ -9,6 +9,7 @@
 //! an edge shared by two triangles (met twice at one distance) cannot confuse it.
 
 use crate::geometry::{Triangle, TriangleBvh};
+use crate::grid_medium::{GridMedia, Rng};
 use crate::medium::Medium;
 use glam::Vec3;
 
@@ -110,6 +111,8 @@ pub struct Volumes {
     /// The medium outside every bounded one, if any.
     pub ambient: Option<Medium>,
     pub bounded: Vec<Bounded>,
+    /// Density grids, anywhere (they add to the medium they are in).
+    pub grids: GridMedia,
     /// Per scene triangle: the bounded medium it bounds, or [`NO_MEDIUM`] (empty when no
     /// medium is bounded).
     triangle_boundary: Vec<u32>,
@@ -125,6 +128,7 @@ impl Volumes {
         ambient: Option<Medium>,
         bounded: Vec<Bounded>,
         triangle_boundary: Vec<u32>,
+        grids: GridMedia,
     ) -> Self {
         let triangle_boundary = if bounded.is_empty() {
             Vec::new()
@@ -134,13 +138,14 @@ impl Volumes {
         Self {
             ambient,
             bounded,
+            grids,
             triangle_boundary,
         }
     }
 
     /// True when there is no medium at all (paths never look).
     pub fn is_empty(&self) -> bool {
-        self.ambient.is_none() && self.bounded.is_empty()
+        self.ambient.is_none() && self.bounded.is_empty() && self.grids.is_empty()
     }
 
     /// The medium at `inside` (`None`: vacuum).
@@ -180,8 +185,21 @@ impl Volumes {
     }
 
     /// Transmittance along the straight stretch `origin + t·dir`, t in [0, `length`] (∞ allowed),
-    /// through every medium it passes.
-    pub fn transmittance(&self, origin: Vec3, dir: Vec3, length: f32) -> Vec3 {
+    /// at `time`, through every medium it passes (the grids' by ratio tracking, seeded by the
+    /// ray).
+    pub fn transmittance(&self, origin: Vec3, dir: Vec3, length: f32, time: f64) -> Vec3 {
+        let mut t = self.homogeneous_transmittance(origin, dir, length);
+        if !self.grids.is_empty() && t != Vec3::ZERO {
+            let mut rng = Rng::from_ray(origin, dir);
+            t *= self
+                .grids
+                .transmittance(origin, dir, time, 0.0, length, &mut rng);
+        }
+        t
+    }
+
+    /// Transmittance through the homogeneous media alone.
+    fn homogeneous_transmittance(&self, origin: Vec3, dir: Vec3, length: f32) -> Vec3 {
         let mut depth = Vec3::ZERO;
         let mut inside_any = 0.0;
         for b in &self.bounded {
@@ -264,6 +282,7 @@ mod tests {
             Some(ink(0.1)),
             vec![Bounded::new(ink(1.0), cube(-1.0, 1.0))],
             vec![0; 12],
+            GridMedia::default(),
         );
         assert_eq!(v.at_point(Vec3::ZERO), Inside::Bounded(0));
         assert_eq!(v.at_point(Vec3::new(0.3, -0.9, 0.99)), Inside::Bounded(0));
@@ -281,8 +300,11 @@ mod tests {
         let l = b.length_inside(Vec3::new(-2.0, -2.0, 0.3), diagonal, 10.0);
         assert!((l - 2.0 * 2f32.sqrt()).abs() < 1e-4, "{l}");
         // Transmittance: 2 m in the cube (σ 1) and 8 m outside (σ 0.1).
-        let t = v.transmittance(Vec3::new(-5.0, 0.2, 0.1), x, 10.0);
+        let t = v.transmittance(Vec3::new(-5.0, 0.2, 0.1), x, 10.0, 0.0);
         assert!((t.x - (-2.0f32 - 0.8).exp()).abs() < 1e-5, "{t}");
-        assert_eq!(v.transmittance(Vec3::ZERO, x, f32::INFINITY), Vec3::ZERO);
+        assert_eq!(
+            v.transmittance(Vec3::ZERO, x, f32::INFINITY, 0.0),
+            Vec3::ZERO
+        );
     }
 }

@@ -295,7 +295,7 @@ impl<'a> Segments<'a> {
         let leave = [far.x, far.y, far.z, to]
             .into_iter()
             .fold(f32::INFINITY, |m, v| if v < m { v } else { m });
-        if !(enter < leave) {
+        if enter >= leave || enter.is_nan() || leave.is_nan() {
             return this;
         }
         let size = BRICK as f32;
@@ -407,7 +407,12 @@ mod tests {
                 crate::sampling::hash32(3 * k + 2) as f32,
             ) / u32::MAX as f32;
             let p = lo - 2.0 + u * (hi - lo + 4.0);
-            assert!(g.density(p) <= g.majorant_at(p), "{p} {} {}", g.density(p), g.majorant_at(p));
+            assert!(
+                g.density(p) <= g.majorant_at(p),
+                "{p} {} {}",
+                g.density(p),
+                g.majorant_at(p)
+            );
         }
     }
 

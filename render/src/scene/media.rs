@@ -1,10 +1,12 @@
-//! The `[[medium]]` sections: at most one medium filling the scene, and any number inside the
-//! closed meshes of objects (see [`crate::medium`] and [`crate::volumes`]).
+//! The `[[medium]]` sections: at most one medium filling the scene, any number inside the
+//! closed meshes of objects (see [`crate::medium`] and [`crate::volumes`]), and media from
+//! density grids (read by [`super::grids`]).
 
 use super::parse;
 use super::schema::MediumSection;
 use crate::error::{RenderError, key_error};
 use crate::geometry::Triangle;
+use crate::grid_medium::{Coefficients, GridMedia};
 use crate::medium::Medium;
 use crate::volumes::{Bounded, NO_MEDIUM, Volumes};
 use glam::Vec3;
@@ -22,6 +24,16 @@ pub(crate) struct MediaSections {
     pub ambient: Option<Medium>,
     /// Media inside objects: the medium, the object's name and the section's key.
     pub bounded: Vec<(Medium, String, String)>,
+    /// Media from density grids, to be read by [`super::grids`].
+    pub grids: Vec<GridSection>,
+}
+
+/// A `[[medium]]` with a `vdb` file: its coefficients (per metre at density 1, the section's
+/// `density` factor applied) and the section's own keys.
+pub(crate) struct GridSection {
+    pub key: String,
+    pub coefficients: Coefficients,
+    pub section: MediumSection,
 }
 
 impl MediaSections {
@@ -38,12 +50,30 @@ pub(crate) fn sections(file: &Path, tables: &[toml::Table]) -> Result<MediaSecti
     let mut out = MediaSections {
         ambient: None,
         bounded: Vec::new(),
+        grids: Vec::new(),
     };
     let mut filling: Option<String> = None;
     for (i, table) in tables.iter().enumerate() {
         let key = format!("medium[{i}]");
         let section: MediumSection = parse(file, &key, table)?;
         let medium = checked(&key, &section).map_err(|e| RenderError::Shot(e.in_file(file)))?;
+        if section.vdb.is_some() {
+            let coefficients = grid_coefficients(&key, &section, &medium)
+                .map_err(|e| RenderError::Shot(e.in_file(file)))?;
+            out.grids.push(GridSection {
+                key,
+                coefficients,
+                section,
+            });
+            continue;
+        }
+        if let Some(field) = grid_only_key(&section) {
+            return Err(key_error(
+                file,
+                format!("{key}.{field}"),
+                "only a medium with a `vdb` density grid takes this key",
+            ));
+        }
         match section.object {
             Some(object) => {
                 if out.inside(&object).is_some() {
@@ -108,6 +138,48 @@ fn checked(key: &str, m: &MediumSection) -> Result<Medium, Invalid> {
     })
 }
 
+/// The coefficients of a grid medium, checked: its own keys beside those every medium has.
+fn grid_coefficients(
+    key: &str,
+    m: &MediumSection,
+    medium: &Medium,
+) -> Result<Coefficients, Invalid> {
+    if m.object.is_some() {
+        return Err(Invalid::new(
+            format!("{key}.object"),
+            "a medium from a `vdb` grid is placed by `transform`, not inside an object",
+        ));
+    }
+    let scale = match m.density {
+        Some(d) if !(d.is_finite() && (0.0..=MAX_COEFFICIENT).contains(&d)) => {
+            return Err(Invalid::new(
+                format!("{key}.density"),
+                format!("expected a factor from 0 to {MAX_COEFFICIENT:e}, got {d}"),
+            ));
+        }
+        Some(d) => d as f32,
+        None => 1.0,
+    };
+    Ok(Coefficients {
+        absorption: (medium.extinction - medium.scattering) * scale,
+        scattering: medium.scattering * scale,
+        emission: medium.emission * scale,
+        anisotropy: medium.anisotropy,
+    })
+}
+
+/// A key that only grid media take, if a homogeneous medium gives one.
+fn grid_only_key(m: &MediumSection) -> Option<&'static str> {
+    [
+        ("grid", m.grid.is_some()),
+        ("density", m.density.is_some()),
+        ("transform", m.transform.is_some()),
+        ("through", m.through.is_some()),
+    ]
+    .into_iter()
+    .find_map(|(name, given)| given.then_some(name))
+}
+
 /// The scene's volumes: `media` with each bounded medium inside its object's triangles, found
 /// by `triangle_object` among `triangles` (world space for objects that stand still);
 /// `moving[o]` tells whether object `o` moves during the shutter and `names[o]` its name.
@@ -118,6 +190,7 @@ pub(crate) fn volumes(
     moving: &[bool],
     triangles: &[Triangle],
     triangle_object: &[u32],
+    grids: GridMedia,
 ) -> Result<Volumes, RenderError> {
     let mut boundary_of_object = vec![NO_MEDIUM; names.len()];
     let mut bounded: Vec<Bounded> = Vec::new();
@@ -154,7 +227,12 @@ pub(crate) fn volumes(
         .iter()
         .map(|&o| boundary_of_object[o as usize])
         .collect();
-    Ok(Volumes::new(media.ambient, bounded, triangle_boundary))
+    Ok(Volumes::new(
+        media.ambient,
+        bounded,
+        triangle_boundary,
+        grids,
+    ))
 }
 
 /// Why `mesh` does not enclose a volume, if it does not: empty, or an edge (between vertices

@@ -4,6 +4,7 @@
 //! sections: [`schema`].
 
 pub mod camera;
+pub mod grids;
 pub mod light_groups;
 mod materials;
 pub mod media;
@@ -288,6 +289,7 @@ impl Scene {
             media: &media,
         };
         let (parts, flags) = loader.parts(&objects, &mut materials, &mut groups)?;
+        let grids = grids::load(&loader, &media.grids, overrides.memory_budget)?;
         let count = objects::triangle_count(&parts);
         if let Some(budget) = overrides.memory_budget
             && scene_bytes(count) > budget
@@ -309,6 +311,7 @@ impl Scene {
             &g.moving,
             &g.triangles,
             &g.triangle_object,
+            grids,
         )?;
         let normals: Vec<Vec3> = g
             .triangles

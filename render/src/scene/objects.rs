@@ -177,7 +177,17 @@ impl Loader<'_> {
     /// The object's placement over time: its keyed transform, carried through an opening by
     /// the constraint solver when it names one.
     fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
-        let transform = match &o.transform {
+        self.placement(key, o.transform.as_ref(), o.through.as_deref())
+    }
+
+    /// A placement over time from a section's `transform` and `through` keys (under `key`).
+    pub fn placement(
+        &self,
+        key: &str,
+        transform: Option<&rift_fx::shot::schema::PoseSpec>,
+        through: Option<&str>,
+    ) -> Result<ObjectMotion, RenderError> {
+        let transform = match transform {
             Some(spec) => pose::animated(
                 &format!("{key}.transform"),
                 spec,
@@ -187,7 +197,7 @@ impl Loader<'_> {
             .map_err(|e| self.invalid(e))?,
             None => AnimatedTransform::constant(Similarity::IDENTITY),
         };
-        Ok(match &o.through {
+        Ok(match through {
             None => ObjectMotion::new(transform),
             Some(name) => {
                 let opening = self.shot.rig.find(name).ok_or_else(|| {

@@ -166,6 +166,16 @@ pub struct MediumSection {
     pub scattering: Option<[f64; 3]>,
     pub anisotropy: Option<f64>,
     pub emission: Option<[f64; 3]>,
+    /// An OpenVDB file whose grid scales the coefficients (a heterogeneous medium).
+    pub vdb: Option<String>,
+    /// The grid's name in `vdb` (default "density").
+    pub grid: Option<String>,
+    /// A factor on the grid's values (default 1).
+    pub density: Option<f64>,
+    /// Where the grid is (keyed like an object's transform).
+    pub transform: Option<rift_fx::shot::schema::PoseSpec>,
+    /// An opening the grid is carried through by the constraint solver.
+    pub through: Option<String>,
 }
 
 /// `shadowing` of a rough conductor or dielectric.
