@@ -14,13 +14,20 @@ import math
 import os
 import sys
 
-import bpy  # noqa: F401  (loads the libraries the bundled openvdb module needs)
+import numpy as np
 
-# bpy/4.5/scripts/modules/bpy/__init__.py -> bpy/4.5/python/lib/python3.x/site-packages
-VERSION_DIR = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(bpy.__file__))))
-sys.path += glob.glob(os.path.join(VERSION_DIR, "python", "lib", "python3*", "site-packages"))
-import numpy as np  # noqa: E402
-import openvdb as vdb  # noqa: E402
+
+def load_openvdb():
+    """OpenVDB's Python module, from inside Blender's bpy wheel."""
+    import bpy  # loads the libraries the bundled openvdb module needs
+
+    # bpy/4.5/scripts/modules/bpy/__init__.py -> bpy/4.5/python/lib/python3.x/site-packages
+    version_dir = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(bpy.__file__))))
+    sys.path += glob.glob(os.path.join(version_dir, "python", "lib", "python3*", "site-packages"))
+    import openvdb
+
+    return openvdb
+
 
 OUT = os.path.join("tests", "data", "vdb")
 CENTRE = np.array([3, -2, 5])
@@ -36,7 +43,7 @@ def puff_values():
     return lo, values.astype(np.float32)
 
 
-def puff_grid(name="density", half=False):
+def puff_grid(vdb, name="density", half=False):
     lo, values = puff_values()
     g = vdb.FloatGrid()
     g.name = name
@@ -46,19 +53,20 @@ def puff_grid(name="density", half=False):
 
 
 def main():
+    vdb = load_openvdb()
     os.makedirs(OUT, exist_ok=True)
     # Blosc (OpenVDB's default), float, voxels 5 cm from (1, 2, 3).
-    g = puff_grid()
+    g = puff_grid(vdb)
     g.transform = vdb.createLinearTransform(voxelSize=0.05)
     g.transform.postTranslate((1.0, 2.0, 3.0))
     vdb.write(os.path.join(OUT, "puff.vdb"), grids=[g])
     # Half precision, under a rotating affine map, beside other grids.
-    h = puff_grid(half=True)
+    h = puff_grid(vdb, half=True)
     c, s = math.cos(0.5), math.sin(0.5)
     h.transform = vdb.createLinearTransform(
         [[0.1 * c, 0.1 * s, 0, 0], [-0.1 * s, 0.1 * c, 0, 0], [0, 0, 0.2, 0], [0.5, 0, -1, 1]]
     )
-    temperature = puff_grid("temperature")
+    temperature = puff_grid(vdb, "temperature")
     velocity = vdb.Vec3SGrid()
     velocity.name = "vel"
     vdb.write(os.path.join(OUT, "puff_half.vdb"), grids=[temperature, h, velocity])

@@ -3,7 +3,10 @@
 
 The Cornell reference pack (../shared/reference/cornell) in a homogeneous medium that fills the
 scene: Mitsuba attaches it to the sensor and to both sides of every shape, rift declares it in
-`[[medium]]`. Both render with several seeds; the script prints per-channel means over the image
+`[[medium]]`. With --grid, a heterogeneous puff instead (the OpenVDB fixture
+tests/data/vdb/puff.vdb, scaled to 0.6 m across its radius, in the middle of the box): rift
+reads the VDB file; Mitsuba gets the same voxels (the fixture's closed form, as
+tools/make_vdb_fixtures.py writes them) as a trilinear gridvolume inside a null-BSDF cube. Both render with several seeds; the script prints per-channel means over the image
 and over a 4 x 4 grid of regions, the difference rift - Mitsuba relative to Mitsuba, the noise
 of that difference (from the spread over seeds), and each renderer's seconds and relMSE against the
 other's mean, so efficiency can be compared. Exit status 1 when a region differs by more than
@@ -11,6 +14,7 @@ other's mean, so efficiency can be compared. Exit status 1 when a region differs
 
     pip install mitsuba openexr numpy
     python3 tools/media_vs_mitsuba.py --rift target/release/rift --spp 256 --mitsuba-spp 1024
+    python3 tools/media_vs_mitsuba.py --grid --variant scalar_rgb --sigma-t 8 --albedo 0.8
 """
 import argparse
 import shutil
@@ -26,12 +30,43 @@ ROOT = Path(__file__).resolve().parent.parent
 PACK = ROOT.parent / "shared" / "reference" / "cornell"
 
 
+PUFF = ROOT / "tests" / "data" / "vdb" / "puff.vdb"
+# The puff's placement: its centre voxel (3, -2, 5), at (1.15, 1.9, 3.25) in the file, moved to
+# PUFF_AT and scaled by PUFF_SCALE.
+PUFF_SCALE = 1.5
+PUFF_AT = np.array([0.0, -0.3, 0.0])
+PUFF_POSITION = PUFF_AT - PUFF_SCALE * np.array([1.15, 1.9, 3.25])
+
+
 def fog_keys(args):
     """The medium as rift's [[medium]] keys."""
     sigma_s = args.sigma_t * args.albedo
     sigma_a = args.sigma_t - sigma_s
-    return (f'name = "fog"\nabsorption = [{sigma_a}, {sigma_a}, {sigma_a}]\n'
+    keys = (f'name = "fog"\nabsorption = [{sigma_a}, {sigma_a}, {sigma_a}]\n'
             f'scattering = [{sigma_s}, {sigma_s}, {sigma_s}]\nanisotropy = {args.g}\n')
+    if args.grid:
+        p = ", ".join(str(x) for x in PUFF_POSITION)
+        keys += (f'vdb = "{PUFF}"\n'
+                 f'transform = {{ position = [{p}], scale = {PUFF_SCALE} }}\n')
+    return keys
+
+
+def puff_volume(mi):
+    """The puff's voxels and the map from Mitsuba's unit cube to the world: voxel centres at
+    the texel centres, so trilinear lookups match rift's."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    import make_vdb_fixtures as fixtures
+
+    lo, values = fixtures.puff_values()  # values[i, j, k] at index lo + (i, j, k)
+    n = np.array(values.shape)
+    # Unit cube u -> index lo - 0.5 + n u -> file world 0.05 index + (1, 2, 3) -> placed.
+    scale = PUFF_SCALE * 0.05 * n
+    offset = PUFF_POSITION + PUFF_SCALE * (np.array([1.0, 2.0, 3.0]) + 0.05 * (lo - 0.5))
+    to_world = mi.ScalarTransform4f.translate(offset.tolist()) @ mi.ScalarTransform4f.scale(
+        scale.tolist())
+    # Mitsuba's grids are indexed [z, y, x].
+    grid = mi.VolumeGrid(np.ascontiguousarray(values.transpose(2, 1, 0))[..., None])
+    return grid, to_world
 
 
 def render_rift(args, tmp, seed):
@@ -63,18 +98,33 @@ def render_mitsuba(args, seed):
 
     mi.set_variant(args.variant)
     scene = mi.cornell_box()
-    scene["fog"] = {
-        "type": "homogeneous",
-        "sigma_t": args.sigma_t,
-        "albedo": {"type": "rgb", "value": [args.albedo] * 3},
-        "phase": {"type": "hg", "g": args.g},
-    }
-    fog = {"type": "ref", "id": "fog"}
-    for key, value in scene.items():
-        if isinstance(value, dict) and value.get("type") in ("rectangle", "cube", "obj", "ply"):
-            value["interior"] = fog
-            value["exterior"] = fog
-    scene["sensor"]["medium"] = fog
+    albedo = {"type": "rgb", "value": [args.albedo] * 3}
+    phase = {"type": "hg", "g": args.g}
+    if args.grid:
+        grid, to_world = puff_volume(mi)
+        scene["puff"] = {
+            "type": "cube",
+            "to_world": to_world @ mi.ScalarTransform4f.translate([0.5, 0.5, 0.5])
+            @ mi.ScalarTransform4f.scale(0.5),
+            "bsdf": {"type": "null"},
+            "interior": {
+                "type": "heterogeneous",
+                "sigma_t": {"type": "gridvolume", "grid": grid, "to_world": to_world,
+                            "filter_type": "trilinear"},
+                "scale": args.sigma_t,
+                "albedo": albedo,
+                "phase": phase,
+            },
+        }
+    else:
+        scene["fog"] = {"type": "homogeneous", "sigma_t": args.sigma_t, "albedo": albedo,
+                        "phase": phase}
+        fog = {"type": "ref", "id": "fog"}
+        for key, value in scene.items():
+            if isinstance(value, dict) and value.get("type") in ("rectangle", "cube", "obj", "ply"):
+                value["interior"] = fog
+                value["exterior"] = fog
+        scene["sensor"]["medium"] = fog
     scene["sensor"]["film"]["rfilter"] = {"type": "box"}
     scene["sensor"]["sampler"] = {"type": "independent", "sample_count": args.mitsuba_spp}
     scene["integrator"] = {"type": "volpath", "max_depth": -1}
@@ -105,6 +155,8 @@ def main():
     ap.add_argument("--albedo", type=float, default=0.8)
     ap.add_argument("--g", type=float, default=0.4, help="Henyey-Greenstein asymmetry")
     ap.add_argument("--seeds", type=int, default=4, help="renders per renderer (noise estimate)")
+    ap.add_argument("--grid", action="store_true", help="a heterogeneous puff from a VDB file "
+                    "instead of fog filling the box (sigma-t is then per unit density)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -113,7 +165,8 @@ def main():
             runs["rift"].append(render_rift(args, tmp, seed))
             runs["mitsuba"].append(render_mitsuba(args, seed))
     means = {k: sum(img for img, _ in v) / len(v) for k, v in runs.items()}
-    print(f"Cornell box in fog: sigma_t {args.sigma_t}/m, albedo {args.albedo}, g {args.g}; "
+    what = "a VDB puff" if args.grid else "fog"
+    print(f"Cornell box with {what}: sigma_t {args.sigma_t}/m, albedo {args.albedo}, g {args.g}; "
           f"rift {args.spp} spp, Mitsuba {args.variant} volpath {args.mitsuba_spp} spp, "
           f"{args.seeds} seeds each")
     for who, pair in runs.items():
