@@ -319,6 +319,11 @@ impl GridMedia {
         self.grids.is_empty()
     }
 
+    /// Bytes their voxels hold.
+    pub fn bytes(&self) -> usize {
+        self.grids.iter().map(GridMedium::bytes).sum()
+    }
+
     /// True when some grid scatters or emits, so camera paths must track collisions; grids
     /// that only absorb weight paths by their transmittance instead.
     pub fn collisions_matter(&self) -> bool {

@@ -14,7 +14,7 @@ const MAX_FUZZED_STRANDS: u32 = 256;
 pub type Reader = fn(&[u8]);
 
 /// The readers, by the name of their fuzz target.
-pub const TARGETS: [(&str, Reader); 8] = [
+pub const TARGETS: [(&str, Reader); 9] = [
     ("shot", shot),
     ("obj", obj),
     ("ply_mesh", ply_mesh),
@@ -23,6 +23,7 @@ pub const TARGETS: [(&str, Reader); 8] = [
     ("exr", exr),
     ("exr_layer", exr_layer),
     ("checkpoint", checkpoint),
+    ("vdb", vdb),
 ];
 
 /// A shot file: parsed, validated and, when it is small, built into a scene (meshes are
@@ -81,4 +82,9 @@ pub fn exr_layer(bytes: &[u8]) {
 /// A checkpoint `rift render --resume` continues from, of at most 2^20 pixels.
 pub fn checkpoint(bytes: &[u8]) {
     let _ = crate::checkpoint::Checkpoint::decode(bytes, 1 << 20);
+}
+
+/// An OpenVDB file's "density" grid, with at most 64 MiB of voxels.
+pub fn vdb(bytes: &[u8]) {
+    let _ = crate::vdb::read_grid(bytes, "density", 64 << 20);
 }

@@ -323,7 +323,12 @@ absorption = [0.5, 0.5, 0.5]
 anisotropy = 0.5
 transform = { position = [-3.45, -5.7, -9.75], scale = 3.0 }
 "#;
-    let depth = assert_identity_opening_changes_nothing(dir.path(), scene, 48, "a grid through an identity opening");
+    let depth = assert_identity_opening_changes_nothing(
+        dir.path(),
+        scene,
+        48,
+        "a grid through an identity opening",
+    );
     assert!(depth.iter().any(|&d| d > 0.3));
 }
 

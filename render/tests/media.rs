@@ -445,3 +445,52 @@ transform = { keys = [{ frame = 1, position = [0, 0, 0] }, { frame = 2, position
         );
     }
 }
+
+#[test]
+fn the_ring_glows_into_the_haze_on_both_sides_of_its_opening() {
+    // foggy_portal with every surface black and its lamp off: the only light is the ring's, so
+    // whatever the camera sees away from the strands is haze lit by them, on this side of the
+    // opening and, through it, on the far side. Light sampling through openings (which reaches
+    // the ring from the far side's haze) must agree with paths that find it by chance.
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/foggy_portal.toml");
+    let mut shot = Shot::load(&file).unwrap();
+    shot.camera.projection.resolution = [96, 54];
+    for m in &mut shot.render.materials {
+        m.insert(
+            "reflectance".into(),
+            toml::Value::try_from([0.0; 3]).unwrap(),
+        );
+        m.remove("emission");
+    }
+    let render = |through: bool, seed: u32| {
+        let mut scene = Scene::build(&shot, 1).unwrap();
+        scene.settings.light_through_openings = through;
+        scene.settings.seed = seed;
+        rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(32))
+    };
+    let (on, on_again) = (render(true, 1), render(true, 2));
+    let (off, off_again) = (render(false, 3), render(false, 4));
+    common::assert_statistically_equal(
+        [&on.rgb, &on_again.rgb],
+        [&off.rgb, &off_again.rgb],
+        "haze lit by the ring",
+    );
+    // Most pixels on each side see only haze: their median glow is well above nothing. (Camera
+    // paths that scatter in the haze before the opening make portal depths fractional.)
+    let median_glow = |through: bool| {
+        let mut glow: Vec<f32> = (0..on.rgb.len())
+            .filter(|&i| (on.portal_depth[i] > 0.5) == through)
+            .map(|i| on.rgb[i].element_sum() / 3.0)
+            .collect();
+        assert!(
+            glow.len() > 100,
+            "{} pixels, through: {through}",
+            glow.len()
+        );
+        glow.sort_by(f32::total_cmp);
+        glow[glow.len() / 2]
+    };
+    let (here, there) = (median_glow(false), median_glow(true));
+    eprintln!("median glow: here {here}, through the opening {there}");
+    assert!(here > 1e-3 && there > 1e-3, "here {here}, there {there}");
+}

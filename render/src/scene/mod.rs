@@ -291,15 +291,17 @@ impl Scene {
         let (parts, flags) = loader.parts(&objects, &mut materials, &mut groups)?;
         let grids = grids::load(&loader, &media.grids, overrides.memory_budget)?;
         let count = objects::triangle_count(&parts);
+        let grid_bytes = grids.bytes() as u64;
         if let Some(budget) = overrides.memory_budget
-            && scene_bytes(count) > budget
+            && scene_bytes(count) + grid_bytes > budget
         {
             return Err(RenderError::Settings(format!(
                 "{}: its meshes hold {count} triangles, which need about {} MiB to render (their \
-                 BVH included), more than the {} MiB available; use lighter meshes, or give \
-                 more with --max-memory where the machine has it",
+                 BVH included), beside {} MiB of density grids: more than the {} MiB available; \
+                 use lighter meshes, or give more with --max-memory where the machine has it",
                 file.display(),
                 scene_bytes(count) >> 20,
+                grid_bytes >> 20,
                 budget >> 20
             )));
         }
