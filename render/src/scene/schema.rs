@@ -51,6 +51,17 @@
 //! emission = [0.0, 0.0, 0.0]    # radiance emitted per metre of path
 //!                               # (a medium filling the scene hides the sky: infinitely far)
 //!
+//! [[medium]]                    # a heterogeneous medium from an OpenVDB density grid
+//! name = "smoke"
+//! vdb = "smoke.vdb"             # relative to the shot file (float, double or half grids)
+//! grid = "density"              # the grid's name in the file (default "density")
+//! density = 2.0                 # a factor on its values (default 1)
+//! absorption = [0.5, 0.5, 0.5]  # coefficients per metre at density 1, as above
+//! scattering = [4.0, 4.0, 4.0]
+//! anisotropy = 0.3
+//! transform = { position = [0.0, 0.0, -3.0], scale = 0.5 }  # keyed like an object's (optional)
+//! # through = "door"            # carried through this opening by the solver, like an object
+//!
 //! [environment]                # light from every direction where rays escape:
 //! radiance = [0.2, 0.25, 0.3]   # a constant radiance, or
 //! # map = "sky.exr"             # a lat-long EXR (RGB), relative to the shot file; top row up,
