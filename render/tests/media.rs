@@ -448,13 +448,16 @@ transform = { keys = [{ frame = 1, position = [0, 0, 0] }, { frame = 2, position
 
 #[test]
 fn the_ring_glows_into_the_haze_on_both_sides_of_its_opening() {
-    // foggy_portal with every surface black and its lamp off: the only light is the ring's, so
+    // foggy_portal's haze, with every surface black and its lamp off: the only light is the
+    // ring's, so
     // whatever the camera sees away from the strands is haze lit by them, on this side of the
     // opening and, through it, on the far side. Light sampling through openings (which reaches
     // the ring from the far side's haze) must agree with paths that find it by chance.
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/foggy_portal.toml");
     let mut shot = Shot::load(&file).unwrap();
     shot.camera.projection.resolution = [96, 54];
+    // The haze alone (the example's smoke column hides part of the opening).
+    shot.render.media.retain(|m| m.get("vdb").is_none());
     for m in &mut shot.render.materials {
         m.insert(
             "reflectance".into(),
