@@ -7,6 +7,7 @@ mod fx;
 mod lights;
 mod portals;
 mod rays;
+mod scaling;
 mod stability;
 mod strands;
 mod through;
@@ -36,6 +37,9 @@ pub enum BenchCommand {
     Stability(stability::StabilityArgs),
     /// Energy kept by lossless rough BSDFs (white furnace) across roughness.
     Furnace(furnace::FurnaceArgs),
+    /// How render cost grows with triangles, strand segments, openings and emitters: a table
+    /// and a log-log plot.
+    Scaling(scaling::ScalingArgs),
 }
 
 /// How long a timed benchmark runs: repeats (the median is reported) and threads.
@@ -69,6 +73,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Through(args) => through::run(args),
         BenchCommand::Stability(args) => stability::run(args),
         BenchCommand::Furnace(args) => furnace::run(args),
+        BenchCommand::Scaling(args) => scaling::run(args),
     }
 }
 

@@ -1,6 +1,8 @@
-//! The log-log convergence plot of `rift bench convergence`: relMSE against samples per pixel,
-//! with the 1/spp line an unbiased Monte Carlo estimator follows, drawn with plotters into
-//! memory and written as a PNG. Labels use the DejaVu Sans Mono font shipped in assets/fonts.
+//! Log-log plots for the benchmarks, drawn with plotters into memory and written as PNGs: the
+//! convergence plot of `rift bench convergence` (relMSE against samples per pixel, with the
+//! 1/spp line an unbiased Monte Carlo estimator follows) and the scaling plot of `rift bench
+//! scaling` (cost against scene size per axis). Labels use the DejaVu Sans Mono font shipped
+//! in assets/fonts.
 
 use plotters::prelude::*;
 use std::path::Path;
@@ -8,61 +10,116 @@ use std::path::Path;
 const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSansMono.ttf");
 const SIZE: (u32, u32) = (800, 560);
 
+/// One line of a plot.
+struct Line<'a> {
+    label: &'a str,
+    points: Vec<(f64, f64)>,
+    color: RGBColor,
+    /// Drawn thick with a dot at each point (a measurement), or thin (a guide).
+    measured: bool,
+}
+
 /// Writes the plot of `rows` (spp, relMSE) to `path`.
 pub fn convergence_png(path: &Path, title: &str, rows: &[(u32, f64)]) -> anyhow::Result<()> {
     anyhow::ensure!(!rows.is_empty(), "nothing to plot");
+    let first = rows[0];
+    let last = rows[rows.len() - 1];
+    let ideal = |spp: u32| (spp as f64, first.1 * first.0 as f64 / spp as f64);
+    let lines = [
+        Line {
+            label: "1/spp",
+            points: vec![ideal(first.0), ideal(last.0)],
+            color: BLACK,
+            measured: false,
+        },
+        Line {
+            label: "measured",
+            points: rows.iter().map(|r| (r.0 as f64, r.1)).collect(),
+            color: RED,
+            measured: true,
+        },
+    ];
+    log_log(path, title, ("samples per pixel", "relMSE"), &lines)
+}
+
+/// Writes the scaling plot of `series` (axis name, (size, cost relative to the smallest)) to
+/// `path`.
+pub fn scaling_png(path: &Path, series: &[(&str, Vec<(f64, f64)>)]) -> anyhow::Result<()> {
+    anyhow::ensure!(series.iter().all(|s| !s.1.is_empty()), "nothing to plot");
+    let colors = [RED, BLUE, GREEN, MAGENTA, CYAN];
+    let lines: Vec<Line> = series
+        .iter()
+        .enumerate()
+        .map(|(k, (label, points))| Line {
+            label,
+            points: points.clone(),
+            color: colors[k % colors.len()],
+            measured: true,
+        })
+        .collect();
+    log_log(
+        path,
+        "cost against scene size (relative to the smallest)",
+        ("size", "relative cost"),
+        &lines,
+    )
+}
+
+/// Draws `lines` on log-log axes titled `title` with axis labels `axes` into `path`.
+fn log_log(path: &Path, title: &str, axes: (&str, &str), lines: &[Line]) -> anyhow::Result<()> {
     // Registering twice is harmless; plotters keeps the first.
     let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    let points = lines.iter().flat_map(|l| l.points.iter());
+    let (x_lo, x_hi, y_lo, y_hi) = points
+        .fold((f64::MAX, 0.0f64, f64::MAX, 0.0f64), |(a, b, c, d), p| {
+            (a.min(p.0), b.max(p.0), c.min(p.1), d.max(p.1))
+        });
     let (w, h) = SIZE;
     let mut rgb = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(draw_error)?;
-        let (spp_lo, spp_hi) = rows.iter().fold((f64::MAX, 0.0f64), |(l, h), r| {
-            (l.min(r.0 as f64), h.max(r.0 as f64))
-        });
-        let (mse_lo, mse_hi) = rows
-            .iter()
-            .fold((f64::MAX, 0.0f64), |(l, h), r| (l.min(r.1), h.max(r.1)));
-        let first = rows[0];
-        let ideal = |spp: f64| first.1 * first.0 as f64 / spp;
-        let y_lo = mse_lo.min(ideal(spp_hi)) / 2.0;
-        let y_hi = mse_hi.max(ideal(spp_lo)) * 2.0;
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 20))
             .margin(16)
             .x_label_area_size(44)
             .y_label_area_size(80)
             .build_cartesian_2d(
-                (spp_lo / 1.5..spp_hi * 1.5).log_scale(),
-                (y_lo..y_hi).log_scale(),
+                (x_lo / 1.5..x_hi * 1.5).log_scale(),
+                (y_lo / 2.0..y_hi * 2.0).log_scale(),
             )
             .map_err(draw_error)?;
         chart
             .configure_mesh()
-            .x_desc("samples per pixel")
-            .y_desc("relMSE")
+            .x_desc(axes.0)
+            .y_desc(axes.1)
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .x_label_formatter(&|v| format!("{v:.0}"))
             .draw()
             .map_err(draw_error)?;
-        chart
-            .draw_series(LineSeries::new(
-                [spp_lo, spp_hi].map(|s| (s, ideal(s))),
-                BLACK.stroke_width(1),
-            ))
-            .map_err(draw_error)?
-            .label("1/spp")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
-        let measured: Vec<(f64, f64)> = rows.iter().map(|r| (r.0 as f64, r.1)).collect();
-        chart
-            .draw_series(LineSeries::new(measured.clone(), RED.stroke_width(2)))
-            .map_err(draw_error)?
-            .label("measured")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], RED.stroke_width(2)));
-        chart
-            .draw_series(measured.iter().map(|&p| Circle::new(p, 4, RED.filled())))
-            .map_err(draw_error)?;
+        for line in lines {
+            let color = line.color;
+            let width = if line.measured { 2 } else { 1 };
+            chart
+                .draw_series(LineSeries::new(
+                    line.points.clone(),
+                    color.stroke_width(width),
+                ))
+                .map_err(draw_error)?
+                .label(line.label)
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(width))
+                });
+            if line.measured {
+                chart
+                    .draw_series(
+                        line.points
+                            .iter()
+                            .map(|&p| Circle::new(p, 4, color.filled())),
+                    )
+                    .map_err(draw_error)?;
+            }
+        }
         chart
             .configure_series_labels()
             .border_style(BLACK)

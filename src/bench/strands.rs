@@ -56,6 +56,21 @@ fn spinning_ring(strands: usize, segments: usize) -> rift_fx::ring::RingCurves {
     c
 }
 
+/// Ray `i` from all around towards a random point of the ring's band, at a random time in
+/// `shutter`.
+fn band_ray(i: usize, shutter: [f64; 2]) -> (glam::Vec3, glam::Vec3, f64) {
+    let h = |k: u32| {
+        rift_render::sampling::hash32((i as u32).wrapping_mul(8).wrapping_add(k)) as f32
+            / u32::MAX as f32
+    };
+    let angle = std::f32::consts::TAU * h(0);
+    let target = glam::Vec3::new(angle.cos(), angle.sin(), 0.0) * (0.98 + 0.12 * h(1));
+    let from = glam::Vec3::new(h(2) - 0.5, h(3) - 0.5, h(4) - 0.5).normalize_or_zero() * 3.0
+        + glam::Vec3::Z * 0.5;
+    let time = shutter[0] + (shutter[1] - shutter[0]) * h(5) as f64;
+    (from, (target - from).normalize(), time)
+}
+
 pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
     use rift_fx::rig::Similarity;
     use rift_render::geometry::{RingFrame, Strands};
@@ -71,19 +86,7 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
     // Shutter of half a frame at 24 fps around the frame.
     let shutter = [-1.0 / 96.0, 1.0 / 96.0];
     let threads = crate::with_threads(args.timing.threads, rayon::current_num_threads)?;
-    // Rays from all around towards random points of the ring's band, at random shutter times.
-    let ray = |i: usize| {
-        let h = |k: u32| {
-            rift_render::sampling::hash32((i as u32).wrapping_mul(8).wrapping_add(k)) as f32
-                / u32::MAX as f32
-        };
-        let angle = std::f32::consts::TAU * h(0);
-        let target = glam::Vec3::new(angle.cos(), angle.sin(), 0.0) * (0.98 + 0.12 * h(1));
-        let from = glam::Vec3::new(h(2) - 0.5, h(3) - 0.5, h(4) - 0.5).normalize_or_zero() * 3.0
-            + glam::Vec3::Z * 0.5;
-        let time = shutter[0] + (shutter[1] - shutter[0]) * h(5) as f64;
-        (from, (target - from).normalize(), time)
-    };
+    let ray = |i: usize| band_ray(i, shutter);
     println!(
         "rift bench strands: {} segments ({} strands), {} rays aimed at the band, {threads} threads, median of {}",
         args.strands * args.segments,
