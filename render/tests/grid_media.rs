@@ -351,3 +351,47 @@ fn a_grid_beyond_a_translated_opening_equals_the_solved_camera_on_the_other_side
         shot.render.media.push(medium);
     });
 }
+
+#[test]
+fn a_grid_carried_through_an_opening_sits_where_the_solver_puts_it() {
+    // The puff given `through = "room_door"` in the through_portal example is its there-side
+    // copy: its density at the teleported image of any point equals the original's there.
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/through_portal.toml");
+    let puff = fixtures().join("puff.vdb");
+    let medium = |through: &str| -> toml::Table {
+        toml::from_str(&format!(
+            "name = \"puff\"\nvdb = {:?}\nabsorption = [1.0, 1.0, 1.0]\n\
+             transform = {{ position = [-1.15, -0.4, -7.5] }}\n{through}",
+            puff.display().to_string()
+        ))
+        .unwrap()
+    };
+    let scene_with = |through: &str| {
+        let mut shot = Shot::load(&file).unwrap();
+        shot.render.media.push(medium(through));
+        (Scene::build(&shot, 12).unwrap(), shot)
+    };
+    let (original, shot) = scene_with("");
+    let (carried, _) = scene_with("through = \"room_door\"");
+    let time = shot.time_of(12.0);
+    let teleport = shot
+        .rig
+        .teleport_at(shot.rig.find("room_door").unwrap(), time);
+    let (a, b) = (
+        &original.media.grids.grids[0],
+        &carried.media.grids.grids[0],
+    );
+    let mut inside = 0;
+    for k in 0..2000u32 {
+        let h = |n: u32| rift_render::sampling::hash32(3 * k + n) as f32 / u32::MAX as f32;
+        let p = Vec3::new(-0.5 + h(0), 1.0 + h(1), -4.75 + h(2) * 1.0);
+        let there = teleport.transform_point(p.as_dvec3()).as_vec3();
+        let (da, db) = (a.density_at(p, time), b.density_at(there, time));
+        assert!(
+            (da - db).abs() < 1e-4,
+            "at {p}: {da} against {db} at {there}"
+        );
+        inside += (da > 0.05) as u32;
+    }
+    assert!(inside > 100, "the points must sample the puff ({inside})");
+}
