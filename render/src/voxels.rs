@@ -67,9 +67,15 @@ impl VoxelsBuilder {
         }
     }
 
-    /// Bricks that hold voxels of their own (leaves and each distinct tile value).
-    pub fn stored_bricks(&self) -> usize {
-        self.leaves.len() + self.tiles.len() + 1
+    /// Table entries the leaves and tiles fill: no more than [`Self::table_len`] unless some
+    /// overlap (which a well-formed VDB tree never has).
+    pub fn covered_bricks(&self) -> u64 {
+        let tiles: u64 = self
+            .tiles
+            .iter()
+            .map(|&(_, side, _)| ((side / BRICK) as u64).pow(3))
+            .sum();
+        self.leaves.len() as u64 + tiles
     }
 
     /// The voxel bounds [lo, hi) of everything gathered, in whole bricks.
@@ -216,16 +222,13 @@ impl Voxels {
     /// Per brick, the largest value trilinear interpolation can reach inside it: the maximum
     /// over it and its neighbours on the positive side (whose first voxels it reads).
     fn majorants(&self) -> Vec<f32> {
-        let brick_max: Vec<f32> = self
-            .table
-            .iter()
-            .map(|&b| {
-                let start = b as usize * BRICK_VOXELS;
-                self.values[start..start + BRICK_VOXELS]
-                    .iter()
-                    .fold(0.0f32, |m, &v| m.max(v))
-            })
+        // Per stored brick (many table entries share a tile's brick), then per table entry.
+        let stored_max: Vec<f32> = self
+            .values
+            .chunks_exact(BRICK_VOXELS)
+            .map(|brick| brick.iter().fold(0.0f32, |m, &v| m.max(v)))
             .collect();
+        let brick_max: Vec<f32> = self.table.iter().map(|&b| stored_max[b as usize]).collect();
         let mut out = vec![0.0f32; self.table.len()];
         for x in 0..self.bricks.x {
             for y in 0..self.bricks.y {

@@ -85,6 +85,11 @@ impl Stream {
         children_leaves.sort_by_key(|(o, _)| (o.x, o.y, o.z));
         topology.leaves = children_leaves.into_iter().flat_map(|(_, l)| l).collect();
         let cells = topology.builder.table_len();
+        // Nodes that overlap (two root children at one origin, say) would make filling the
+        // table cost far more than its size.
+        if topology.builder.covered_bricks() > cells {
+            return Err("its tree has nodes that overlap; the file is damaged".into());
+        }
         let bytes = topology.leaves.len() as u64 * LEAF_BYTES + cells * 8;
         if bytes > self.max_bytes {
             return Err(format!(
