@@ -45,7 +45,8 @@ struct Point {
     build: f64,
     /// Microseconds per camera path (renders) or per ray (strand queries).
     cost: f64,
-    /// Peak resident memory over the build and the render, MiB (renders only).
+    /// Peak resident memory over the build and the render, MiB (renders only, where the
+    /// kernel lets the mark be reset).
     peak_mib: Option<f64>,
 }
 
@@ -60,6 +61,10 @@ pub fn run(args: ScalingArgs) -> anyhow::Result<()> {
         "rift bench scaling: renders of {0}x{0} at {1} spp (cost per camera path), strand \
          queries (cost per ray); median of {2}",
         args.res, args.spp, args.timing.repeats
+    );
+    println!(
+        "(peak MiB: the process's high-water mark over each build and render; memory the \
+         allocator kept from a larger scene before counts)"
     );
     println!(
         "{:<10} {:>10} {:>9} {:>12} {:>10}",
@@ -120,7 +125,7 @@ fn measure_render(
     shot: &Path,
     args: &ScalingArgs,
 ) -> anyhow::Result<Point> {
-    reset_peak_memory();
+    let peak_known = reset_peak_memory();
     let t = Instant::now();
     let shot = Shot::load(shot)?;
     let scene = Scene::build(&shot, shot.frames.first)?;
@@ -139,7 +144,11 @@ fn measure_render(
         size,
         build,
         cost: median(times) / paths * 1e6,
-        peak_mib: peak_memory_mib(),
+        peak_mib: if peak_known {
+            status_mib("VmHWM:")
+        } else {
+            None
+        },
     })
 }
 
@@ -385,15 +394,20 @@ fn write_csv(path: &Path, points: &[Point]) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Resets the kernel's peak-memory mark of this process (Linux; elsewhere nothing).
-fn reset_peak_memory() {
+/// Resets the kernel's peak-memory mark of this process (Linux); true when it took (some
+/// sandboxes refuse it, and a peak carried over from a larger scene would mislead).
+fn reset_peak_memory() -> bool {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
+    match (status_mib("VmHWM:"), status_mib("VmRSS:")) {
+        (Some(peak), Some(now)) => peak <= now + 1.0,
+        _ => false,
+    }
 }
 
-/// The peak resident memory since the last reset, MiB (Linux only).
-fn peak_memory_mib() -> Option<f64> {
+/// A memory figure of this process from /proc/self/status, MiB (Linux only).
+fn status_mib(key: &str) -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = status.lines().find(|l| l.starts_with(key))?;
     let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib / 1024.0)
 }
