@@ -98,6 +98,24 @@ struct Frames {
     here_inverse: Similarity,
     /// P_T: there-local to world.
     there: Similarity,
+    /// A world-space sphere (centre, radius) holding the teleport region: rays that miss it
+    /// skip the exact test in double precision.
+    bound: (Vec3, f32),
+}
+
+impl Frames {
+    /// True when the line of `ray` passes outside the bound (or the bound lies wholly outside
+    /// the ray's range), so the opening cannot be hit.
+    #[inline]
+    fn misses_bound(&self, ray: &Ray) -> bool {
+        let (centre, radius) = self.bound;
+        let to_centre = centre - ray.origin;
+        let d2 = ray.dir.length_squared();
+        let along = to_centre.dot(ray.dir) / d2;
+        let away = (to_centre - ray.dir * along).length_squared();
+        let reach = radius / d2.sqrt();
+        away > radius * radius || along + reach < ray.t_min || along - reach > ray.t_max
+    }
 }
 
 /// A ray meeting the front of an opening inside its teleport region.
@@ -151,10 +169,15 @@ impl Portals {
                 (!moves).then(|| {
                     let here = rig.here_at(i, fixed_time);
                     let there = rig.there_at(i, fixed_time);
+                    let centre = here.translation.as_vec3();
+                    // Wide enough for single-precision rounding at the centre's magnitude.
+                    let radius = (masks[i].bounding_radius() * here.scale) as f32 * (1.0 + 1e-3)
+                        + 1e-5 * (1.0 + centre.abs().max_element());
                     Frames {
                         here,
                         here_inverse: here.inverse(),
                         there,
+                        bound: (centre, radius),
                     }
                 })
             })
@@ -256,6 +279,11 @@ impl Portals {
 
     /// Where `ray` meets the front of opening `i` inside its teleport region, if it does.
     pub fn intersect_one(&self, i: usize, ray: &Ray) -> Option<PortalHit> {
+        if let Some(frames) = &self.fixed[i]
+            && frames.misses_bound(ray)
+        {
+            return None;
+        }
         let (t_min, t_max, time) = (ray.t_min, ray.t_max, ray.time);
         let here_inverse = self.here_inverse(i, time);
         let o = here_inverse.transform_point(ray.origin.as_dvec3());
