@@ -220,7 +220,8 @@ impl Voxels {
     }
 
     /// Per brick, the largest value trilinear interpolation can reach inside it: the maximum
-    /// over it and its neighbours on the positive side (whose first voxels it reads).
+    /// over it and its neighbours on the positive side (whose first voxels it reads), taken
+    /// one axis at a time.
     fn majorants(&self) -> Vec<f32> {
         // Per stored brick (many table entries share a tile's brick), then per table entry.
         let stored_max: Vec<f32> = self
@@ -228,22 +229,24 @@ impl Voxels {
             .chunks_exact(BRICK_VOXELS)
             .map(|brick| brick.iter().fold(0.0f32, |m, &v| m.max(v)))
             .collect();
-        let brick_max: Vec<f32> = self.table.iter().map(|&b| stored_max[b as usize]).collect();
-        let mut out = vec![0.0f32; self.table.len()];
-        for x in 0..self.bricks.x {
-            for y in 0..self.bricks.y {
-                for z in 0..self.bricks.z {
-                    let b = IVec3::new(x, y, z);
-                    let mut m = 0.0f32;
-                    for corner in 0..8 {
-                        let n = b + IVec3::new(corner >> 2, (corner >> 1) & 1, corner & 1);
-                        if n.cmplt(self.bricks).all() {
-                            m = m.max(brick_max[self.cell(n)]);
+        let mut out: Vec<f32> = self.table.iter().map(|&b| stored_max[b as usize]).collect();
+        let n = self.bricks;
+        let strides = [(n.y * n.z) as usize, n.z as usize, 1];
+        for axis in 0..3 {
+            for x in 0..n.x {
+                for y in 0..n.y {
+                    for z in 0..n.z {
+                        let b = IVec3::new(x, y, z);
+                        if b[axis] + 1 < n[axis] {
+                            let c = self.cell(b);
+                            out[c] = out[c].max(out[c + strides[axis]]);
                         }
                     }
-                    out[self.cell(b)] = m * MAJORANT_MARGIN;
                 }
             }
+        }
+        for m in &mut out {
+            *m *= MAJORANT_MARGIN;
         }
         out
     }
