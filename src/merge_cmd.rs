@@ -136,6 +136,13 @@ fn read_part(path: &Path) -> anyhow::Result<Part> {
             )));
         }
     }
+    if layer.channels.keys().any(|c| c.starts_with("CryptoObject")) {
+        return Err(fail(
+            "it has Cryptomatte layers, which rift merge does not combine; render a frame \
+             with --cryptomatte in one piece"
+                .into(),
+        ));
+    }
     let number = |key: &str| {
         layer
             .numbers
@@ -432,6 +439,7 @@ impl Accumulator {
                     (name, means)
                 })
                 .collect(),
+            cryptomatte: None,
             spp: self.count.iter().map(|&c| c as u32).collect(),
             discarded: parts
                 .iter()

@@ -87,6 +87,11 @@ pub struct RenderArgs {
     /// Also write an sRGB PNG preview beside each EXR.
     #[arg(long)]
     png: bool,
+    /// Add Cryptomatte object-ID layers (`CryptoObject00`…, with the manifest in the header)
+    /// for compositors: the objects and rings each pixel's camera samples see first, through
+    /// openings included.
+    #[arg(long)]
+    cryptomatte: bool,
     /// Ring caches written by `rift fx` (`#`s become the frame number), or its PLY point clouds
     /// (a pattern ending in `.ply`, `%o` becoming each opening's name), replacing `[render]
     /// rings`; without either the rings are generated in memory.
@@ -156,6 +161,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!(
             "--samples: a sample range is a fixed share of a render; --target-error and \
              --time-limit choose sample counts as they go, so they cannot split one"
+        );
+    }
+    if args.cryptomatte && (samples.is_some() || args.checkpoint.is_some() || args.resume) {
+        bail!(
+            "--cryptomatte: object IDs are counted over a whole render; they cannot yet be \
+             split by --samples or saved in --checkpoint / --resume state"
         );
     }
     let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
@@ -431,6 +442,7 @@ fn render_one(
             .checkpoint_every
             .map(|every| Checkpointing { every, save: &save }),
         stop: run.stop,
+        cryptomatte: args.cryptomatte,
     };
     let rendered = crate::with_threads(args.threads, || {
         rift_render::render::render_resumable(scene, &options)

@@ -211,6 +211,7 @@ impl Checkpoint {
         let sums = Sums {
             pixels: state.pixels(),
             groups: state.groups()?,
+            ids: Vec::new(),
         };
         Ok(Self { key, window, sums })
     }

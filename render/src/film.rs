@@ -146,6 +146,9 @@ pub struct Image {
     /// Each light group's part of `rgb`, by name (the default group first; empty when the
     /// shot names no group): written as `lightgroup.<name>.R/G/B`, they sum to the beauty.
     pub light_groups: Vec<(String, Vec<Vec3>)>,
+    /// Object IDs ranked by coverage per pixel, when asked for: written as `CryptoObject00…`
+    /// layers with the Cryptomatte header.
+    pub cryptomatte: Option<crate::cryptomatte::Cryptomatte>,
     /// Samples that count in each pixel's mean (adaptive sampling and time limits make them
     /// differ; non-finite samples are dropped and not counted).
     pub spp: Vec<u32>,
@@ -231,6 +234,11 @@ impl Image {
                 ));
             }
         }
+        if let Some(crypto) = &self.cryptomatte {
+            for (name, values) in crypto.channels() {
+                channels.push(channel(&name, values));
+            }
+        }
         if let Some(through) = &self.through {
             let local: Vec<Vec3> = self.rgb.iter().zip(through).map(|(c, t)| c - t).collect();
             for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
@@ -275,6 +283,12 @@ impl Image {
             ),
         ] {
             attributes.other.insert(Text::from(key), value);
+        }
+        for (key, value) in self.cryptomatte.iter().flat_map(|c| c.attributes()) {
+            attributes.other.insert(
+                Text::from(key.as_str()),
+                AttributeValue::Text(Text::from(value.as_str())),
+            );
         }
         attributes
     }

@@ -28,6 +28,7 @@
 //! 1 − opacity.
 
 use crate::aperture;
+use crate::cryptomatte::NONE as NO_OBJECT;
 use crate::geometry::Hit;
 use crate::geometry::{offset_origin, offset_target};
 use crate::grid_medium::{Rng, Tracked};
@@ -84,6 +85,9 @@ pub struct FirstHit {
     /// World-space geometric normal, facing the camera.
     pub normal: Vec3,
     pub albedo: Vec3,
+    /// The object (or ring) seen, as [`Scene::id_names`] indexes it, or
+    /// [`crate::cryptomatte::NONE`].
+    pub object: u32,
 }
 
 /// A path between events: the ray it follows and what it carries from its last scattering
@@ -208,12 +212,13 @@ impl PathState {
     }
 
     /// Records the camera ray's first surface (or opening) for the AOVs.
-    fn first_hit(&self, out: &mut PathSample, t: f32, normal: Vec3, albedo: Vec3) {
+    fn first_hit(&self, out: &mut PathSample, t: f32, normal: Vec3, albedo: Vec3, object: u32) {
         if self.bounce == 0 {
             out.first = Some(FirstHit {
                 t: self.opening_t.unwrap_or(self.travelled + t),
                 normal,
                 albedo,
+                object,
             });
         }
     }
@@ -279,7 +284,7 @@ fn cross_openings(
             path.opening_t = Some(ph.t);
         }
         if path.chain.teleports() >= scene.settings.max_portal_depth {
-            path.first_hit(out, ph.t, -ray.dir, Vec3::ZERO);
+            path.first_hit(out, ph.t, -ray.dir, Vec3::ZERO, NO_OBJECT);
             return Crossing::Ended;
         }
         let time = portals.exit_time(ph.opening, ray.time);
@@ -460,7 +465,7 @@ fn finish(
         } else {
             -h.normal
         };
-        path.first_hit(out, h.t, facing, Vec3::ZERO);
+        path.first_hit(out, h.t, facing, Vec3::ZERO, scene.strand_object(h.segment));
     }
 }
 
@@ -504,7 +509,7 @@ fn scatter(
 /// phase function is the "BSDF", whose frame's "normal" faces where the path came from
 /// (wo = +z).
 fn medium_vertex(path: &PathState, out: &mut PathSample, at: f32, g: f32, albedo: Vec3) -> Bsdf {
-    path.first_hit(out, at, -path.ray.dir, albedo);
+    path.first_hit(out, at, -path.ray.dir, albedo, NO_OBJECT);
     Bsdf::Phase { g }
 }
 
@@ -527,6 +532,7 @@ fn surface_emission<'a>(
         hit.t,
         if cos_o >= 0.0 { ng } else { -ng },
         material.bsdf.albedo(),
+        scene.object_of(hit.triangle),
     );
     if material.emits() {
         let le = material.emitted(cos_o);

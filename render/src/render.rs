@@ -6,6 +6,7 @@
 //! machine.
 
 use crate::camera::{Eye, Lens};
+use crate::cryptomatte::{Counts, Cryptomatte};
 use crate::film::{BACKGROUND_DEPTH, Image, Metadata, Window};
 use crate::integrator::{PathSample, trace};
 use crate::ray::Ray;
@@ -62,6 +63,8 @@ pub struct RenderOptions<'a> {
     pub checkpoint: Option<Checkpointing<'a>>,
     /// Set (from a signal handler) to end the render early: no pixel starts after it is set.
     pub stop: Option<&'a AtomicBool>,
+    /// Count the objects each pixel's camera samples see first, for Cryptomatte layers.
+    pub cryptomatte: bool,
 }
 
 impl RenderOptions<'_> {
@@ -78,6 +81,7 @@ impl RenderOptions<'_> {
             resume: None,
             checkpoint: None,
             stop: None,
+            cryptomatte: false,
         }
     }
 }
@@ -98,6 +102,8 @@ pub struct Checkpointing<'a> {
 pub struct Sums {
     pub pixels: Vec<Pixel>,
     pub groups: Vec<DVec3>,
+    /// Per pixel, the objects its samples saw first (empty without Cryptomatte).
+    pub ids: Vec<Counts>,
 }
 
 impl Sums {
@@ -176,14 +182,20 @@ pub fn render_resumable(scene: &Scene, options: &RenderOptions) -> Rendered {
     let frame = FrameSampler::new(scene, options);
     let window = frame.window;
     let groups = scene.light_groups.len();
-    let tiles = tiles(window, frame.first, groups, options.resume);
+    let tiles = tiles(
+        window,
+        frame.first,
+        groups,
+        options.resume,
+        options.cryptomatte,
+    );
     std::thread::scope(|threads| {
         let (finished, wait) = std::sync::mpsc::channel::<()>();
         if let Some(checkpoint) = options.checkpoint {
             let tiles = &tiles;
             threads.spawn(move || {
                 while let Err(RecvTimeoutError::Timeout) = wait.recv_timeout(checkpoint.every) {
-                    let sums = rows(tiles, window, groups);
+                    let sums = rows(tiles, window, groups, options.cryptomatte);
                     (checkpoint.save)(&finish(scene, options, window, &sums, started), sums);
                 }
             });
@@ -191,7 +203,7 @@ pub fn render_resumable(scene: &Scene, options: &RenderOptions) -> Rendered {
         run_passes(&frame, options, &tiles, started);
         drop(finished);
     });
-    let sums = rows(&tiles, window, groups);
+    let sums = rows(&tiles, window, groups, options.cryptomatte);
     let image = finish(scene, options, window, &sums, started);
     let stopped = options.stop.is_some_and(|s| s.load(Ordering::Relaxed));
     let complete = !stopped || sums.pixels.iter().all(|p| p.finished(options.spp));
@@ -207,11 +219,19 @@ struct Tile {
     window: Window,
     pixels: Vec<Pixel>,
     groups: Vec<DVec3>,
+    /// Per pixel when counting object IDs, else empty.
+    ids: Vec<Counts>,
 }
 
 /// The window cut in tiles, each owning its pixels so passes can run tiles in parallel and
 /// carry their sums from pass to pass; their sums start from `resume` when given.
-fn tiles(window: Window, first: u32, groups: usize, resume: Option<&Sums>) -> Vec<Mutex<Tile>> {
+fn tiles(
+    window: Window,
+    first: u32,
+    groups: usize,
+    resume: Option<&Sums>,
+    ids: bool,
+) -> Vec<Mutex<Tile>> {
     let resume = resume.filter(|r| r.pixels.len() == window.area() && r.group_count() == groups);
     let index = |x: usize, y: usize| (y - window.y0) * window.width() + (x - window.x0);
     let start = |x: usize, y: usize| match resume {
@@ -241,10 +261,16 @@ fn tiles(window: Window, first: u32, groups: usize, resume: Option<&Sums>) -> Ve
                 let groups = (tile.y0..tile.y1)
                     .flat_map(|y| (tile.x0..tile.x1).flat_map(move |x| start_groups(x, y)))
                     .collect();
+                let ids = if ids {
+                    vec![Counts::default(); tile.area()]
+                } else {
+                    Vec::new()
+                };
                 Mutex::new(Tile {
                     window: tile,
                     pixels,
                     groups,
+                    ids,
                 })
             })
         })
@@ -253,10 +279,15 @@ fn tiles(window: Window, first: u32, groups: usize, resume: Option<&Sums>) -> Ve
 
 /// The tiles' sums in rows over the window (each tile locked in turn, so a tile is never
 /// copied halfway through a pass).
-fn rows(tiles: &[Mutex<Tile>], window: Window, groups: usize) -> Sums {
+fn rows(tiles: &[Mutex<Tile>], window: Window, groups: usize, ids: bool) -> Sums {
     let mut sums = Sums {
         pixels: vec![Pixel::default(); window.area()],
         groups: vec![DVec3::ZERO; window.area() * groups],
+        ids: if ids {
+            vec![Counts::default(); window.area()]
+        } else {
+            Vec::new()
+        },
     };
     for tile in tiles {
         let tile = tile.lock().unwrap_or_else(|e| e.into_inner());
@@ -267,6 +298,9 @@ fn rows(tiles: &[Mutex<Tile>], window: Window, groups: usize) -> Sums {
             sums.pixels[i] = *px;
             sums.groups[i * groups..][..groups]
                 .copy_from_slice(&tile.groups[k * groups..][..groups]);
+            if let Some(ids) = tile.ids.get(k) {
+                sums.ids[i] = *ids;
+            }
         }
     }
     sums
@@ -337,6 +371,7 @@ fn run_passes(
                 window: tile,
                 pixels,
                 groups,
+                ids,
             } = &mut *guard;
             let n = frame.groups;
             let mut taken = 0u64;
@@ -349,7 +384,7 @@ fn run_passes(
                 }
                 let before = px.samples;
                 let (x, y) = (tile.x0 + k % tile.width(), tile.y0 + k / tile.width());
-                frame.sample_pixel(x, y, px, &mut groups[k * n..][..n], last);
+                frame.sample_pixel(x, y, px, &mut groups[k * n..][..n], ids.get_mut(k), last);
                 taken += (px.samples - before) as u64;
                 if let Some(target) = options.target_error {
                     px.converged = px.samples - first >= MIN_ADAPTIVE_SPP
@@ -401,7 +436,15 @@ impl<'a> FrameSampler<'a> {
 
     /// Samples `px` (the pixel at column x, row y, whose light-group sums are `groups`) up to
     /// sample index `last` (exclusive).
-    fn sample_pixel(&self, x: usize, y: usize, px: &mut Pixel, groups: &mut [DVec3], last: u32) {
+    fn sample_pixel(
+        &self,
+        x: usize,
+        y: usize,
+        px: &mut Pixel,
+        groups: &mut [DVec3],
+        mut ids: Option<&mut Counts>,
+        last: u32,
+    ) {
         let (w, h) = self.size;
         let [open, close] = self.shutter;
         let scene = self.scene;
@@ -446,6 +489,9 @@ impl<'a> FrameSampler<'a> {
                 *sum += light.as_dvec3();
             }
             if let Some(first) = sample.first {
+                if let Some(ids) = ids.as_deref_mut() {
+                    ids.add(first.object);
+                }
                 px.hits += 1;
                 px.albedo += first.albedo;
                 px.normal += first.normal;
@@ -517,6 +563,15 @@ fn finish(
             .map(|p| (p.portal_depth as f64 / kept(p)) as f32)
             .collect(),
         light_groups: light_group_means(scene, sums, first),
+        cryptomatte: (!sums.ids.is_empty()).then(|| Cryptomatte {
+            names: scene.id_names.clone(),
+            pixels: sums
+                .ids
+                .iter()
+                .zip(pixels)
+                .map(|(ids, p)| ids.ranked(p.kept(first)))
+                .collect(),
+        }),
         spp: pixels.iter().map(|p| p.kept(first)).collect(),
         discarded: pixels.iter().map(|p| p.discarded as u64).sum(),
         metadata: Metadata {

@@ -177,6 +177,13 @@ pub struct Scene {
     pub visibility: Visibility,
     /// The participating media and where they are.
     pub media: crate::volumes::Volumes,
+    /// The object of each triangle (an index into [`Self::id_names`]).
+    pub triangle_object: Vec<u32>,
+    /// The objects', then the rings' names ("<opening>/ring"), which object IDs index
+    /// (Cryptomatte).
+    pub id_names: Vec<String>,
+    /// How many of [`Self::id_names`] are objects (the rings follow).
+    pub object_count: u32,
     /// The rings' strands (emissive round curves).
     pub strands: Strands,
     /// Which rays see each ring's strands (by ring of [`Self::strands`]).
@@ -344,6 +351,17 @@ impl Scene {
         let still = &g.triangles[..g.static_count];
         let accel = Accel::build(still, g.instances);
         let bounds = static_bounds(still);
+        let triangle_object = g.triangle_object.clone();
+        let id_names: Vec<String> = names
+            .iter()
+            .map(|n| n.to_string())
+            .chain(
+                ring_frame
+                    .iter()
+                    .flat_map(|f| &f.rings)
+                    .map(|c| format!("{}/ring", c.opening)),
+            )
+            .collect();
         let visibility = Visibility::new(
             g.triangle_object,
             flags,
@@ -369,6 +387,9 @@ impl Scene {
             portals,
             visibility,
             media: participating,
+            triangle_object,
+            id_names,
+            object_count: names.len() as u32,
             strands,
             strand_flags: ring_looks.iter().map(|l| l.flags).collect(),
             strand_group: grouped(ring_looks.iter().map(|l| l.group).collect()),
@@ -504,6 +525,18 @@ impl Scene {
     #[inline]
     pub fn strand_sees(&self, segment: u32, class: RayClass) -> bool {
         self.strand_flags[self.strands.segment_ring[segment as usize] as usize].sees(class)
+    }
+
+    /// The object triangle `t` belongs to, as [`Self::id_names`] indexes it.
+    #[inline]
+    pub fn object_of(&self, t: u32) -> u32 {
+        self.triangle_object[t as usize]
+    }
+
+    /// The ring strand segment `segment` belongs to, as [`Self::id_names`] indexes it.
+    #[inline]
+    pub fn strand_object(&self, segment: u32) -> u32 {
+        self.object_count + self.strands.segment_ring[segment as usize]
     }
 
     /// The light group of the light triangle `t` emits.
