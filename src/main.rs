@@ -4,6 +4,7 @@
 mod bench;
 mod farm;
 mod fx_cmd;
+mod layout;
 mod looks_cmd;
 mod memory;
 mod merge_cmd;
@@ -39,6 +40,9 @@ enum Command {
     /// Measure performance and print tables.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Stage a shot in the browser: a local server showing it from its camera and an orbit
+    /// view, at any frame.
+    Layout(layout::LayoutArgs),
 }
 
 fn main() -> ExitCode {
@@ -50,6 +54,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => merge_cmd::run(args),
         Command::Farm(cmd) => farm::run(cmd),
         Command::Bench(cmd) => bench::run(cmd),
+        Command::Layout(args) => layout::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

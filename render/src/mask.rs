@@ -94,6 +94,11 @@ pub enum PolygonError {
 }
 
 impl Polygon {
+    /// Its corners in order.
+    pub fn points(&self) -> &[DVec2] {
+        &self.points
+    }
+
     /// The polygon through `points` in order (either winding), checked to be simple.
     pub fn new(points: Vec<DVec2>) -> Result<Self, PolygonError> {
         let n = points.len();

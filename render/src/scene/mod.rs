@@ -184,6 +184,9 @@ pub struct Scene {
     pub id_names: Vec<String>,
     /// How many of [`Self::id_names`] are objects (the rings follow).
     pub object_count: u32,
+    /// Per object that moves within the shutter, its placement over time; its triangles in
+    /// [`Self::triangles`] are then in object space (the others in world space).
+    pub object_motion: Vec<Option<crate::geometry::ObjectMotion>>,
     /// The rings' strands (emissive round curves).
     pub strands: Strands,
     /// Which rays see each ring's strands (by ring of [`Self::strands`]).
@@ -312,7 +315,7 @@ impl Scene {
                 budget >> 20
             )));
         }
-        let g = objects::Geometry::assemble(parts, objects.len(), times);
+        let mut g = objects::Geometry::assemble(parts, objects.len(), times);
         let participating = media::volumes(
             file,
             media,
@@ -352,6 +355,7 @@ impl Scene {
         let accel = Accel::build(still, g.instances);
         let bounds = static_bounds(still);
         let triangle_object = g.triangle_object.clone();
+        let object_motion = std::mem::take(&mut g.motion);
         let id_names: Vec<String> = names
             .iter()
             .map(|n| n.to_string())
@@ -390,6 +394,7 @@ impl Scene {
             triangle_object,
             id_names,
             object_count: names.len() as u32,
+            object_motion,
             strands,
             strand_flags: ring_looks.iter().map(|l| l.flags).collect(),
             strand_group: grouped(ring_looks.iter().map(|l| l.group).collect()),

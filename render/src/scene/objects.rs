@@ -278,6 +278,8 @@ pub(super) struct Geometry {
     pub static_count: usize,
     /// Per object: whether it moves within the times rays can reach.
     pub moving: Vec<bool>,
+    /// Per object that moves: its placement over time (its triangles are in object space).
+    pub motion: Vec<Option<ObjectMotion>>,
 }
 
 impl Geometry {
@@ -292,9 +294,11 @@ impl Geometry {
             instances: Vec::new(),
             static_count: 0,
             moving: vec![false; objects],
+            motion: vec![None; objects],
         };
         for part in parts {
             g.moving[part.object as usize] = part.motion.is_some();
+            g.motion[part.object as usize] = part.motion.clone();
             let first = g.triangles.len() as u32;
             let instance = match part.motion {
                 None => {

@@ -1,0 +1,71 @@
+// Opens a `rift layout` page in headless Chromium (Debian's, with software WebGL) and prints
+// what the page shows as JSON: whether it loaded, its error message, the scene's counts, the
+// share of each view's pixels that differ from its background, and frames drawn per second.
+//   node tests/browser/layout.mjs URL [SCREENSHOT.png]
+import { chromium } from 'playwright-core';
+import { mkdtempSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+
+const [url, screenshot] = process.argv.slice(2);
+const profile = mkdtempSync(join(tmpdir(), 'rift-chromium-'));
+const context = await chromium.launchPersistentContext(profile, {
+  executablePath: '/usr/bin/chromium',
+  headless: true,
+  viewport: { width: 1280, height: 720 },
+  args: ['--no-sandbox', '--disable-background-networking', '--disable-component-update',
+         '--disable-sync', '--no-first-run', '--use-angle=swiftshader',
+         '--enable-unsafe-swiftshader'],
+});
+try {
+  const page = await context.newPage();
+  const console_errors = [];
+  page.on('pageerror', e => console_errors.push(String(e)));
+  await page.goto(url);
+  await page.waitForFunction(() => window.riftLayout && window.riftLayout.ready, null,
+                             { timeout: 60000 });
+  // Frames drawn per second over two seconds.
+  const fps = await page.evaluate(() => new Promise(done => {
+    let frames = 0;
+    const start = performance.now();
+    const tick = () => {
+      frames += 1;
+      if (performance.now() - start < 2000) requestAnimationFrame(tick);
+      else done(frames * 1000 / (performance.now() - start));
+    };
+    requestAnimationFrame(tick);
+  }));
+  const result = await page.evaluate(() => {
+    const coverage = id => {
+      const source = document.querySelector(`#${id} canvas`);
+      const canvas = document.createElement('canvas');
+      canvas.width = source.width;
+      canvas.height = source.height;
+      const ctx = canvas.getContext('2d');
+      ctx.drawImage(source, 0, 0);
+      const pixels = ctx.getImageData(0, 0, canvas.width, canvas.height).data;
+      const [r0, g0, b0] = pixels.slice(0, 3);
+      let differ = 0;
+      for (let i = 0; i < pixels.length; i += 4) {
+        if (Math.abs(pixels[i] - r0) + Math.abs(pixels[i + 1] - g0) +
+            Math.abs(pixels[i + 2] - b0) > 24) differ += 1;
+      }
+      return differ / (pixels.length / 4);
+    };
+    const s = window.riftLayout.scene;
+    return {
+      error: window.riftLayout.error,
+      frame: window.riftLayout.frame,
+      objects: s ? s.objects.length : 0,
+      openings: s ? s.openings.length : 0,
+      orbitCoverage: coverage('orbit'),
+      shotCoverage: coverage('shot'),
+      errorShown: getComputedStyle(document.getElementById('error')).display !== 'none',
+      errorText: document.getElementById('error').textContent,
+    };
+  });
+  if (screenshot) await page.screenshot({ path: screenshot });
+  console.log(JSON.stringify({ ...result, fps, pageErrors: console_errors }));
+} finally {
+  await context.close();
+}
