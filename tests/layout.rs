@@ -1,0 +1,241 @@
+//! `rift layout`: its API and what it refuses (answered by a real server on a free loopback
+//! port), and the page in headless Chromium (skipped, saying so, where Chromium or the test's
+//! Node packages are missing; tests/setup.sh installs both).
+
+mod common;
+
+use common::root;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+
+/// A running `rift layout` and its port; stopped with SIGINT when dropped.
+struct Layout {
+    child: Child,
+    port: u16,
+}
+
+impl Layout {
+    fn start(shot: &Path, extra: &[&str]) -> Self {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_rift"))
+            .arg("layout")
+            .arg(shot)
+            .args(["--port", "0", "--no-browser"])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.as_mut().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let port = line
+            .split("127.0.0.1:")
+            .nth(1)
+            .and_then(|rest| rest.split('/').next())
+            .and_then(|p| p.parse().ok())
+            .unwrap_or_else(|| panic!("no URL in {line:?}"));
+        Self { child, port }
+    }
+
+    /// Sends `request` (raw bytes) and returns the status code and body.
+    fn raw(&self, request: &str) -> (u16, String) {
+        let mut stream = TcpStream::connect(("127.0.0.1", self.port)).unwrap();
+        stream.write_all(request.as_bytes()).unwrap();
+        let mut response = String::new();
+        stream.read_to_string(&mut response).unwrap();
+        let status = response
+            .split_whitespace()
+            .nth(1)
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0);
+        let body = response
+            .split_once("\r\n\r\n")
+            .map_or("", |(_, b)| b)
+            .to_owned();
+        (status, body)
+    }
+
+    /// GET `path` with the server's own Host and `headers`.
+    fn get(&self, path: &str, headers: &str) -> (u16, String) {
+        self.raw(&format!(
+            "GET {path} HTTP/1.0\r\nHost: 127.0.0.1:{}\r\n{headers}\r\n",
+            self.port
+        ))
+    }
+
+    fn url(&self) -> String {
+        format!("http://127.0.0.1:{}/", self.port)
+    }
+}
+
+impl Drop for Layout {
+    fn drop(&mut self) {
+        // It may have stopped already.
+        let _ = Command::new("kill")
+            .args(["-INT", &self.child.id().to_string()])
+            .status();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn the_api_serves_the_scene_and_refuses_what_it_should() {
+    let shot = root().join("examples/shots/showcase.toml");
+    let layout = Layout::start(&shot, &[]);
+    let (status, page) = layout.get("/", "");
+    assert_eq!(status, 200);
+    assert!(page.contains("importmap") && page.contains("/app.js"));
+    for path in [
+        "/app.js",
+        "/vendor/three.module.js",
+        "/vendor/OrbitControls.js",
+    ] {
+        assert_eq!(layout.get(path, "").0, 200, "{path}");
+    }
+    let (status, body) = layout.get("/api/scene?frame=12", "");
+    assert_eq!(status, 200, "{body}");
+    let scene: serde_json::Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(scene["frame"], 12);
+    let names: Vec<&str> = scene["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| o["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["room", "pillar", "walker", "walker_there"]);
+    for o in scene["objects"].as_array().unwrap() {
+        let n = o["positions"].as_array().unwrap().len();
+        assert!(n > 0 && n % 9 == 0, "{}: {n} coordinates", o["name"]);
+    }
+    assert_eq!(scene["openings"].as_array().unwrap().len(), 2);
+    assert!(scene["strands"]["points"].as_array().unwrap().len() > 1000);
+    // Bad requests: 4xx, and the server goes on.
+    for (path, headers, want) in [
+        ("/api/scene?frame=abc", "", 400),
+        ("/api/scene?frame=100000", "", 400),
+        ("/nothing/here", "", 404),
+        ("/", "Origin: http://evil.example\r\n", 403),
+        ("/", "Origin: http://127.0.0.1:1\r\n", 403),
+    ] {
+        assert_eq!(layout.get(path, headers).0, want, "{path} {headers}");
+    }
+    let (status, _) = layout.raw("GET / HTTP/1.0\r\nHost: evil.example\r\n\r\n");
+    assert_eq!(status, 403, "a foreign Host (DNS rebinding)");
+    let (status, _) = layout.raw(&format!(
+        "POST /api/scene HTTP/1.0\r\nHost: 127.0.0.1:{}\r\nContent-Length: 0\r\n\r\n",
+        layout.port
+    ));
+    assert_eq!(status, 405);
+    let (status, _) = layout.raw("THIS IS NOT HTTP\r\n\r\n");
+    assert!(
+        (400..500).contains(&status) || status == 0,
+        "garbage: {status}"
+    );
+    assert_eq!(layout.get("/api/scene", "").0, 200, "still serving");
+}
+
+#[test]
+fn a_port_in_use_a_bad_shot_and_ctrl_c() {
+    // A port another program holds.
+    let held = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = held.local_addr().unwrap().port().to_string();
+    let shot = root().join("examples/shots/showcase.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_rift"))
+        .args([
+            "layout",
+            shot.to_str().unwrap(),
+            "--no-browser",
+            "--port",
+            &port,
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("cannot listen") && err.contains(&port),
+        "{err}"
+    );
+    // A shot whose scene fails to build: the API answers 422 with the file and the key.
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(&shot)
+        .unwrap()
+        .replace(
+            "../assets/",
+            &format!("{}/", root().join("examples/assets").display()),
+        )
+        .replace("mesh = \"", "mesh = \"missing_");
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, text).unwrap();
+    let mut layout = Layout::start(&bad, &[]);
+    let (status, body) = layout.get("/api/scene", "");
+    assert_eq!(status, 422, "{body}");
+    assert!(
+        body.contains("missing_") && body.contains("error"),
+        "{body}"
+    );
+    // Ctrl-C stops it cleanly.
+    common::signal(&layout.child, "INT");
+    let status = layout.child.wait().unwrap();
+    assert!(status.success(), "{status:?}");
+}
+
+/// The page's report from headless Chromium (tests/browser/layout.mjs), or `None` (with a
+/// message) where Chromium or the Node packages are missing.
+fn browse(url: &str) -> Option<serde_json::Value> {
+    let script = root().join("tests/browser/layout.mjs");
+    let modules = root().join("tests/browser/node_modules/playwright-core");
+    if !Path::new("/usr/bin/chromium").exists() || !modules.exists() {
+        eprintln!("skipped: Chromium or tests/browser/node_modules missing (run tests/setup.sh)");
+        return None;
+    }
+    let out = Command::new("node").arg(script).arg(url).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(serde_json::from_slice(&out.stdout).unwrap())
+}
+
+#[test]
+fn the_page_draws_the_shot_and_shows_errors() {
+    let shot = root().join("examples/shots/showcase.toml");
+    let layout = Layout::start(&shot, &["--frame", "12"]);
+    let Some(page) = browse(&format!("{}?frame=12", layout.url())) else {
+        return;
+    };
+    eprintln!("layout page: {page}");
+    assert_eq!(page["error"], "");
+    assert_eq!(page["pageErrors"].as_array().unwrap().len(), 0, "{page}");
+    assert_eq!(page["frame"], 12);
+    assert_eq!(page["objects"], 4);
+    assert_eq!(page["openings"], 2);
+    // Both views draw the set over a good part of their area.
+    assert!(page["shotCoverage"].as_f64().unwrap() > 0.3, "{page}");
+    assert!(page["orbitCoverage"].as_f64().unwrap() > 0.1, "{page}");
+    drop(layout);
+    // A shot that fails to build shows its error, file and key, on the page.
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(&shot)
+        .unwrap()
+        .replace(
+            "../assets/",
+            &format!("{}/", root().join("examples/assets").display()),
+        )
+        .replace("material = \"chrome\"", "material = \"unobtainium\"");
+    std::fs::write(dir.path().join("bad.toml"), text).unwrap();
+    let layout = Layout::start(&dir.path().join("bad.toml"), &[]);
+    let page = browse(&layout.url()).unwrap();
+    assert_eq!(page["errorShown"], true, "{page}");
+    let message = page["errorText"].as_str().unwrap();
+    assert!(
+        message.contains("bad.toml")
+            && message.contains(".material")
+            && message.contains("unobtainium"),
+        "{message}"
+    );
+}
