@@ -5,6 +5,7 @@
 mod common;
 
 use common::root;
+use rift_render::film::read_exr_layer;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;
@@ -237,5 +238,185 @@ fn the_page_draws_the_shot_and_shows_errors() {
             && message.contains(".material")
             && message.contains("unobtainium"),
         "{message}"
+    );
+}
+
+/// `example` (under examples/shots) as a still, pinhole, mono shot of `width` x `height` with
+/// `depth` levels of openings, its asset paths made absolute, written into `dir`.
+fn still_variant(
+    dir: &Path,
+    example: &str,
+    width: u32,
+    height: u32,
+    depth: u32,
+) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(root().join("examples/shots").join(example)).unwrap();
+    let mut out = String::new();
+    let mut skip_section = false;
+    for line in text.lines() {
+        let trimmed = line.trim_start();
+        if trimmed.starts_with('[') {
+            skip_section = trimmed.starts_with("[camera.stereo]");
+        }
+        if skip_section
+            || trimmed.starts_with("shutter")
+            || trimmed.starts_with("fstop")
+            || trimmed.starts_with("max_portal_depth")
+        {
+            continue;
+        }
+        let line = if trimmed.starts_with("resolution") {
+            format!("resolution = [{width}, {height}]")
+        } else {
+            line.replace(
+                "../assets/",
+                &format!("{}/", root().join("examples/assets").display()),
+            )
+        };
+        out += &line;
+        out += "\n";
+        if trimmed == "[shot]" {
+            out += "shutter = [0.0, 0.0]\n";
+        }
+        if trimmed == "[render]" {
+            out += &format!("max_portal_depth = {depth}\n");
+        }
+    }
+    if !out.contains("[render]") {
+        out += &format!("[render]\nmax_portal_depth = {depth}\n");
+    }
+    let path = dir.join(example);
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+#[test]
+fn the_preview_through_openings_matches_the_path_tracers_object_ids() {
+    // For two shots and two camera poses each: the page's ID pass (objects flat-coloured,
+    // openings followed one level) against the path tracer's Cryptomatte at the same frame
+    // (the object covering at least half of each pixel). Pixels where a ring's strands show in
+    // the render are left out: the preview draws strands as hairlines.
+    let (w, h) = (256u32, 144u32);
+    let dir = tempfile::tempdir().unwrap();
+    for (example, frames) in [("showcase.toml", [6, 20]), ("through_portal.toml", [4, 16])] {
+        let shot = still_variant(dir.path(), example, w, h, 1);
+        let layout = Layout::start(&shot, &[]);
+        for frame in frames {
+            let url = format!("{}?frame={frame}", layout.url());
+            let Some(preview) = browse_ids(&url, w, h) else {
+                return;
+            };
+            let exr = dir.path().join(format!("ids.{frame}.exr"));
+            let out = common::rift(
+                dir.path(),
+                &[
+                    "render",
+                    shot.to_str().unwrap(),
+                    "--frame",
+                    &frame.to_string(),
+                    "--spp",
+                    "16",
+                    "--cryptomatte",
+                    "-o",
+                    exr.to_str().unwrap(),
+                ],
+            );
+            assert!(out.status.success(), "{}", common::stderr(&out));
+            let layer = read_exr_layer(&exr).unwrap();
+            let (scene, _) = scene_names(&layout, frame);
+            compare_ids(
+                &format!("{example} frame {frame}"),
+                &preview,
+                &layer,
+                &scene,
+            );
+        }
+    }
+}
+
+/// The page's ID pass at `w` x `h`, or `None` where the browser tests cannot run.
+fn browse_ids(url: &str, w: u32, h: u32) -> Option<Vec<i64>> {
+    let modules = root().join("tests/browser/node_modules/playwright-core");
+    if !Path::new("/usr/bin/chromium").exists() || !modules.exists() {
+        eprintln!("skipped: Chromium or tests/browser/node_modules missing (run tests/setup.sh)");
+        return None;
+    }
+    let out = Command::new("node")
+        .arg(root().join("tests/browser/layout.mjs"))
+        .args([url, "--ids", &w.to_string(), &h.to_string()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        v["pageErrors"].as_array().unwrap().len(),
+        0,
+        "{}",
+        v["pageErrors"]
+    );
+    Some(
+        v["ids"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| i.as_i64().unwrap())
+            .collect(),
+    )
+}
+
+/// The object names (in ID order) and ring names of the scene the server builds at `frame`.
+fn scene_names(layout: &Layout, frame: i64) -> (Vec<String>, usize) {
+    let (_, body) = layout.get(&format!("/api/scene?frame={frame}"), "");
+    let scene: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let names: Vec<String> = scene["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| o["name"].as_str().unwrap().to_owned())
+        .collect();
+    let n = names.len();
+    (names, n)
+}
+
+/// Per object with enough pixels: IoU of the preview's pixels and the render's (rank-0 ID
+/// covering at least half the pixel), over pixels no ring touches in the render.
+fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer, names: &[String]) {
+    use rift_render::cryptomatte::id;
+    let ids: Vec<f32> = names.iter().map(|n| id(n)).collect();
+    let channel = |name: &str| &layer.channels[name];
+    let rank_ids: Vec<&Vec<f32>> = (0..3)
+        .flat_map(|l| ["R", "B"].map(move |c| format!("CryptoObject{l:02}.{c}")))
+        .map(|n| channel(&n))
+        .collect();
+    let (id0, cover0) = (channel("CryptoObject00.R"), channel("CryptoObject00.G"));
+    let ring = |p: usize| rank_ids.iter().any(|r| r[p] != 0.0 && !ids.contains(&r[p]));
+    assert_eq!(preview.len(), id0.len(), "{what}: image sizes");
+    let mut checked = 0;
+    for (o, name) in names.iter().enumerate() {
+        let (mut both, mut either) = (0usize, 0usize);
+        for p in 0..preview.len() {
+            if ring(p) {
+                continue;
+            }
+            let in_preview = preview[p] == o as i64;
+            let in_render = id0[p] == ids[o] && cover0[p] >= 0.5;
+            both += (in_preview && in_render) as usize;
+            either += (in_preview || in_render) as usize;
+        }
+        if either < 100 {
+            continue;
+        }
+        let iou = both as f64 / either as f64;
+        eprintln!("{what}: {name}: IoU {iou:.4} over {either} pixels");
+        assert!(iou >= 0.97, "{what}: {name}: IoU {iou:.4}");
+        checked += 1;
+    }
+    assert!(
+        checked >= 2,
+        "{what}: only {checked} objects large enough to compare"
     );
 }

@@ -5,9 +5,18 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
 const state = { ready: false, scene: null, error: null, frame: null, loads: 0 };
 window.riftLayout = state;
+// How many levels of openings the preview follows (the renderer's limit is the shot's
+// max_portal_depth; the preview stops at this one, shown in the status line).
+const PREVIEW_DEPTH = 1;
+// Per opening: its filled outline at the here frame (drawn into the stencil buffer) and the
+// teleport T·H⁻¹ that places the camera behind the there frame.
+let openings = [];
+// Meshes of the objects, with their shaded and flat ID materials.
+let meshes = [];
 
 const world = new THREE.Scene();
-world.background = new THREE.Color(0x202228);
+// No scene background: three.js clears the whole target before drawing one, which would wipe
+// the stencil marks and the view drawn before each opening's.
 world.add(new THREE.HemisphereLight(0xffffff, 0x404040, 2.0));
 const sun = new THREE.DirectionalLight(0xffffff, 1.5);
 sun.position.set(3, 10, 4);
@@ -18,7 +27,7 @@ world.add(content);
 function makeView(id) {
   const element = document.getElementById(id);
   // No multisampling: software WebGL (and slow GPUs) pay dearly for it.
-  const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
+  const renderer = new THREE.WebGLRenderer({ antialias: false, stencil: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(window.devicePixelRatio);
   element.appendChild(renderer.domElement);
   return { element, renderer };
@@ -58,23 +67,82 @@ function outline(points, matrix, color, dashed) {
   return line;
 }
 
+// The colour that encodes object `index` in the ID pass (index + 1; black is nothing).
+function idColor(index) {
+  const k = index + 1;
+  return new THREE.Color((k & 255) / 255, ((k >> 8) & 255) / 255, 0);
+}
+
+// Clips away the parts of an object inside its cull volumes, as the renderer hides them: a
+// fragment is dropped when, in a volume's local frame, it lies behind (sign · −z in (0, depth])
+// and within the radius of the axis.
+function withCulls(material, culls) {
+  if (!culls.length) return material;
+  material.onBeforeCompile = shader => {
+    shader.uniforms.cullToLocal = { value: culls.map(c => new THREE.Matrix4().fromArray(c.toLocal)) };
+    shader.uniforms.cullShape = { value: culls.map(c => new THREE.Vector3(c.sign, c.depth, c.radius)) };
+    const n = culls.length;
+    shader.vertexShader = shader.vertexShader
+      .replace('#include <common>', '#include <common>\nvarying vec3 vCullWorld;')
+      .replace('#include <project_vertex>',
+               '#include <project_vertex>\nvCullWorld = (modelMatrix * vec4(transformed, 1.0)).xyz;');
+    shader.fragmentShader = shader.fragmentShader
+      .replace('#include <common>', `#include <common>
+varying vec3 vCullWorld;
+uniform mat4 cullToLocal[${n}];
+uniform vec3 cullShape[${n}];`)
+      .replace('void main() {', `void main() {
+  for (int i = 0; i < ${n}; i++) {
+    vec3 q = (cullToLocal[i] * vec4(vCullWorld, 1.0)).xyz;
+    float behind = -cullShape[i].x * q.z;
+    if (behind > 0.0 && behind <= cullShape[i].y && dot(q.xy, q.xy) <= cullShape[i].z * cullShape[i].z) discard;
+  }`);
+  };
+  return material;
+}
+
 function build(data) {
   content.clear();
-  for (const o of data.objects) {
+  meshes = [];
+  data.objects.forEach((o, index) => {
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.Float32BufferAttribute(o.positions, 3));
     geometry.computeVertexNormals();
     const color = new THREE.Color().setRGB(...o.color.map(c => Math.min(1, c)));
-    const mesh = new THREE.Mesh(geometry,
-      // Front faces only: a room's walls face inwards, so the orbit view sees into it.
-      new THREE.MeshLambertMaterial({ color, side: THREE.FrontSide }));
+    // Front faces only: a room's walls face inwards, so the orbit view sees into it.
+    const shaded = withCulls(new THREE.MeshLambertMaterial({ color, side: THREE.FrontSide }), o.culls);
+    const flat = withCulls(new THREE.MeshBasicMaterial({ color: idColor(index), side: THREE.DoubleSide }), o.culls);
+    const mesh = new THREE.Mesh(geometry, shaded);
     mesh.name = o.name;
+    mesh.userData = { shaded, flat };
+    meshes.push(mesh);
     content.add(mesh);
-  }
-  for (const o of data.openings) {
-    content.add(outline(o.outline, frameOf(o.here), 0x6fd3ff, false));
-    content.add(outline(o.outline, frameOf(o.there), 0xffb35c, true));
-  }
+  });
+  openings = data.openings.map(o => {
+    const here = frameOf(o.here);
+    const there = frameOf(o.there);
+    content.add(outline(o.outline, here, 0x6fd3ff, false));
+    content.add(outline(o.outline, there, 0xffb35c, true));
+    const shape = new THREE.Shape(o.outline.map(([x, y]) => new THREE.Vector2(x, y)));
+    const mask = new THREE.Mesh(new THREE.ShapeGeometry(shape),
+      new THREE.MeshBasicMaterial({ colorWrite: false, depthWrite: false, side: THREE.FrontSide }));
+    mask.applyMatrix4(here);
+    mask.updateMatrixWorld();
+    // Only rays going into the front (towards the here frame's −Z) teleport; they leave
+    // towards the there frame's −Z, so what shows lies on that side of the there plane.
+    const teleport = there.clone().multiply(here.clone().invert());
+    const normal = new THREE.Vector3(0, 0, -1).transformDirection(there);
+    const origin = new THREE.Vector3().setFromMatrixPosition(there);
+    const keep = new THREE.Plane().setFromNormalAndCoplanarPoint(normal, origin);
+    // What the opening shows where the preview stops following it: nothing (black) at the
+    // shot's own depth limit, as the path tracer ends such paths; dark grey where only the
+    // preview's lower limit stops it.
+    const limit = new THREE.Mesh(mask.geometry, new THREE.MeshBasicMaterial({
+      color: PREVIEW_DEPTH >= data.maxPortalDepth ? 0x000000 : 0x303030, side: THREE.FrontSide }));
+    limit.applyMatrix4(here);
+    limit.updateMatrixWorld();
+    return { mask: new THREE.Scene().add(mask), limit: new THREE.Scene().add(limit), teleport, keep };
+  });
   if (data.strands.points.length) {
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.Float32BufferAttribute(data.strands.points, 3));
@@ -134,7 +202,8 @@ async function load(frame) {
   timeline.value = data.frame;
   document.getElementById('frame').textContent = `frame ${data.frame}`;
   document.getElementById('status').textContent =
-    `${data.objects.length} objects, ${data.openings.length} openings`;
+    `${data.objects.length} objects, ${data.openings.length} openings; preview through ` +
+    `${Math.min(PREVIEW_DEPTH, data.maxPortalDepth)} of ${data.maxPortalDepth} opening levels`;
   state.ready = true;
 }
 
@@ -147,11 +216,118 @@ function resize(view, camera) {
   }
 }
 
+const fullScreen = (() => {
+  // A quad at the far plane over the whole viewport, for resetting depth where a stencil
+  // value says.
+  const quad = new THREE.Mesh(new THREE.PlaneGeometry(2, 2), new THREE.ShaderMaterial({
+    vertexShader: 'void main() { gl_Position = vec4(position.xy, 1.0, 1.0); }',
+    fragmentShader: 'void main() { gl_FragColor = vec4(0.0); }',
+    colorWrite: false, depthFunc: THREE.AlwaysDepth,
+  }));
+  quad.frustumCulled = false;
+  return new THREE.Scene().add(quad);
+})();
+
+function setStencil(material, ref, func, pass) {
+  material.stencilWrite = true;
+  material.stencilRef = ref;
+  material.stencilFunc = func;
+  material.stencilZPass = pass;
+  material.stencilFail = THREE.KeepStencilOp;
+  material.stencilZFail = THREE.KeepStencilOp;
+}
+
+// Draws the world from `camera`, then through each opening it sees (up to PREVIEW_DEPTH levels):
+// the opening's outline marks the stencil where it is visible, depth is reset there, and the
+// world is drawn again from the teleported camera, clipped to beyond the there plane.
+function stencilAll(stencil) {
+  content.traverse(c => {
+    if (c.material) setStencil(c.material, stencil, THREE.EqualStencilFunc, THREE.KeepStencilOp);
+  });
+}
+
+function drawWithOpenings(renderer, camera, level = 0, stencil = 0) {
+  stencilAll(stencil);
+  renderer.render(world, camera);
+  const limit = state.scene ? Math.min(PREVIEW_DEPTH, state.scene.maxPortalDepth) : 0;
+  if (level >= limit) {
+    for (const o of openings) {
+      const limit = o.limit.children[0];
+      setStencil(limit.material, stencil, THREE.EqualStencilFunc, THREE.KeepStencilOp);
+      renderer.render(o.limit, camera);
+    }
+    return;
+  }
+  for (const o of openings) {
+    const mask = o.mask.children[0];
+    // Mark where the outline is visible (in front of what was drawn) at this level.
+    setStencil(mask.material, stencil, THREE.EqualStencilFunc, THREE.IncrementStencilOp);
+    mask.material.depthTest = true;
+    renderer.render(o.mask, camera);
+    // Reset depth inside the mark.
+    setStencil(fullScreen.children[0].material, stencil + 1, THREE.EqualStencilFunc, THREE.KeepStencilOp);
+    renderer.render(fullScreen, camera);
+    // The teleported camera, clipped to beyond the there plane.
+    const virtual = camera.clone();
+    virtual.matrixAutoUpdate = false;
+    virtual.matrixWorld.copy(o.teleport).multiply(camera.matrixWorld);
+    virtual.matrixWorldInverse.copy(virtual.matrixWorld).invert();
+    renderer.clippingPlanes = [o.keep];
+    const hidden = frustum && frustum.visible;
+    if (frustum) frustum.visible = false;
+    drawWithOpenings(renderer, virtual, level + 1, stencil + 1);
+    renderer.clippingPlanes = [];
+    if (frustum) frustum.visible = hidden;
+    // Put the opening's own depth back and lower the mark, so later openings at this level
+    // are hidden behind it as they should be.
+    setStencil(mask.material, stencil + 1, THREE.EqualStencilFunc, THREE.DecrementStencilOp);
+    mask.material.depthTest = false;
+    mask.material.depthWrite = true;
+    renderer.render(o.mask, camera);
+    mask.material.depthWrite = false;
+  }
+  stencilAll(stencil);
+}
+
+// The shot camera's view as object indices (−1: nothing), `width` x `height`, rows top first:
+// the ID pass the tests compare with the path tracer's Cryptomatte.
+state.idPass = (width, height) => {
+  const renderer = shotView.renderer;
+  const target = new THREE.WebGLRenderTarget(width, height, { depthBuffer: true, stencilBuffer: true });
+  for (const m of meshes) m.material = m.userData.flat;
+  const hidden = content.children.filter(c => !c.isMesh && c.visible);
+  for (const c of hidden) c.visible = false;
+  if (frustum) frustum.visible = false;
+  renderer.setRenderTarget(target);
+  renderer.setScissorTest(false);
+  renderer.setViewport(0, 0, width, height);
+  renderer.autoClear = false;
+  renderer.setClearColor(0x000000);
+  renderer.clear(true, true, true);
+  drawWithOpenings(renderer, shotCamera);
+  const pixels = new Uint8Array(width * height * 4);
+  renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
+  renderer.setRenderTarget(null);
+  renderer.autoClear = true;
+  target.dispose();
+  for (const c of hidden) c.visible = true;
+  for (const m of meshes) m.material = m.userData.shaded;
+  const ids = new Array(width * height);
+  for (let y = 0; y < height; y++) {
+    for (let x = 0; x < width; x++) {
+      const i = ((height - 1 - y) * width + x) * 4;
+      ids[y * width + x] = pixels[i] + 256 * pixels[i + 1] - 1;
+    }
+  }
+  return ids;
+};
+
 function draw() {
   resize(orbitView, orbitCamera);
   resize(shotView, shotCamera);
   controls.update();
   if (frustum) frustum.visible = true;
+  orbitView.renderer.setClearColor(0x202228);
   orbitView.renderer.render(world, orbitCamera);
   if (frustum) frustum.visible = false;
   // The shot camera's aspect is the film's: letterbox it in its view.
@@ -159,15 +335,17 @@ function draw() {
   const aspect = shotCamera.aspect;
   const [vw, vh] = w / h > aspect ? [h * aspect, h] : [w, w / aspect];
   const r = shotView.renderer;
+  r.autoClear = false;
   r.setScissorTest(false);
   r.setViewport(0, 0, w, h);
   r.setClearColor(0x141518);
-  r.clear();
+  r.clear(true, true, true);
   r.setViewport((w - vw) / 2, (h - vh) / 2, vw, vh);
   r.setScissor((w - vw) / 2, (h - vh) / 2, vw, vh);
   r.setScissorTest(true);
   r.setClearColor(0x000000);
-  r.render(world, shotCamera);
+  r.clear(true, true, true);
+  drawWithOpenings(r, shotCamera);
   requestAnimationFrame(draw);
 }
 

@@ -196,6 +196,31 @@ impl Visibility {
         })
     }
 
+    /// The cull volumes that hide object `object`, at `time`: each volume's frame (local to
+    /// world), which side of it is behind (1 for the here side's −Z, −1 for the there side's
+    /// +Z), its depth and its radius (for previews that clip as the renderer does).
+    pub fn culls_of(&self, object: u32, time: f64) -> Vec<(Similarity, f64, f64, f64)> {
+        let Some(culls) = self.culls.get(object as usize) else {
+            return Vec::new();
+        };
+        culls
+            .iter()
+            .map(|&v| {
+                let volume = &self.volumes[v as usize];
+                let sign = match volume.side {
+                    Side::Here => 1.0,
+                    Side::There => -1.0,
+                };
+                (
+                    volume.frame(&self.rig, time),
+                    sign,
+                    volume.depth,
+                    volume.radius,
+                )
+            })
+            .collect()
+    }
+
     fn object(&self, triangle: u32) -> usize {
         self.triangle_object
             .get(triangle as usize)

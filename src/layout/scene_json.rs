@@ -43,8 +43,9 @@ fn camera(scene: &Scene, time: f64) -> Value {
     })
 }
 
-/// Per object: its name, base colour (the mean albedo of its triangles' materials) and its
-/// triangles' corners in world space at `time`, flattened.
+/// Per object: its name, base colour (the mean albedo of its triangles' materials), its
+/// triangles' corners in world space at `time`, flattened, and the cull volumes that hide
+/// parts of it (world-to-local matrix, column-major; which side is behind; depth; radius).
 fn objects(scene: &Scene, time: f64) -> Vec<Value> {
     let count = scene.object_count as usize;
     let mut positions: Vec<Vec<f32>> = vec![Vec::new(); count];
@@ -67,10 +68,24 @@ fn objects(scene: &Scene, time: f64) -> Vec<Value> {
     (0..count)
         .map(|o| {
             let (sum, n) = colour[o];
+            let culls: Vec<Value> = scene
+                .visibility
+                .culls_of(o as u32, time)
+                .into_iter()
+                .map(|(frame, sign, depth, radius)| {
+                    json!({
+                        "toLocal": frame.inverse().to_mat4().to_cols_array(),
+                        "sign": sign,
+                        "depth": depth,
+                        "radius": radius,
+                    })
+                })
+                .collect();
             json!({
                 "name": scene.id_names[o],
                 "color": (sum / n.max(1) as f32).to_array(),
                 "positions": positions[o],
+                "culls": culls,
             })
         })
         .collect()

@@ -1,13 +1,17 @@
 // Opens a `rift layout` page in headless Chromium (Debian's, with software WebGL) and prints
 // what the page shows as JSON: whether it loaded, its error message, the scene's counts, the
-// share of each view's pixels that differ from its background, and frames drawn per second.
+// share of each view's pixels that differ from its background, and frames drawn per second;
+// with --ids W H, the shot camera's ID pass at W x H instead (object index per pixel).
 //   node tests/browser/layout.mjs URL [SCREENSHOT.png]
+//   node tests/browser/layout.mjs URL --ids W H
 import { chromium } from 'playwright-core';
 import { mkdtempSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 
-const [url, screenshot] = process.argv.slice(2);
+const [url, ...rest] = process.argv.slice(2);
+const idSize = rest[0] === '--ids' ? [Number(rest[1]), Number(rest[2])] : null;
+const screenshot = idSize ? null : rest[0];
 const profile = mkdtempSync(join(tmpdir(), 'rift-chromium-'));
 const context = await chromium.launchPersistentContext(profile, {
   executablePath: '/usr/bin/chromium',
@@ -24,6 +28,18 @@ try {
   await page.goto(url);
   await page.waitForFunction(() => window.riftLayout && window.riftLayout.ready, null,
                              { timeout: 60000 });
+  if (idSize) {
+    const ids = await page.evaluate(([w, h]) => window.riftLayout.idPass(w, h), idSize);
+    console.log(JSON.stringify({ ids, pageErrors: console_errors }));
+  } else {
+    await report(page, console_errors);
+  }
+} finally {
+  await context.close();
+}
+
+// The page's state, how much of each view it draws, and its frame rate, as JSON.
+async function report(page, console_errors) {
   // Frames drawn per second over two seconds.
   const fps = await page.evaluate(() => new Promise(done => {
     let frames = 0;
@@ -66,6 +82,4 @@ try {
   });
   if (screenshot) await page.screenshot({ path: screenshot });
   console.log(JSON.stringify({ ...result, fps, pageErrors: console_errors }));
-} finally {
-  await context.close();
 }
