@@ -293,16 +293,21 @@ fn still_variant(
 #[test]
 fn the_preview_through_openings_matches_the_path_tracers_object_ids() {
     // For two shots and two camera poses each: the page's ID pass (objects flat-coloured,
-    // openings followed one level) against the path tracer's Cryptomatte at the same frame
+    // openings followed as deep as the shot allows: two levels in the showcase, whose openings
+    // see each other, one in through_portal) against the path tracer's Cryptomatte at the same
+    // frame
     // (the object covering at least half of each pixel). Pixels where a ring's strands show in
     // the render are left out: the preview draws strands as hairlines.
     let (w, h) = (256u32, 144u32);
     let dir = tempfile::tempdir().unwrap();
-    for (example, frames) in [("showcase.toml", [6, 20]), ("through_portal.toml", [4, 16])] {
-        let shot = still_variant(dir.path(), example, w, h, 1);
+    for (example, frames, depth) in [
+        ("showcase.toml", [6, 20], 2),
+        ("through_portal.toml", [4, 16], 1),
+    ] {
+        let shot = still_variant(dir.path(), example, w, h, depth);
         let layout = Layout::start(&shot, &[]);
         for frame in frames {
-            let url = format!("{}?frame={frame}", layout.url());
+            let url = format!("{}?frame={frame}&depth={depth}", layout.url());
             let Some(preview) = browse_ids(&url, w, h) else {
                 return;
             };
@@ -396,14 +401,19 @@ fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer,
     let ring = |p: usize| rank_ids.iter().any(|r| r[p] != 0.0 && !ids.contains(&r[p]));
     assert_eq!(preview.len(), id0.len(), "{what}: image sizes");
     let mut checked = 0;
-    for (o, name) in names.iter().enumerate() {
+    // Each object, then "nothing" (−1): where the openings' depth ends, the sky, and so on.
+    let labels = names.iter().map(String::as_str).chain(["nothing"]);
+    for (o, name) in labels.enumerate() {
         let (mut both, mut either) = (0usize, 0usize);
         for p in 0..preview.len() {
             if ring(p) {
                 continue;
             }
-            let in_preview = preview[p] == o as i64;
-            let in_render = id0[p] == ids[o] && cover0[p] >= 0.5;
+            let (in_preview, in_render) = if o < names.len() {
+                (preview[p] == o as i64, id0[p] == ids[o] && cover0[p] >= 0.5)
+            } else {
+                (preview[p] == -1, cover0[p] < 0.5)
+            };
             both += (in_preview && in_render) as usize;
             either += (in_preview || in_render) as usize;
         }
@@ -419,4 +429,93 @@ fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer,
         checked >= 2,
         "{what}: only {checked} objects large enough to compare"
     );
+}
+
+#[test]
+fn the_preview_follows_exactly_the_shots_levels_of_openings() {
+    // An opening 3 m ahead whose there side is 1 m behind the camera, facing the same way:
+    // each level of it shows the next, smaller, until the shot's portal depth ends the paths.
+    // For depths 1 to 3, the region that shows nothing must be the same disk in the preview as
+    // in the path tracer, and shrink level by level.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("wall.obj"),
+        "v -30 -30 -6\nv 30 -30 -6\nv 30 30 -6\nv -30 30 -6\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    let (w, h) = (256u32, 144u32);
+    let mut areas = Vec::new();
+    for depth in 1..=3 {
+        let shot = dir.path().join(format!("regress{depth}.toml"));
+        std::fs::write(
+            &shot,
+            format!(
+                r#"
+[shot]
+name = "regress"
+fps = 24.0
+frames = [1, 1]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [{w}, {h}]
+fov_degrees = 40.0
+[camera.transform]
+position = [0.0, 0.0, 0.0]
+[render]
+max_portal_depth = {depth}
+[[material]]
+name = "grey"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+emission = [1.0, 1.0, 1.0]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "grey"
+[[portal]]
+name = "A"
+here = {{ position = [0.0, 0.0, -3.0] }}
+there = {{ position = [0.0, 0.0, 1.0] }}
+[portal.surface]
+radius = 1.0
+"#
+            ),
+        )
+        .unwrap();
+        let layout = Layout::start(&shot, &[]);
+        let Some(preview) = browse_ids(&format!("{}?depth={depth}", layout.url()), w, h) else {
+            return;
+        };
+        let exr = dir.path().join(format!("regress{depth}.exr"));
+        let out = common::rift(
+            dir.path(),
+            &[
+                "render",
+                shot.to_str().unwrap(),
+                "--spp",
+                "16",
+                "--cryptomatte",
+                "-o",
+                exr.to_str().unwrap(),
+            ],
+        );
+        assert!(out.status.success(), "{}", common::stderr(&out));
+        let layer = read_exr_layer(&exr).unwrap();
+        let cover0 = &layer.channels["CryptoObject00.G"];
+        let (mut both, mut either, mut area) = (0, 0, 0);
+        for p in 0..preview.len() {
+            let (a, b) = (preview[p] == -1, cover0[p] < 0.5);
+            both += (a && b) as usize;
+            either += (a || b) as usize;
+            area += a as usize;
+        }
+        let iou = both as f64 / either.max(1) as f64;
+        eprintln!("depth {depth}: nothing over {area} preview pixels, IoU {iou:.4}");
+        assert!(
+            iou > 0.95 && area > 200,
+            "depth {depth}: IoU {iou:.4} over {area} pixels"
+        );
+        areas.push(area);
+    }
+    assert!(areas[0] > areas[1] && areas[1] > areas[2], "{areas:?}");
 }

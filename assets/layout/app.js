@@ -5,9 +5,9 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
 const state = { ready: false, scene: null, error: null, frame: null, loads: 0 };
 window.riftLayout = state;
-// How many levels of openings the preview follows (the renderer's limit is the shot's
-// max_portal_depth; the preview stops at this one, shown in the status line).
-const PREVIEW_DEPTH = 1;
+// How many levels of openings the preview follows at most (`?depth=N`, default 4): the shot's
+// max_portal_depth when lower; the status line says which.
+const PREVIEW_DEPTH = Math.max(0, Number(new URLSearchParams(location.search).get('depth') ?? 4));
 // Per opening: its filled outline at the here frame (drawn into the stencil buffer) and the
 // teleport T·H⁻¹ that places the camera behind the there frame.
 let openings = [];
@@ -272,11 +272,12 @@ function drawWithOpenings(renderer, camera, level = 0, stencil = 0) {
     virtual.matrixAutoUpdate = false;
     virtual.matrixWorld.copy(o.teleport).multiply(camera.matrixWorld);
     virtual.matrixWorldInverse.copy(virtual.matrixWorld).invert();
+    const clipping = renderer.clippingPlanes;
     renderer.clippingPlanes = [o.keep];
     const hidden = frustum && frustum.visible;
     if (frustum) frustum.visible = false;
     drawWithOpenings(renderer, virtual, level + 1, stencil + 1);
-    renderer.clippingPlanes = [];
+    renderer.clippingPlanes = clipping;
     if (frustum) frustum.visible = hidden;
     // Put the opening's own depth back and lower the mark, so later openings at this level
     // are hidden behind it as they should be.
