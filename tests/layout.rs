@@ -341,36 +341,44 @@ fn the_preview_through_openings_matches_the_path_tracers_object_ids() {
 
 /// The page's ID pass at `w` x `h`, or `None` where the browser tests cannot run.
 fn browse_ids(url: &str, w: u32, h: u32) -> Option<Vec<i64>> {
+    browse_ids_from(url, w, h, None).map(|(ids, _)| ids)
+}
+
+/// [`browse_ids`] after moving the shot camera to `camera` (position, then a point it looks
+/// at), with the milliseconds from the move to the redrawn view.
+fn browse_ids_from(url: &str, w: u32, h: u32, camera: Option<[f32; 6]>) -> Option<(Vec<i64>, f64)> {
     let modules = root().join("tests/browser/node_modules/playwright-core");
     if !Path::new("/usr/bin/chromium").exists() || !modules.exists() {
         eprintln!("skipped: Chromium or tests/browser/node_modules missing (run tests/setup.sh)");
         return None;
     }
-    let out = Command::new("node")
-        .arg(root().join("tests/browser/layout.mjs"))
-        .args([url, "--ids", &w.to_string(), &h.to_string()])
-        .output()
-        .unwrap();
+    let mut command = Command::new("node");
+    command.arg(root().join("tests/browser/layout.mjs")).args([
+        url,
+        "--ids",
+        &w.to_string(),
+        &h.to_string(),
+    ]);
+    if let Some(c) = camera {
+        let list: Vec<String> = c.iter().map(|v| v.to_string()).collect();
+        command.args(["--camera", &list.join(",")]);
+    }
+    let out = command.output().unwrap();
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(
-        v["pageErrors"].as_array().unwrap().len(),
-        0,
-        "{}",
-        v["pageErrors"]
-    );
-    Some(
-        v["ids"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|i| i.as_i64().unwrap())
-            .collect(),
-    )
+    let errors = v["pageErrors"].as_array().unwrap();
+    assert!(errors.is_empty(), "{errors:?}");
+    let ids = v["ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i.as_i64().unwrap())
+        .collect();
+    Some((ids, v["dragMs"].as_f64().unwrap_or(0.0)))
 }
 
 /// The object names (in ID order) and ring names of the scene the server builds at `frame`.
@@ -417,7 +425,9 @@ fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer,
             both += (in_preview && in_render) as usize;
             either += (in_preview || in_render) as usize;
         }
-        if either < 100 {
+        // Regions too small for IoU to judge (a hundred pixels is mostly edge) are left out.
+        let smallest = if o < names.len() { 100 } else { 500 };
+        if either < smallest {
             continue;
         }
         let iou = both as f64 / either as f64;
@@ -518,4 +528,56 @@ radius = 1.0
         areas.push(area);
     }
     assert!(areas[0] > areas[1] && areas[1] > areas[2], "{areas:?}");
+}
+
+#[test]
+fn moving_the_camera_moves_the_preview_through_openings_with_it() {
+    // The shot camera dragged (through the page's API) to a new pose: the preview's IDs, seen
+    // through both openings of the showcase, match a render from that pose.
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (256u32, 144u32);
+    let shot = still_variant(dir.path(), "showcase.toml", w, h, 2);
+    let pose = [0.9f32, 1.4, 0.6, -0.4, 1.45, -3.0];
+    let layout = Layout::start(&shot, &[]);
+    let url = format!("{}?frame=12&depth=2", layout.url());
+    let Some((preview, drag_ms)) = browse_ids_from(&url, w, h, Some(pose)) else {
+        return;
+    };
+    eprintln!("drag to redrawn preview: {drag_ms:.0} ms");
+    // The same pose as a still camera in the shot, rendered by the path tracer.
+    let text = std::fs::read_to_string(&shot).unwrap();
+    let start = text.find("[camera.transform]").unwrap();
+    let end = text[start..].find("\n]\n").map(|e| start + e + 3).unwrap();
+    let moved = format!(
+        "{}[camera.transform]\nposition = [{}, {}, {}]\nlook_at = [{}, {}, {}]\n{}",
+        &text[..start],
+        pose[0],
+        pose[1],
+        pose[2],
+        pose[3],
+        pose[4],
+        pose[5],
+        &text[end..]
+    );
+    let moved_shot = dir.path().join("moved.toml");
+    std::fs::write(&moved_shot, moved).unwrap();
+    let exr = dir.path().join("moved.exr");
+    let out = common::rift(
+        dir.path(),
+        &[
+            "render",
+            moved_shot.to_str().unwrap(),
+            "--frame",
+            "12",
+            "--spp",
+            "16",
+            "--cryptomatte",
+            "-o",
+            exr.to_str().unwrap(),
+        ],
+    );
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    let layer = read_exr_layer(&exr).unwrap();
+    let (names, _) = scene_names(&layout, 12);
+    compare_ids("showcase, camera moved", &preview, &layer, &names);
 }

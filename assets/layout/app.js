@@ -290,6 +290,21 @@ function drawWithOpenings(renderer, camera, level = 0, stencil = 0) {
   stencilAll(stencil);
 }
 
+// Moves the shot camera (position and a point it looks at, world space, up +Y) as a drag in
+// the page would; the pre-pass follows at the next frame drawn. Resolves with the
+// milliseconds until that frame has been drawn.
+state.setCamera = ({ position, lookAt }) => new Promise(done => {
+  const start = performance.now();
+  shotCamera.position.set(...position);
+  shotCamera.up.set(0, 1, 0);
+  shotCamera.lookAt(new THREE.Vector3(...lookAt));
+  shotCamera.updateMatrixWorld();
+  if (frustum) frustum.update();
+  state.drawn = false;
+  const wait = () => (state.drawn ? done(performance.now() - start) : requestAnimationFrame(wait));
+  requestAnimationFrame(wait);
+});
+
 // The shot camera's view as object indices (−1: nothing), `width` x `height`, rows top first:
 // the ID pass the tests compare with the path tracer's Cryptomatte.
 state.idPass = (width, height) => {
@@ -347,6 +362,7 @@ function draw() {
   r.setClearColor(0x000000);
   r.clear(true, true, true);
   drawWithOpenings(r, shotCamera);
+  state.drawn = true;
   requestAnimationFrame(draw);
 }
 

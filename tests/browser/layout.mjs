@@ -11,6 +11,8 @@ import { join } from 'node:path';
 
 const [url, ...rest] = process.argv.slice(2);
 const idSize = rest[0] === '--ids' ? [Number(rest[1]), Number(rest[2])] : null;
+// --camera X,Y,Z,TX,TY,TZ: move the shot camera first (as a drag would) and time the update.
+const cameraAt = rest.indexOf('--camera') >= 0 ? rest[rest.indexOf('--camera') + 1].split(',').map(Number) : null;
 const screenshot = idSize ? null : rest[0];
 const profile = mkdtempSync(join(tmpdir(), 'rift-chromium-'));
 const context = await chromium.launchPersistentContext(profile, {
@@ -28,9 +30,14 @@ try {
   await page.goto(url);
   await page.waitForFunction(() => window.riftLayout && window.riftLayout.ready, null,
                              { timeout: 60000 });
+  let dragMs = null;
+  if (cameraAt) {
+    dragMs = await page.evaluate(c => window.riftLayout.setCamera(
+      { position: c.slice(0, 3), lookAt: c.slice(3, 6) }), cameraAt);
+  }
   if (idSize) {
     const ids = await page.evaluate(([w, h]) => window.riftLayout.idPass(w, h), idSize);
-    console.log(JSON.stringify({ ids, pageErrors: console_errors }));
+    console.log(JSON.stringify({ ids, dragMs, pageErrors: console_errors }));
   } else {
     await report(page, console_errors);
   }
