@@ -581,3 +581,180 @@ fn moving_the_camera_moves_the_preview_through_openings_with_it() {
     let (names, _) = scene_names(&layout, 12);
     compare_ids("showcase, camera moved", &preview, &layer, &names);
 }
+
+/// Runs the page's save of the shot camera after moving it to `camera`: the server's answer
+/// and the error the page shows, or `None` where the browser tests cannot run.
+fn browse_save(url: &str, camera: [f32; 6]) -> Option<(serde_json::Value, String)> {
+    let modules = root().join("tests/browser/node_modules/playwright-core");
+    if !Path::new("/usr/bin/chromium").exists() || !modules.exists() {
+        eprintln!("skipped: Chromium or tests/browser/node_modules missing (run tests/setup.sh)");
+        return None;
+    }
+    let list: Vec<String> = camera.iter().map(|v| v.to_string()).collect();
+    let out = Command::new("node")
+        .arg(root().join("tests/browser/layout.mjs"))
+        .args([url, "--camera", &list.join(","), "--save"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    Some((
+        v["saved"].clone(),
+        v["shown"].as_str().unwrap_or("").to_owned(),
+    ))
+}
+
+#[test]
+fn a_camera_saved_from_the_page_round_trips_and_a_bad_one_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("showcase.toml");
+    let original = std::fs::read_to_string(root().join("examples/shots/showcase.toml"))
+        .unwrap()
+        .replace(
+            "../assets/",
+            &format!("{}/", root().join("examples/assets").display()),
+        );
+    std::fs::write(&shot, &original).unwrap();
+    let layout = Layout::start(&shot, &[]);
+    let pose = [0.5f32, 1.5, 1.0, 0.0, 1.4, -3.0];
+    let url = format!("{}?frame=12", layout.url());
+    let Some((answer, shown)) = browse_save(&url, pose) else {
+        return;
+    };
+    assert!(answer["saved"].is_string(), "{answer} {shown}");
+    // One line added, every comment kept; the previous file kept beside it.
+    let saved = std::fs::read_to_string(&shot).unwrap();
+    let added: Vec<&str> = saved
+        .lines()
+        .filter(|l| !original.lines().any(|o| o == *l))
+        .collect();
+    assert_eq!(
+        added,
+        ["  { frame = 12, position = [0.5, 1.5, 1.0], look_at = [0.0, 1.4, -3.0] },"],
+        "{saved}"
+    );
+    assert_eq!(original.lines().count() + 1, saved.lines().count());
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("showcase.toml.bak")).unwrap(),
+        original
+    );
+    // The server and `rift render` both use the new pose.
+    let (_, body) = layout.get("/api/scene?frame=12", "");
+    let scene: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let position: Vec<f64> = scene["camera"]["position"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(
+        (position[0] - 0.5).abs() < 1e-5 && (position[2] - 1.0).abs() < 1e-5,
+        "{position:?}"
+    );
+    let exr = dir.path().join("saved.exr");
+    let out = common::rift(
+        dir.path(),
+        &[
+            "render",
+            shot.to_str().unwrap(),
+            "--frame",
+            "12",
+            "--res",
+            "64",
+            "36",
+            "--spp",
+            "1",
+            "-o",
+            exr.to_str().unwrap(),
+        ],
+    );
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    let m = read_exr_layer(&exr).unwrap().world_to_camera.unwrap();
+    // Imath's row-vector layout read as columns is the column-vector matrix; the camera sits
+    // at the origin of camera space.
+    let world_to_camera = glam::Mat4::from_cols_array(&m);
+    let eye = world_to_camera.inverse().transform_point3(glam::Vec3::ZERO);
+    // (at the shutter's opening, a quarter frame before the key, the smooth keys have moved
+    // it by millimetres; the old path passed 1.4 m away)
+    assert!(
+        (eye - glam::Vec3::new(0.5, 1.5, 1.0)).length() < 0.02,
+        "rendered from {eye}"
+    );
+    // A pose the shot cannot load (looking at its own position) is refused, on the page too,
+    // and the file stays as it was.
+    let before = std::fs::read_to_string(&shot).unwrap();
+    let (answer, shown) = browse_save(&url, [0.5, 1.5, 1.0, 0.5, 1.5, 1.0]).unwrap();
+    assert!(answer["error"].is_string(), "{answer}");
+    assert!(
+        shown.contains("showcase.toml") && shown.contains("look_at"),
+        "{shown}"
+    );
+    assert_eq!(std::fs::read_to_string(&shot).unwrap(), before);
+}
+
+#[test]
+fn a_save_to_a_read_only_shot_is_refused_with_its_reason() {
+    // The shot on a file system mounted read-only, in a mount namespace of the test's own
+    // (where the machine lets it mount, as root; skipped otherwise).
+    let dir = tempfile::tempdir().unwrap();
+    let ro = dir.path().join("ro");
+    std::fs::create_dir(&ro).unwrap();
+    let text = std::fs::read_to_string(root().join("examples/shots/showcase.toml"))
+        .unwrap()
+        .replace(
+            "../assets/",
+            &format!("{}/", root().join("examples/assets").display()),
+        );
+    std::fs::write(dir.path().join("showcase.toml"), text).unwrap();
+    let script = format!(
+        "mount -t tmpfs tmpfs {ro} && cp {src} {ro}/ && mount -o remount,ro {ro} || exit 77; \
+         exec {exe} layout {ro}/showcase.toml --port 0 --no-browser",
+        ro = ro.display(),
+        src = dir.path().join("showcase.toml").display(),
+        exe = env!("CARGO_BIN_EXE_rift"),
+    );
+    let mut child = Command::new("unshare")
+        .args(["-m", "sh", "-c", &script])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.as_mut().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let Some(port) = line
+        .split("127.0.0.1:")
+        .nth(1)
+        .and_then(|rest| rest.split('/').next())
+        .and_then(|p| p.parse().ok())
+    else {
+        let _ = child.wait();
+        eprintln!("skipped: this machine cannot mount a read-only file system here");
+        return;
+    };
+    let layout = Layout { child, port };
+    let body = r#"{"frame": 12, "position": [0.5, 1.5, 1.0], "look_at": [0.0, 1.4, -3.0]}"#;
+    let (status, answer) = layout.raw(&format!(
+        "POST /api/camera HTTP/1.0\r\nHost: 127.0.0.1:{port}\r\nContent-Length: {}\r\n\r\n{body}",
+        body.len()
+    ));
+    assert_eq!(status, 422, "{answer}");
+    assert!(answer.contains("Read-only file system"), "{answer}");
+    // Malformed edits are 400s.
+    for bad in [
+        "{",
+        r#"{"frame": 12}"#,
+        r#"{"frame": 999, "position": [0,0,0], "look_at": [0,0,-1]}"#,
+    ] {
+        let (status, _) = layout.raw(&format!(
+            "POST /api/camera HTTP/1.0\r\nHost: 127.0.0.1:{port}\r\nContent-Length: {}\r\n\r\n{bad}",
+            bad.len()
+        ));
+        assert_eq!(status, 400, "{bad}");
+    }
+}

@@ -194,6 +194,7 @@ async function load(frame) {
   showError('');
   state.scene = data;
   state.frame = data.frame;
+  state.lookAt = null;
   build(data);
   state.loads += 1;
   const timeline = document.getElementById('timeline');
@@ -296,6 +297,7 @@ function drawWithOpenings(renderer, camera, level = 0, stencil = 0) {
 state.setCamera = ({ position, lookAt }) => new Promise(done => {
   const start = performance.now();
   shotCamera.position.set(...position);
+  state.lookAt = lookAt;
   shotCamera.up.set(0, 1, 0);
   shotCamera.lookAt(new THREE.Vector3(...lookAt));
   shotCamera.updateMatrixWorld();
@@ -304,6 +306,24 @@ state.setCamera = ({ position, lookAt }) => new Promise(done => {
   const wait = () => (state.drawn ? done(performance.now() - start) : requestAnimationFrame(wait));
   requestAnimationFrame(wait);
 });
+
+// Saves the shot camera's pose as the camera's key at the current frame into the shot file
+// (the server keeps the file's comments and layout, and refuses a pose the shot would not
+// load with). Resolves with the server's answer; a refusal shows on the page.
+state.saveCamera = async () => {
+  const forward = new THREE.Vector3(0, 0, -1).applyQuaternion(shotCamera.quaternion);
+  const lookAt = shotCamera.position.clone().add(forward);
+  const body = JSON.stringify({
+    frame: state.frame,
+    position: shotCamera.position.toArray(),
+    look_at: state.lookAt || lookAt.toArray(),
+  });
+  const response = await fetch('/api/camera', { method: 'POST', body });
+  const answer = await response.json().catch(() => ({ error: `HTTP ${response.status}` }));
+  showError(answer.error || '');
+  if (!answer.error) document.getElementById('status').textContent = `saved ${answer.saved}`;
+  return answer;
+};
 
 // The shot camera's view as object indices (−1: nothing), `width` x `height`, rows top first:
 // the ID pass the tests compare with the path tracer's Cryptomatte.
@@ -368,6 +388,7 @@ function draw() {
 
 let playing = null;
 document.getElementById('timeline').addEventListener('change', e => load(Number(e.target.value)));
+document.getElementById('save').addEventListener('click', () => state.saveCamera());
 document.getElementById('play').addEventListener('click', () => {
   if (playing) { clearInterval(playing); playing = null; return; }
   const fps = state.scene ? state.scene.fps : 24;

@@ -6,6 +6,7 @@
 //! sent) name the loopback address, so another site open in the same browser cannot read the
 //! shot (DNS rebinding). Bad requests get a 4xx and the server goes on; Ctrl-C stops it.
 
+mod save;
 mod scene_json;
 
 use anyhow::Context;
@@ -95,7 +96,11 @@ pub fn run(args: LayoutArgs) -> anyhow::Result<()> {
         open_browser(&url);
     }
     let stop = crate::resume::stop_on_signals()?;
-    let mut state = State { shot, cached: None };
+    let mut state = State {
+        shot,
+        path: args.shot.clone(),
+        cached: None,
+    };
     while !stop.load(Ordering::SeqCst) {
         match server.recv_timeout(Duration::from_millis(200)) {
             Ok(Some(request)) => state.answer(request, port),
@@ -110,19 +115,31 @@ pub fn run(args: LayoutArgs) -> anyhow::Result<()> {
 /// The shot being staged and the last frame's scene JSON.
 struct State {
     shot: Shot,
+    /// The shot file, which edits are saved into.
+    path: PathBuf,
     cached: Option<(i64, String)>,
 }
 
+/// The largest request body read (an edit is a few hundred bytes).
+const MAX_BODY: u64 = 64 << 10;
+
 impl State {
     /// Answers one request (errors in the answer are the browser's to see, never fatal).
-    fn answer(&mut self, request: Request, port: u16) {
+    fn answer(&mut self, mut request: Request, port: u16) {
         let response = if !loopback(&request, port) {
             text(
                 403,
                 "rift layout answers only requests to its own loopback address",
             )
+        } else if *request.method() == Method::Post && request.url() == "/api/camera" {
+            let mut body = String::new();
+            let reader = std::io::Read::take(request.as_reader(), MAX_BODY);
+            match std::io::Read::read_to_string(&mut { reader }, &mut body) {
+                Ok(_) => self.save_camera(&body),
+                Err(_) => text(400, "the body is not UTF-8 text"),
+            }
         } else if *request.method() != Method::Get {
-            text(405, "only GET is served")
+            text(405, "only GET is served, and POST to /api/camera")
         } else {
             self.route(request.url())
         };
@@ -158,15 +175,48 @@ impl State {
                 self.cached = Some((frame, json.clone()));
                 with_type(Response::from_string(json), "application/json")
             }
-            Err(e) => {
-                let body = serde_json::json!({ "error": e.to_string() }).to_string();
-                with_type(
-                    Response::from_string(body).with_status_code(422),
-                    "application/json",
-                )
-            }
+            Err(e) => json_error(422, &e.to_string()),
         }
     }
+}
+
+impl State {
+    /// Saves the camera pose of a JSON body `{"frame": F, "position": [x, y, z], "look_at":
+    /// [x, y, z]}` into the shot file: 200 with the file's name, 400 for a malformed body, 422
+    /// (with the reason, file and key) when the shot would not load or cannot be written.
+    fn save_camera(&mut self, body: &str) -> Response<std::io::Cursor<Vec<u8>>> {
+        #[derive(serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Edit {
+            frame: i64,
+            position: [f64; 3],
+            look_at: [f64; 3],
+        }
+        let edit: Edit = match serde_json::from_str(body) {
+            Ok(e) => e,
+            Err(e) => return json_error(400, &format!("the edit: {e}")),
+        };
+        if let Err(message) = frame_param(&format!("frame={}", edit.frame), &self.shot) {
+            return json_error(400, &message);
+        }
+        match save::camera(&self.path, edit.frame, edit.position, edit.look_at) {
+            Ok(shot) => {
+                self.shot = shot;
+                self.cached = None;
+                let body = serde_json::json!({ "saved": self.path.display().to_string() });
+                with_type(Response::from_string(body.to_string()), "application/json")
+            }
+            Err(message) => json_error(422, &message),
+        }
+    }
+}
+
+fn json_error(status: u16, message: &str) -> Response<std::io::Cursor<Vec<u8>>> {
+    let body = serde_json::json!({ "error": message }).to_string();
+    with_type(
+        Response::from_string(body).with_status_code(status),
+        "application/json",
+    )
 }
 
 /// The `frame` query parameter, checked against the shot's range (the first frame without).

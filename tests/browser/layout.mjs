@@ -11,9 +11,11 @@ import { join } from 'node:path';
 
 const [url, ...rest] = process.argv.slice(2);
 const idSize = rest[0] === '--ids' ? [Number(rest[1]), Number(rest[2])] : null;
-// --camera X,Y,Z,TX,TY,TZ: move the shot camera first (as a drag would) and time the update.
+const flags = rest.filter(r => r.startsWith('--'));
+// --camera X,Y,Z,TX,TY,TZ: move the shot camera first (as a drag would) and time the update;
+// --save: then save that pose into the shot file through the page.
 const cameraAt = rest.indexOf('--camera') >= 0 ? rest[rest.indexOf('--camera') + 1].split(',').map(Number) : null;
-const screenshot = idSize ? null : rest[0];
+const screenshot = flags.length ? null : rest[0];
 const profile = mkdtempSync(join(tmpdir(), 'rift-chromium-'));
 const context = await chromium.launchPersistentContext(profile, {
   executablePath: '/usr/bin/chromium',
@@ -35,7 +37,11 @@ try {
     dragMs = await page.evaluate(c => window.riftLayout.setCamera(
       { position: c.slice(0, 3), lookAt: c.slice(3, 6) }), cameraAt);
   }
-  if (idSize) {
+  if (rest.includes('--save')) {
+    const saved = await page.evaluate(() => window.riftLayout.saveCamera());
+    const shown = await page.evaluate(() => document.getElementById('error').textContent);
+    console.log(JSON.stringify({ saved, shown, pageErrors: console_errors }));
+  } else if (idSize) {
     const ids = await page.evaluate(([w, h]) => window.riftLayout.idPass(w, h), idSize);
     console.log(JSON.stringify({ ids, dragMs, pageErrors: console_errors }));
   } else {
