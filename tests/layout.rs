@@ -74,11 +74,14 @@ impl Layout {
 
 impl Drop for Layout {
     fn drop(&mut self) {
-        // It may have stopped already.
-        let _ = Command::new("kill")
-            .args(["-INT", &self.child.id().to_string()])
-            .status();
-        let _ = self.child.wait();
+        // Only a child not yet reaped is signalled: a reaped one's PID may already belong to
+        // another test's server.
+        if let Ok(None) = self.child.try_wait() {
+            let _ = Command::new("kill")
+                .args(["-INT", &self.child.id().to_string()])
+                .status();
+            let _ = self.child.wait();
+        }
     }
 }
 
