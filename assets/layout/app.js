@@ -114,15 +114,19 @@ function build(data) {
     const flat = withCulls(new THREE.MeshBasicMaterial({ color: idColor(index), side: THREE.DoubleSide }), o.culls);
     const mesh = new THREE.Mesh(geometry, shaded);
     mesh.name = o.name;
-    mesh.userData = { shaded, flat };
+    mesh.userData = { shaded, flat, direct: o.seenByCamera, through: o.seenThroughOpenings };
     meshes.push(mesh);
     content.add(mesh);
   });
-  openings = data.openings.map(o => {
+  for (const o of data.openings) {
+    content.add(outline(o.outline, frameOf(o.here), 0x6fd3ff, false));
+    content.add(outline(o.outline, frameOf(o.there), 0xffb35c, true));
+  }
+  // Openings that teleport at most half the rays (their opacity) show what lies behind them
+  // in the preview; the others are followed.
+  openings = data.openings.filter(o => o.opacity >= 0.5).map(o => {
     const here = frameOf(o.here);
     const there = frameOf(o.there);
-    content.add(outline(o.outline, here, 0x6fd3ff, false));
-    content.add(outline(o.outline, there, 0xffb35c, true));
     const shape = new THREE.Shape(o.outline.map(([x, y]) => new THREE.Vector2(x, y)));
     const mask = new THREE.Mesh(new THREE.ShapeGeometry(shape),
       new THREE.MeshBasicMaterial({ colorWrite: false, depthWrite: false, side: THREE.FrontSide }));
@@ -247,8 +251,15 @@ function stencilAll(stencil) {
   });
 }
 
+// Objects as camera rays see them at `level`: directly at 0, through openings beyond (their
+// visibility flags); the orbit view shows them all.
+function showFor(level) {
+  for (const m of meshes) m.visible = level === null || (level === 0 ? m.userData.direct : m.userData.through);
+}
+
 function drawWithOpenings(renderer, camera, level = 0, stencil = 0) {
   stencilAll(stencil);
+  showFor(level);
   renderer.render(world, camera);
   const limit = state.scene ? Math.min(PREVIEW_DEPTH, state.scene.maxPortalDepth) : 0;
   if (level >= limit) {
@@ -278,6 +289,7 @@ function drawWithOpenings(renderer, camera, level = 0, stencil = 0) {
     const hidden = frustum && frustum.visible;
     if (frustum) frustum.visible = false;
     drawWithOpenings(renderer, virtual, level + 1, stencil + 1);
+    showFor(level);
     renderer.clippingPlanes = clipping;
     if (frustum) frustum.visible = hidden;
     // Put the opening's own depth back and lower the mark, so later openings at this level
@@ -363,6 +375,7 @@ function draw() {
   resize(shotView, shotCamera);
   controls.update();
   if (frustum) frustum.visible = true;
+  showFor(null);
   orbitView.renderer.setClearColor(0x202228);
   orbitView.renderer.render(world, orbitCamera);
   if (frustum) frustum.visible = false;

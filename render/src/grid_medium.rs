@@ -268,6 +268,29 @@ impl<'a> Walks<'a> {
         (mu, change)
     }
 
+    /// The next tentative collision after `*t` (moved there) before `to`, drawn against the
+    /// summed majorant brick by brick, and the majorant there; `None` past `to`.
+    fn tentative(&mut self, t: &mut f32, to: f32, rng: &mut Rng) -> Option<(f32, f32)> {
+        while *t < to {
+            let (mu, change) = self.majorant(*t, to);
+            if mu <= 0.0 {
+                if change <= *t {
+                    return None;
+                }
+                *t = change;
+                continue;
+            }
+            let next = *t + rng.exponential(mu);
+            if next >= change {
+                *t = change;
+                continue;
+            }
+            *t = next;
+            return Some((next, mu));
+        }
+        None
+    }
+
     /// Per channel: absorption, scattering and emission at `t`, summed over the grids.
     fn coefficients(&self, t: f32) -> [Vec3; 3] {
         let mut sum = [Vec3::ZERO; 3];
@@ -350,22 +373,8 @@ impl GridMedia {
             return Tracked::Passed;
         }
         let mut walks = Walks::new(self, origin, dir, time, from, to);
-        let mut t = from;
-        while t < to {
-            let (mu, change) = walks.majorant(t, to);
-            if mu <= 0.0 {
-                if change <= t {
-                    break;
-                }
-                t = change;
-                continue;
-            }
-            let next = t + rng.exponential(mu);
-            if next >= change {
-                t = change;
-                continue;
-            }
-            t = next;
+        let mut cursor = from;
+        while let Some((t, mu)) = walks.tentative(&mut cursor, to, rng) {
             let [absorption, scattering, emission] = walks.coefficients(t);
             *emitted += *beta * emission / mu;
             let null = Vec3::splat(mu) - absorption - scattering;
@@ -407,22 +416,8 @@ impl GridMedia {
     ) -> Vec3 {
         let mut walks = Walks::new(self, origin, dir, time, from, to);
         let mut transmittance = Vec3::ONE;
-        let mut t = from;
-        while t < to {
-            let (mu, change) = walks.majorant(t, to);
-            if mu <= 0.0 {
-                if change <= t {
-                    break;
-                }
-                t = change;
-                continue;
-            }
-            let next = t + rng.exponential(mu);
-            if next >= change {
-                t = change;
-                continue;
-            }
-            t = next;
+        let mut cursor = from;
+        while let Some((t, mu)) = walks.tentative(&mut cursor, to, rng) {
             let [absorption, scattering, _] = walks.coefficients(t);
             transmittance *= (Vec3::ONE - (absorption + scattering) / mu).max(Vec3::ZERO);
             let largest = transmittance.max_element();

@@ -166,6 +166,13 @@ impl Visibility {
             .is_none_or(|f| f.sees(class))
     }
 
+    /// True when rays of `class` see object `object` at all.
+    pub fn object_seen(&self, object: u32, class: RayClass) -> bool {
+        self.flags
+            .get(object as usize)
+            .is_none_or(|f| f.sees(class))
+    }
+
     /// True when a ray of `class` at time `time` may hit `triangle` at world point `p`.
     #[inline]
     pub fn admits(&self, triangle: u32, class: RayClass, p: Vec3, time: f64) -> bool {

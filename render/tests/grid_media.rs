@@ -6,7 +6,6 @@ mod common;
 
 use common::{
     assert_identity_opening_changes_nothing, box_obj, equivalence, render_shot, render_shot_with,
-    square,
 };
 use glam::Vec3;
 use rift_render::Scene;
@@ -41,37 +40,12 @@ fn mean_of_two_seeds(dir: &Path, text: &str, spp: u32) -> (Vec3, Vec3) {
 const SLAB: &str = r#"vdb = "slab.vdb"
 transform = { position = [-3.875, -1.875, -6.0] }"#;
 
-/// A camera at the origin looking down −Z at a wall 8 m away emitting 1 (and nothing else
-/// lit), at `resolution` and `fov` degrees across; `extra` adds objects and media.
+/// [`common::lamp_wall`] with the VDB fixtures copied beside it.
 fn lamp_wall(dir: &Path, resolution: [u32; 2], fov: f32, extra: &str) -> String {
-    std::fs::write(dir.join("wall.obj"), square(-8.0, 30.0)).unwrap();
     for f in ["slab.vdb", "puff.vdb", "puff_half.vdb"] {
         std::fs::copy(fixtures().join(f), dir.join(f)).unwrap();
     }
-    format!(
-        r#"
-[shot]
-name = "lamp_wall"
-fps = 24.0
-frames = [1, 2]
-[camera]
-resolution = [{}, {}]
-fov_degrees = {fov}
-[camera.transform]
-position = [0.0, 0.0, 0.0]
-[[material]]
-name = "lamp"
-type = "diffuse"
-reflectance = [0.0, 0.0, 0.0]
-emission = [1.0, 1.0, 1.0]
-[[object]]
-name = "wall"
-mesh = "wall.obj"
-material = "lamp"
-{extra}
-"#,
-        resolution[0], resolution[1]
-    )
+    common::lamp_wall(dir, resolution, fov, extra)
 }
 
 fn scene(dir: &Path, text: &str) -> Scene {

@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::{assert_identity_opening_changes_nothing, box_obj, equivalence, render_shot, square};
+use common::{
+    assert_identity_opening_changes_nothing, box_obj, equivalence, lamp_wall, render_shot, square,
+};
 use glam::Vec3;
 use rift_render::Scene;
 use rift_render::rift_fx::Shot;
@@ -44,36 +46,6 @@ name = "fog"
 
 fn mean(img: &rift_render::film::Image) -> Vec3 {
     img.rgb.iter().copied().sum::<Vec3>() / img.rgb.len() as f32
-}
-
-/// A shot with the camera at the origin looking down −Z at a wall 8 m away emitting 1 (and
-/// nothing else lit), at `resolution` and `fov` degrees across; `extra` adds objects and media.
-fn lamp_wall(dir: &Path, resolution: [u32; 2], fov: f32, extra: &str) -> String {
-    std::fs::write(dir.join("wall.obj"), square(-8.0, 30.0)).unwrap();
-    format!(
-        r#"
-[shot]
-name = "lamp_wall"
-fps = 24.0
-frames = [1, 1]
-[camera]
-resolution = [{}, {}]
-fov_degrees = {fov}
-[camera.transform]
-position = [0.0, 0.0, 0.0]
-[[material]]
-name = "lamp"
-type = "diffuse"
-reflectance = [0.0, 0.0, 0.0]
-emission = [1.0, 1.0, 1.0]
-[[object]]
-name = "wall"
-mesh = "wall.obj"
-material = "lamp"
-{extra}
-"#,
-        resolution[0], resolution[1]
-    )
 }
 
 #[test]

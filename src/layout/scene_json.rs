@@ -8,6 +8,7 @@ use rift_render::Scene;
 use rift_render::camera::Lens;
 use rift_render::mask::Mask;
 use rift_render::rift_fx::Shot;
+use rift_render::visibility::RayClass;
 use serde_json::{Value, json};
 
 /// Points of a round outline (disks, and rings by their widest extent).
@@ -45,7 +46,8 @@ fn camera(scene: &Scene, time: f64) -> Value {
 
 /// Per object: its name, base colour (the mean albedo of its triangles' materials), its
 /// triangles' corners in world space at `time`, flattened, and the cull volumes that hide
-/// parts of it (world-to-local matrix, column-major; which side is behind; depth; radius).
+/// parts of it (world-to-local matrix, column-major; which side is behind; depth; radius), and
+/// whether camera rays see it directly and through openings (its visibility flags).
 fn objects(scene: &Scene, time: f64) -> Vec<Value> {
     let count = scene.object_count as usize;
     let mut positions: Vec<Vec<f32>> = vec![Vec::new(); count];
@@ -86,6 +88,8 @@ fn objects(scene: &Scene, time: f64) -> Vec<Value> {
                 "color": (sum / n.max(1) as f32).to_array(),
                 "positions": positions[o],
                 "culls": culls,
+                "seenByCamera": scene.visibility.object_seen(o as u32, RayClass::Camera),
+                "seenThroughOpenings": scene.visibility.object_seen(o as u32, RayClass::ThroughPortal),
             })
         })
         .collect()
@@ -109,6 +113,7 @@ fn openings(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
                 "here": frame(portals.here(i, time)),
                 "there": frame(portals.there(i, time)),
                 "outline": outline(portals.mask(i)),
+                "opacity": portals.look(i).opacity,
             })
         })
         .collect()

@@ -225,3 +225,34 @@ pub fn assert_identity_opening_changes_nothing(
     assert_statistically_equal([&c.rgb, &d.rgb], [&a.rgb, &b.rgb], what);
     c.portal_depth
 }
+
+/// A shot with the camera at the origin looking down −Z at a wall 8 m away emitting 1 (and
+/// nothing else lit), at `resolution` and `fov` degrees across; `extra` adds objects and media.
+/// Frames 1 and 2, so keys can move things during frame 1's shutter.
+pub fn lamp_wall(dir: &Path, resolution: [u32; 2], fov: f32, extra: &str) -> String {
+    std::fs::write(dir.join("wall.obj"), square(-8.0, 30.0)).unwrap();
+    format!(
+        r#"
+[shot]
+name = "lamp_wall"
+fps = 24.0
+frames = [1, 2]
+[camera]
+resolution = [{}, {}]
+fov_degrees = {fov}
+[camera.transform]
+position = [0.0, 0.0, 0.0]
+[[material]]
+name = "lamp"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [1.0, 1.0, 1.0]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "lamp"
+{extra}
+"#,
+        resolution[0], resolution[1]
+    )
+}
