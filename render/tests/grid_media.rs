@@ -369,3 +369,35 @@ fn a_grid_carried_through_an_opening_sits_where_the_solver_puts_it() {
     }
     assert!(inside > 100, "the points must sample the puff ({inside})");
 }
+
+#[test]
+fn a_cache_of_one_file_per_frame_gives_each_frame_its_grid() {
+    // vdb = "sim.####.vdb": frame 1 reads the puff, frame 2 the slab; a frame with no file is
+    // refused naming that frame's file.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(fixtures().join("puff.vdb"), dir.path().join("sim.0001.vdb")).unwrap();
+    std::fs::copy(fixtures().join("slab.vdb"), dir.path().join("sim.0002.vdb")).unwrap();
+    let text = lamp_wall(
+        dir.path(),
+        [4, 4],
+        10.0,
+        "[[medium]]\nname = \"sim\"\nvdb = \"sim.####.vdb\"\nabsorption = [1.0, 1.0, 1.0]\n",
+    )
+    .replace("frames = [1, 2]", "frames = [1, 3]");
+    let path = dir.path().join("sim.toml");
+    std::fs::write(&path, &text).unwrap();
+    let shot = Shot::load(&path).unwrap();
+    // The puff's centre voxel (3, −2, 5) lies at (1.15, 1.9, 3.25); the slab's voxel (2, 2, 2)
+    // at (0.5, 0.5, 0.5), which the puff does not reach, and it ends at z = 0.
+    let at = |frame: i64, p: Vec3| {
+        Scene::build(&shot, frame).unwrap().media.grids.grids[0].density_at(p, 0.0)
+    };
+    let (puff, slab) = (Vec3::new(1.15, 1.9, 3.25), Vec3::new(0.5, 0.5, 0.5));
+    assert!(at(1, puff) > 0.5 && at(1, slab) == 0.0);
+    assert!(at(2, slab) == 1.0 && at(2, Vec3::new(0.5, 0.5, -1.0)) == 0.0);
+    let e = Scene::build(&shot, 3).err().unwrap().to_string();
+    assert!(
+        e.contains("sim.0003.vdb") && e.contains("medium[0].vdb"),
+        "{e}"
+    );
+}

@@ -1,6 +1,7 @@
 //! Media from density grids: each `[[medium]]` with a `vdb` file has its grid read (by name,
 //! "density" unless `grid` says) and placed by its `transform` and `through` keys like an
-//! object (see [`crate::grid_medium`]).
+//! object (see [`crate::grid_medium`]). A run of `#` in the file name is the frame number, so
+//! a simulation's cache (`smoke.####.vdb`) gives each frame its own grid.
 
 use super::media::GridSection;
 use super::objects::Loader;
@@ -14,6 +15,7 @@ const DEFAULT_GRID_BYTES: u64 = 8 << 30;
 pub(super) fn load(
     loader: &Loader,
     sections: &[GridSection],
+    frame: i64,
     budget: Option<u64>,
 ) -> Result<GridMedia, RenderError> {
     let file = &loader.shot.source;
@@ -30,7 +32,7 @@ pub(super) fn load(
         let s = &g.section;
         let vdb_key = format!("{}.vdb", g.key);
         let relative = s.vdb.as_deref().unwrap_or_default();
-        let path = loader.base.join(relative);
+        let path = loader.base.join(super::rings::frame_path(relative, frame));
         let bytes = rift_fx::io::read(&path).map_err(|e| {
             key_error(
                 file,

@@ -299,7 +299,7 @@ impl Scene {
             media: &media,
         };
         let (parts, flags) = loader.parts(&objects, &mut materials, &mut groups)?;
-        let grids = grids::load(&loader, &media.grids, overrides.memory_budget)?;
+        let grids = grids::load(&loader, &media.grids, frame, overrides.memory_budget)?;
         let count = objects::triangle_count(&parts);
         let grid_bytes = grids.bytes() as u64;
         if let Some(budget) = overrides.memory_budget

@@ -53,7 +53,8 @@
 //!
 //! [[medium]]                    # a heterogeneous medium from an OpenVDB density grid
 //! name = "smoke"
-//! vdb = "smoke.vdb"             # relative to the shot file (float, double or half grids)
+//! vdb = "smoke.####.vdb"        # relative to the shot file; a run of # is the frame number
+//!                               # (float, double or half grids)
 //! grid = "density"              # the grid's name in the file (default "density")
 //! density = 2.0                 # a factor on its values (default 1)
 //! absorption = [0.5, 0.5, 0.5]  # coefficients per metre at density 1, as above
