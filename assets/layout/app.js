@@ -138,6 +138,8 @@ function build(data) {
     const normal = new THREE.Vector3(0, 0, -1).transformDirection(there);
     const origin = new THREE.Vector3().setFromMatrixPosition(there);
     const keep = new THREE.Plane().setFromNormalAndCoplanarPoint(normal, origin);
+    const front = new THREE.Plane().setFromNormalAndCoplanarPoint(
+      new THREE.Vector3(0, 0, 1).transformDirection(here), new THREE.Vector3().setFromMatrixPosition(here));
     // What the opening shows where the preview stops following it: nothing (black) at the
     // shot's own depth limit, as the path tracer ends such paths; dark grey where only the
     // preview's lower limit stops it.
@@ -145,7 +147,7 @@ function build(data) {
       color: PREVIEW_DEPTH >= data.maxPortalDepth ? 0x000000 : 0x303030, side: THREE.FrontSide }));
     limit.applyMatrix4(here);
     limit.updateMatrixWorld();
-    return { mask: new THREE.Scene().add(mask), limit: new THREE.Scene().add(limit), teleport, keep };
+    return { mask: new THREE.Scene().add(mask), limit: new THREE.Scene().add(limit), teleport, keep, front };
   });
   if (data.strands.points.length) {
     const geometry = new THREE.BufferGeometry();
@@ -270,8 +272,14 @@ function drawWithOpenings(renderer, camera, level = 0, stencil = 0) {
     }
     return;
   }
+  const view = new THREE.Frustum().setFromProjectionMatrix(
+    new THREE.Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse));
   for (const o of openings) {
     const mask = o.mask.children[0];
+    // Only rays into an opening's front teleport: skip it when the camera is behind its plane
+    // or it lies outside the view (each skipped opening saves a whole level of drawing).
+    const eye = new THREE.Vector3().setFromMatrixPosition(camera.matrixWorld);
+    if (o.front.distanceToPoint(eye) <= 0 || !view.intersectsObject(mask)) continue;
     // Mark where the outline is visible (in front of what was drawn) at this level.
     setStencil(mask.material, stencil, THREE.EqualStencilFunc, THREE.IncrementStencilOp);
     mask.material.depthTest = true;
