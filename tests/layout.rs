@@ -325,24 +325,8 @@ fn the_preview_through_openings_matches_the_path_tracers_object_ids() {
             let Some(preview) = browse_ids(&url, w, h) else {
                 return;
             };
-            let exr = dir.path().join(format!("ids.{frame}.exr"));
-            let out = common::rift(
-                dir.path(),
-                &[
-                    "render",
-                    shot.to_str().unwrap(),
-                    "--frame",
-                    &frame.to_string(),
-                    "--spp",
-                    "16",
-                    "--cryptomatte",
-                    "-o",
-                    exr.to_str().unwrap(),
-                ],
-            );
-            assert!(out.status.success(), "{}", common::stderr(&out));
-            let layer = read_exr_layer(&exr).unwrap();
-            let (scene, _) = scene_names(&layout, frame);
+            let layer = render_ids(dir.path(), &shot, frame);
+            let scene = scene_names(&layout, frame);
             compare_ids(
                 &format!("{example} frame {frame}"),
                 &preview,
@@ -379,18 +363,16 @@ fn browse_ids_from(url: &str, w: u32, h: u32, camera: Option<[f32; 6]>) -> Optio
     Some((ids, v["dragMs"].as_f64().unwrap_or(0.0)))
 }
 
-/// The object names (in ID order) and ring names of the scene the server builds at `frame`.
-fn scene_names(layout: &Layout, frame: i64) -> (Vec<String>, usize) {
+/// The object names (in ID order) of the scene the server builds at `frame`.
+fn scene_names(layout: &Layout, frame: i64) -> Vec<String> {
     let (_, body) = layout.get(&format!("/api/scene?frame={frame}"), "");
     let scene: serde_json::Value = serde_json::from_str(&body).unwrap();
-    let names: Vec<String> = scene["objects"]
+    scene["objects"]
         .as_array()
         .unwrap()
         .iter()
         .map(|o| o["name"].as_str().unwrap().to_owned())
-        .collect();
-    let n = names.len();
-    (names, n)
+        .collect()
 }
 
 /// Per object with enough pixels: IoU of the preview's pixels and the render's (rank-0 ID
@@ -491,21 +473,7 @@ radius = 1.0
         let Some(preview) = browse_ids(&format!("{}?depth={depth}", layout.url()), w, h) else {
             return;
         };
-        let exr = dir.path().join(format!("regress{depth}.exr"));
-        let out = common::rift(
-            dir.path(),
-            &[
-                "render",
-                shot.to_str().unwrap(),
-                "--spp",
-                "16",
-                "--cryptomatte",
-                "-o",
-                exr.to_str().unwrap(),
-            ],
-        );
-        assert!(out.status.success(), "{}", common::stderr(&out));
-        let layer = read_exr_layer(&exr).unwrap();
+        let layer = render_ids(dir.path(), &shot, 1);
         let cover0 = &layer.channels["CryptoObject00.G"];
         let (mut both, mut either, mut area) = (0, 0, 0);
         for p in 0..preview.len() {
@@ -556,24 +524,8 @@ fn moving_the_camera_moves_the_preview_through_openings_with_it() {
     );
     let moved_shot = dir.path().join("moved.toml");
     std::fs::write(&moved_shot, moved).unwrap();
-    let exr = dir.path().join("moved.exr");
-    let out = common::rift(
-        dir.path(),
-        &[
-            "render",
-            moved_shot.to_str().unwrap(),
-            "--frame",
-            "12",
-            "--spp",
-            "16",
-            "--cryptomatte",
-            "-o",
-            exr.to_str().unwrap(),
-        ],
-    );
-    assert!(out.status.success(), "{}", common::stderr(&out));
-    let layer = read_exr_layer(&exr).unwrap();
-    let (names, _) = scene_names(&layout, 12);
+    let layer = render_ids(dir.path(), &moved_shot, 12);
+    let names = scene_names(&layout, 12);
     compare_ids("showcase, camera moved", &preview, &layer, &names);
 }
 
@@ -737,4 +689,28 @@ fn a_save_to_a_read_only_shot_is_refused_with_its_reason() {
         ));
         assert_eq!(status, 400, "{bad}");
     }
+}
+
+/// The path tracer's render of `shot` at `frame` with Cryptomatte layers, 16 spp.
+fn render_ids(dir: &Path, shot: &Path, frame: i64) -> rift_render::film::ExrLayer {
+    let exr = dir.join(format!(
+        "{}.{frame}.ids.exr",
+        shot.file_stem().unwrap().to_string_lossy()
+    ));
+    let out = common::rift(
+        dir,
+        &[
+            "render",
+            shot.to_str().unwrap(),
+            "--frame",
+            &frame.to_string(),
+            "--spp",
+            "16",
+            "--cryptomatte",
+            "-o",
+            exr.to_str().unwrap(),
+        ],
+    );
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    read_exr_layer(&exr).unwrap()
 }
