@@ -45,8 +45,9 @@ impl Layout {
     fn raw(&self, request: &str) -> (u16, String) {
         let mut stream = TcpStream::connect(("127.0.0.1", self.port)).unwrap();
         stream.write_all(request.as_bytes()).unwrap();
-        let mut response = String::new();
-        stream.read_to_string(&mut response).unwrap();
+        let mut bytes = Vec::new();
+        stream.read_to_end(&mut bytes).unwrap();
+        let response = String::from_utf8_lossy(&bytes).into_owned();
         let status = response
             .split_whitespace()
             .nth(1)
@@ -713,4 +714,36 @@ fn render_ids(dir: &Path, shot: &Path, frame: i64) -> rift_render::film::ExrLaye
     );
     assert!(out.status.success(), "{}", common::stderr(&out));
     read_exr_layer(&exr).unwrap()
+}
+
+#[test]
+fn the_check_render_path_traces_the_view_the_page_shows() {
+    let shot = root().join("examples/shots/showcase.toml");
+    let layout = Layout::start(&shot, &[]);
+    // The API: a PNG of the asked size, from a pose the page gives; bad requests are 400s.
+    let (status, body) = layout.get(
+        "/api/render?frame=12&width=64&height=36&spp=1&position=0.9,1.4,0.6&look_at=-0.4,1.45,-3",
+        "",
+    );
+    assert_eq!(status, 200);
+    assert!(
+        body.starts_with("\u{fffd}PNG") || body.contains("PNG"),
+        "not a PNG"
+    );
+    for bad in [
+        "/api/render?width=0",
+        "/api/render?width=100000&height=100000",
+        "/api/render?spp=100000",
+        "/api/render?position=1,2",
+        "/api/render?position=1,2,3",
+        "/api/render?frame=0",
+    ] {
+        assert_eq!(layout.get(bad, "").0, 400, "{bad}");
+    }
+    // The page's button: the image over the shot view, at the film's aspect.
+    let Some(page) = run_page(&format!("{}?frame=12", layout.url()), &["--check"]) else {
+        return;
+    };
+    assert_eq!(page["size"], serde_json::json!([480, 270]), "{page}");
+    assert!(page["pageErrors"].as_array().unwrap().is_empty(), "{page}");
 }

@@ -345,6 +345,33 @@ state.saveCamera = async () => {
   return answer;
 };
 
+// The check render: the path tracer's view from the camera as posed here, over the shot view,
+// refined in passes of more samples (each a new render on the server). Resolves with the last
+// image's size; clicking the button again hides it.
+const checkImage = document.getElementById('check-image');
+state.checkRender = async (passes = [1, 4, 16]) => {
+  const [w, h] = state.scene.camera.resolution;
+  const scale = Math.min(1, 480 / w);
+  const size = [Math.max(1, Math.round(w * scale)), Math.max(1, Math.round(h * scale))];
+  const forward = new THREE.Vector3(0, 0, -1).applyQuaternion(shotCamera.quaternion);
+  const lookAt = state.lookAt || shotCamera.position.clone().add(forward).toArray();
+  const pose = `position=${shotCamera.position.toArray().join(',')}&look_at=${lookAt.join(',')}`;
+  for (const spp of passes) {
+    const url = `/api/render?frame=${state.frame}&width=${size[0]}&height=${size[1]}&spp=${spp}&${pose}`;
+    const response = await fetch(url);
+    if (!response.ok) {
+      showError(await response.text());
+      return null;
+    }
+    const blob = await response.blob();
+    checkImage.src = URL.createObjectURL(blob);
+    await checkImage.decode();
+    checkImage.style.display = 'block';
+    document.getElementById('status').textContent = `check render: ${spp} spp`;
+  }
+  return [checkImage.naturalWidth, checkImage.naturalHeight];
+};
+
 // The shot camera's view as object indices (−1: nothing), `width` x `height`, rows top first:
 // the ID pass the tests compare with the path tracer's Cryptomatte.
 state.idPass = (width, height) => {
@@ -404,12 +431,19 @@ function draw() {
   r.clear(true, true, true);
   drawWithOpenings(r, shotCamera);
   state.drawn = true;
+  // The check render sits exactly over the letterboxed film.
+  Object.assign(checkImage.style, {
+    left: `${(w - vw) / 2}px`, top: `${(h - vh) / 2}px`, width: `${vw}px`, height: `${vh}px` });
   requestAnimationFrame(draw);
 }
 
 let playing = null;
 document.getElementById('timeline').addEventListener('change', e => load(Number(e.target.value)));
 document.getElementById('save').addEventListener('click', () => state.saveCamera());
+document.getElementById('check').addEventListener('click', () => {
+  if (checkImage.style.display === 'block') checkImage.style.display = 'none';
+  else state.checkRender();
+});
 document.getElementById('play').addEventListener('click', () => {
   if (playing) { clearInterval(playing); playing = null; return; }
   const fps = state.scene ? state.scene.fps : 24;

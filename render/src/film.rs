@@ -311,6 +311,13 @@ pub fn write_srgb_png(
         path: path.to_owned(),
         message,
     };
+    let encoded = encode_srgb_png(width, height, rgb).map_err(err)?;
+    rift_fx::export::atomic::write(path, |out| out.write_all(&encoded))
+        .map_err(|e| err(e.to_string()))
+}
+
+/// An 8-bit sRGB PNG of `rgb` (`width` x `height`, rows top first), in memory.
+pub fn encode_srgb_png(width: usize, height: usize, rgb: &[Vec3]) -> Result<Vec<u8>, String> {
     let mut bytes = Vec::with_capacity(rgb.len() * 3);
     for c in rgb {
         bytes.extend(c.to_array().map(|v| (srgb_encode(v) * 255.0 + 0.5) as u8));
@@ -321,13 +328,10 @@ pub fn write_srgb_png(
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-        let mut writer = encoder.write_header().map_err(|e| err(e.to_string()))?;
-        writer
-            .write_image_data(&bytes)
-            .map_err(|e| err(e.to_string()))?;
+        let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+        writer.write_image_data(&bytes).map_err(|e| e.to_string())?;
     }
-    rift_fx::export::atomic::write(path, |out| out.write_all(&encoded))
-        .map_err(|e| err(e.to_string()))
+    Ok(encoded)
 }
 
 /// The sRGB transfer function, for values clipped to [0, 1].

@@ -6,6 +6,7 @@
 //! sent) name the loopback address, so another site open in the same browser cannot read the
 //! shot (DNS rebinding). Bad requests get a 4xx and the server goes on; Ctrl-C stops it.
 
+mod check;
 mod save;
 mod scene_json;
 
@@ -152,6 +153,15 @@ impl State {
         if path == "/api/scene" {
             return match frame_param(query, &self.shot) {
                 Ok(frame) => self.scene(frame),
+                Err(message) => text(400, &message),
+            };
+        }
+        if path == "/api/render" {
+            return match check::Request::parse(query, &self.shot) {
+                Ok(request) => match check::render(&self.shot, &request) {
+                    Ok(png) => with_type(Response::from_data(png), "image/png"),
+                    Err(message) => json_error(422, &message),
+                },
                 Err(message) => text(400, &message),
             };
         }

@@ -13,9 +13,10 @@ const [url, ...rest] = process.argv.slice(2);
 const idSize = rest[0] === '--ids' ? [Number(rest[1]), Number(rest[2])] : null;
 const flags = rest.filter(r => r.startsWith('--'));
 // --camera X,Y,Z,TX,TY,TZ: move the shot camera first (as a drag would) and time the update;
-// --save: then save that pose into the shot file through the page.
+// --save: then save that pose into the shot file through the page; --check: run the check
+// render (one pass of 1 spp) and print its size.
 const cameraAt = rest.indexOf('--camera') >= 0 ? rest[rest.indexOf('--camera') + 1].split(',').map(Number) : null;
-const screenshot = flags.length ? null : rest[0];
+const screenshot = rest.find(r => r.endsWith('.png')) || null;
 const profile = mkdtempSync(join(tmpdir(), 'rift-chromium-'));
 const context = await chromium.launchPersistentContext(profile, {
   executablePath: '/usr/bin/chromium',
@@ -37,7 +38,11 @@ try {
     dragMs = await page.evaluate(c => window.riftLayout.setCamera(
       { position: c.slice(0, 3), lookAt: c.slice(3, 6) }), cameraAt);
   }
-  if (rest.includes('--save')) {
+  if (rest.includes('--check')) {
+    const size = await page.evaluate(() => window.riftLayout.checkRender([1]));
+    if (screenshot) await page.screenshot({ path: screenshot });
+    console.log(JSON.stringify({ size, pageErrors: console_errors }));
+  } else if (rest.includes('--save')) {
     const saved = await page.evaluate(() => window.riftLayout.saveCamera());
     const shown = await page.evaluate(() => document.getElementById('error').textContent);
     console.log(JSON.stringify({ saved, shown, pageErrors: console_errors }));
