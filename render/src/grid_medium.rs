@@ -398,7 +398,12 @@ impl GridMedia {
                     albedo,
                 };
             }
-            *beta *= null.max(Vec3::ZERO) / mean(null);
+            // A null collision; its probability can round to zero only where the majorant
+            // is tight, and then it carries no weight change.
+            let p_null = mean(null);
+            if p_null > 0.0 {
+                *beta *= null.max(Vec3::ZERO) / p_null;
+            }
         }
         Tracked::Passed
     }
