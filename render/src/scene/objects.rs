@@ -131,8 +131,11 @@ impl Loader<'_> {
         };
         let mesh_path = self.base.join(mesh_name);
         let mesh_parts = match mesh_path.extension().and_then(|e| e.to_str()) {
-            Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)?,
-            Some(ext) if ext.eq_ignore_ascii_case("ply") => ply::load_ply(&mesh_path)?,
+            // A mesh's own error (its file, line or element) under the key that names it.
+            Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)
+                .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
+            Some(ext) if ext.eq_ignore_ascii_case("ply") => ply::load_ply(&mesh_path)
+                .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
             _ => {
                 return Err(self.error(
                     format!("{key}.mesh"),
