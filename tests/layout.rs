@@ -17,6 +17,19 @@ struct Layout {
     port: u16,
 }
 
+/// The port in the URL a starting `rift layout` prints on its first line, or that line.
+fn read_port(child: &mut Child) -> Result<u16, String> {
+    let mut line = String::new();
+    BufReader::new(child.stdout.as_mut().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    line.split("127.0.0.1:")
+        .nth(1)
+        .and_then(|rest| rest.split('/').next())
+        .and_then(|p| p.parse().ok())
+        .ok_or(line)
+}
+
 impl Layout {
     fn start(shot: &Path, extra: &[&str]) -> Self {
         let mut child = Command::new(env!("CARGO_BIN_EXE_rift"))
@@ -28,16 +41,7 @@ impl Layout {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        let mut line = String::new();
-        BufReader::new(child.stdout.as_mut().unwrap())
-            .read_line(&mut line)
-            .unwrap();
-        let port = line
-            .split("127.0.0.1:")
-            .nth(1)
-            .and_then(|rest| rest.split('/').next())
-            .and_then(|p| p.parse().ok())
-            .unwrap_or_else(|| panic!("no URL in {line:?}"));
+        let port = read_port(&mut child).unwrap_or_else(|line| panic!("no URL in {line:?}"));
         Self { child, port }
     }
 
@@ -656,16 +660,7 @@ fn a_save_to_a_read_only_shot_is_refused_with_its_reason() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.as_mut().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let Some(port) = line
-        .split("127.0.0.1:")
-        .nth(1)
-        .and_then(|rest| rest.split('/').next())
-        .and_then(|p| p.parse().ok())
-    else {
+    let Ok(port) = read_port(&mut child) else {
         let _ = child.wait();
         eprintln!("skipped: this machine cannot mount a read-only file system here");
         return;

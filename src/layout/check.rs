@@ -73,8 +73,49 @@ impl Request {
     }
 }
 
-/// Renders the request as an sRGB PNG.
-pub fn render(shot: &Shot, request: &Request) -> Result<Vec<u8>, String> {
+/// The scene a check render was built for, kept so the passes of one check (which differ
+/// only in samples) build it once.
+pub struct Built {
+    view: View,
+    scene: Scene,
+}
+
+/// What a check render's scene depends on: all of the request but its samples.
+#[derive(PartialEq)]
+struct View {
+    frame: i64,
+    width: u32,
+    height: u32,
+    pose: Option<([f64; 3], [f64; 3])>,
+}
+
+/// Renders the request as an sRGB PNG, reusing `built` when it is the same view.
+pub fn render(
+    shot: &Shot,
+    request: &Request,
+    built: &mut Option<Built>,
+) -> Result<Vec<u8>, String> {
+    let view = View {
+        frame: request.frame,
+        width: request.width,
+        height: request.height,
+        pose: request.pose,
+    };
+    if built.as_ref().is_none_or(|b| b.view != view) {
+        // The old scene goes before the new one is built, so two never coexist.
+        *built = None;
+        *built = Some(Built {
+            view,
+            scene: build(shot, request)?,
+        });
+    }
+    let scene = &built.as_ref().expect("built just above").scene;
+    let image = rift_render::render::render(scene, &RenderOptions::new(request.spp));
+    rift_render::film::encode_srgb_png(image.width, image.height, &image.rgb)
+}
+
+/// The shot's scene at the request's frame, size and camera pose.
+fn build(shot: &Shot, request: &Request) -> Result<Scene, String> {
     let mut shot = shot.clone();
     if let Some((position, look_at)) = request.pose {
         let spec = PoseSpec {
@@ -86,7 +127,5 @@ pub fn render(shot: &Shot, request: &Request) -> Result<Vec<u8>, String> {
         shot.camera.transform = AnimatedTransform::constant(at);
     }
     shot.camera.projection.resolution = [request.width, request.height];
-    let scene = Scene::build(&shot, request.frame).map_err(|e| e.to_string())?;
-    let image = rift_render::render::render(&scene, &RenderOptions::new(request.spp));
-    rift_render::film::encode_srgb_png(image.width, image.height, &image.rgb)
+    Scene::build(&shot, request.frame).map_err(|e| e.to_string())
 }

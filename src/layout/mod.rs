@@ -101,6 +101,7 @@ pub fn run(args: LayoutArgs) -> anyhow::Result<()> {
         shot,
         path: args.shot.clone(),
         cached: None,
+        check: None,
     };
     while !stop.load(Ordering::SeqCst) {
         match server.recv_timeout(Duration::from_millis(200)) {
@@ -119,6 +120,8 @@ struct State {
     /// The shot file, which edits are saved into.
     path: PathBuf,
     cached: Option<(i64, String)>,
+    /// The last check render's scene.
+    check: Option<check::Built>,
 }
 
 /// The largest request body read (an edit is a few hundred bytes).
@@ -158,7 +161,7 @@ impl State {
         }
         if path == "/api/render" {
             return match check::Request::parse(query, &self.shot) {
-                Ok(request) => match check::render(&self.shot, &request) {
+                Ok(request) => match check::render(&self.shot, &request, &mut self.check) {
                     Ok(png) => with_type(Response::from_data(png), "image/png"),
                     Err(message) => json_error(422, &message),
                 },
@@ -213,6 +216,7 @@ impl State {
             Ok(shot) => {
                 self.shot = shot;
                 self.cached = None;
+                self.check = None;
                 let body = serde_json::json!({ "saved": self.path.display().to_string() });
                 with_type(Response::from_string(body.to_string()), "application/json")
             }
