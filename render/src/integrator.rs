@@ -527,13 +527,12 @@ fn surface_emission<'a>(
     let (p, ng) = (surface.p, surface.ng);
     let material = scene.material(hit.triangle);
     let cos_o = -dir.dot(ng);
-    path.first_hit(
-        out,
-        hit.t,
-        if cos_o >= 0.0 { ng } else { -ng },
-        material.bsdf.albedo(),
-        scene.object_of(hit.triangle),
-    );
+    // Checked here too, so later bounces skip the albedo and object lookups.
+    if path.bounce == 0 {
+        let facing = if cos_o >= 0.0 { ng } else { -ng };
+        let object = scene.object_of(hit.triangle);
+        path.first_hit(out, hit.t, facing, material.bsdf.albedo(), object);
+    }
     if material.emits() {
         let le = material.emitted(cos_o);
         if le != Vec3::ZERO {
