@@ -2,13 +2,18 @@
 //! the three.js it draws with, vendored in `assets/layout/vendor` with its licence, so it works
 //! with no network) and a JSON API with the shot's scene at any frame, built by the renderer.
 //!
+//! Edits from the page (`POST /api/edit`: a pose at a frame, a key deleted, a copy placed by the
+//! inverse solver) change the shot as the server holds it once the edited shot builds; `POST
+//! /api/save` writes them into the shot file, `POST /api/revert` drops them.
+//!
 //! It listens on 127.0.0.1 only and answers only requests whose `Host` (and `Origin`, when
 //! sent) name the loopback address, so another site open in the same browser cannot read the
 //! shot (DNS rebinding). Bad requests get a 4xx and the server goes on; Ctrl-C stops it.
 
 mod check;
-mod save;
+mod edit;
 mod scene_json;
+mod shot_file;
 
 use anyhow::Context;
 use clap::Args;
@@ -97,9 +102,10 @@ pub fn run(args: LayoutArgs) -> anyhow::Result<()> {
         open_browser(&url);
     }
     let stop = crate::resume::stop_on_signals()?;
+    let file = shot_file::ShotFile::open(&args.shot).map_err(anyhow::Error::msg)?;
     let mut state = State {
         shot,
-        path: args.shot.clone(),
+        file,
         cached: None,
         check: None,
     };
@@ -114,11 +120,10 @@ pub fn run(args: LayoutArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The shot being staged and the last frame's scene JSON.
+/// The shot being staged (as edited), its file, and the last frame's scene JSON.
 struct State {
     shot: Shot,
-    /// The shot file, which edits are saved into.
-    path: PathBuf,
+    file: shot_file::ShotFile,
     cached: Option<(i64, String)>,
     /// The last check render's scene.
     check: Option<check::Built>,
@@ -135,15 +140,15 @@ impl State {
                 403,
                 "rift layout answers only requests to its own loopback address",
             )
-        } else if *request.method() == Method::Post && request.url() == "/api/camera" {
+        } else if *request.method() == Method::Post {
             let mut body = String::new();
             let reader = std::io::Read::take(request.as_reader(), MAX_BODY);
             match std::io::Read::read_to_string(&mut { reader }, &mut body) {
-                Ok(_) => self.save_camera(&body),
+                Ok(_) => self.post(request.url(), &body),
                 Err(_) => text(400, "the body is not UTF-8 text"),
             }
         } else if *request.method() != Method::Get {
-            text(405, "only GET is served, and POST to /api/camera")
+            text(405, "only GET and POST are served")
         } else {
             self.route(request.url())
         };
@@ -184,7 +189,7 @@ impl State {
         }
         match Scene::build(&self.shot, frame) {
             Ok(scene) => {
-                let json = scene_json::scene(&self.shot, &scene, frame).to_string();
+                let json = scene_json::scene(&self.shot, &scene, frame, &self.file).to_string();
                 self.cached = Some((frame, json.clone()));
                 with_type(Response::from_string(json), "application/json")
             }
@@ -194,35 +199,100 @@ impl State {
 }
 
 impl State {
-    /// Saves the camera pose of a JSON body `{"frame": F, "position": [x, y, z], "look_at":
-    /// [x, y, z]}` into the shot file: 200 with the file's name, 400 for a malformed body, 422
-    /// (with the reason, file and key) when the shot would not load or cannot be written.
-    fn save_camera(&mut self, body: &str) -> Response<std::io::Cursor<Vec<u8>>> {
-        #[derive(serde::Deserialize)]
-        #[serde(deny_unknown_fields)]
-        struct Edit {
-            frame: i64,
-            position: [f64; 3],
-            look_at: [f64; 3],
+    /// Answers a POST: an edit, a save or a revert.
+    fn post(&mut self, url: &str, body: &str) -> Response<std::io::Cursor<Vec<u8>>> {
+        match url {
+            "/api/edit" => self.edit(body),
+            "/api/save" => match self.file.save() {
+                Ok(()) => {
+                    let saved = self.file.path().display().to_string();
+                    self.cached = None;
+                    json(&serde_json::json!({ "saved": saved }))
+                }
+                Err(message) => json_error(422, &message),
+            },
+            "/api/revert" => match self.file.revert() {
+                Ok(shot) => {
+                    self.shot = shot;
+                    self.cached = None;
+                    self.check = None;
+                    json(&serde_json::json!({ "reverted": true }))
+                }
+                Err(message) => json_error(422, &message),
+            },
+            _ => text(405, "POST goes to /api/edit, /api/save or /api/revert"),
         }
-        let edit: Edit = match serde_json::from_str(body) {
+    }
+
+    /// Applies an edit (a JSON [`edit::Edit`]) once the edited shot builds at the edit's frame
+    /// and places what was moved where it was asked: 200 with that frame's scene, 400 for a
+    /// malformed body, 422 (with the reason, file and key) otherwise, the shot unchanged.
+    fn edit(&mut self, body: &str) -> Response<std::io::Cursor<Vec<u8>>> {
+        let edit: edit::Edit = match serde_json::from_str(body) {
             Ok(e) => e,
             Err(e) => return json_error(400, &format!("the edit: {e}")),
         };
-        if let Err(message) = frame_param(&format!("frame={}", edit.frame), &self.shot) {
+        let frame = edit.frame();
+        if let Err(message) = frame_param(&format!("frame={frame}"), &self.shot) {
             return json_error(400, &message);
         }
-        match save::camera(&self.path, edit.frame, edit.position, edit.look_at) {
-            Ok(shot) => {
+        let checked = self.file.edited(&edit, &self.shot).and_then(|(doc, shot)| {
+            let scene = Scene::build(&shot, frame).map_err(|e| e.to_string())?;
+            landed(&edit, &shot, &scene, frame)?;
+            Ok((doc, shot, scene))
+        });
+        match checked {
+            Ok((doc, shot, scene)) => {
+                self.file.keep(doc);
                 self.shot = shot;
-                self.cached = None;
                 self.check = None;
-                let body = serde_json::json!({ "saved": self.path.display().to_string() });
-                with_type(Response::from_string(body.to_string()), "application/json")
+                let json = scene_json::scene(&self.shot, &scene, frame, &self.file).to_string();
+                self.cached = Some((frame, json.clone()));
+                with_type(Response::from_string(json), "application/json")
             }
             Err(message) => json_error(422, &message),
         }
     }
+}
+
+/// Checks that a pose edit places its target where it asked at `frame` in the edited `scene`
+/// (positions written to micrometres), as a guard against writing it somewhere else.
+fn landed(edit: &edit::Edit, shot: &Shot, scene: &Scene, frame: i64) -> Result<(), String> {
+    let Some((target, asked)) = edit.asked_pose() else {
+        return Ok(());
+    };
+    let time = shot.time_of(frame as f64);
+    let opening = |name: &str| shot.rig.find(name).ok_or("no such opening");
+    let placed = match target {
+        edit::Target::Camera => rift_render::camera::Lens::at(&scene.camera, time)
+            .position
+            .as_dvec3(),
+        edit::Target::Opening { name, side } => {
+            let i = opening(name)?;
+            match side {
+                edit::Side::Here => scene.portals.here(i, time).translation,
+                edit::Side::There => scene.portals.there(i, time).translation,
+            }
+        }
+        edit::Target::Object { name } => {
+            let o = scene.id_names.iter().position(|n| n == name);
+            let o = o.ok_or("no such object")?;
+            scene.object_placement[o].at(time).translation
+        }
+    };
+    let tolerance = 1e-4 * asked.abs().max_element().max(1.0);
+    if placed.distance(asked) > tolerance {
+        return Err(format!(
+            "{}: the edit would place {} at {placed:.4} instead of {asked:.4}",
+            shot.source.display(),
+            edit.what()
+        ));
+    }
+    Ok(())
+}
+
+fn json(value: &serde_json::Value) -> Response<std::io::Cursor<Vec<u8>>> {
+    with_type(Response::from_string(value.to_string()), "application/json")
 }
 
 fn json_error(status: u16, message: &str) -> Response<std::io::Cursor<Vec<u8>>> {

@@ -1,32 +1,50 @@
 //! What the layout page draws, as JSON: the shot's frame range and rate, and at one frame the
-//! camera, every object's triangles in world space with its base colour, every opening's
-//! frames and outline, and the rings' strands as line segments. Built from the renderer's own
-//! scene, so the page shows exactly what `rift render` renders.
+//! camera, every object's triangles in its own space with its placement and base colour, every
+//! opening's frames and outline, and the rings' strands as line segments (by opening, in world
+//! space). Built from the renderer's own scene, so the page shows exactly what `rift render`
+//! renders. With them, what the page needs to edit: which keys each pose has, and which
+//! objects the solver places through which opening, so copies follow their source live.
 
+use super::edit::{self, Side, Target};
+use super::shot_file::ShotFile;
 use glam::Vec3;
 use rift_render::Scene;
 use rift_render::camera::Lens;
 use rift_render::mask::Mask;
 use rift_render::rift_fx::Shot;
+use rift_render::rift_fx::rig::{Similarity, ThereFrame};
 use rift_render::visibility::RayClass;
 use serde_json::{Value, json};
 
 /// Points of a round outline (disks, and rings by their widest extent).
 const OUTLINE_POINTS: usize = 64;
 
-/// The scene of `shot` at `frame` as the page's JSON.
-pub fn scene(shot: &Shot, scene: &Scene, frame: i64) -> Value {
+/// The scene of `shot` (as `file` holds it) at `frame` as the page's JSON.
+pub fn scene(shot: &Shot, scene: &Scene, frame: i64, file: &ShotFile) -> Value {
     let time = shot.time_of(frame as f64);
+    let mut camera = camera(scene, time);
+    camera["keys"] = json!(edit::key_frames(file.doc(), &Target::Camera));
     json!({
         "shot": shot.name,
+        "file": file.path().display().to_string(),
+        "unsaved": file.unsaved(),
         "frame": frame,
         "frames": [shot.frames.first, shot.frames.last],
         "fps": shot.fps,
-        "camera": camera(scene, time),
-        "objects": objects(scene, time),
-        "openings": openings(shot, scene, time),
-        "strands": strands(scene, time),
+        "camera": camera,
+        "objects": objects(shot, scene, time, file),
+        "openings": openings(shot, scene, time, file),
+        "rings": strands(shot, scene, time),
         "maxPortalDepth": scene.settings.max_portal_depth,
+    })
+}
+
+/// A similarity as the page takes it: position, quaternion (x, y, z, w), scale.
+fn similarity(s: Similarity) -> Value {
+    json!({
+        "position": s.translation.to_array(),
+        "rotation": s.rotation.to_array(),
+        "scale": s.scale,
     })
 }
 
@@ -45,28 +63,32 @@ fn camera(scene: &Scene, time: f64) -> Value {
 }
 
 /// Per object: its name, base colour (the mean albedo of its triangles' materials), its
-/// triangles' corners in world space at `time`, flattened, and the cull volumes that hide
-/// parts of it (world-to-local matrix, column-major; which side is behind; depth; radius), and
-/// whether camera rays see it directly and through openings (its visibility flags).
-fn objects(scene: &Scene, time: f64) -> Vec<Value> {
+/// triangles' corners in its own space, flattened, and its placement at `time`; the cull
+/// volumes that hide parts of it (world-to-local matrix, column-major; which side is behind;
+/// depth; radius); whether camera rays see it directly and through openings (its visibility
+/// flags); and for editing, the keys of the transform that places it, the object whose
+/// transform that is, and the opening the solver carries it through (or back through).
+fn objects(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value> {
     let count = scene.object_count as usize;
     let mut positions: Vec<Vec<f32>> = vec![Vec::new(); count];
     let mut colour = vec![(Vec3::ZERO, 0u32); count];
-    let placements: Vec<_> = scene
-        .object_motion
-        .iter()
-        .map(|m| m.as_ref().map(|m| m.at(time)))
-        .collect();
+    let placements: Vec<Similarity> = scene.object_placement.iter().map(|m| m.at(time)).collect();
+    let to_local: Vec<_> = placements.iter().map(Similarity::inverse).collect();
     for (t, tri) in scene.triangles.iter().enumerate() {
         let o = scene.object_of(t as u32) as usize;
-        let corners = match &placements[o] {
-            Some(p) => tri.v.map(|v| p.transform_point(v.as_dvec3()).as_vec3()),
-            None => tri.v,
+        // Moving objects' triangles are in their own space already.
+        let corners = if t >= scene.static_triangles {
+            tri.v
+        } else {
+            tri.v
+                .map(|v| to_local[o].transform_point(v.as_dvec3()).as_vec3())
         };
         positions[o].extend(corners.iter().flat_map(|c| c.to_array()));
         let albedo = scene.material(t as u32).bsdf.albedo();
         colour[o] = (colour[o].0 + albedo, colour[o].1 + 1);
     }
+    let sections = edit::objects(file.doc()).ok();
+    let section = |o: usize| sections.and_then(|s| s.get(o));
     (0..count)
         .map(|o| {
             let (sum, n) = colour[o];
@@ -83,37 +105,52 @@ fn objects(scene: &Scene, time: f64) -> Vec<Value> {
                     })
                 })
                 .collect();
+            let name = &scene.id_names[o];
+            let carried = section(o).and_then(edit::carried);
+            let target = Target::Object { name: name.clone() };
             json!({
-                "name": scene.id_names[o],
+                "name": name,
                 "color": (sum / n.max(1) as f32).to_array(),
                 "positions": positions[o],
+                "placement": similarity(placements[o]),
                 "culls": culls,
                 "seenByCamera": scene.visibility.object_seen(o as u32, RayClass::Camera),
                 "seenThroughOpenings": scene.visibility.object_seen(o as u32, RayClass::ThroughPortal),
+                "keys": edit::key_frames(file.doc(), &target),
+                "placedBy": sections.map(|s| edit::transform_source(s, o)),
+                "through": carried.and_then(|(opening, _)| shot.rig.find(opening)),
+                "back": carried.is_some_and(|(_, back)| back),
             })
         })
         .collect()
 }
 
-/// Per opening: its name, here and there frames (position, quaternion x y z w, scale) and its
-/// teleport region's outline in its local XY plane.
-fn openings(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
+/// Per opening: its name, here and there frames (position, quaternion x y z w, scale), its
+/// teleport region's outline in its local XY plane, its opacity and time offset (seconds), the
+/// opening it is paired with, and the keys of each frame.
+fn openings(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value> {
     let portals = &scene.portals;
     (0..portals.len())
         .map(|i| {
-            let frame = |s: rift_render::rift_fx::rig::Similarity| {
-                json!({
-                    "position": s.translation.to_array(),
-                    "rotation": s.rotation.to_array(),
-                    "scale": s.scale,
-                })
+            let name = &shot.rig.openings[i].name;
+            let side = |side| Target::Opening {
+                name: name.clone(),
+                side,
+            };
+            let pair = match shot.rig.openings[i].there {
+                ThereFrame::Paired(j) => Some(j),
+                ThereFrame::Explicit(_) => None,
             };
             json!({
-                "name": shot.rig.openings[i].name,
-                "here": frame(portals.here(i, time)),
-                "there": frame(portals.there(i, time)),
+                "name": name,
+                "here": similarity(portals.here(i, time)),
+                "there": similarity(portals.there(i, time)),
                 "outline": outline(portals.mask(i)),
                 "opacity": portals.look(i).opacity,
+                "timeOffset": portals.look(i).time_offset,
+                "pair": pair,
+                "hereKeys": edit::key_frames(file.doc(), &side(Side::Here)),
+                "thereKeys": edit::key_frames(file.doc(), &side(Side::There)),
             })
         })
         .collect()
@@ -142,18 +179,28 @@ fn outline(mask: &Mask) -> Vec<[f64; 2]> {
     }
 }
 
-/// The strands at `time` as segment end points, flattened, with their colour.
-fn strands(scene: &Scene, time: f64) -> Value {
-    let n = scene.strands.segments.len() as u32;
-    let mut points = Vec::with_capacity(6 * n as usize);
-    let mut colors = Vec::with_capacity(3 * n as usize);
-    for i in 0..n {
-        let cone = scene.strands.world_segment(i, time);
-        points.extend(cone.a.to_array());
-        points.extend(cone.b.to_array());
-        let c = scene.strands.radiance(i, 0.5);
+/// The rings' strands at `time`, per ring: the opening it belongs to (by index) and its
+/// segments' end points, flattened, with their colour.
+fn strands(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
+    let strands = &scene.strands;
+    let rings = scene.id_names.len() - scene.object_count as usize;
+    let mut points = vec![Vec::new(); rings];
+    let mut colors = vec![Vec::new(); rings];
+    for i in 0..strands.segments.len() as u32 {
+        let ring = strands.segment_ring[i as usize] as usize;
+        let cone = strands.world_segment(i, time);
+        points[ring].extend(cone.a.to_array());
+        points[ring].extend(cone.b.to_array());
+        let c = strands.radiance(i, 0.5);
         let c = c / c.max_element().max(1e-6);
-        colors.extend(c.to_array());
+        colors[ring].extend(c.to_array());
     }
-    json!({ "points": points, "colors": colors })
+    (0..rings)
+        .map(|ring| {
+            // Rings are named "<opening>/ring", as Cryptomatte lists them.
+            let name = &scene.id_names[scene.object_count as usize + ring];
+            let opening = name.strip_suffix("/ring").and_then(|o| shot.rig.find(o));
+            json!({ "opening": opening, "points": points[ring], "colors": colors[ring] })
+        })
+        .collect()
 }

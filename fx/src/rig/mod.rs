@@ -8,5 +8,5 @@ pub mod similarity;
 
 pub use camera::{Camera, Projection};
 pub use keyframes::{AnimatedTransform, Interpolation, TransformKey};
-pub use opening::{Opening, Rig, ThereFrame};
+pub use opening::{Opening, Rig, ThereFrame, solve_here, solve_there};
 pub use similarity::{Similarity, SimilarityError};

@@ -2,8 +2,12 @@
 //! portal opening by the constraint solver (M_T = T·M_H), for the there-side copy of an object
 //! passing through. An opening that delays rays shows the copy as the object was that much
 //! earlier, which is what a ray crossing the opening at that time would see.
+//!
+//! The inverse solver carries a transform back (M_H = T⁻¹·M_T): the here-side copy of a
+//! there-side target, as a ray entering the opening would find it (that much later, with a
+//! delay), for rigs on the here side that must reach it.
 
-use rift_fx::rig::{AnimatedTransform, Rig, Similarity, ThereFrame};
+use rift_fx::rig::{AnimatedTransform, Rig, Similarity, ThereFrame, solve_here, solve_there};
 use std::sync::Arc;
 
 /// An object's placement over time.
@@ -20,6 +24,8 @@ struct Carried {
     opening: usize,
     /// The opening's time offset, seconds.
     delay: f64,
+    /// Carried back from the there side (T⁻¹) rather than through (T).
+    back: bool,
 }
 
 impl ObjectMotion {
@@ -37,6 +43,21 @@ impl ObjectMotion {
                 rig,
                 opening,
                 delay,
+                back: false,
+            }),
+        }
+    }
+
+    /// The here-side copy, back through `opening` of `rig`, of a there-side object at `own`;
+    /// rays entering the opening see the there side later by `delay` seconds.
+    pub fn back_through(own: AnimatedTransform, rig: Arc<Rig>, opening: usize, delay: f64) -> Self {
+        Self {
+            own,
+            through: Some(Carried {
+                rig,
+                opening,
+                delay,
+                back: true,
             }),
         }
     }
@@ -45,16 +66,20 @@ impl ObjectMotion {
     pub fn at(&self, t: f64) -> Similarity {
         match &self.through {
             None => self.own.at(t),
-            Some(c) => c
-                .rig
-                .teleport_at(c.opening, t)
-                .compose(&self.own.at(t - c.delay)),
+            Some(c) if c.back => {
+                let teleport = c.rig.teleport_at(c.opening, t);
+                solve_here(&teleport, &self.own.at(t + c.delay))
+            }
+            Some(c) => solve_there(&c.rig.teleport_at(c.opening, t), &self.own.at(t - c.delay)),
         }
     }
 
     /// Times where the placement may bend (keys of the transform and of the rig's frames).
     pub fn key_times(&self) -> Vec<f64> {
-        let delay = self.through.as_ref().map_or(0.0, |c| c.delay);
+        let delay = self
+            .through
+            .as_ref()
+            .map_or(0.0, |c| if c.back { -c.delay } else { c.delay });
         let mut times: Vec<f64> = self.own.keys().iter().map(|k| k.time + delay).collect();
         if let Some(c) = &self.through {
             for o in &c.rig.openings {
@@ -139,5 +164,29 @@ mod tests {
         );
         assert!(ObjectMotion::through(still.clone(), rig(there), 0, 0.0).moves_during([0.4, 0.6]));
         assert!(!ObjectMotion::new(still).moves_during([0.0, 1.0]));
+    }
+
+    #[test]
+    fn a_copy_carried_back_is_where_a_ray_through_the_opening_meets_the_target() {
+        let target = keyed(&[
+            (0.0, DVec3::new(0.0, 5.0, -1.0)),
+            (1.0, DVec3::new(1.0, 6.0, -1.0)),
+        ]);
+        let there = keyed(&[
+            (0.0, DVec3::new(0.0, 5.0, 0.0)),
+            (1.0, DVec3::new(0.0, 7.0, 0.0)),
+        ]);
+        let rig = rig(there);
+        let back = ObjectMotion::back_through(target.clone(), rig.clone(), 0, 0.25);
+        for t in [0.1, 0.5, 0.7] {
+            // Carried through again (where the opening delays rays, by the same delay), the
+            // here-side copy lands on the target.
+            let teleport = rig.teleport_at(0, t);
+            let again = solve_there(&teleport, &back.at(t));
+            assert!(again.distance(&target.at(t + 0.25), 1.0) < 1e-12, "t = {t}");
+        }
+        assert!(back.moves_during([0.4, 0.6]));
+        // Its keys move with the delay the other way.
+        assert_eq!(back.key_times()[..2], [-0.25, 0.75]);
     }
 }

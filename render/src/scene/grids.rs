@@ -4,7 +4,7 @@
 //! a simulation's cache (`smoke.####.vdb`) gives each frame its own grid.
 
 use super::media::GridSection;
-use super::objects::Loader;
+use super::objects::{Carried, Loader};
 use crate::error::{RenderError, key_error};
 use crate::grid_medium::{GridMedia, GridMedium, MAX_GRIDS};
 
@@ -50,7 +50,11 @@ pub(super) fn load(
             key_error(file, key, format!("{}: {e}", path.display()))
         })?;
         left = left.saturating_sub(grid.voxels.bytes() as u64);
-        let motion = loader.placement(&g.key, s.transform.as_ref(), s.through.as_deref())?;
+        let motion = loader.placement(
+            &g.key,
+            s.transform.as_ref(),
+            s.through.as_deref().map(Carried::Through),
+        )?;
         grids.push(GridMedium::new(
             s.name.clone(),
             grid.voxels,

@@ -153,6 +153,8 @@ impl SceneHit {
 pub struct Scene {
     /// Static triangles (world space) first, then each moving object's (object space).
     pub triangles: Vec<Triangle>,
+    /// How many of [`Self::triangles`] are static.
+    pub static_triangles: usize,
     /// Unit geometric normal per triangle, in the triangle's space.
     pub normals: Vec<Vec3>,
     /// Material index per triangle.
@@ -184,9 +186,9 @@ pub struct Scene {
     pub id_names: Vec<String>,
     /// How many of [`Self::id_names`] are objects (the rings follow).
     pub object_count: u32,
-    /// Per object that moves within the shutter, its placement over time; its triangles in
-    /// [`Self::triangles`] are then in object space (the others in world space).
-    pub object_motion: Vec<Option<crate::geometry::ObjectMotion>>,
+    /// Per object, its placement over time. The triangles in [`Self::triangles`] of objects
+    /// that move within the shutter are in object space, the others in world space.
+    pub object_placement: Vec<crate::geometry::ObjectMotion>,
     /// The rings' strands (emissive round curves).
     pub strands: Strands,
     /// Which rays see each ring's strands (by ring of [`Self::strands`]).
@@ -351,11 +353,12 @@ impl Scene {
             environment,
             light_selection,
         );
-        let still = &g.triangles[..g.static_count];
+        let static_triangles = g.static_count;
+        let still = &g.triangles[..static_triangles];
         let accel = Accel::build(still, g.instances);
         let bounds = static_bounds(still);
         let triangle_object = g.triangle_object.clone();
-        let object_motion = std::mem::take(&mut g.motion);
+        let object_placement = std::mem::take(&mut g.placements);
         let id_names: Vec<String> = names
             .iter()
             .map(|n| n.to_string())
@@ -379,6 +382,7 @@ impl Scene {
             apertures,
             light_visibility: Default::default(),
             triangles: g.triangles,
+            static_triangles,
             normals,
             triangle_material: g.triangle_material,
             materials,
@@ -394,7 +398,7 @@ impl Scene {
             triangle_object,
             id_names,
             object_count: names.len() as u32,
-            object_motion,
+            object_placement,
             strands,
             strand_flags: ring_looks.iter().map(|l| l.flags).collect(),
             strand_group: grouped(ring_looks.iter().map(|l| l.group).collect()),

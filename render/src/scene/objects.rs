@@ -28,8 +28,11 @@ pub(super) struct Part {
     object: u32,
     triangles: Vec<Triangle>,
     materials: Vec<u32>,
-    /// `None`: baked to world space.
-    motion: Option<ObjectMotion>,
+    /// Its placement over time.
+    motion: ObjectMotion,
+    /// Whether it moves within the times rays can reach (else its triangles are baked to
+    /// world space).
+    moves: bool,
     /// The light group of its emissive triangles.
     group: u8,
 }
@@ -66,6 +69,15 @@ pub(super) fn object_sections(
         out.push(o);
     }
     Ok(out)
+}
+
+/// The opening the constraint solver carries a section's transform through, by name.
+#[derive(Clone, Copy)]
+pub enum Carried<'a> {
+    /// `through`: the there-side copy, T·transform.
+    Through(&'a str),
+    /// `back_through`: the here-side copy of a there-side target, T⁻¹·transform.
+    Back(&'a str),
 }
 
 /// What loading objects needs from the rest of the scene.
@@ -149,7 +161,8 @@ impl Loader<'_> {
             object: i as u32,
             triangles: Vec::new(),
             materials: Vec::new(),
-            motion: moves.then_some(motion),
+            motion,
+            moves,
             group: 0,
         };
         for mesh_part in mesh_parts {
@@ -177,18 +190,30 @@ impl Loader<'_> {
         Ok(part)
     }
 
-    /// The object's placement over time: its keyed transform, carried through an opening by
-    /// the constraint solver when it names one.
+    /// The object's placement over time: its keyed transform, carried through an opening (or
+    /// back through one) by the constraint solver.
     fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
-        self.placement(key, o.transform.as_ref(), o.through.as_deref())
+        let carried = match (&o.through, &o.back_through) {
+            (Some(_), Some(_)) => {
+                return Err(self.error(
+                    format!("{key}.back_through"),
+                    "give `through` or `back_through`, not both".into(),
+                ));
+            }
+            (Some(name), None) => Some(Carried::Through(name)),
+            (None, Some(name)) => Some(Carried::Back(name)),
+            (None, None) => None,
+        };
+        self.placement(key, o.transform.as_ref(), carried)
     }
 
-    /// A placement over time from a section's `transform` and `through` keys (under `key`).
+    /// A placement over time from a section's `transform` key and the opening it is carried
+    /// through (under `key`).
     pub fn placement(
         &self,
         key: &str,
         transform: Option<&rift_fx::shot::schema::PoseSpec>,
-        through: Option<&str>,
+        carried: Option<Carried<'_>>,
     ) -> Result<ObjectMotion, RenderError> {
         let transform = match transform {
             Some(spec) => pose::animated(
@@ -200,18 +225,24 @@ impl Loader<'_> {
             .map_err(|e| self.invalid(e))?,
             None => AnimatedTransform::constant(Similarity::IDENTITY),
         };
-        Ok(match through {
-            None => ObjectMotion::new(transform),
-            Some(name) => {
-                let opening = self.shot.rig.find(name).ok_or_else(|| {
-                    self.error(
-                        format!("{key}.through"),
-                        format!("no portal opening is called {name:?}"),
-                    )
-                })?;
-                let delay = self.portals.look(opening).time_offset;
-                ObjectMotion::through(transform, self.rig.clone(), opening, delay)
-            }
+        let Some(carried) = carried else {
+            return Ok(ObjectMotion::new(transform));
+        };
+        let (name, field) = match carried {
+            Carried::Through(name) => (name, "through"),
+            Carried::Back(name) => (name, "back_through"),
+        };
+        let opening = self.shot.rig.find(name).ok_or_else(|| {
+            self.error(
+                format!("{key}.{field}"),
+                format!("no portal opening is called {name:?}"),
+            )
+        })?;
+        let delay = self.portals.look(opening).time_offset;
+        let rig = self.rig.clone();
+        Ok(match carried {
+            Carried::Through(_) => ObjectMotion::through(transform, rig, opening, delay),
+            Carried::Back(_) => ObjectMotion::back_through(transform, rig, opening, delay),
         })
     }
 
@@ -281,13 +312,14 @@ pub(super) struct Geometry {
     pub static_count: usize,
     /// Per object: whether it moves within the times rays can reach.
     pub moving: Vec<bool>,
-    /// Per object that moves: its placement over time (its triangles are in object space).
-    pub motion: Vec<Option<ObjectMotion>>,
+    /// Per object, its placement over time (the triangles of those that move are in object
+    /// space).
+    pub placements: Vec<ObjectMotion>,
 }
 
 impl Geometry {
     pub fn assemble(mut parts: Vec<Part>, objects: usize, times: [f64; 2]) -> Self {
-        parts.sort_by_key(|p| p.motion.is_some());
+        parts.sort_by_key(|p| p.moves);
         let mut g = Geometry {
             triangles: Vec::new(),
             triangle_material: Vec::new(),
@@ -297,22 +329,22 @@ impl Geometry {
             instances: Vec::new(),
             static_count: 0,
             moving: vec![false; objects],
-            motion: vec![None; objects],
+            placements: vec![
+                ObjectMotion::new(AnimatedTransform::constant(Similarity::IDENTITY));
+                objects
+            ],
         };
         for part in parts {
-            g.moving[part.object as usize] = part.motion.is_some();
-            g.motion[part.object as usize] = part.motion.clone();
+            g.moving[part.object as usize] = part.moves;
+            g.placements[part.object as usize] = part.motion.clone();
             let first = g.triangles.len() as u32;
-            let instance = match part.motion {
-                None => {
-                    g.static_count += part.triangles.len();
-                    STATIC
-                }
-                Some(motion) => {
-                    let moving = MovingInstance::new(&part.triangles, first, motion, times);
-                    g.instances.push(moving);
-                    g.instances.len() as u32 - 1
-                }
+            let instance = if part.moves {
+                let moving = MovingInstance::new(&part.triangles, first, part.motion, times);
+                g.instances.push(moving);
+                g.instances.len() as u32 - 1
+            } else {
+                g.static_count += part.triangles.len();
+                STATIC
             };
             let n = part.triangles.len();
             g.triangle_instance.extend(std::iter::repeat_n(instance, n));

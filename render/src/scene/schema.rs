@@ -85,6 +85,8 @@
 //! copy_of = "ball"              # mesh, material and transform of an earlier object, unless given
 //! through = "room_door"         # placed through this opening by the constraint solver: T·transform
 //!                               # (an opening with a time offset shows it that much earlier)
+//! # back_through = "room_door"  # instead, the inverse solver: the here-side copy of a there-
+//!                               # side target, T⁻¹·transform (for rigs that reach through it)
 //! [object.visibility]           # which rays see the object (each defaults to true)
 //! camera = true                 # camera rays that have not passed an opening
 //! through_portal = true         # camera rays after one or more openings, before any scattering
@@ -217,6 +219,7 @@ pub struct ObjectSection {
     pub transform: Option<rift_fx::shot::schema::PoseSpec>,
     pub copy_of: Option<String>,
     pub through: Option<String>,
+    pub back_through: Option<String>,
     pub visibility: Option<VisibilitySection>,
     pub light_group: Option<String>,
 }
