@@ -64,6 +64,15 @@ impl Layout {
         (status, body)
     }
 
+    /// POST `body` to `path`; returns the status code and body.
+    fn post(&self, path: &str, body: &str) -> (u16, String) {
+        self.raw(&format!(
+            "POST {path} HTTP/1.0\r\nHost: 127.0.0.1:{}\r\nContent-Length: {}\r\n\r\n{body}",
+            self.port,
+            body.len()
+        ))
+    }
+
     /// GET `path` with the server's own Host and `headers`.
     fn get(&self, path: &str, headers: &str) -> (u16, String) {
         self.raw(&format!(
@@ -120,7 +129,12 @@ fn the_api_serves_the_scene_and_refuses_what_it_should() {
         assert!(n > 0 && n % 9 == 0, "{}: {n} coordinates", o["name"]);
     }
     assert_eq!(scene["openings"].as_array().unwrap().len(), 2);
-    assert!(scene["strands"]["points"].as_array().unwrap().len() > 1000);
+    let rings = scene["rings"].as_array().unwrap();
+    assert_eq!(rings.len(), 2, "one ring per opening");
+    for ring in rings {
+        assert!(ring["opening"].is_u64());
+        assert!(ring["points"].as_array().unwrap().len() > 1000);
+    }
     // Bad requests: 4xx, and the server goes on.
     for (path, headers, want) in [
         ("/api/scene?frame=abc", "", 400),
@@ -133,11 +147,18 @@ fn the_api_serves_the_scene_and_refuses_what_it_should() {
     }
     let (status, _) = layout.raw("GET / HTTP/1.0\r\nHost: evil.example\r\n\r\n");
     assert_eq!(status, 403, "a foreign Host (DNS rebinding)");
+    assert_eq!(layout.post("/api/scene", "").0, 405);
     let (status, _) = layout.raw(&format!(
-        "POST /api/scene HTTP/1.0\r\nHost: 127.0.0.1:{}\r\nContent-Length: 0\r\n\r\n",
+        "DELETE / HTTP/1.0\r\nHost: 127.0.0.1:{}\r\n\r\n",
         layout.port
     ));
     assert_eq!(status, 405);
+    let big = "x".repeat(100 << 10);
+    assert_eq!(
+        layout.post("/api/edit", &big).0,
+        413,
+        "a body far larger than an edit"
+    );
     let (status, _) = layout.raw("THIS IS NOT HTTP\r\n\r\n");
     assert!(
         (400..500).contains(&status) || status == 0,
@@ -666,25 +687,26 @@ fn a_save_to_a_read_only_shot_is_refused_with_its_reason() {
         return;
     };
     let layout = Layout { child, port };
-    let body = r#"{"frame": 12, "position": [0.5, 1.5, 1.0], "look_at": [0.0, 1.4, -3.0]}"#;
-    let (status, answer) = layout.raw(&format!(
-        "POST /api/camera HTTP/1.0\r\nHost: 127.0.0.1:{port}\r\nContent-Length: {}\r\n\r\n{body}",
-        body.len()
-    ));
+    // The edit is taken (the shot as the server holds it changes); writing it is refused.
+    let edit = r#"{"op": "pose", "target": {"kind": "camera"}, "frame": 12,
+        "position": [0.5, 1.5, 1.0], "look_at": [0.0, 1.4, -3.0]}"#;
+    let (status, answer) = layout.post("/api/edit", edit);
+    assert_eq!(status, 200, "{answer}");
+    let (status, answer) = layout.post("/api/save", "");
     assert_eq!(status, 422, "{answer}");
     assert!(answer.contains("Read-only file system"), "{answer}");
     // Malformed edits are 400s.
     for bad in [
         "{",
-        r#"{"frame": 12}"#,
-        r#"{"frame": 999, "position": [0,0,0], "look_at": [0,0,-1]}"#,
+        r#"{"op": "pose", "frame": 12}"#,
+        r#"{"op": "pose", "target": {"kind": "camera"}, "frame": 999, "position": [0, 0, 0],
+            "rotation": [0, 0, 0, 1]}"#,
+        r#"{"op": "teleport"}"#,
+        r#"{"op": "delete_key", "target": {"kind": "wall"}, "frame": 12}"#,
     ] {
-        let (status, _) = layout.raw(&format!(
-            "POST /api/camera HTTP/1.0\r\nHost: 127.0.0.1:{port}\r\nContent-Length: {}\r\n\r\n{bad}",
-            bad.len()
-        ));
-        assert_eq!(status, 400, "{bad}");
+        assert_eq!(layout.post("/api/edit", bad).0, 400, "{bad}");
     }
+    assert_eq!(layout.post("/api/nothing", "").0, 405);
 }
 
 /// The path tracer's render of `shot` at `frame` with Cryptomatte layers, 16 spp.

@@ -12,17 +12,16 @@
 
 mod check;
 mod edit;
+mod http;
 mod scene_json;
 mod shot_file;
 
-use anyhow::Context;
 use clap::Args;
+use http::{Incoming, Reply};
 use rift_render::Scene;
 use rift_render::rift_fx::Shot;
+use std::net::TcpListener;
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
-use std::time::Duration;
-use tiny_http::{Header, Method, Request, Response, Server};
 
 /// Arguments of `rift layout`.
 #[derive(Args)]
@@ -41,31 +40,30 @@ pub struct LayoutArgs {
 }
 
 /// The page and the scripts it loads, by path.
-const FILES: [(&str, &str, &[u8]); 5] = [
+const FILES: [(&str, &[u8]); 9] = [
+    ("/", include_bytes!("../../assets/layout/index.html")),
+    ("/app.js", include_bytes!("../../assets/layout/app.js")),
+    ("/model.js", include_bytes!("../../assets/layout/model.js")),
     (
-        "/",
-        "text/html; charset=utf-8",
-        include_bytes!("../../assets/layout/index.html"),
+        "/preview.js",
+        include_bytes!("../../assets/layout/preview.js"),
     ),
-    (
-        "/app.js",
-        "text/javascript; charset=utf-8",
-        include_bytes!("../../assets/layout/app.js"),
-    ),
+    ("/edit.js", include_bytes!("../../assets/layout/edit.js")),
     (
         "/vendor/three.module.js",
-        "text/javascript; charset=utf-8",
         include_bytes!("../../assets/layout/vendor/three.module.js"),
     ),
     (
         "/vendor/three.core.js",
-        "text/javascript; charset=utf-8",
         include_bytes!("../../assets/layout/vendor/three.core.js"),
     ),
     (
         "/vendor/OrbitControls.js",
-        "text/javascript; charset=utf-8",
         include_bytes!("../../assets/layout/vendor/OrbitControls.js"),
+    ),
+    (
+        "/vendor/TransformControls.js",
+        include_bytes!("../../assets/layout/vendor/TransformControls.js"),
     ),
 ];
 
@@ -80,7 +78,8 @@ pub fn run(args: LayoutArgs) -> anyhow::Result<()> {
             shot.frames.last
         );
     }
-    let server = Server::http(("127.0.0.1", args.port)).map_err(|e| {
+    let file = shot_file::ShotFile::open(&args.shot).map_err(anyhow::Error::msg)?;
+    let listener = TcpListener::bind(("127.0.0.1", args.port)).map_err(|e| {
         anyhow::anyhow!(
             "cannot listen on 127.0.0.1:{}: {e}{}",
             args.port,
@@ -91,31 +90,20 @@ pub fn run(args: LayoutArgs) -> anyhow::Result<()> {
             }
         )
     })?;
-    let port = server
-        .server_addr()
-        .to_ip()
-        .map(|a| a.port())
-        .context("the server has no IP address")?;
+    let port = listener.local_addr()?.port();
     let url = format!("http://127.0.0.1:{port}/?frame={frame}");
     println!("rift layout: {} at {url} (Ctrl-C stops)", shot.name);
     if !args.no_browser {
         open_browser(&url);
     }
     let stop = crate::resume::stop_on_signals()?;
-    let file = shot_file::ShotFile::open(&args.shot).map_err(anyhow::Error::msg)?;
     let mut state = State {
         shot,
         file,
         cached: None,
         check: None,
     };
-    while !stop.load(Ordering::SeqCst) {
-        match server.recv_timeout(Duration::from_millis(200)) {
-            Ok(Some(request)) => state.answer(request, port),
-            Ok(None) => {}
-            Err(e) => eprintln!("rift layout: {e}"),
-        }
-    }
+    http::serve(listener, port, stop, move |request| state.answer(request))?;
     println!("rift layout: stopped");
     Ok(())
 }
@@ -129,112 +117,96 @@ struct State {
     check: Option<check::Built>,
 }
 
-/// The largest request body read (an edit is a few hundred bytes).
-const MAX_BODY: u64 = 64 << 10;
-
 impl State {
     /// Answers one request (errors in the answer are the browser's to see, never fatal).
-    fn answer(&mut self, mut request: Request, port: u16) {
-        let response = if !loopback(&request, port) {
-            text(
-                403,
-                "rift layout answers only requests to its own loopback address",
-            )
-        } else if *request.method() == Method::Post {
-            let mut body = String::new();
-            let reader = std::io::Read::take(request.as_reader(), MAX_BODY);
-            match std::io::Read::read_to_string(&mut { reader }, &mut body) {
-                Ok(_) => self.post(request.url(), &body),
-                Err(_) => text(400, "the body is not UTF-8 text"),
-            }
-        } else if *request.method() != Method::Get {
-            text(405, "only GET and POST are served")
-        } else {
-            self.route(request.url())
-        };
-        // The browser may have gone; nothing to do then.
-        let _ = request.respond(response);
-    }
-
-    fn route(&mut self, url: &str) -> Response<std::io::Cursor<Vec<u8>>> {
+    fn answer(&mut self, request: Incoming) -> Reply {
+        if request.post {
+            return self.post(&request.url, &request.body);
+        }
+        let url = request.url.as_str();
         let (path, query) = url.split_once('?').unwrap_or((url, ""));
         if path == "/api/scene" {
             return match frame_param(query, &self.shot) {
                 Ok(frame) => self.scene(frame),
-                Err(message) => text(400, &message),
+                Err(message) => Reply::text(400, &message),
             };
         }
         if path == "/api/render" {
             return match check::Request::parse(query, &self.shot) {
                 Ok(request) => match check::render(&self.shot, &request, &mut self.check) {
-                    Ok(png) => with_type(Response::from_data(png), "image/png"),
-                    Err(message) => json_error(422, &message),
+                    Ok(png) => Reply::bytes("image/png", png),
+                    Err(message) => Reply::error(422, &message),
                 },
-                Err(message) => text(400, &message),
+                Err(message) => Reply::text(400, &message),
             };
         }
-        match FILES.iter().find(|(p, _, _)| *p == path) {
-            Some((_, kind, bytes)) => with_type(Response::from_data(bytes.to_vec()), kind),
-            None => text(404, &format!("{path}: not found")),
+        match FILES.iter().find(|(p, _)| *p == path) {
+            Some((_, bytes)) => {
+                let kind = if path == "/" {
+                    "text/html; charset=utf-8"
+                } else {
+                    "text/javascript; charset=utf-8"
+                };
+                Reply::bytes(kind, bytes.to_vec())
+            }
+            None => Reply::text(404, &format!("{path}: not found")),
         }
     }
 
     /// The scene JSON at `frame` (a shot that fails to build answers 422 with the error, file
     /// and key included).
-    fn scene(&mut self, frame: i64) -> Response<std::io::Cursor<Vec<u8>>> {
+    fn scene(&mut self, frame: i64) -> Reply {
         if let Some((f, json)) = &self.cached
             && *f == frame
         {
-            return with_type(Response::from_string(json.clone()), "application/json");
+            return Reply::json_text(json.clone());
         }
         match Scene::build(&self.shot, frame) {
             Ok(scene) => {
                 let json = scene_json::scene(&self.shot, &scene, frame, &self.file).to_string();
                 self.cached = Some((frame, json.clone()));
-                with_type(Response::from_string(json), "application/json")
+                Reply::json_text(json)
             }
-            Err(e) => json_error(422, &e.to_string()),
+            Err(e) => Reply::error(422, &e.to_string()),
         }
     }
-}
 
-impl State {
     /// Answers a POST: an edit, a save or a revert.
-    fn post(&mut self, url: &str, body: &str) -> Response<std::io::Cursor<Vec<u8>>> {
+    fn post(&mut self, url: &str, body: &str) -> Reply {
         match url {
             "/api/edit" => self.edit(body),
             "/api/save" => match self.file.save() {
                 Ok(()) => {
                     let saved = self.file.path().display().to_string();
                     self.cached = None;
-                    json(&serde_json::json!({ "saved": saved }))
+                    Reply::json(&serde_json::json!({ "saved": saved }))
                 }
-                Err(message) => json_error(422, &message),
+                Err(message) => Reply::error(422, &message),
             },
             "/api/revert" => match self.file.revert() {
                 Ok(shot) => {
                     self.shot = shot;
                     self.cached = None;
                     self.check = None;
-                    json(&serde_json::json!({ "reverted": true }))
+                    Reply::json(&serde_json::json!({ "reverted": true }))
                 }
-                Err(message) => json_error(422, &message),
+                Err(message) => Reply::error(422, &message),
             },
-            _ => text(405, "POST goes to /api/edit, /api/save or /api/revert"),
+            _ => Reply::text(405, "POST goes to /api/edit, /api/save or /api/revert"),
         }
     }
 
     /// Applies an edit (a JSON [`edit::Edit`]) once the edited shot builds at the edit's frame
     /// and places what was moved where it was asked: 200 with that frame's scene, 400 for a
     /// malformed body, 422 (with the reason, file and key) otherwise, the shot unchanged.
-    fn edit(&mut self, body: &str) -> Response<std::io::Cursor<Vec<u8>>> {
+    fn edit(&mut self, body: &str) -> Reply {
         let edit: edit::Edit = match serde_json::from_str(body) {
             Ok(e) => e,
-            Err(e) => return json_error(400, &format!("the edit: {e}")),
+            Err(e) => return Reply::error(400, &format!("the edit: {e}")),
         };
         let frame = edit.frame();
         if let Err(message) = frame_param(&format!("frame={frame}"), &self.shot) {
-            return json_error(400, &message);
+            return Reply::error(400, &message);
         }
         let checked = self.file.edited(&edit, &self.shot).and_then(|(doc, shot)| {
             let scene = Scene::build(&shot, frame).map_err(|e| e.to_string())?;
@@ -248,9 +220,9 @@ impl State {
                 self.check = None;
                 let json = scene_json::scene(&self.shot, &scene, frame, &self.file).to_string();
                 self.cached = Some((frame, json.clone()));
-                with_type(Response::from_string(json), "application/json")
+                Reply::json_text(json)
             }
-            Err(message) => json_error(422, &message),
+            Err(message) => Reply::error(422, &message),
         }
     }
 }
@@ -291,18 +263,6 @@ fn landed(edit: &edit::Edit, shot: &Shot, scene: &Scene, frame: i64) -> Result<(
     Ok(())
 }
 
-fn json(value: &serde_json::Value) -> Response<std::io::Cursor<Vec<u8>>> {
-    with_type(Response::from_string(value.to_string()), "application/json")
-}
-
-fn json_error(status: u16, message: &str) -> Response<std::io::Cursor<Vec<u8>>> {
-    let body = serde_json::json!({ "error": message }).to_string();
-    with_type(
-        Response::from_string(body).with_status_code(status),
-        "application/json",
-    )
-}
-
 /// The `frame` query parameter, checked against the shot's range (the first frame without).
 fn frame_param(query: &str, shot: &Shot) -> Result<i64, String> {
     let Some(value) = query
@@ -322,41 +282,6 @@ fn frame_param(query: &str, shot: &Shot) -> Result<i64, String> {
         ));
     }
     Ok(frame)
-}
-
-/// True when the request's `Host` (and `Origin`, if any) name this server's loopback address.
-fn loopback(request: &Request, port: u16) -> bool {
-    let allowed = |authority: &str| {
-        ["127.0.0.1", "localhost", "[::1]"]
-            .iter()
-            .any(|host| authority == format!("{host}:{port}"))
-    };
-    let header = |name: &str| {
-        request
-            .headers()
-            .iter()
-            .find(|h| h.field.as_str().as_str().eq_ignore_ascii_case(name))
-            .map(|h| h.value.as_str().to_owned())
-    };
-    let host_ok = header("Host").is_some_and(|h| allowed(&h));
-    let origin_ok = header("Origin").is_none_or(|o| o.strip_prefix("http://").is_some_and(allowed));
-    host_ok && origin_ok
-}
-
-fn text(status: u16, message: &str) -> Response<std::io::Cursor<Vec<u8>>> {
-    with_type(
-        Response::from_string(format!("{message}\n")).with_status_code(status),
-        "text/plain; charset=utf-8",
-    )
-}
-
-fn with_type(
-    response: Response<std::io::Cursor<Vec<u8>>>,
-    kind: &str,
-) -> Response<std::io::Cursor<Vec<u8>>> {
-    let header = Header::from_bytes("Content-Type", kind).expect("a valid header");
-    let nosniff = Header::from_bytes("X-Content-Type-Options", "nosniff").expect("a valid header");
-    response.with_header(header).with_header(nosniff)
 }
 
 /// Opens `url` in the desktop's browser, if there is one (best effort).

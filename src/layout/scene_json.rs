@@ -36,7 +36,54 @@ pub fn scene(shot: &Shot, scene: &Scene, frame: i64, file: &ShotFile) -> Value {
         "openings": openings(shot, scene, time, file),
         "rings": strands(shot, scene, time),
         "maxPortalDepth": scene.settings.max_portal_depth,
+        "time": time,
+        "rayTimes": scene.portals.times(),
+        "moments": moments(shot, scene, time),
     })
+}
+
+/// The most other moments sent (a chain of openings with time offsets reaches one each).
+const MAX_MOMENTS: usize = 32;
+
+/// Where things are at the other times rays reach through openings with time offsets (each
+/// opening passed shifts a ray's time, within the scene's ray times): per time, the objects'
+/// placements, the openings' frames and the rings. Empty when no opening has an offset.
+fn moments(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
+    let portals = &scene.portals;
+    let mut times = vec![time];
+    let mut frontier = vec![time];
+    for _ in 0..scene.settings.max_portal_depth {
+        let mut next = Vec::new();
+        for &t in &frontier {
+            for i in 0..portals.len() {
+                let exit = portals.exit_time(i, t);
+                if times.len() < MAX_MOMENTS + 1 && !times.iter().any(|s| (s - exit).abs() < 1e-9) {
+                    times.push(exit);
+                    next.push(exit);
+                }
+            }
+        }
+        frontier = next;
+    }
+    times[1..]
+        .iter()
+        .map(|&t| {
+            let placements: Vec<Value> = scene
+                .object_placement
+                .iter()
+                .map(|m| similarity(m.at(t)))
+                .collect();
+            let frames: Vec<Value> = (0..portals.len())
+                .map(|i| json!({ "here": similarity(portals.here(i, t)), "there": similarity(portals.there(i, t)) }))
+                .collect();
+            json!({
+                "time": t,
+                "placements": placements,
+                "openings": frames,
+                "rings": strands(shot, scene, t),
+            })
+        })
+        .collect()
 }
 
 /// A similarity as the page takes it: position, quaternion (x, y, z, w), scale.
