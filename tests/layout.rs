@@ -764,3 +764,141 @@ fn the_check_render_path_traces_the_view_the_page_shows() {
     assert_eq!(page["size"], serde_json::json!([480, 270]), "{page}");
     assert!(page["pageErrors"].as_array().unwrap().is_empty(), "{page}");
 }
+
+/// A similarity from the scene JSON as a matrix.
+fn similarity(v: &serde_json::Value) -> glam::DMat4 {
+    let f = |k: &str| -> Vec<f64> {
+        v[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let scale = v["scale"].as_f64().unwrap();
+    glam::DMat4::from_scale_rotation_translation(
+        glam::DVec3::splat(scale),
+        glam::DQuat::from_slice(&f("rotation")),
+        glam::DVec3::from_slice(&f("position")),
+    )
+}
+
+/// The translation of a column-major matrix the page reports.
+fn translation(v: &serde_json::Value) -> glam::DVec3 {
+    let m: Vec<f64> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    glam::DVec3::new(m[12], m[13], m[14])
+}
+
+#[test]
+fn edits_made_in_the_page_follow_the_solver_and_round_trip_through_the_shot_file() {
+    let (w, h) = (256u32, 144u32);
+    let dir = tempfile::tempdir().unwrap();
+    let shot = still_variant(dir.path(), "showcase.toml", w, h, 2);
+    let original = std::fs::read_to_string(&shot).unwrap();
+    let layout = Layout::start(&shot, &[]);
+    let url = format!("{}?frame=12&depth=2", layout.url());
+    let walker = r#"{"kind": "object", "name": "walker"}"#;
+    let pillar = r#"{"kind": "object", "name": "pillar"}"#;
+    let back_there = r#"{"kind": "opening", "name": "back", "side": "there"}"#;
+    let steps = format!(
+        r#"[
+        ["select", {walker}],
+        ["move", {{"position": [0.8, 0.6, -1.0], "rotation": [0, 0, 0, 1], "scale": 1}}],
+        ["placement", "walker_there"],
+        ["select", {pillar}],
+        ["placement", "pillar"],
+        ["drag", 80, 0],
+        ["placement", "pillar"],
+        ["select", {back_there}],
+        ["move", {{"position": [0.3, 1.5, 2.97], "rotation": [0, 0, 0, 1], "scale": 1}}],
+        ["select", {pillar}],
+        ["copyBack", "back"],
+        ["placement", "pillar_here"],
+        ["move", {{"position": [0, 0.4, 0], "rotation": [0, 0, 0, 1], "scale": -1}}],
+        ["error"],
+        ["select", {{"kind": "camera"}}],
+        ["deleteKey"],
+        ["error"],
+        ["save"]
+    ]"#
+    );
+    let Some(v) = run_page(&url, &["--steps", &steps]) else {
+        return;
+    };
+    assert!(v["pageErrors"].as_array().unwrap().is_empty(), "{v}");
+    let r = &v["results"];
+    let (_, body) = layout.get("/api/scene?frame=12", "");
+    let scene: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let frames = &scene["openings"][0];
+    let teleport = similarity(&frames["there"]) * similarity(&frames["here"]).inverse();
+    // The copy followed its source live, through the opening as it was then (before the
+    // opening moved 0.3 m).
+    let moved = r[1]["drawMs"].as_f64().unwrap();
+    let answered = r[1]["answerMs"].as_f64().unwrap();
+    eprintln!(
+        "a move shows through the openings in {moved:.0} ms; the server answers in {answered:.0} ms"
+    );
+    let before_opening = glam::DMat4::from_translation(glam::DVec3::new(-0.3, 0.0, 0.0)) * teleport;
+    let expected = before_opening.transform_point3(glam::DVec3::new(0.8, 0.6, -1.0));
+    assert!(
+        (translation(&r[2]) - expected).length() < 1e-6,
+        "walker_there at {} not {expected}",
+        translation(&r[2])
+    );
+    // The mouse dragged the pillar.
+    let dragged = translation(&r[6]) - translation(&r[4]);
+    assert!(
+        dragged.length() > 0.05,
+        "the drag moved the pillar by {dragged}"
+    );
+    assert!(r[5]["error"].is_null(), "{}", r[5]);
+    // The inverse solver's copy is where carrying it through the opening lands on the pillar.
+    let pillar_now = translation(&r[6]);
+    let here_copy = translation(&r[11]);
+    assert!(
+        (teleport.transform_point3(here_copy) - pillar_now).length() < 1e-6,
+        "{here_copy} carried through is not the pillar at {pillar_now}"
+    );
+    // A bad edit and a key that is not there are refused, with the file, key and reason shown.
+    let shown = r[13].as_str().unwrap();
+    assert!(
+        shown.contains("showcase.toml") && shown.contains("scale"),
+        "{shown}"
+    );
+    let shown = r[16].as_str().unwrap();
+    assert!(shown.contains("no key at frame 12"), "{shown}");
+    assert!(r[17]["saved"].is_string(), "{}", r[17]);
+    // The file keeps every comment and line it had but those edited.
+    let saved = std::fs::read_to_string(&shot).unwrap();
+    for line in original.lines().filter(|l| l.trim_start().starts_with('#')) {
+        assert!(saved.contains(line), "lost {line:?}");
+    }
+    assert!(
+        saved.contains("{ frame = 12, position = [0.8, 0.6, -1.0]"),
+        "{saved}"
+    );
+    assert!(saved.contains("back_through = \"back\""), "{saved}");
+    assert!(
+        saved.contains("here = { position = [0.3, 1.5, 2.97]"),
+        "{saved}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(shot.with_extension("toml.bak")).unwrap(),
+        original
+    );
+    // What the page shows now matches what `rift render` renders from the saved file.
+    let Some(preview) = browse_ids(&url, w, h) else {
+        return;
+    };
+    let layer = render_ids(dir.path(), &shot, 12);
+    compare_ids(
+        "edited showcase",
+        &preview,
+        &layer,
+        &scene_names(&layout, 12),
+    );
+}

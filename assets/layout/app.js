@@ -215,6 +215,14 @@ state.deleteKey = () => editor.deleteKey();
 state.copyBack = opening => editor.copyBack(opening);
 state.save = () => editor.save();
 state.revert = () => editor.revert();
+// Resolves once the last edit sent has been answered, with that answer.
+state.idle = () => editor.pending;
+// Where the gizmo's centre is on the page (pixels), for dragging it.
+state.gizmoOnScreen = () => {
+  const p = editor.handle.getWorldPosition(new THREE.Vector3()).project(orbitCamera);
+  const box = orbitView.renderer.domElement.getBoundingClientRect();
+  return [box.left + (p.x + 1) / 2 * box.width, box.top + (1 - p.y) / 2 * box.height];
+};
 // Where an object is now (live), as a column-major matrix.
 state.placement = name => model.objects.find(o => o.data.name === name)?.world.toArray();
 

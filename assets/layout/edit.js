@@ -22,6 +22,7 @@ export class Editor {
   constructor(page) {
     this.page = page;
     this.target = null;
+    this.pending = Promise.resolve(null);
     this.handle = new THREE.Object3D();
     page.world.add(this.handle);
     this.gizmo = new TransformControls(page.orbitCamera, page.orbitElement);
@@ -106,7 +107,7 @@ export class Editor {
     const start = performance.now();
     this.handle.position.set(...pose.position);
     if (pose.rotation) this.handle.quaternion.set(...pose.rotation);
-    if (pose.scale) this.handle.scale.setScalar(pose.scale);
+    if (pose.scale !== undefined) this.handle.scale.setScalar(pose.scale);
     this.follow();
     await this.page.redrawn();
     const drawMs = performance.now() - start;
@@ -158,8 +159,13 @@ export class Editor {
   }
 
   // Sends an edit; the page takes the scene the server answers with, or shows why not and
-  // reloads what the server holds. Resolves with the answer.
-  async send(edit) {
+  // reloads what the server holds. Resolves with the answer (`pending` until then).
+  send(edit) {
+    this.pending = this.exchange(edit);
+    return this.pending;
+  }
+
+  async exchange(edit) {
     const response = await fetch('/api/edit', { method: 'POST', body: JSON.stringify(edit) });
     const answer = await response.json().catch(() => ({ error: `HTTP ${response.status}` }));
     if (!response.ok || answer.error) {

@@ -660,7 +660,15 @@ fn copy_back(
     shot: &Shot,
 ) -> Result<(), String> {
     let objects = objects(doc)?;
-    object_index(objects, object)?;
+    let i = object_index(objects, object)?;
+    // A copy starts from its source's own transform, so a copy of what the solver already
+    // places would not land where that is: its here-side counterpart is what it copies.
+    if let Some((through, _)) = carried(objects.get(i).expect("an index found above")) {
+        return Err(format!(
+            "it is already placed by the solver through {through:?}; copy the object it is a \
+             copy of instead"
+        ));
+    }
     if shot.rig.find(opening).is_none() {
         return Err(format!("no portal opening is called {opening:?}"));
     }
@@ -932,7 +940,7 @@ pair = "door"
     #[test]
     fn the_inverse_solver_adds_a_hidden_here_side_copy_with_a_free_name() {
         let copy = || Edit::CopyBack {
-            object: "ball_there".into(),
+            object: "ball".into(),
             opening: "door".into(),
             frame: 1,
         };
@@ -944,18 +952,28 @@ pair = "door"
         assert!(
             text.contains(
                 "shadow = false }\n\n# the here-side copy of a there-side target (rift layout's \
-             inverse solver)\n[[object]]\nname = \"ball_there_here2\"\ncopy_of = \
-             \"ball_there\"\nback_through = \"door\"\nvisibility = { camera = false, \
-             through_portal = false, indirect = false, shadow = false }\n\n[[portal]]"
+             inverse solver)\n[[object]]\nname = \"ball_here2\"\ncopy_of = \"ball\"\n\
+             back_through = \"door\"\nvisibility = { camera = false, through_portal = false, \
+             indirect = false, shadow = false }\n\n[[portal]]"
             ),
             "{text}"
         );
-        assert!(text.contains("name = \"ball_there_here\"\n"));
+        assert!(text.contains("name = \"ball_here\"\n"));
         let bad = Edit::CopyBack {
             object: "nothing".into(),
             opening: "door".into(),
             frame: 1,
         };
         assert!(edited(bad).unwrap_err().contains("no object"));
+        let placed = Edit::CopyBack {
+            object: "ball_there".into(),
+            opening: "door".into(),
+            frame: 1,
+        };
+        assert!(
+            edited(placed)
+                .unwrap_err()
+                .contains("already placed by the solver")
+        );
     }
 }

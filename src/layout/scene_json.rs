@@ -236,11 +236,13 @@ fn strands(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
     for i in 0..strands.segments.len() as u32 {
         let ring = strands.segment_ring[i as usize] as usize;
         let cone = strands.world_segment(i, time);
-        points[ring].extend(cone.a.to_array());
-        points[ring].extend(cone.b.to_array());
+        // A tenth of a millimetre and a thousandth of a colour are plenty to draw, and keep
+        // the JSON of a few hundred thousand segments small.
+        points[ring].extend(cone.a.to_array().map(|x| rounded(x, 1e4)));
+        points[ring].extend(cone.b.to_array().map(|x| rounded(x, 1e4)));
         let c = strands.radiance(i, 0.5);
         let c = c / c.max_element().max(1e-6);
-        colors[ring].extend(c.to_array());
+        colors[ring].extend(c.to_array().map(|x| rounded(x, 1e3)));
     }
     (0..rings)
         .map(|ring| {
@@ -250,4 +252,9 @@ fn strands(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
             json!({ "opening": opening, "points": points[ring], "colors": colors[ring] })
         })
         .collect()
+}
+
+/// `x` rounded to `1/per`, as f64 so it prints as short as it is.
+fn rounded(x: f32, per: f64) -> f64 {
+    (x as f64 * per).round() / per
 }

@@ -4,6 +4,10 @@
 // with --ids W H, the shot camera's ID pass at W x H instead (object index per pixel).
 //   node tests/browser/layout.mjs URL [SCREENSHOT.png]
 //   node tests/browser/layout.mjs URL --ids W H
+//   node tests/browser/layout.mjs URL --steps JSON
+// --steps runs a list of steps in the page and prints each one's result: ["name", ...args]
+// calls window.riftLayout.name(...args) (awaited); ["drag", dx, dy] drags the gizmo's centre
+// in the orbit view by that many pixels with the mouse; ["error"] reads the message shown.
 import { chromium } from 'playwright-core';
 import { mkdtempSync } from 'node:fs';
 import { tmpdir } from 'node:os';
@@ -38,7 +42,12 @@ try {
     dragMs = await page.evaluate(c => window.riftLayout.setCamera(
       { position: c.slice(0, 3), lookAt: c.slice(3, 6) }), cameraAt);
   }
-  if (rest.includes('--check')) {
+  if (rest.includes('--steps')) {
+    const steps = JSON.parse(rest[rest.indexOf('--steps') + 1]);
+    const results = [];
+    for (const [name, ...args] of steps) results.push(await step(page, name, args));
+    console.log(JSON.stringify({ results, pageErrors: console_errors }));
+  } else if (rest.includes('--check')) {
     const size = await page.evaluate(() => window.riftLayout.checkRender([1]));
     if (screenshot) await page.screenshot({ path: screenshot });
     console.log(JSON.stringify({ size, pageErrors: console_errors }));
@@ -54,6 +63,20 @@ try {
   }
 } finally {
   await context.close();
+}
+
+async function step(page, name, args) {
+  if (name === 'error') return page.evaluate(() => document.getElementById('error').textContent);
+  if (name === 'drag') {
+    const [x, y] = await page.evaluate(() => window.riftLayout.gizmoOnScreen());
+    await page.mouse.move(x, y);
+    await page.mouse.down();
+    await page.mouse.move(x + args[0], y + args[1], { steps: 8 });
+    await page.mouse.up();
+    // The edit the drag's end sent has been answered once the page is ready again.
+    return page.evaluate(() => window.riftLayout.idle());
+  }
+  return page.evaluate(([name, args]) => window.riftLayout[name](...args), [name, args]);
 }
 
 // The page's state, how much of each view it draws, and its frame rate, as JSON.
