@@ -902,3 +902,75 @@ fn edits_made_in_the_page_follow_the_solver_and_round_trip_through_the_shot_file
         &scene_names(&layout, 12),
     );
 }
+
+#[test]
+fn an_opening_with_a_time_offset_shows_the_there_side_later_as_the_path_tracer_does() {
+    // Through an opening whose rays see the there side 6 frames later, a box crossing the
+    // view beyond it shows 1 m further on than it is at the frame.
+    let (w, h) = (256u32, 144u32);
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("wall.obj"),
+        "v -40 -30 -8\nv 40 -30 -8\nv 40 30 -8\nv -40 30 -8\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    let cube = root().join("examples/assets/cube.obj");
+    let shot = dir.path().join("delay.toml");
+    std::fs::write(
+        &shot,
+        format!(
+            r#"
+[shot]
+name = "delay"
+fps = 24.0
+frames = [1, 24]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [{w}, {h}]
+fov_degrees = 40.0
+[camera.transform]
+position = [0.0, 0.0, 0.0]
+[render]
+max_portal_depth = 1
+[[material]]
+name = "grey"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+emission = [1.0, 1.0, 1.0]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "grey"
+[[object]]
+name = "box"
+mesh = "{cube}"
+material = "grey"
+transform = {{ interpolation = "linear", keys = [
+  {{ frame = 1, position = [17.0, 0.0, -3.0], scale = 0.8 }},
+  {{ frame = 24, position = [23.0, 0.0, -3.0], scale = 0.8 }},
+] }}
+[[portal]]
+name = "A"
+here = {{ position = [0.0, 0.0, -4.0] }}
+there = {{ position = [20.0, 0.0, -0.5] }}
+[portal.surface]
+radius = 1.4
+time_offset = 6.0
+"#,
+            cube = cube.display()
+        ),
+    )
+    .unwrap();
+    let layout = Layout::start(&shot, &[]);
+    let url = format!("{}?frame=8&depth=1", layout.url());
+    let Some(preview) = browse_ids(&url, w, h) else {
+        return;
+    };
+    let layer = render_ids(dir.path(), &shot, 8);
+    let names = scene_names(&layout, 8);
+    // The box is in view through the opening (at the frame itself it would be 1.6 m to the
+    // left, mostly outside the opening).
+    let box_pixels = preview.iter().filter(|&&i| i == 1).count();
+    assert!(box_pixels > 300, "{box_pixels} pixels of the box");
+    compare_ids("delayed", &preview, &layer, &names);
+}
