@@ -343,6 +343,8 @@ fn the_preview_through_openings_matches_the_path_tracers_object_ids() {
         ("through_portal.toml", [4, 16], 1),
         // An opening of opacity 0 (it teleports nothing) and strands the camera cannot see.
         ("ring_on_wall.toml", [1, 1], 1),
+        // Doorways in walls, each seeing out of the other.
+        ("portal_pair.toml", [1001, 1060], 2),
     ] {
         let shot = still_variant(dir.path(), example, w, h, depth);
         let layout = Layout::start(&shot, &[]);

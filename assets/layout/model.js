@@ -131,7 +131,13 @@ export class Model {
       // What the opening shows where the preview stops following it.
       const limit = new THREE.Mesh(geometry, new THREE.MeshBasicMaterial({
         color: previewLimitColor, side: THREE.FrontSide }));
-      for (const m of [mask, limit]) m.matrixAutoUpdate = false;
+      for (const m of [mask, limit]) {
+        m.matrixAutoUpdate = false;
+        // An opening wins a tie with a wall it is set in, as in the path tracer.
+        m.material.polygonOffset = true;
+        m.material.polygonOffsetFactor = -1;
+        m.material.polygonOffsetUnits = -4;
+      }
       // Invisible stand-ins the orbit view picks openings' frames by.
       const pickHere = new THREE.Mesh(geometry, new THREE.MeshBasicMaterial({ side: THREE.DoubleSide }));
       const pickThere = pickHere.clone();

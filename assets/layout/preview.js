@@ -5,13 +5,14 @@
 // clipped to beyond the there plane, at the time rays have after passing it.
 import * as THREE from 'three';
 
-// A quad at the far plane over the whole viewport, for resetting depth where a stencil value
-// says.
+// A quad at the far plane over the whole viewport, for clearing where a stencil value says:
+// depth to the far plane and colour to the background (black: nothing), so where the view
+// through an opening meets nothing it shows nothing, not what the opening hides.
 const fullScreen = (() => {
   const quad = new THREE.Mesh(new THREE.PlaneGeometry(2, 2), new THREE.ShaderMaterial({
     vertexShader: 'void main() { gl_Position = vec4(position.xy, 1.0, 1.0); }',
-    fragmentShader: 'void main() { gl_FragColor = vec4(0.0); }',
-    colorWrite: false, depthFunc: THREE.AlwaysDepth,
+    fragmentShader: 'void main() { gl_FragColor = vec4(0.0, 0.0, 0.0, 1.0); }',
+    depthFunc: THREE.AlwaysDepth,
   }));
   quad.frustumCulled = false;
   return new THREE.Scene().add(quad);
@@ -91,7 +92,7 @@ export class Preview {
       setStencil(mask.material, stencil, THREE.EqualStencilFunc, THREE.IncrementStencilOp);
       mask.material.depthTest = true;
       renderer.render(o.mask, camera);
-      // Reset depth inside the mark.
+      // Clear inside the mark.
       setStencil(fullScreen.children[0].material, stencil + 1, THREE.EqualStencilFunc, THREE.KeepStencilOp);
       renderer.render(fullScreen, camera);
       // The teleported camera, clipped to beyond the there plane (what shows lies on its −Z
@@ -104,6 +105,9 @@ export class Preview {
       virtual.matrixWorldInverse.copy(virtual.matrixWorld).invert();
       const keep = new THREE.Plane().setFromNormalAndCoplanarPoint(
         new THREE.Vector3(0, 0, -1).transformDirection(there), new THREE.Vector3().setFromMatrixPosition(there));
+      // A wall the there frame is set in lies behind the teleported rays' start (as their
+      // origins are offset off it): a millimetre (of the frame's scale) clears it.
+      keep.constant -= 1e-3 * new THREE.Vector3().setFromMatrixScale(there).x;
       const clipping = renderer.clippingPlanes;
       renderer.clippingPlanes = [keep];
       const shown = this.helpers.map(h => h.visible);

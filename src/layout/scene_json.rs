@@ -16,8 +16,11 @@ use rift_render::rift_fx::rig::{Similarity, ThereFrame};
 use rift_render::visibility::RayClass;
 use serde_json::{Value, json};
 
-/// Points of a round outline (disks, and rings by their widest extent).
+/// Points of a round outline.
 const OUTLINE_POINTS: usize = 64;
+
+/// Points of a ring's outline (its inner envelope wavers around the circle).
+const RING_OUTLINE_POINTS: usize = 256;
 
 /// The scene of `shot` (as `file` holds it) at `frame` as the page's JSON.
 pub fn scene(shot: &Shot, scene: &Scene, frame: i64, file: &ShotFile) -> Value {
@@ -192,7 +195,7 @@ fn openings(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value
                 "name": name,
                 "here": similarity(portals.here(i, time)),
                 "there": similarity(portals.there(i, time)),
-                "outline": outline(portals.mask(i)),
+                "outline": outline(portals.mask(i), time),
                 "opacity": portals.look(i).opacity,
                 "timeOffset": portals.look(i).time_offset,
                 "pair": pair,
@@ -203,8 +206,8 @@ fn openings(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value
         .collect()
 }
 
-/// A mask's outline as points in the opening's local XY plane.
-fn outline(mask: &Mask) -> Vec<[f64; 2]> {
+/// A mask's outline at `time` as points in the opening's local XY plane.
+fn outline(mask: &Mask, time: f64) -> Vec<[f64; 2]> {
     let circle = |r: f64| {
         (0..OUTLINE_POINTS)
             .map(|k| {
@@ -222,7 +225,15 @@ fn outline(mask: &Mask) -> Vec<[f64; 2]> {
             [-half.x, half.y],
         ],
         Mask::Polygon(polygon) => polygon.points().iter().map(|p| [p.x, p.y]).collect(),
-        Mask::Ring(_) => circle(mask.bounding_radius()),
+        // The strands' inner envelope at the frame, as the renderer teleports inside it.
+        Mask::Ring(boundary) => (0..RING_OUTLINE_POINTS)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / RING_OUTLINE_POINTS as f64;
+                let direction = glam::DVec2::new(a.cos(), a.sin());
+                let r = boundary.radius(direction, time);
+                [r * direction.x, r * direction.y]
+            })
+            .collect(),
     }
 }
 
