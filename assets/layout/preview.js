@@ -27,6 +27,19 @@ function setStencil(material, ref, func, pass) {
   material.stencilZFail = THREE.KeepStencilOp;
 }
 
+// Narrows `camera`'s projection (which fills `viewport`) to the part `box` of it, to be
+// drawn with `box` as the viewport: the same image there, a smaller frustum.
+function narrow(camera, viewport, box) {
+  const x0 = (box.x - viewport.x) / viewport.z * 2 - 1;
+  const x1 = (box.x + box.z - viewport.x) / viewport.z * 2 - 1;
+  const y0 = (box.y - viewport.y) / viewport.w * 2 - 1;
+  const y1 = (box.y + box.w - viewport.y) / viewport.w * 2 - 1;
+  const fit = new THREE.Matrix4().makeScale(2 / (x1 - x0), 2 / (y1 - y0), 1)
+    .multiply(new THREE.Matrix4().makeTranslation(-(x0 + x1) / 2, -(y0 + y1) / 2, 0));
+  camera.projectionMatrix.premultiply(fit);
+  camera.projectionMatrixInverse.copy(camera.projectionMatrix).invert();
+}
+
 export class Preview {
   // `world` holds `model.content`; `helpers` are drawn only at the top level (the frustum,
   // the gizmo); `depth()` is how many levels to follow.
@@ -37,10 +50,40 @@ export class Preview {
     this.depth = depth;
   }
 
-  // Draws the world from `camera` through every opening it sees.
+  // Draws the world from `camera` through every opening it sees, within the renderer's
+  // viewport (and scissor box, where one is set).
   draw(renderer, camera) {
-    this.drawLevel(renderer, camera, 0, 0, this.model.time);
+    const box = renderer.getViewport(new THREE.Vector4());
+    if (renderer.getScissorTest()) renderer.getScissor(box);
+    const scissor = renderer.getScissorTest();
+    const viewport = renderer.getViewport(new THREE.Vector4());
+    this.drawLevel(renderer, camera, 0, 0, this.model.time, box, viewport);
+    renderer.setViewport(viewport);
+    renderer.setScissor(box);
+    renderer.setScissorTest(scissor);
     this.model.showMoment(this.model.time);
+  }
+
+  // The part of `box` (x, y from the bottom left, width, height; pixels) the opening's mask
+  // covers as `camera` sees it: its outline's bounds on screen, or all of `box` where the
+  // outline reaches behind the camera. Empty (width 0) where it is off screen.
+  screenBox(mask, camera, box, v) {
+    const outline = mask.geometry.attributes.position;
+    const toView = new THREE.Matrix4().multiplyMatrices(camera.matrixWorldInverse, mask.matrixWorld);
+    const p = new THREE.Vector3();
+    const [lo, hi] = [new THREE.Vector2(Infinity, Infinity), new THREE.Vector2(-Infinity, -Infinity)];
+    for (let i = 0; i < outline.count; i++) {
+      p.fromBufferAttribute(outline, i).applyMatrix4(toView);
+      if (p.z >= -camera.near) return box.clone();
+      p.applyMatrix4(camera.projectionMatrix);
+      lo.min(p);
+      hi.max(p);
+    }
+    const x0 = Math.max(box.x, Math.floor(v.x + (lo.x + 1) / 2 * v.z));
+    const y0 = Math.max(box.y, Math.floor(v.y + (lo.y + 1) / 2 * v.w));
+    const x1 = Math.min(box.x + box.z, Math.ceil(v.x + (hi.x + 1) / 2 * v.z));
+    const y1 = Math.min(box.y + box.w, Math.ceil(v.y + (hi.y + 1) / 2 * v.w));
+    return new THREE.Vector4(x0, y0, Math.max(0, x1 - x0), Math.max(0, y1 - y0));
   }
 
   // Which objects camera rays see at `level`: directly at 0, through openings beyond (their
@@ -58,7 +101,13 @@ export class Preview {
     });
   }
 
-  drawLevel(renderer, camera, level, stencil, time) {
+  // One level: the world from `camera` (whose projection fills `viewport`) at `time` where
+  // the stencil holds `stencil`, then the openings it sees, each drawn only inside its box on
+  // screen (within `box`).
+  drawLevel(renderer, camera, level, stencil, time, box, viewport) {
+    renderer.setViewport(viewport);
+    renderer.setScissor(box);
+    renderer.setScissorTest(true);
     const model = this.model;
     model.showMoment(time);
     this.stencilAll(stencil);
@@ -88,6 +137,9 @@ export class Preview {
       const front = new THREE.Plane().setFromNormalAndCoplanarPoint(
         new THREE.Vector3(0, 0, 1).transformDirection(here), new THREE.Vector3().setFromMatrixPosition(here));
       if (front.distanceToPoint(eye) <= 0 || !view.intersectsObject(mask)) continue;
+      const inside = this.screenBox(mask, camera, box, viewport);
+      if (inside.z === 0 || inside.w === 0) continue;
+      renderer.setScissor(inside);
       // Mark where the outline is visible (in front of what was drawn) at this level.
       setStencil(mask.material, stencil, THREE.EqualStencilFunc, THREE.IncrementStencilOp);
       mask.material.depthTest = true;
@@ -112,7 +164,12 @@ export class Preview {
       renderer.clippingPlanes = [keep];
       const shown = this.helpers.map(h => h.visible);
       for (const h of this.helpers) h.visible = false;
-      this.drawLevel(renderer, virtual, level + 1, stencil + 1, exit);
+      // Its projection narrowed to the opening's box, so what lies outside the opening's
+      // view is culled before it is drawn.
+      narrow(virtual, viewport, inside);
+      this.drawLevel(renderer, virtual, level + 1, stencil + 1, exit, inside, inside);
+      renderer.setViewport(viewport);
+      renderer.setScissor(inside);
       model.showMoment(time);
       this.showFor(level);
       renderer.clippingPlanes = clipping;
@@ -124,6 +181,7 @@ export class Preview {
       mask.material.depthWrite = true;
       renderer.render(o.mask, camera);
       mask.material.depthWrite = false;
+      renderer.setScissor(box);
     }
     this.stencilAll(stencil);
   }

@@ -237,32 +237,72 @@ fn outline(mask: &Mask, time: f64) -> Vec<[f64; 2]> {
     }
 }
 
+/// The most line segments a ring is drawn with: a ring's strands run to a hundred thousand
+/// segments, which software WebGL would draw at a few frames a second at every level of
+/// openings; joined k at a time along each strand they look the same at preview sizes.
+const MAX_RING_SEGMENTS: usize = 6000;
+
 /// The rings' strands at `time`, per ring: the opening it belongs to (by index) and its
-/// segments' end points, flattened, with their colour.
+/// segments' end points, flattened, with their colour (consecutive segments of a strand joined
+/// so a ring has at most [`MAX_RING_SEGMENTS`]).
 fn strands(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
     let strands = &scene.strands;
     let rings = scene.id_names.len() - scene.object_count as usize;
-    let mut points = vec![Vec::new(); rings];
-    let mut colors = vec![Vec::new(); rings];
+    let mut segments: Vec<Vec<u32>> = vec![Vec::new(); rings];
     for i in 0..strands.segments.len() as u32 {
-        let ring = strands.segment_ring[i as usize] as usize;
-        let cone = strands.world_segment(i, time);
-        // A tenth of a millimetre and a thousandth of a colour are plenty to draw, and keep
-        // the JSON of a few hundred thousand segments small.
-        points[ring].extend(cone.a.to_array().map(|x| rounded(x, 1e4)));
-        points[ring].extend(cone.b.to_array().map(|x| rounded(x, 1e4)));
-        let c = strands.radiance(i, 0.5);
-        let c = c / c.max_element().max(1e-6);
-        colors[ring].extend(c.to_array().map(|x| rounded(x, 1e3)));
+        segments[strands.segment_ring[i as usize] as usize].push(i);
     }
     (0..rings)
         .map(|ring| {
+            let (points, colors) = joined(scene, &segments[ring], time);
             // Rings are named "<opening>/ring", as Cryptomatte lists them.
             let name = &scene.id_names[scene.object_count as usize + ring];
             let opening = name.strip_suffix("/ring").and_then(|o| shot.rig.find(o));
-            json!({ "opening": opening, "points": points[ring], "colors": colors[ring] })
+            json!({ "opening": opening, "points": points, "colors": colors })
         })
         .collect()
+}
+
+/// A ring's segments (in strand order) at `time` as flattened end points and colours, every
+/// run of k consecutive segments of a strand drawn as one.
+fn joined(scene: &Scene, segments: &[u32], time: f64) -> (Vec<f64>, Vec<f64>) {
+    let strands = &scene.strands;
+    let k = segments.len().div_ceil(MAX_RING_SEGMENTS).max(1);
+    let (mut points, mut colors) = (Vec::new(), Vec::new());
+    let mut emit = |a: Vec3, b: Vec3, segment: u32| {
+        // A tenth of a millimetre and a thousandth of a colour are plenty to draw, and keep
+        // the JSON small.
+        points.extend(a.to_array().into_iter().chain(b.to_array()).map(|x| rounded(x, 1e4)));
+        let c = strands.radiance(segment, 0.5);
+        let c = c / c.max_element().max(1e-6);
+        colors.extend(c.to_array().map(|x| rounded(x, 1e3)));
+    };
+    // The run being joined: where it starts, its last segment and end, and its length.
+    let mut run: Option<(Vec3, u32, Vec3, usize)> = None;
+    for &i in segments {
+        let cone = strands.world_segment(i, time);
+        run = Some(match run {
+            // The strand goes on from the run's end.
+            Some((start, _, end, n)) if end.distance(cone.a) <= 1e-5 * (1.0 + end.length()) => {
+                (start, i, cone.b, n + 1)
+            }
+            Some((start, last, end, _)) => {
+                emit(start, end, last);
+                (cone.a, i, cone.b, 1)
+            }
+            None => (cone.a, i, cone.b, 1),
+        });
+        if let Some((start, last, end, n)) = run
+            && n == k
+        {
+            emit(start, end, last);
+            run = None;
+        }
+    }
+    if let Some((start, last, end, _)) = run {
+        emit(start, end, last);
+    }
+    (points, colors)
 }
 
 /// `x` rounded to `1/per`, as f64 so it prints as short as it is.
