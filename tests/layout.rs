@@ -404,7 +404,8 @@ fn scene_names(layout: &Layout, frame: i64) -> Vec<String> {
 }
 
 /// Per object with enough pixels: IoU of the preview's pixels and the render's (rank-0 ID
-/// covering at least half the pixel), over pixels no ring touches in the render.
+/// covering at least half the pixel), over pixels no ring touches in the render, and how far
+/// apart their edges are (95th percentile of each edge pixel's distance to the other's edge).
 fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer, names: &[String]) {
     use rift_render::cryptomatte::id;
     let ids: Vec<f32> = names.iter().map(|n| id(n)).collect();
@@ -439,8 +440,30 @@ fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer,
             continue;
         }
         let iou = both as f64 / either as f64;
-        eprintln!("{what}: {name}: IoU {iou:.4} over {either} pixels");
+        let inside_preview = |p: usize| {
+            if o < names.len() {
+                preview[p] == o as i64
+            } else {
+                preview[p] == -1
+            }
+        };
+        let inside_render = |p: usize| {
+            if o < names.len() {
+                id0[p] == ids[o] && cover0[p] >= 0.5
+            } else {
+                cover0[p] < 0.5
+            }
+        };
+        let (w, h) = layer.size;
+        let edges = edge_distances(w, h, &inside_preview, &inside_render, &ring);
+        let p95 = edges.get(edges.len() * 95 / 100).copied().unwrap_or(0.0);
+        eprintln!(
+            "{what}: {name}: IoU {iou:.4} over {either} pixels; edges within {p95:.2} px \
+             (95%, {} edge pixels)",
+            edges.len()
+        );
         assert!(iou >= 0.97, "{what}: {name}: IoU {iou:.4}");
+        assert!(p95 <= 1.5, "{what}: {name}: edges {p95:.2} px apart");
         checked += 1;
     }
     assert!(checked >= 1, "{what}: no object large enough to compare");
@@ -975,4 +998,49 @@ time_offset = 6.0
     let box_pixels = preview.iter().filter(|&&i| i == 1).count();
     assert!(box_pixels > 300, "{box_pixels} pixels of the box");
     compare_ids("delayed", &preview, &layer, &names);
+}
+
+/// For each edge pixel of either region (a pixel inside it with a 4-neighbour outside), the
+/// distance to the nearest edge pixel of the other, sorted; pixels `skip` names (rings) and
+/// those next to them are left out.
+fn edge_distances(
+    w: usize,
+    h: usize,
+    a: &dyn Fn(usize) -> bool,
+    b: &dyn Fn(usize) -> bool,
+    skip: &dyn Fn(usize) -> bool,
+) -> Vec<f64> {
+    let edge = |inside: &dyn Fn(usize) -> bool| -> Vec<(i64, i64)> {
+        let mut out = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let p = y * w + x;
+                let neighbours = [(x > 0, p.wrapping_sub(1)), (x + 1 < w, p + 1)]
+                    .into_iter()
+                    .chain([(y > 0, p.wrapping_sub(w)), (y + 1 < h, p + w)]);
+                let near: Vec<usize> = neighbours.filter(|(ok, _)| *ok).map(|(_, q)| q).collect();
+                if skip(p) || near.iter().any(|&q| skip(q)) {
+                    continue;
+                }
+                if inside(p) && near.iter().any(|&q| !inside(q)) {
+                    out.push((x as i64, y as i64));
+                }
+            }
+        }
+        out
+    };
+    let (ea, eb) = (edge(a), edge(b));
+    let nearest = |from: &[(i64, i64)], to: &[(i64, i64)]| -> Vec<f64> {
+        from.iter()
+            .map(|&(x, y)| {
+                to.iter()
+                    .map(|&(u, v)| (((x - u).pow(2) + (y - v).pow(2)) as f64).sqrt())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect()
+    };
+    let mut all = nearest(&ea, &eb);
+    all.extend(nearest(&eb, &ea));
+    all.sort_by(f64::total_cmp);
+    all
 }

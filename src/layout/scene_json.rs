@@ -272,7 +272,12 @@ fn joined(scene: &Scene, segments: &[u32], time: f64) -> (Vec<f64>, Vec<f64>) {
     let mut emit = |a: Vec3, b: Vec3, segment: u32| {
         // A tenth of a millimetre and a thousandth of a colour are plenty to draw, and keep
         // the JSON small.
-        points.extend(a.to_array().into_iter().chain(b.to_array()).map(|x| rounded(x, 1e4)));
+        points.extend(
+            a.to_array()
+                .into_iter()
+                .chain(b.to_array())
+                .map(|x| rounded(x, 1e4)),
+        );
         let c = strands.radiance(segment, 0.5);
         let c = c / c.max_element().max(1e-6);
         colors.extend(c.to_array().map(|x| rounded(x, 1e3)));
