@@ -469,6 +469,38 @@ fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer,
     assert!(checked >= 1, "{what}: no object large enough to compare");
 }
 
+/// A shot `name` of frames `frames`, its camera at the origin looking down −Z at `w` x `h`,
+/// following `depth` levels of openings, with a glowing grey wall (`wall.obj`, which the test
+/// writes) and nothing else yet: tests add their objects and openings.
+fn glowing_wall_shot(name: &str, frames: [i64; 2], w: u32, h: u32, depth: u32) -> String {
+    format!(
+        r#"
+[shot]
+name = "{name}"
+fps = 24.0
+frames = [{}, {}]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [{w}, {h}]
+fov_degrees = 40.0
+[camera.transform]
+position = [0.0, 0.0, 0.0]
+[render]
+max_portal_depth = {depth}
+[[material]]
+name = "grey"
+type = "diffuse"
+reflectance = [0.5, 0.5, 0.5]
+emission = [1.0, 1.0, 1.0]
+[[object]]
+name = "wall"
+mesh = "wall.obj"
+material = "grey"
+"#,
+        frames[0], frames[1]
+    )
+}
+
 #[test]
 fn the_preview_follows_exactly_the_shots_levels_of_openings() {
     // An opening 3 m ahead whose there side is 1 m behind the camera, facing the same way:
@@ -487,37 +519,14 @@ fn the_preview_follows_exactly_the_shots_levels_of_openings() {
         let shot = dir.path().join(format!("regress{depth}.toml"));
         std::fs::write(
             &shot,
-            format!(
-                r#"
-[shot]
-name = "regress"
-fps = 24.0
-frames = [1, 1]
-shutter = [0.0, 0.0]
-[camera]
-resolution = [{w}, {h}]
-fov_degrees = 40.0
-[camera.transform]
-position = [0.0, 0.0, 0.0]
-[render]
-max_portal_depth = {depth}
-[[material]]
-name = "grey"
-type = "diffuse"
-reflectance = [0.5, 0.5, 0.5]
-emission = [1.0, 1.0, 1.0]
-[[object]]
-name = "wall"
-mesh = "wall.obj"
-material = "grey"
-[[portal]]
+            glowing_wall_shot("regress", [1, 1], w, h, depth)
+                + r#"[[portal]]
 name = "A"
-here = {{ position = [0.0, 0.0, -3.0] }}
-there = {{ position = [0.0, 0.0, 1.0] }}
+here = { position = [0.0, 0.0, -3.0] }
+there = { position = [0.0, 0.0, 1.0] }
 [portal.surface]
 radius = 1.0
-"#
-            ),
+"#,
         )
         .unwrap();
         let layout = Layout::start(&shot, &[]);
@@ -943,29 +952,9 @@ fn an_opening_with_a_time_offset_shows_the_there_side_later_as_the_path_tracer_d
     let shot = dir.path().join("delay.toml");
     std::fs::write(
         &shot,
-        format!(
-            r#"
-[shot]
-name = "delay"
-fps = 24.0
-frames = [1, 24]
-shutter = [0.0, 0.0]
-[camera]
-resolution = [{w}, {h}]
-fov_degrees = 40.0
-[camera.transform]
-position = [0.0, 0.0, 0.0]
-[render]
-max_portal_depth = 1
-[[material]]
-name = "grey"
-type = "diffuse"
-reflectance = [0.5, 0.5, 0.5]
-emission = [1.0, 1.0, 1.0]
-[[object]]
-name = "wall"
-mesh = "wall.obj"
-material = "grey"
+        glowing_wall_shot("delay", [1, 24], w, h, 1)
+            + &format!(
+                r#"
 [[object]]
 name = "box"
 mesh = "{cube}"
@@ -982,8 +971,8 @@ there = {{ position = [20.0, 0.0, -0.5] }}
 radius = 1.4
 time_offset = 6.0
 "#,
-            cube = cube.display()
-        ),
+                cube = cube.display()
+            ),
     )
     .unwrap();
     let layout = Layout::start(&shot, &[]);

@@ -136,7 +136,7 @@ pub fn apply(doc: &mut DocumentMut, edit: &Edit, shot: &Shot) -> Result<(), Stri
                 }
             };
             if look_at.is_some() && !matches!(solve, Solve::AsIs) {
-                return Err("`look_at` poses only the camera".into());
+                return Err("`look_at` cannot pose what the solver places: give `rotation`".into());
             }
             let pose = Pose {
                 similarity: solve.apply(&world),
@@ -148,7 +148,7 @@ pub fn apply(doc: &mut DocumentMut, edit: &Edit, shot: &Shot) -> Result<(), Stri
             set_pose(transform, *frame, &pose, *key)
         }
         Edit::DeleteKey { target, frame } => {
-            let (holder, _) = pose_holder(doc, target, shot, *frame)?;
+            let (holder, _) = locate(doc, target)?;
             delete_key(pose_item(doc, &holder)?, *frame)
         }
         Edit::CopyBack {
@@ -165,6 +165,17 @@ enum Holder {
     Object(usize),
     /// `[[portal]]` number i's `here` or `there`.
     Opening(usize, Side),
+}
+
+impl Holder {
+    /// The key of its table that holds the pose.
+    fn key(&self) -> &'static str {
+        match self {
+            Holder::Opening(_, Side::Here) => "here",
+            Holder::Opening(_, Side::There) => "there",
+            Holder::Camera | Holder::Object(_) => "transform",
+        }
+    }
 }
 
 /// How a world pose becomes the pose written.
@@ -273,12 +284,7 @@ pub fn key_frames(doc: &DocumentMut, target: &Target) -> Option<Vec<i64>> {
         Holder::Object(i) => objects(doc).ok()?.get(i)?,
         Holder::Opening(i, _) => portals(doc).ok()?.get(i)?,
     };
-    let key = match holder {
-        Holder::Opening(_, Side::There) => "there",
-        Holder::Opening(_, Side::Here) => "here",
-        _ => "transform",
-    };
-    let keys = table.get(key)?.as_table_like()?.get("keys")?.as_array()?;
+    let keys = table.get(holder.key())?.as_table_like()?.get("keys")?.as_array()?;
     Some(keys.iter().filter_map(frame_of).collect())
 }
 
@@ -352,30 +358,22 @@ pub fn time_offset(doc: &DocumentMut, k: usize) -> f64 {
 /// The table-like pose (a static pose, or `keys` and `interpolation`) of a holder, made empty
 /// where there was none.
 fn pose_item<'a>(doc: &'a mut DocumentMut, holder: &Holder) -> Result<&'a mut Item, String> {
-    let (parent, key): (&mut dyn TableLike, &str) = match holder {
-        Holder::Camera => (
-            doc.get_mut("camera")
-                .and_then(Item::as_table_like_mut)
-                .ok_or("the shot has no [camera]")?,
-            "transform",
-        ),
-        Holder::Object(i) => (
-            doc.get_mut("object")
-                .and_then(Item::as_array_of_tables_mut)
-                .and_then(|a| a.get_mut(*i))
-                .ok_or("no such object")?,
-            "transform",
-        ),
-        Holder::Opening(i, side) => (
-            doc.get_mut("portal")
-                .and_then(Item::as_array_of_tables_mut)
-                .and_then(|a| a.get_mut(*i))
-                .ok_or("no such opening")?,
-            match side {
-                Side::Here => "here",
-                Side::There => "there",
-            },
-        ),
+    let key = holder.key();
+    let parent: &mut dyn TableLike = match holder {
+        Holder::Camera => doc
+            .get_mut("camera")
+            .and_then(Item::as_table_like_mut)
+            .ok_or("the shot has no [camera]")?,
+        Holder::Object(i) => doc
+            .get_mut("object")
+            .and_then(Item::as_array_of_tables_mut)
+            .and_then(|a| a.get_mut(*i))
+            .ok_or("no such object")?,
+        Holder::Opening(i, _) => doc
+            .get_mut("portal")
+            .and_then(Item::as_array_of_tables_mut)
+            .and_then(|a| a.get_mut(*i))
+            .ok_or("no such opening")?,
     };
     if parent.get(key).is_none() {
         parent.insert(key, Item::Value(Value::InlineTable(InlineTable::new())));

@@ -37,29 +37,29 @@ impl ObjectMotion {
     /// The object's there-side copy through `opening` of `rig`, whose rays are shifted later by
     /// `delay` seconds.
     pub fn through(own: AnimatedTransform, rig: Arc<Rig>, opening: usize, delay: f64) -> Self {
-        Self {
-            own,
-            through: Some(Carried {
-                rig,
-                opening,
-                delay,
-                back: false,
-            }),
-        }
+        Self::carried(own, rig, opening, delay, false)
     }
 
     /// The here-side copy, back through `opening` of `rig`, of a there-side object at `own`;
     /// rays entering the opening see the there side later by `delay` seconds.
     pub fn back_through(own: AnimatedTransform, rig: Arc<Rig>, opening: usize, delay: f64) -> Self {
-        Self {
-            own,
-            through: Some(Carried {
-                rig,
-                opening,
-                delay,
-                back: true,
-            }),
-        }
+        Self::carried(own, rig, opening, delay, true)
+    }
+
+    fn carried(
+        own: AnimatedTransform,
+        rig: Arc<Rig>,
+        opening: usize,
+        delay: f64,
+        back: bool,
+    ) -> Self {
+        let through = Some(Carried {
+            rig,
+            opening,
+            delay,
+            back,
+        });
+        Self { own, through }
     }
 
     /// The placement at time `t` (seconds).
