@@ -284,7 +284,11 @@ pub fn key_frames(doc: &DocumentMut, target: &Target) -> Option<Vec<i64>> {
         Holder::Object(i) => objects(doc).ok()?.get(i)?,
         Holder::Opening(i, _) => portals(doc).ok()?.get(i)?,
     };
-    let keys = table.get(holder.key())?.as_table_like()?.get("keys")?.as_array()?;
+    let keys = table
+        .get(holder.key())?
+        .as_table_like()?
+        .get("keys")?
+        .as_array()?;
     Some(keys.iter().filter_map(frame_of).collect())
 }
 

@@ -161,7 +161,7 @@ impl State {
         {
             return Reply::json_text(json.clone());
         }
-        match Scene::build(&self.shot, frame) {
+        match staged_scene(&self.shot, frame) {
             Ok(scene) => {
                 let json = scene_json::scene(&self.shot, &scene, frame, &self.file).to_string();
                 self.cached = Some((frame, json.clone()));
@@ -209,7 +209,7 @@ impl State {
             return Reply::error(400, &message);
         }
         let checked = self.file.edited(&edit, &self.shot).and_then(|(doc, shot)| {
-            let scene = Scene::build(&shot, frame).map_err(|e| e.to_string())?;
+            let scene = staged_scene(&shot, frame).map_err(|e| e.to_string())?;
             landed(&edit, &shot, &scene, frame)?;
             Ok((doc, shot, scene))
         });
@@ -225,6 +225,17 @@ impl State {
             Err(message) => Reply::error(422, &message),
         }
     }
+}
+
+/// The scene the page shows and edits are checked on: the renderer's own, without the probing
+/// of where openings let light in (which only rendering needs, and a fifth of a build); the
+/// check render builds its scene whole.
+fn staged_scene(shot: &Shot, frame: i64) -> Result<Scene, rift_render::RenderError> {
+    let overrides = rift_render::scene::Overrides {
+        light_through_openings: Some(false),
+        ..Default::default()
+    };
+    Scene::build_with(shot, frame, &overrides)
 }
 
 /// Checks that a pose edit places its target where it asked at `frame` in the edited `scene`
