@@ -143,7 +143,7 @@ impl<'a> RingGenerator<'a> {
         let settings = &self.shot.fx;
         let camera = &self.shot.camera;
         let reach = look.max_radius() * here.scale;
-        let distance = (camera.position(t) - here.translation).length();
+        let distance = self.apparent_distance(here, reach, t);
         let nearest = (distance - reach).max(0.05 * reach);
         let tolerance =
             settings.chord_error_px * nearest / camera.projection.focal_pixels() / here.scale;
@@ -160,6 +160,29 @@ impl<'a> RingGenerator<'a> {
         let step = (8.0 * tolerance / curvature).sqrt();
         let n = (TAU * look.max_radius() / step).ceil();
         (n.min(settings.max_segments as f64) as u32).max(settings.min_segments)
+    }
+
+    /// How far the camera is from a ring at `ring` (reaching `reach` from its centre) at `t`:
+    /// directly, or seen through an opening, where it is as far as from the camera the solver
+    /// places behind the there frame (a teleport keeps angles, so the ring looks that big). An
+    /// opening counts when the camera is in front of it and the ring lies wholly beyond its
+    /// there frame, where the rays it teleports go; one level of openings is followed.
+    fn apparent_distance(&self, ring: &Similarity, reach: f64, t: f64) -> f64 {
+        let camera = self.shot.camera.position(t);
+        let rig = &self.shot.rig;
+        let direct = (camera - ring.translation).length();
+        (0..rig.openings.len())
+            .filter_map(|i| {
+                let here = rig.here_at(i, t);
+                let facing = (camera - here.translation).dot(here.rotation * DVec3::Z);
+                let there = rig.there_at(i, t);
+                let beyond = (ring.translation - there.translation).dot(there.rotation * -DVec3::Z);
+                (facing > 0.0 && beyond > reach).then(|| {
+                    let seen_from = rig.teleport_at(i, t).transform_point(camera);
+                    (seen_from - ring.translation).length()
+                })
+            })
+            .fold(direct, f64::min)
     }
 
     /// True when the strand profile (radius, height) may be taken as linear in time across the
@@ -367,6 +390,18 @@ mod tessellation_tests {
     /// Largest distance, in pixels at the ring's nearest distance to camera, between the true
     /// strand and its polyline (checked at segment quarter- and mid-points), over every strand.
     fn worst_chord_error_px(shot: &Shot, frame: i64) -> (f64, u32) {
+        worst_chord_error_px_at(shot, frame, &|here, t| {
+            (shot.camera.position(t) - here.translation).length()
+        })
+    }
+
+    /// [`worst_chord_error_px`] with the camera as far from a ring at `here` as `distance`
+    /// says (as it looks through an opening).
+    fn worst_chord_error_px_at(
+        shot: &Shot,
+        frame: i64,
+        distance: &dyn Fn(&Similarity, f64) -> f64,
+    ) -> (f64, u32) {
         let generator = RingGenerator::new(shot, shot.frames);
         let t = shot.time_of(frame as f64);
         let mut worst = (0.0f64, 0);
@@ -374,8 +409,7 @@ mod tessellation_tests {
             let here = shot.rig.here_at(i, t);
             let n = generator.segments(model, &here, t);
             let reach = model.look.max_radius() * here.scale;
-            let nearest =
-                ((shot.camera.position(t) - here.translation).length() - reach).max(0.05 * reach);
+            let nearest = (distance(&here, t) - reach).max(0.05 * reach);
             let px_per_local = shot.camera.projection.focal_pixels() / nearest * here.scale;
             for strand in &model.strands {
                 let at = model.instant(strand, t);
@@ -396,6 +430,61 @@ mod tessellation_tests {
             }
         }
         worst
+    }
+
+    /// The segments per strand of ring "B" at the shot's first frame.
+    fn segments_of_b(text: &str) -> u32 {
+        let shot = Shot::parse(text, Path::new("through.toml")).unwrap();
+        let generator = RingGenerator::new(&shot, shot.frames);
+        let t = shot.time_of(shot.frames.first as f64);
+        let (i, model) = generator
+            .models()
+            .find(|(i, _)| shot.rig.openings[*i].name == "B")
+            .unwrap();
+        generator.segments(model, &shot.rig.here_at(i, t), t)
+    }
+
+    #[test]
+    fn a_ring_seen_through_an_opening_is_tessellated_for_its_size_there() {
+        let head = "[shot]\nname = \"through\"\nfps = 24.0\nframes = [1, 1]\n\
+                    [camera]\nresolution = [1280, 720]\nfov_degrees = 40.0\n\
+                    [camera.transform]\nposition = [0.0, 0.0, 0.0]\n\
+                    [fx]\nmin_segments = 3\nchord_error_px = 0.25\n";
+        let ring = |x: f64, z: f64| {
+            format!(
+                "[[portal]]\nname = \"B\"\nhere = {{ position = [{x}, 0.0, {z}] }}\n\
+                 there = {{ position = [{x}, 50.0, 0.0] }}\n[portal.ring]\npreset = \"rift\"\n\
+                 radius = 1.0\nseed = 7\n"
+            )
+        };
+        // 6 m ahead of the camera, directly; 100 m away to the side, directly; and there again,
+        // but seen through an opening 2 m ahead whose there side is 4 m in front of it.
+        let direct = segments_of_b(&(head.to_owned() + &ring(0.0, -6.0)));
+        let far = segments_of_b(&(head.to_owned() + &ring(100.0, -6.0)));
+        let opening = "[[portal]]\nname = \"A\"\nhere = { position = [0.0, 0.0, -2.0] }\n\
+                       there = { position = [100.0, 0.0, -2.0] }\n";
+        let through = segments_of_b(&(head.to_owned() + opening + &ring(100.0, -6.0)));
+        assert!(far < direct / 4, "{far} segments at 100 m, {direct} at 6 m");
+        assert!(
+            through > 4 * far,
+            "{through} segments through the opening, {far} without"
+        );
+        // Through the opening its polylines keep the chord error seen from 6 m (its detail, which
+        // follows its direct distance as its look asks, is that of a far ring).
+        let text = head.to_owned() + opening + &ring(100.0, -6.0);
+        let shot = Shot::parse(&text, Path::new("through.toml")).unwrap();
+        let (err, n) = worst_chord_error_px_at(&shot, 1, &|_, _| 6.0);
+        assert!(
+            (0.025..=0.25).contains(&err),
+            "{err:.3} px with {n} segments"
+        );
+        // Behind the there frame, where no teleported ray goes, the opening does not count.
+        let behind = "[[portal]]\nname = \"A\"\nhere = { position = [0.0, 0.0, -2.0] }\n\
+                      there = { position = [100.0, 0.0, -10.0] }\n";
+        assert_eq!(
+            segments_of_b(&(head.to_owned() + behind + &ring(100.0, -6.0))),
+            far
+        );
     }
 
     #[test]
