@@ -22,7 +22,8 @@
 //!
 //! [fx]                          # ring tessellation (all optional)
 //! chord_error_px = 0.25         # largest distance in pixels between a strand and its polyline
-//! min_segments = 96             # per strand, whatever the screen size (rings seen through portals)
+//! min_segments = 96             # per strand, whatever the screen size (a floor for far rings;
+//!                               # a ring seen through an opening counts as far as it looks there)
 //! max_segments = 16384
 //!
 //! [[portal]]
