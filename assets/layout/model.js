@@ -44,10 +44,12 @@ function place(object, matrix) {
 // Clips away the parts of an object inside its cull volumes, as the renderer hides them: a
 // fragment is dropped when, in a volume's local frame, it lies behind (sign · −z in (0, depth])
 // and within the radius of the axis.
-function withCulls(material, culls) {
+// `toLocal` holds the volumes' world-to-local matrices, which the model updates as openings
+// move.
+function withCulls(material, culls, toLocal) {
   if (!culls.length) return material;
   material.onBeforeCompile = shader => {
-    shader.uniforms.cullToLocal = { value: culls.map(c => new THREE.Matrix4().fromArray(c.toLocal)) };
+    shader.uniforms.cullToLocal = { value: toLocal };
     shader.uniforms.cullShape = { value: culls.map(c => new THREE.Vector3(c.sign, c.depth, c.radius)) };
     const n = culls.length;
     shader.vertexShader = shader.vertexShader
@@ -107,8 +109,9 @@ export class Model {
       geometry.computeVertexNormals();
       const color = new THREE.Color().setRGB(...o.color.map(c => Math.min(1, c)));
       // Front faces only: a room's walls face inwards, so the orbit view sees into it.
-      const shaded = withCulls(new THREE.MeshLambertMaterial({ color, side: THREE.FrontSide }), o.culls);
-      const flat = withCulls(new THREE.MeshBasicMaterial({ color: idColor(index), side: THREE.DoubleSide }), o.culls);
+      const toLocal = o.culls.map(c => new THREE.Matrix4().fromArray(c.toLocal));
+      const shaded = withCulls(new THREE.MeshLambertMaterial({ color, side: THREE.FrontSide }), o.culls, toLocal);
+      const flat = withCulls(new THREE.MeshBasicMaterial({ color: idColor(index), side: THREE.DoubleSide }), o.culls, toLocal);
       const mesh = new THREE.Mesh(geometry, shaded);
       mesh.name = o.name;
       mesh.matrixAutoUpdate = false;
@@ -116,7 +119,7 @@ export class Model {
       const world = similarity(o.placement);
       place(mesh, world);
       this.content.add(mesh);
-      return { data: o, mesh, world, own: null };
+      return { data: o, mesh, world, own: null, toLocal };
     });
     this.openings = data.openings.map((o, index) => {
       const here = similarity(o.here);
@@ -256,7 +259,14 @@ export class Model {
     const moment = key === momentKey(this.time) ? null : this.moments.get(key) || null;
     if (moment === this.shown) return;
     this.shown = moment;
-    this.objects.forEach((o, i) => place(o.mesh, moment ? moment.placements[i] : o.world));
+    this.objects.forEach((o, i) => {
+      place(o.mesh, moment ? moment.placements[i] : o.world);
+      // Cull volumes sit on their opening's here (sign 1) or there (−1) frame.
+      o.data.culls.forEach((c, j) => {
+        const frames = moment ? moment.frames[c.opening] : this.openings[c.opening];
+        o.toLocal[j].copy(c.sign > 0 ? frames.here : frames.there).invert();
+      });
+    });
     for (const r of this.rings) r.lines.visible = !moment;
     for (const m of this.moments.values()) for (const lines of m.rings) lines.visible = m === moment;
     this.content.updateMatrixWorld(true);

@@ -204,9 +204,10 @@ impl Visibility {
     }
 
     /// The cull volumes that hide object `object`, at `time`: each volume's frame (local to
-    /// world), which side of it is behind (1 for the here side's −Z, −1 for the there side's
-    /// +Z), its depth and its radius (for previews that clip as the renderer does).
-    pub fn culls_of(&self, object: u32, time: f64) -> Vec<(Similarity, f64, f64, f64)> {
+    /// world; the here or there frame of the opening it belongs to), that opening, which side
+    /// of it is behind (1 for the here side's −Z, −1 for the there side's +Z), its depth and
+    /// its radius (for previews that clip as the renderer does).
+    pub fn culls_of(&self, object: u32, time: f64) -> Vec<(Similarity, usize, f64, f64, f64)> {
         let Some(culls) = self.culls.get(object as usize) else {
             return Vec::new();
         };
@@ -220,6 +221,7 @@ impl Visibility {
                 };
                 (
                     volume.frame(&self.rig, time),
+                    volume.opening,
                     sign,
                     volume.depth,
                     volume.radius,

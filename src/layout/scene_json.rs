@@ -114,8 +114,8 @@ fn camera(scene: &Scene, time: f64) -> Value {
 
 /// Per object: its name, base colour (the mean albedo of its triangles' materials), its
 /// triangles' corners in its own space, flattened, and its placement at `time`; the cull
-/// volumes that hide parts of it (world-to-local matrix, column-major; which side is behind;
-/// depth; radius); whether camera rays see it directly and through openings (its visibility
+/// volumes that hide parts of it (world-to-local matrix, column-major; the opening whose frame
+/// it is; which side is behind; depth; radius); whether camera rays see it directly and through openings (its visibility
 /// flags); and for editing, the keys of the transform that places it, the object whose
 /// transform that is, and the opening the solver carries it through (or back through).
 fn objects(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value> {
@@ -146,9 +146,10 @@ fn objects(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value>
                 .visibility
                 .culls_of(o as u32, time)
                 .into_iter()
-                .map(|(frame, sign, depth, radius)| {
+                .map(|(frame, opening, sign, depth, radius)| {
                     json!({
                         "toLocal": frame.inverse().to_mat4().to_cols_array(),
+                        "opening": opening,
                         "sign": sign,
                         "depth": depth,
                         "radius": radius,
