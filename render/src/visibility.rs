@@ -100,8 +100,9 @@ impl CullVolume {
 /// The visibility rules of a scene.
 #[derive(Clone, Debug, Default)]
 pub struct Visibility {
-    /// Object index per scene triangle (empty when nothing is hidden).
-    triangle_object: Vec<u32>,
+    /// Object index per scene triangle, shared with the scene (empty when nothing is
+    /// hidden).
+    triangle_object: Arc<[u32]>,
     /// Flags per object.
     flags: Vec<Flags>,
     /// Indices into `volumes` per object.
@@ -117,7 +118,7 @@ impl Visibility {
     /// in `triangle_object`, and the cull `volumes` of `rig`'s openings. `fixed_time` evaluates
     /// the frames once when `moving` is false.
     pub fn new(
-        triangle_object: Vec<u32>,
+        triangle_object: Arc<[u32]>,
         flags: Vec<Flags>,
         volumes: Vec<CullVolume>,
         rig: Arc<Rig>,
@@ -161,16 +162,17 @@ impl Visibility {
     /// True when rays of `class` see `triangle`'s object at all.
     #[inline]
     pub fn sees(&self, triangle: u32, class: RayClass) -> bool {
-        self.flags
-            .get(self.object(triangle))
-            .is_none_or(|f| f.sees(class))
+        self.seen(self.object(triangle), class)
     }
 
     /// True when rays of `class` see object `object` at all.
     pub fn object_seen(&self, object: u32, class: RayClass) -> bool {
-        self.flags
-            .get(object as usize)
-            .is_none_or(|f| f.sees(class))
+        self.seen(object as usize, class)
+    }
+
+    #[inline]
+    fn seen(&self, object: usize, class: RayClass) -> bool {
+        self.flags.get(object).is_none_or(|f| f.sees(class))
     }
 
     /// True when a ray of `class` at time `time` may hit `triangle` at world point `p`.
@@ -284,7 +286,7 @@ mod tests {
         };
         for moving in [false, true] {
             let vis = Visibility::new(
-                vec![0, 1],
+                vec![0, 1].into(),
                 vec![Flags::ALL; 2],
                 vec![
                     volume(Side::Here, 1.0, 2.0),
@@ -308,7 +310,14 @@ mod tests {
             assert!(!vis.culled(1, Vec3::new(45.0, 3.0, -0.5), 0.0));
             assert!(!vis.admits(1, RayClass::Camera, behind_here, 0.0));
         }
-        let nothing = Visibility::new(vec![0, 0], vec![Flags::ALL], vec![], rig(), false, 0.0);
+        let nothing = Visibility::new(
+            vec![0, 0].into(),
+            vec![Flags::ALL],
+            vec![],
+            rig(),
+            false,
+            0.0,
+        );
         assert!(!nothing.hides_anything());
         assert!(nothing.admits(1, RayClass::Shadow, Vec3::ZERO, 0.0));
     }

@@ -355,7 +355,8 @@ pub fn time_offset(doc: &DocumentMut, k: usize) -> f64 {
         .and_then(|p| p.get(k))
         .and_then(|t| t.get("surface"))
         .and_then(|s| s.get("time_offset"))
-        .and_then(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
+        .and_then(Item::as_value)
+        .and_then(real)
         .unwrap_or(0.0)
 }
 
@@ -508,6 +509,11 @@ fn set_key(keys: &mut Array, frame: i64, pose: &Pose) -> Result<(), String> {
     Ok(())
 }
 
+/// A TOML number, integer or float, as a float.
+fn real(v: &Value) -> Option<f64> {
+    v.as_float().or(v.as_integer().map(|i| i as f64))
+}
+
 fn frame_of(v: &Value) -> Option<i64> {
     let frame = v.as_inline_table()?.get("frame")?;
     frame.as_integer().or(frame
@@ -561,10 +567,7 @@ impl Style {
     fn of(pose: &dyn TableLike) -> Self {
         let vector = |k: &str| -> Option<DVec3> {
             let a = pose.get(k)?.as_array()?;
-            let v: Vec<f64> = a
-                .iter()
-                .filter_map(|x| x.as_float().or(x.as_integer().map(|i| i as f64)))
-                .collect();
+            let v: Vec<f64> = a.iter().filter_map(real).collect();
             (v.len() == 3).then(|| DVec3::new(v[0], v[1], v[2]))
         };
         let orientation = if pose.contains_key("look_at") {
@@ -577,9 +580,7 @@ impl Style {
         let look_distance = vector("look_at")
             .map(|at| (at - vector("position").unwrap_or(DVec3::ZERO)).length())
             .filter(|d| *d > 1e-6);
-        let scale_value = pose
-            .get("scale")
-            .and_then(|v| v.as_float().or(v.as_integer().map(|i| i as f64)));
+        let scale_value = pose.get("scale").and_then(Item::as_value).and_then(real);
         Self {
             orientation,
             scale: pose.contains_key("scale") || pose.contains_key("matrix"),

@@ -179,8 +179,9 @@ pub struct Scene {
     pub visibility: Visibility,
     /// The participating media and where they are.
     pub media: crate::volumes::Volumes,
-    /// The object of each triangle (an index into [`Self::id_names`]).
-    pub triangle_object: Vec<u32>,
+    /// The object of each triangle (an index into [`Self::id_names`]), shared with
+    /// [`Self::visibility`].
+    pub triangle_object: Arc<[u32]>,
     /// The objects', then the rings' names ("<opening>/ring"), which object IDs index
     /// (Cryptomatte).
     pub id_names: Vec<String>,
@@ -357,7 +358,7 @@ impl Scene {
         let still = &g.triangles[..static_triangles];
         let accel = Accel::build(still, g.instances);
         let bounds = static_bounds(still);
-        let triangle_object = g.triangle_object.clone();
+        let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let object_placement = std::mem::take(&mut g.placements);
         let id_names: Vec<String> = names
             .iter()
@@ -370,7 +371,7 @@ impl Scene {
             )
             .collect();
         let visibility = Visibility::new(
-            g.triangle_object,
+            triangle_object.clone(),
             flags,
             volumes,
             rig,
