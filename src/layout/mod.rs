@@ -162,13 +162,16 @@ impl State {
             return Reply::json_text(json.clone());
         }
         match staged_scene(&self.shot, frame) {
-            Ok(scene) => {
-                let json = scene_json::scene(&self.shot, &scene, frame, &self.file).to_string();
-                self.cached = Some((frame, json.clone()));
-                Reply::json_text(json)
-            }
+            Ok(scene) => self.answer_scene(&scene, frame),
             Err(e) => Reply::error(422, &e.to_string()),
         }
+    }
+
+    /// `scene` (the shot's at `frame`) as the page's JSON, kept for the next request of it.
+    fn answer_scene(&mut self, scene: &Scene, frame: i64) -> Reply {
+        let json = scene_json::scene(&self.shot, scene, frame, &self.file).to_string();
+        self.cached = Some((frame, json.clone()));
+        Reply::json_text(json)
     }
 
     /// Answers a POST: an edit, a save or a revert.
@@ -218,9 +221,7 @@ impl State {
                 self.file.keep(doc);
                 self.shot = shot;
                 self.check = None;
-                let json = scene_json::scene(&self.shot, &scene, frame, &self.file).to_string();
-                self.cached = Some((frame, json.clone()));
-                Reply::json_text(json)
+                self.answer_scene(&scene, frame)
             }
             Err(message) => Reply::error(422, &message),
         }
