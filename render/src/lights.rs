@@ -313,7 +313,7 @@ impl Lights {
     }
 
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
-    fn pick(&self, u: f32, at: &Receiver) -> Option<(usize, f32, f32)> {
+    pub fn pick(&self, u: f32, at: &Receiver) -> Option<(usize, f32, f32)> {
         match &self.picker {
             Picker::Tree => self.tree.sample(u, at.p, at.n, self.tau(at.time)),
             Picker::Power(table) if table.is_empty() => None,
@@ -325,7 +325,7 @@ impl Lights {
     }
 
     /// Probability that [`Self::pick`] chooses emitter `i` for `at`.
-    fn pick_pmf(&self, i: usize, at: &Receiver) -> f32 {
+    pub fn pick_pmf(&self, i: usize, at: &Receiver) -> f32 {
         match &self.picker {
             Picker::Tree => self.tree.pmf(i, at.p, at.n, self.tau(at.time)),
             Picker::Power(table) => table.pmf(i),

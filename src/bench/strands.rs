@@ -146,6 +146,76 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
             rate(closest),
             rate(occlusion)
         );
+        light_tree_cost(&set, times, &args)?;
     }
+    Ok(())
+}
+
+/// Times the light tree over the strands of `set`: picking a segment for points on a wall just
+/// behind the ring, and the probability of a given segment for such a point (what multiple
+/// importance sampling asks when a ray finds a strand), each as nanoseconds per query.
+fn light_tree_cost(
+    set: &rift_render::geometry::Strands,
+    times: [f64; 2],
+    args: &StrandsArgs,
+) -> anyhow::Result<()> {
+    use rift_render::lights::{LightSelection, Lights, Receiver};
+    let t = Instant::now();
+    let lights = Lights::new(Vec::new(), 0, set, times, &[], None, LightSelection::Tree);
+    let build = t.elapsed().as_secs_f64();
+    let receiver = |i: usize| {
+        let h = |k: u32| {
+            rift_render::sampling::hash32((i as u32).wrapping_mul(4).wrapping_add(k)) as f32
+                / u32::MAX as f32
+        };
+        let p = glam::Vec3::new(3.0 * h(0) - 1.5, 3.0 * h(1) - 1.5, -0.1);
+        let time = times[0] + (times[1] - times[0]) * h(2) as f64;
+        (
+            Receiver {
+                p,
+                n: Some(glam::Vec3::Z),
+                time,
+            },
+            h(3),
+        )
+    };
+    let segments = set.segments.len().max(1);
+    let (mut pick, mut pmf) = (Vec::new(), Vec::new());
+    for _ in 0..args.timing.repeats {
+        let t = Instant::now();
+        let picked = crate::with_threads(args.timing.threads, || {
+            (0..args.rays)
+                .into_par_iter()
+                .filter(|&i| {
+                    let (at, u) = receiver(i);
+                    lights.pick(u, &at).is_some()
+                })
+                .count()
+        })?;
+        pick.push(t.elapsed().as_secs_f64());
+        anyhow::ensure!(picked > 0, "the light tree picked nothing");
+        let t = Instant::now();
+        let total = crate::with_threads(args.timing.threads, || {
+            (0..args.rays)
+                .into_par_iter()
+                .map(|i| {
+                    let (at, _) = receiver(i);
+                    lights.pick_pmf(i * 7919 % segments, &at) as f64
+                })
+                .sum::<f64>()
+        })?;
+        pmf.push(t.elapsed().as_secs_f64());
+        anyhow::ensure!(
+            total > 0.0,
+            "the light tree gave every segment probability 0"
+        );
+    }
+    let nanoseconds = |v: Vec<f64>| median(v) * 1e9 / args.rays as f64;
+    println!(
+        "{:<28} {build:>9.3} {:>17.1} ns/pick {:>5.1} ns/pmf",
+        "  light tree over them",
+        nanoseconds(pick),
+        nanoseconds(pmf)
+    );
     Ok(())
 }
