@@ -175,12 +175,28 @@ impl Cluster {
     }
 }
 
-/// cos(max(0, a − b)) for angles a, b in [0, π] given by their cosines, lane by lane.
+/// cos(max(0, θ − σ − u)), lane by lane: the cosine of the smallest angle between a cone's
+/// normals (σ from its axis) and a direction θ from its axis, less the half-angle u a sphere
+/// subtends (given by its sine, at most 1). The sine of the first difference comes from the
+/// angle-difference formula rather than a square root.
 #[inline(always)]
-fn cos_minus(cos_a: Vec4, cos_b: Vec4) -> Vec4 {
-    let sin_a = (Vec4::ONE - cos_a * cos_a).max(Vec4::ZERO).sqrt();
-    let sin_b = (Vec4::ONE - cos_b * cos_b).max(Vec4::ZERO).sqrt();
-    Vec4::select(cos_a.cmpge(cos_b), Vec4::ONE, cos_a * cos_b + sin_a * sin_b)
+fn cone_bound(cos_theta: Vec4, cos_spread: Vec4, sin_u: Vec4) -> Vec4 {
+    let sine = |cos: Vec4| (Vec4::ONE - cos * cos).max(Vec4::ZERO).sqrt();
+    let (sin_theta, sin_spread) = (sine(cos_theta), sine(cos_spread));
+    let within = cos_theta.cmpge(cos_spread);
+    let cos_a = Vec4::select(
+        within,
+        Vec4::ONE,
+        cos_theta * cos_spread + sin_theta * sin_spread,
+    );
+    let sin_a = Vec4::select(
+        within,
+        Vec4::ZERO,
+        (sin_theta * cos_spread - cos_theta * sin_spread).max(Vec4::ZERO),
+    );
+    let sin_u = sin_u.min(Vec4::ONE);
+    let cos_u = sine(sin_u);
+    Vec4::select(cos_a.cmpge(cos_u), Vec4::ONE, cos_a * cos_u + sin_a * sin_u)
 }
 
 /// The smallest cone holding two cones (axis, cosine of half-angle).
@@ -276,16 +292,16 @@ impl Node {
                 .max(Vec4::splat(f32::MIN_POSITIVE));
         let inv_dist = dist2.sqrt().recip();
         // Emitter side: angle from the cone's nearest normal to the point, less the angle the
-        // sphere subtends.
-        let sin_u = self.radius * inv_dist;
-        let cos_u = (Vec4::ONE - sin_u * sin_u).max(Vec4::ZERO).sqrt();
-        let cos_theta = (-dot(&self.axis, &to_centre) * inv_dist).clamp(-Vec4::ONE, Vec4::ONE);
-        let cone = cos_minus(cos_minus(cos_theta, self.cos_spread), cos_u);
-        let angular = Vec4::select(
-            self.cos_spread.cmpgt(-Vec4::ONE),
-            cone.max(Vec4::ZERO),
-            Vec4::ONE,
-        );
+        // sphere subtends. Lanes that emit every way (round strands) take no angular factor:
+        // a node of nothing else skips the cone's square roots altogether.
+        let has_cone = self.cos_spread.cmpgt(-Vec4::ONE);
+        let angular = if has_cone.any() {
+            let cos_theta = (-dot(&self.axis, &to_centre) * inv_dist).clamp(-Vec4::ONE, Vec4::ONE);
+            let cone = cone_bound(cos_theta, self.cos_spread, self.radius * inv_dist);
+            Vec4::select(has_cone, cone.max(Vec4::ZERO), Vec4::ONE)
+        } else {
+            Vec4::ONE
+        };
         let mut reaches = self.power.cmpgt(Vec4::ZERO);
         let angular = match n {
             None => angular,
