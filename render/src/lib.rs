@@ -23,6 +23,7 @@ pub mod medium;
 pub mod microfacet;
 pub mod multiscatter;
 pub mod portal;
+pub mod prefetch;
 pub mod ray;
 pub mod render;
 pub mod sampling;

@@ -401,10 +401,30 @@ impl LightTree {
     /// time range (0 at its start, 1 at its end) from `u` in [0, 1); returns it, its
     /// probability and `u` rescaled for reuse. `None` when nothing can reach the point.
     pub fn sample(&self, u: f32, p: Vec3, n: Option<Vec3>, tau: f32) -> Option<(usize, f32, f32)> {
+        self.sample_fetching(u, p, n, tau, |_| {})
+    }
+
+    /// [`Self::sample`], calling `fetch` with each emitter a node may pick before its
+    /// importances are computed, so what the caller reads of the chosen one can be on its way
+    /// into the cache meanwhile.
+    #[inline(always)]
+    pub fn sample_fetching(
+        &self,
+        u: f32,
+        p: Vec3,
+        n: Option<Vec3>,
+        tau: f32,
+        fetch: impl Fn(usize),
+    ) -> Option<(usize, f32, f32)> {
         let mut node = self.nodes.first()?;
         let mut pmf = 1.0f32;
         let mut u = u;
         loop {
+            for &child in &node.child {
+                if child & LEAF != 0 {
+                    fetch((child & !LEAF) as usize);
+                }
+            }
             let weights = node.importance(p, n, tau);
             let total: f32 = weights.iter().sum();
             if !total.is_finite() || total <= 0.0 {

@@ -313,14 +313,25 @@ impl Lights {
     }
 
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
-    pub fn pick(&self, u: f32, at: &Receiver) -> Option<(usize, f32, f32)> {
+    pub fn pick(&self, u: f32, at: &Receiver, strands: &Strands) -> Option<(usize, f32, f32)> {
         match &self.picker {
-            Picker::Tree => self.tree.sample(u, at.p, at.n, self.tau(at.time)),
+            Picker::Tree => self
+                .tree
+                .sample_fetching(u, at.p, at.n, self.tau(at.time), |i| self.fetch(i, strands)),
             Picker::Power(table) if table.is_empty() => None,
             Picker::Power(table) => {
                 let (i, rest) = table.sample(u.clamp(0.0, 1.0 - f32::EPSILON));
                 Some((i, table.pmf(i), rest))
             }
+        }
+    }
+
+    /// Asks the cache for what [`Self::sample`] reads of emitter `i` once it is picked.
+    #[inline(always)]
+    fn fetch(&self, i: usize, strands: &Strands) {
+        match i.checked_sub(self.emitters.len()) {
+            None => crate::prefetch::prefetch(std::slice::from_ref(&self.emitters[i])),
+            Some(segment) => strands.prefetch(segment),
         }
     }
 
@@ -360,7 +371,7 @@ impl Lights {
                 pdf: p_env * s.pdf,
             });
         }
-        let (i, pmf, u_rest) = self.pick(u_point.x, at)?;
+        let (i, pmf, u_rest) = self.pick(u_point.x, at, strands)?;
         let u_point = Vec2::new(u_rest, u_point.y);
         let pick = (1.0 - p_env) * pmf;
         if i >= self.emitters.len() {

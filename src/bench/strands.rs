@@ -188,7 +188,7 @@ fn light_tree_cost(
                 .into_par_iter()
                 .filter(|&i| {
                     let (at, u) = receiver(i);
-                    lights.pick(u, &at).is_some()
+                    lights.pick(u, &at, set).is_some()
                 })
                 .count()
         })?;

@@ -338,6 +338,21 @@ impl Strands {
         }
     }
 
+    /// Asks the cache for what light sampling reads of segment `i`.
+    #[inline(always)]
+    pub fn prefetch(&self, i: usize) {
+        use crate::prefetch::prefetch;
+        if let (Some(segment), Some(ring), Some(radiance)) = (
+            self.segments.get(i..=i),
+            self.segment_ring.get(i..=i),
+            self.radiance.get(i..=i),
+        ) {
+            prefetch(segment);
+            prefetch(ring);
+            prefetch(radiance);
+        }
+    }
+
     /// World bounds of segment `i` over every time a ray can have.
     pub fn segment_bounds(&self, i: u32, times: [f64; 2]) -> Aabb {
         let ring = &self.rings[self.segment_ring[i as usize] as usize];
