@@ -423,6 +423,8 @@ impl LightTree {
             for &child in &node.child {
                 if child & LEAF != 0 {
                     fetch((child & !LEAF) as usize);
+                } else if let Some(next) = self.nodes.get(child as usize..=child as usize) {
+                    crate::prefetch::prefetch(next);
                 }
             }
             let weights = node.importance(p, n, tau);
