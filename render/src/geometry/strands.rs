@@ -137,16 +137,19 @@ pub struct Ring {
     /// only: a fast strand sweeps many times its own length in a shutter, and one set of
     /// bounds over all of it would hand every ray hundreds of candidates.
     slices: Vec<Slice>,
+    /// Scene-wide index of the ring's first segment; its segments follow it in strand order.
+    first: u32,
     /// World bounds over every time a ray can have.
     pub bounds: Aabb,
 }
 
 /// The segments' BVH over one slice of time.
+///
+/// Its leaves name segments by their index within the ring (the BVH's primitive indices), and
+/// every slice reads the one scene-wide copy of them: a copy per slice in leaf order made a
+/// fast ring of a million segments take over a gigabyte.
 struct Slice {
     bvh: CwBvh,
-    /// Segments in the BVH's leaf order, and their scene-wide indices.
-    leaf_segments: Vec<Segment>,
-    leaf_ids: Vec<u32>,
 }
 
 /// A ray meeting a strand.
@@ -254,16 +257,7 @@ impl Strands {
                 BvhBuildParams::medium_build(),
                 &mut Default::default(),
             );
-            let (leaf_segments, leaf_ids) = bvh
-                .primitive_indices
-                .iter()
-                .map(|&i| (local[i as usize], first + i))
-                .unzip();
-            slices.push(Slice {
-                bvh,
-                leaf_segments,
-                leaf_ids,
-            });
+            slices.push(Slice { bvh });
         }
         let bounds = if slices.is_empty() {
             Aabb::empty()
@@ -289,6 +283,7 @@ impl Strands {
                 0.0
             },
             slices,
+            first,
             bounds,
         });
     }
@@ -307,7 +302,7 @@ impl Strands {
             if !admit(index) || !meets(&ring.bounds, ray.origin, ray.dir, limit) {
                 continue;
             }
-            if let Some(hit) = ring.intersect(ray.origin, ray.dir, limit, ray.time) {
+            if let Some(hit) = ring.intersect(self.of(ring), ray.origin, ray.dir, limit, ray.time) {
                 best = Some(hit);
             }
         }
@@ -320,8 +315,18 @@ impl Strands {
         self.rings.iter().enumerate().any(|(index, ring)| {
             admit(index)
                 && meets(&ring.bounds, ray.origin, ray.dir, ray.t_max)
-                && ring.occluded(ray.origin, ray.dir, ray.t_max, ray.time)
+                && ring.occluded(self.of(ring), ray.origin, ray.dir, ray.t_max, ray.time)
         })
+    }
+
+    /// The segments of `ring`, in strand order.
+    #[inline]
+    fn of(&self, ring: &Ring) -> &[Segment] {
+        let count = ring
+            .slices
+            .first()
+            .map_or(0, |s| s.bvh.primitive_indices.len());
+        &self.segments[ring.first as usize..ring.first as usize + count]
     }
 
     /// Segment `i` in world space at `time`.
@@ -409,21 +414,32 @@ impl Ring {
         )
     }
 
-    fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> Option<StrandHit> {
+    /// The first of `segments` (the ring's, in strand order) along `origin + t·dir`, t in
+    /// (0, t_max), at `time`.
+    fn intersect(
+        &self,
+        segments: &[Segment],
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+    ) -> Option<StrandHit> {
         let delta = self.delta(time);
         let slice = self.slice(delta)?;
         let (o, d, to_local) = self.local_ray(origin, dir, time);
         let mut found = None;
+        let leaves = &slice.bvh.primitive_indices;
         closest_hit(
             &slice.bvh,
             &BoxRay::new(o, d),
             t_max,
-            &slice.leaf_segments,
+            leaves,
             |slot, range| {
-                let h = slice.leaf_segments[slot]
+                let i = leaves[slot];
+                let h = segments[i as usize]
                     .at(delta, self.moving)
                     .intersect(o, d, 0.0, range)?;
-                found = Some((h, slice.leaf_ids[slot]));
+                found = Some((h, self.first + i));
                 Some(h.t)
             },
         );
@@ -442,24 +458,28 @@ impl Ring {
         })
     }
 
-    fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, time: f64) -> bool {
+    /// True when one of `segments` (the ring's) lies along `origin + t·dir`, t in (0, t_max),
+    /// at `time`.
+    fn occluded(
+        &self,
+        segments: &[Segment],
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        time: f64,
+    ) -> bool {
         let delta = self.delta(time);
         let Some(slice) = self.slice(delta) else {
             return false;
         };
         let (o, d, _) = self.local_ray(origin, dir, time);
-        any_hit(
-            &slice.bvh,
-            &BoxRay::new(o, d),
-            t_max,
-            &slice.leaf_segments,
-            |slot| {
-                slice.leaf_segments[slot]
-                    .at(delta, self.moving)
-                    .intersect(o, d, 0.0, t_max)
-                    .is_some()
-            },
-        )
+        let leaves = &slice.bvh.primitive_indices;
+        any_hit(&slice.bvh, &BoxRay::new(o, d), t_max, leaves, |slot| {
+            segments[leaves[slot] as usize]
+                .at(delta, self.moving)
+                .intersect(o, d, 0.0, t_max)
+                .is_some()
+        })
     }
 }
 
@@ -628,7 +648,7 @@ mod tests {
         assert!(!strands.rings[1].moving);
         let mut spinning = Strands::default();
         spinning.add_ring(&curves, frame(), 0.0, [-0.1, 0.1], 1.0);
-        let first = strands.rings[0].slices[0].leaf_segments.len() as u32;
+        let first = strands.rings[1].first;
         for i in 0..spinning.segments.len() as u32 {
             let a = strands.world_segment(first + i, 0.05);
             let b = spinning.world_segment(i, 0.05);
