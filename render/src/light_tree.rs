@@ -406,7 +406,7 @@ impl LightTree {
 
     /// [`Self::sample`], calling `fetch` with each emitter a node may pick before its
     /// importances are computed, so what the caller reads of the chosen one can be on its way
-    /// into the cache meanwhile.
+    /// into the cache meanwhile; the child nodes a level may pick are fetched the same way.
     #[inline(always)]
     pub fn sample_fetching(
         &self,

@@ -12,6 +12,7 @@
 //! Children are visited in the order of the ray's octant, as the layout intends; a closest-hit
 //! query shrinks its range as hits are found, an any-hit query stops at the first.
 
+use crate::prefetch::prefetch;
 use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
@@ -287,18 +288,11 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
 /// tests, which cost small scenes more than the call costs large ones.
 #[inline(never)]
 fn prefetch_leaves<L>(leaves: &[L], group: Group) {
-    #[cfg(target_arch = "x86_64")]
     if group.bits != 0 {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
         let first = (group.base + group.bits.trailing_zeros()) as usize;
         let last = (group.base + 31 - group.bits.leading_zeros()) as usize;
-        let Some(run) = leaves.get(first..=last) else {
-            return;
-        };
-        let start = run.as_ptr().cast::<u8>();
-        for line in (0..std::mem::size_of_val(run)).step_by(64) {
-            // SAFETY: prefetching never faults, and the address lies within `leaves`.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.add(line).cast()) };
+        if let Some(run) = leaves.get(first..=last) {
+            prefetch(run);
         }
     }
 }
@@ -307,22 +301,14 @@ fn prefetch_leaves<L>(leaves: &[L], group: Group) {
 /// each first touch of a large tree's node otherwise waits on memory.
 #[inline(never)]
 fn prefetch_inner_children(bvh: &CwBvh, node: &CwBvhNode, hits: u32) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        if hits & INNER_BITS == 0 {
-            return;
-        }
-        // Inner children lie together from `child_base_idx`; fetch the lines of them all when
-        // any is hit (cheaper than ranking each hit slot, and most are hit when any is).
-        let first = node.child_base_idx as usize;
-        let all = (node.imask.count_ones() as usize).min(bvh.nodes.len().saturating_sub(first));
-        let start = bvh.nodes[first..first + all].as_ptr().cast::<u8>();
-        for line in (0..all * std::mem::size_of::<CwBvhNode>()).step_by(64) {
-            // SAFETY: prefetching never faults, and the address lies within `bvh.nodes`.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.add(line).cast()) };
-        }
+    if hits & INNER_BITS == 0 {
+        return;
     }
+    // Inner children lie together from `child_base_idx`; fetch the lines of them all when
+    // any is hit (cheaper than ranking each hit slot, and most are hit when any is).
+    let first = node.child_base_idx as usize;
+    let all = (node.imask.count_ones() as usize).min(bvh.nodes.len().saturating_sub(first));
+    prefetch(&bvh.nodes[first..first + all]);
 }
 
 /// The children of `node` that `ray` meets within [0, `t_max`], as group bits (see [`Group`]).
