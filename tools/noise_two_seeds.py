@@ -5,7 +5,7 @@ seeds, and the median over pixels of the relative standard deviation of a pixel'
 seconds of each render. Extra arguments go to `rift render` (for example --spp 16, --res 640
 360, --target-error 0.08, --time-limit 30).
 
-    python3 tools/noise_two_seeds.py [SHOT] [--frame F] [--repeats N] [-- RENDER ARGS...]
+    python3 tools/noise_two_seeds.py [SHOT] [--frame F] [--repeats N] [--rift BINARY] [-- RENDER ARGS...]
 
 Needs a release build and the `openexr` and `numpy` Python packages.
 """
@@ -29,9 +29,9 @@ def luminance(path):
     return rgb[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
 
 
-def render(shot, frame, seed, out, extra):
+def render(rift, shot, frame, seed, out, extra):
     start = time.perf_counter()
-    subprocess.run([str(ROOT / "target/release/rift"), "render", shot, "--frame", str(frame),
+    subprocess.run([rift, "render", shot, "--frame", str(frame),
                     "--seed", str(seed), "-o", str(out), *extra],
                    check=True, stdout=subprocess.DEVNULL)
     return time.perf_counter() - start
@@ -45,13 +45,15 @@ def main():
     parser.add_argument("shot", nargs="?", default=str(ROOT / "examples/shots/showcase.toml"))
     parser.add_argument("--frame", type=int, default=12)
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--rift", default=str(ROOT / "target/release/rift"),
+                        help="the rift binary to measure (to compare two builds)")
     args = parser.parse_args(argv)
     noise, seconds = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.repeats):
             a, b = Path(tmp) / "a.exr", Path(tmp) / "b.exr"
-            seconds.append(render(args.shot, args.frame, 2 * r + 1, a, extra))
-            seconds.append(render(args.shot, args.frame, 2 * r + 2, b, extra))
+            seconds.append(render(args.rift, args.shot, args.frame, 2 * r + 1, a, extra))
+            seconds.append(render(args.rift, args.shot, args.frame, 2 * r + 2, b, extra))
             la, lb = luminance(a), luminance(b)
             mean = (la + lb) / 2
             lit = mean > 1e-3
