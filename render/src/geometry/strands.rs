@@ -302,7 +302,9 @@ impl Strands {
             if !admit(index) || !meets(&ring.bounds, ray.origin, ray.dir, limit) {
                 continue;
             }
-            if let Some(hit) = ring.intersect(self.of(ring), ray.origin, ray.dir, limit, ray.time) {
+            if let Some(hit) =
+                ring.intersect(self.segments_of(ring), ray.origin, ray.dir, limit, ray.time)
+            {
                 best = Some(hit);
             }
         }
@@ -315,13 +317,19 @@ impl Strands {
         self.rings.iter().enumerate().any(|(index, ring)| {
             admit(index)
                 && meets(&ring.bounds, ray.origin, ray.dir, ray.t_max)
-                && ring.occluded(self.of(ring), ray.origin, ray.dir, ray.t_max, ray.time)
+                && ring.occluded(
+                    self.segments_of(ring),
+                    ray.origin,
+                    ray.dir,
+                    ray.t_max,
+                    ray.time,
+                )
         })
     }
 
     /// The segments of `ring`, in strand order.
     #[inline]
-    fn of(&self, ring: &Ring) -> &[Segment] {
+    fn segments_of(&self, ring: &Ring) -> &[Segment] {
         let count = ring
             .slices
             .first()
