@@ -77,6 +77,13 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
     }
 }
 
+/// Number `k` of the `count` hashed uniform numbers in [0, 1] of item `i`: the benchmarks'
+/// rays, receivers and lamps, the same on every run.
+pub(crate) fn hashed(i: usize, count: u32, k: u32) -> f32 {
+    rift_render::sampling::hash32((i as u32).wrapping_mul(count).wrapping_add(k)) as f32
+        / u32::MAX as f32
+}
+
 pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]

@@ -198,10 +198,7 @@ fn loop_grid(
         }
     }
     let ray = move |i: usize| {
-        let h = |n: u32| {
-            rift_render::sampling::hash32((i as u32).wrapping_mul(8).wrapping_add(n)) as f32
-                / u32::MAX as f32
-        };
+        let h = |n: u32| super::hashed(i, 8, n);
         let k = ((h(0) * loops as f32) as usize).min(loops - 1);
         let angle = std::f32::consts::TAU * h(1);
         let target =
@@ -343,10 +340,7 @@ fn emitters_shot(dir: &Path, lamps: usize, res: u32) -> anyhow::Result<PathBuf> 
     );
     let size = 0.05f32;
     for k in 0..lamps {
-        let h = |i: u32| {
-            rift_render::sampling::hash32((k as u32).wrapping_mul(2).wrapping_add(i)) as f32
-                / u32::MAX as f32
-        };
+        let h = |i: u32| super::hashed(k, 2, i);
         let (x, z) = (5.0 * h(0) - 2.5, 5.0 * h(1) - 2.5);
         for (dx, dz) in [(0.0, 0.0), (size, 0.0), (size, size), (0.0, size)] {
             obj += &format!("v {} 2 {}\n", x + dx, z + dz);

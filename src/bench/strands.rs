@@ -59,10 +59,7 @@ fn spinning_ring(strands: usize, segments: usize) -> rift_fx::ring::RingCurves {
 /// Ray `i` from all around towards a random point of the ring's band, at a random time in
 /// `shutter`.
 fn band_ray(i: usize, shutter: [f64; 2]) -> (glam::Vec3, glam::Vec3, f64) {
-    let h = |k: u32| {
-        rift_render::sampling::hash32((i as u32).wrapping_mul(8).wrapping_add(k)) as f32
-            / u32::MAX as f32
-    };
+    let h = |k: u32| super::hashed(i, 8, k);
     let angle = std::f32::consts::TAU * h(0);
     let target = glam::Vec3::new(angle.cos(), angle.sin(), 0.0) * (0.98 + 0.12 * h(1));
     let from = glam::Vec3::new(h(2) - 0.5, h(3) - 0.5, h(4) - 0.5).normalize_or_zero() * 3.0
@@ -164,10 +161,7 @@ fn light_tree_cost(
     let lights = Lights::new(Vec::new(), 0, set, times, &[], None, LightSelection::Tree);
     let build = t.elapsed().as_secs_f64();
     let receiver = |i: usize| {
-        let h = |k: u32| {
-            rift_render::sampling::hash32((i as u32).wrapping_mul(4).wrapping_add(k)) as f32
-                / u32::MAX as f32
-        };
+        let h = |k: u32| super::hashed(i, 4, k);
         let p = glam::Vec3::new(3.0 * h(0) - 1.5, 3.0 * h(1) - 1.5, -0.1);
         let time = times[0] + (times[1] - times[0]) * h(2) as f64;
         (
