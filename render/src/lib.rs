@@ -10,6 +10,7 @@ pub mod checkpoint;
 pub mod cryptomatte;
 pub mod environment;
 pub mod error;
+pub mod exit_light;
 pub mod film;
 pub mod geometry;
 pub mod grid_medium;

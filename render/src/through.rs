@@ -40,6 +40,7 @@
 //! still counted once.
 
 use crate::aperture;
+use crate::exit_light::ExitLight;
 use crate::lights::{Lights, Receiver, luminance};
 use crate::portal::Portals;
 use crate::scene::Scene;
@@ -203,14 +204,14 @@ impl Strategies {
             let estimate = from.factor
                 * aperture.factor
                 * from.solid_angle.min(solid_angle)
-                * apertures.exit_light[i]
+                * apertures.exits[i].light
                 / std::f32::consts::PI;
             let kept = estimate > 0.0 && estimate.is_finite() && self.would_keep(estimate);
             if !kept && depth == 1 {
                 continue;
             }
             let exit_time = portals.exit_time(i, from.time);
-            let sky_share = apertures.sky_share[i];
+            let sky_share = apertures.exits[i].sky_share;
             let reach = from.beyond(&aperture, i, exit_time, solid_angle, sky_share);
             if kept {
                 self.keep(reach.space(), estimate);
@@ -458,46 +459,48 @@ impl ExitCone {
 pub struct Apertures {
     /// Per opening that stands still (a moving one's is built at each ray's time).
     still: Vec<Option<Aperture>>,
-    /// What each opening's exit can pass on: the light tree's unoccluded estimate at the
-    /// centre of its there side, facing the way rays leave, at the middle of the ray times.
-    exit_light: Vec<f32>,
-    /// The sky's share of `exit_light`.
-    sky_share: Vec<f32>,
+    /// What each opening's exit can pass on: at first the light tree's unoccluded estimate at
+    /// the centre of its there side, facing the way rays leave, at the middle of the ray times;
+    /// once the scene is built, measured ([`crate::exit_light`]).
+    exits: Vec<ExitLight>,
 }
 
 impl Apertures {
     pub fn new(portals: &Portals, lights: &Lights) -> Self {
         let times = portals.times();
         let middle = 0.5 * (times[0] + times[1]);
-        let exit_light: Vec<f32> = (0..portals.len())
+        let sky = lights.environment_importance();
+        let exits = (0..portals.len())
             .map(|i| {
                 let there = portals.there(i, middle);
-                lights.importance(&Receiver {
+                let light = lights.importance(&Receiver {
                     p: there.translation.as_vec3(),
                     n: Some(there.transform_direction(-DVec3::Z).as_vec3()),
                     time: middle,
-                })
+                });
+                let sky_share = if light > 0.0 {
+                    (sky / light).min(1.0)
+                } else {
+                    0.0
+                };
+                ExitLight { light, sky_share }
             })
             .collect();
         let still = (0..portals.len())
             .map(|i| (!portals.opening_moves(i)).then(|| Aperture::new(portals, i, times[0])))
             .collect();
-        let sky = lights.environment_importance();
-        let sky_share = exit_light
-            .iter()
-            .map(|&light| {
-                if light > 0.0 {
-                    (sky / light).min(1.0)
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        Self {
-            still,
-            exit_light,
-            sky_share,
-        }
+        Self { still, exits }
+    }
+
+    /// What each opening's exit passes on, as the strategy search weighs it.
+    pub fn exits(&self) -> &[ExitLight] {
+        &self.exits
+    }
+
+    /// Takes each opening's exit as measured ([`crate::exit_light::measure`]).
+    pub fn set_exits(&mut self, exits: Vec<ExitLight>) {
+        debug_assert_eq!(exits.len(), self.exits.len());
+        self.exits = exits;
     }
 
     /// Opening `i` at `time`, borrowed where it stands still (copying it costs more

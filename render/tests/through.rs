@@ -561,3 +561,71 @@ fn ordinary_light_sampling_is_known_to_be_blocked_in_the_dark_room_only() {
     let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
     assert_eq!(scene.light_visibility.at(Vec3::new(0.0, 1.5, 0.0)), 1.0);
 }
+
+/// Irradiance at `p` (facing `n`) from the lamp of [`LAMP`], by quadrature over its faces:
+/// an axis-aligned box of half side 0.3 at `centre` glowing with luminance `radiance`.
+fn lamp_irradiance(p: DVec3, n: DVec3, centre: DVec3, radiance: f64) -> f64 {
+    const STEPS: usize = 24;
+    let half = 0.3;
+    let mut sum = 0.0;
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let mut normal = DVec3::ZERO;
+            normal[axis] = sign;
+            let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+            let cell = 2.0 * half / STEPS as f64;
+            for i in 0..STEPS {
+                for j in 0..STEPS {
+                    let mut q = centre + normal * half;
+                    q[a] += -half + (i as f64 + 0.5) * cell;
+                    q[b] += -half + (j as f64 + 0.5) * cell;
+                    let to = q - p;
+                    let d2 = to.length_squared();
+                    let w = to / d2.sqrt();
+                    let (cos_p, cos_q) = (w.dot(n), -w.dot(normal));
+                    if cos_p > 0.0 && cos_q > 0.0 {
+                        sum += radiance * cos_p * cos_q / d2 * cell * cell;
+                    }
+                }
+            }
+        }
+    }
+    sum
+}
+
+#[test]
+fn each_exit_is_measured_as_what_it_passes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    // A sky outside both closed rooms: the light tree counts it, though no exit sees it.
+    let sky = "[environment]\nradiance = [0.2, 0.2, 0.2]";
+    let text = two_rooms(dir.path(), RECTANGLE, RECTANGLE, LAMP, sky);
+    let path = dir.path().join("rooms.toml");
+    std::fs::write(&path, &text).unwrap();
+    let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
+    let exits = scene.apertures.exits();
+    // The window's exit is in the lamp's room, at x = 31.98, facing −X: π times the mean
+    // irradiance over it, by quadrature, within the probes' noise.
+    let luminance = 0.2126 * 10.0 + 0.7152 * 8.0 + 0.0722 * 6.0;
+    let lamp = DVec3::new(29.6, 1.5, 0.2);
+    let [w, h] = RECTANGLE_HALF;
+    let mut expected = 0.0;
+    for i in 0..16 {
+        for j in 0..16 {
+            let z = -w + (i as f64 + 0.5) * w / 8.0;
+            let y = 1.4 - h + (j as f64 + 0.5) * h / 8.0;
+            let p = DVec3::new(31.98, y, z);
+            expected += lamp_irradiance(p, -DVec3::X, lamp, luminance) / 256.0;
+        }
+    }
+    let expected = std::f64::consts::PI * expected;
+    let window = exits[0];
+    assert!(
+        (window.light as f64 / expected - 1.0).abs() < 0.1,
+        "window exit: measured {}, quadrature {expected}",
+        window.light
+    );
+    assert_eq!(window.sky_share, 0.0, "the sky is walled off");
+    // The other exit opens into the dark room: next to nothing, so light sampling does not
+    // look through it.
+    assert!(exits[1].light < 1e-3 * window.light, "{:?}", exits[1]);
+}

@@ -411,6 +411,8 @@ impl Scene {
         };
         if scene.light_through_openings_possible() {
             scene.light_visibility = LightVisibility::new(&scene, bounds, times);
+            let exits = crate::exit_light::measure(&scene, scene.apertures.exits());
+            scene.apertures.set_exits(exits);
         }
         Ok(scene)
     }
