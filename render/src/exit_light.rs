@@ -4,9 +4,9 @@
 //! The light tree's estimate at the centre of an exit counts every emitter in front of it
 //! as if it faced the exit and nothing stood between. An opening framed by a ring sits in the
 //! ring's plane, so the tree credits it with the whole ring, whose light only grazes it; walls
-//! and the ring's own strands are not seen at all. In the showcase that sent about a third of
-//! the light samples through openings that bring little (the render was noisier with light
-//! sampling through openings on than off). Here ordinary light samples are traced, with their
+//! and the ring's own strands are not seen at all: in the showcase it was 145 times what the
+//! exit passes on, and the render was noisier with light sampling through openings on than
+//! off. Here ordinary light samples are traced, with their
 //! shadow rays, from points spread over each exit and facing the way rays leave it, and their
 //! mean is the estimate. It only moves samples between strategies: a poor measurement costs
 //! noise, never bias.

@@ -19,8 +19,8 @@
 //!   on the window;
 //! - a chain: the product of its openings' opacity × tint, times the aperture bound
 //!   Ω · E_exit / π, where Ω is the smallest projected solid angle of the chain's openings seen
-//!   along the way (capped at 2π) and E_exit the tree's estimate at the centre of the last
-//!   exit, facing out ([`Apertures`], once per scene at mid-shutter).
+//!   along the way (capped at 2π) and E_exit what the last exit passes on, measured once per
+//!   scene with ordinary light samples and their shadow rays ([`crate::exit_light`]).
 //!
 //! Openings behind the point, facing away, below its surface or hidden behind the previous
 //! opening get no strategy at all, and a scene without openings has only the ordinary one: it
