@@ -11,6 +11,7 @@
 //! mean is the estimate. It only moves samples between strategies: a poor measurement costs
 //! noise, never bias.
 
+use crate::geometry::offset_origin;
 use crate::integrator::{incoming, shadow};
 use crate::lights::{Receiver, luminance};
 use crate::sampling::SampleStream;
@@ -73,9 +74,9 @@ fn probe(scene: &Scene, i: usize) -> ExitLight {
         let there = portals.there(i, exit_time);
         let leaving = there.transform_direction(-DVec3::Z).normalize();
         // Just off the exit, on the side rays leave into (an opening may lie on a wall).
-        let point = there.transform_point(local.extend(0.0)) + leaving * (1e-4 * there.scale);
+        let on_exit = there.transform_point(local.extend(0.0)).as_vec3();
         let receiver = Receiver {
-            p: point.as_vec3(),
+            p: offset_origin(on_exit, leaving.as_vec3()),
             n: Some(leaving.as_vec3()),
             time: exit_time,
         };
