@@ -12,11 +12,10 @@
 //! noise, never bias.
 
 use crate::geometry::offset_origin;
-use crate::integrator::{incoming, shadow};
-use crate::lights::{Receiver, luminance};
+use crate::integrator::probe_light;
+use crate::lights::Receiver;
 use crate::sampling::SampleStream;
 use crate::scene::Scene;
-use crate::through::Chain;
 use glam::{DVec2, DVec3, Vec2};
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -80,24 +79,15 @@ fn probe(scene: &Scene, i: usize) -> ExitLight {
             n: Some(leaving.as_vec3()),
             time: exit_time,
         };
-        let Some(light) = incoming(scene, &receiver, None, Vec2::new(u, v), 0.0) else {
+        let Some(probe) = probe_light(scene, &receiver, Vec2::new(u, v)) else {
             continue;
         };
-        let cos = light.dir.dot(leaving.as_vec3());
-        let weight = (luminance(light.radiance) * cos / light.pdf) as f64;
-        if !weight.is_finite() || weight <= 0.0 {
-            continue;
-        }
-        let none = Chain::default();
-        let Some((_, transmitted)) =
-            shadow(scene, &none, receiver.p, light.dir, light.target, exit_time)
-        else {
-            continue;
-        };
-        let weight = weight * transmitted as f64;
-        all += weight;
-        if light.target.is_none() {
-            sky += weight;
+        let weight = probe.weight * probe.transmitted * probe.dir.dot(leaving.as_vec3()) as f64;
+        if weight > 0.0 {
+            all += weight;
+            if probe.sky {
+                sky += weight;
+            }
         }
     }
     ExitLight {

@@ -775,6 +775,38 @@ pub(crate) fn incoming(
     }
 }
 
+/// One ordinary light sample for `at`, traced with its shadow ray, as the scene's
+/// measurements draw them ([`crate::light_visibility`], [`crate::exit_light`]); `None` when
+/// it brings nothing.
+pub(crate) fn probe_light(scene: &Scene, at: &Receiver, u: glam::Vec2) -> Option<Probe> {
+    let light = incoming(scene, at, None, u, 0.0)?;
+    let weight = (crate::lights::luminance(light.radiance) / light.pdf) as f64;
+    if !weight.is_finite() || weight <= 0.0 {
+        return None;
+    }
+    let none = Chain::default();
+    let transmitted = shadow(scene, &none, at.p, light.dir, light.target, at.time)
+        .map_or(0.0, |(_, coins)| coins as f64);
+    Some(Probe {
+        dir: light.dir,
+        weight,
+        transmitted,
+        sky: light.target.is_none(),
+    })
+}
+
+/// What [`probe_light`] found.
+pub(crate) struct Probe {
+    /// Unit direction at the point.
+    pub dir: Vec3,
+    /// Luminance over solid-angle pdf.
+    pub weight: f64,
+    /// The share of it the shadow ray lets through (0 when blocked).
+    pub transmitted: f64,
+    /// It came from the environment.
+    pub sky: bool,
+}
+
 /// A light sample drawn beyond the chain of `space`, as it arrives at the shading point `at`.
 /// Kept out of line, with [`sky_through_aperture`]: scenes without openings never run them,
 /// and inlined they slowed the Cornell box by 2%.

@@ -9,11 +9,10 @@
 //! strategies, so a poor grid costs noise, never bias; a floor keeps some ordinary samples
 //! wherever the probes saw nothing.
 
-use crate::integrator::{incoming, shadow};
-use crate::lights::{Receiver, luminance};
+use crate::integrator::probe_light;
+use crate::lights::Receiver;
 use crate::sampling::SampleStream;
 use crate::scene::Scene;
-use crate::through::Chain;
 use glam::{UVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -105,18 +104,9 @@ fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) ->
             time: times[0] + (times[1] - times[0]) * t as f64,
         };
         // Ordinary light sampling, as next-event estimation draws it, and its shadow ray.
-        let Some(light) = incoming(scene, &receiver, None, Vec2::new(u, v), 0.0) else {
-            continue;
-        };
-        let weight = (luminance(light.radiance) / light.pdf) as f64;
-        if !weight.is_finite() || weight <= 0.0 {
-            continue;
-        }
-        all += weight;
-        let none = Chain::default();
-        let (p, time) = (receiver.p, receiver.time);
-        if let Some((_, transmitted)) = shadow(scene, &none, p, light.dir, light.target, time) {
-            unblocked += weight * transmitted as f64;
+        if let Some(probe) = probe_light(scene, &receiver, Vec2::new(u, v)) {
+            all += probe.weight;
+            unblocked += probe.weight * probe.transmitted;
         }
     }
     if all > 0.0 {
