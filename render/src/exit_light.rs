@@ -36,19 +36,31 @@ pub struct ExitLight {
     pub sky_share: f32,
 }
 
-/// Measures the exit of every opening of `scene`; `estimates` are the light tree's, which set
-/// a floor.
-pub fn measure(scene: &Scene, estimates: &[ExitLight]) -> Vec<ExitLight> {
+/// Measures the exit of every opening of `scene`.
+pub fn measure(scene: &Scene) -> Vec<ExitLight> {
     (0..scene.portals.len())
         .into_par_iter()
         .map(|i| {
             let measured = probe(scene, i);
             ExitLight {
-                light: measured.light.max(FLOOR * estimates[i].light),
+                light: measured.light.max(FLOOR * tree_estimate(scene, i)),
                 ..measured
             }
         })
         .collect()
+}
+
+/// The light tree's unoccluded estimate for opening `i`'s exit: at its centre, facing the way
+/// rays leave, at the middle of the ray times.
+fn tree_estimate(scene: &Scene, i: usize) -> f32 {
+    let times = scene.portals.times();
+    let middle = 0.5 * (times[0] + times[1]);
+    let there = scene.portals.there(i, middle);
+    scene.lights.importance(&Receiver {
+        p: there.translation.as_vec3(),
+        n: Some(there.transform_direction(-DVec3::Z).as_vec3()),
+        time: middle,
+    })
 }
 
 /// Ordinary light samples from [`PROBES`] points over opening `i`'s bounding disk at random ray

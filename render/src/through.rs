@@ -41,7 +41,7 @@
 
 use crate::aperture;
 use crate::exit_light::ExitLight;
-use crate::lights::{Lights, Receiver, luminance};
+use crate::lights::{Receiver, luminance};
 use crate::portal::Portals;
 use crate::scene::Scene;
 use glam::{DQuat, DVec3, Vec3};
@@ -459,37 +459,25 @@ impl ExitCone {
 pub struct Apertures {
     /// Per opening that stands still (a moving one's is built at each ray's time).
     still: Vec<Option<Aperture>>,
-    /// What each opening's exit can pass on: at first the light tree's unoccluded estimate at
-    /// the centre of its there side, facing the way rays leave, at the middle of the ray times;
-    /// once the scene is built, measured ([`crate::exit_light`]).
+    /// What each opening's exit passes on, measured once the scene is built
+    /// ([`crate::exit_light`]); until then nothing, so no chain is weighed.
     exits: Vec<ExitLight>,
 }
 
 impl Apertures {
-    pub fn new(portals: &Portals, lights: &Lights) -> Self {
+    pub fn new(portals: &Portals) -> Self {
         let times = portals.times();
-        let middle = 0.5 * (times[0] + times[1]);
-        let sky = lights.environment_importance();
-        let exits = (0..portals.len())
-            .map(|i| {
-                let there = portals.there(i, middle);
-                let light = lights.importance(&Receiver {
-                    p: there.translation.as_vec3(),
-                    n: Some(there.transform_direction(-DVec3::Z).as_vec3()),
-                    time: middle,
-                });
-                let sky_share = if light > 0.0 {
-                    (sky / light).min(1.0)
-                } else {
-                    0.0
-                };
-                ExitLight { light, sky_share }
-            })
-            .collect();
         let still = (0..portals.len())
             .map(|i| (!portals.opening_moves(i)).then(|| Aperture::new(portals, i, times[0])))
             .collect();
-        Self { still, exits }
+        let nothing = ExitLight {
+            light: 0.0,
+            sky_share: 0.0,
+        };
+        Self {
+            still,
+            exits: vec![nothing; portals.len()],
+        }
     }
 
     /// What each opening's exit passes on, as the strategy search weighs it.

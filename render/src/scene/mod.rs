@@ -378,7 +378,7 @@ impl Scene {
             portals.moving(),
             times[0],
         );
-        let apertures = crate::through::Apertures::new(&portals, &lights);
+        let apertures = crate::through::Apertures::new(&portals);
         let mut scene = Self {
             apertures,
             light_visibility: Default::default(),
@@ -411,7 +411,7 @@ impl Scene {
         };
         if scene.light_through_openings_possible() {
             scene.light_visibility = LightVisibility::new(&scene, bounds, times);
-            let exits = crate::exit_light::measure(&scene, scene.apertures.exits());
+            let exits = crate::exit_light::measure(&scene);
             scene.apertures.set_exits(exits);
         }
         Ok(scene)
