@@ -1,0 +1,127 @@
+#!/usr/bin/env python3
+"""Cornell box efficiency, rift against Mitsuba 3, in one run: rounds alternate the two
+renderers on the reference pack (../shared/reference/cornell: Mitsuba's own `cornell_box()`),
+each at the same samples per pixel and thread count, and the medians are compared.
+
+Efficiency is 1 / (relMSE x seconds), relMSE = mean((v - ref)^2 / (ref^2 + 0.01)) against the
+pack's converged reference, as `rift bench convergence` measures it; rift's figures are that
+command's. Mitsuba's seconds are those of `mi.render` and its evaluation, after a warm-up render
+that compiles its kernels (Dr.Jit caches them), until the image is in host memory, with the scene as `cornell_box()` builds it
+(independent sampler) but the reference's box filter and unlimited path depth.
+
+    python3 tools/cornell_vs_mitsuba.py --rift target/release/rift --spp 256 --rounds 3
+
+Needs `pip install mitsuba` and, for the LLVM variants, LLVM 15 or newer as a shared library
+(Debian: `apt-get install libllvm19`); LLVM 15.0 fails to compile Mitsuba's kernels on
+processors with AVX-512, so the newest libLLVM found is used.
+"""
+import argparse
+import glob
+import os
+import re
+import statistics
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+PACK = ROOT.parent / "shared" / "reference" / "cornell"
+
+
+def newest_libllvm():
+    """The newest libLLVM shared library on the system, or None."""
+    found = []
+    for path in glob.glob("/usr/lib/*/libLLVM*.so*") + glob.glob("/usr/lib/libLLVM*.so*"):
+        m = re.search(r"libLLVM(?:-|\.so\.)(\d+)", path)
+        if m:
+            found.append((int(m.group(1)), path))
+    return max(found)[1] if found else None
+
+
+def read_exr(path):
+    import OpenEXR
+    channels = OpenEXR.File(str(path)).parts[0].channels
+    rgb = next(channels[k].pixels for k in ("RGBA", "RGB") if k in channels)
+    return rgb[..., :3].astype(np.float64)
+
+
+def rel_mse(img, ref):
+    return float(np.mean((img - ref) ** 2 / (ref ** 2 + 0.01)))
+
+
+def rift_round(rift, spp, threads, tmp):
+    """rift's (seconds, relMSE, mean RGB) from `rift bench convergence` at `spp`."""
+    out = subprocess.run(
+        [rift, "bench", "convergence", str(ROOT / "examples" / "cornell.toml"),
+         "--reference", str(PACK / "reference.exr"), "--spp", str(spp),
+         "--csv", str(tmp / "c.csv"), "--plot", str(tmp / "c.png"), "--threads", str(threads)],
+        check=True, capture_output=True, text=True).stdout
+    row = next(line.split() for line in out.splitlines()
+               if line.split() and line.split()[0] == str(spp))
+    return float(row[1]), float(row[2])
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rift", default=str(ROOT / "target/release/rift"))
+    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--threads", type=int, default=os.cpu_count())
+    ap.add_argument("--variant", default="llvm_ad_rgb")
+    args = ap.parse_args()
+
+    if args.variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
+        lib = newest_libllvm()
+        if lib:
+            os.environ["DRJIT_LIBLLVM_PATH"] = lib
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_variant(args.variant)
+    if args.variant.startswith("llvm"):
+        dr.set_thread_count(args.threads)
+    reference = read_exr(PACK / "reference.exr")
+    scene = mi.cornell_box()
+    scene["sensor"]["film"]["rfilter"] = {"type": "box"}
+    scene["integrator"] = {"type": "path", "max_depth": -1}
+    built = mi.load_dict(scene)
+    warm = mi.render(built, spp=4, seed=0)
+    dr.eval(warm)
+    dr.sync_thread()
+
+    runs = {"rift": [], "mitsuba": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for k in range(args.rounds):
+            seconds, rel = rift_round(args.rift, args.spp, args.threads, tmp)
+            runs["rift"].append((seconds, rel, None))
+            start = time.perf_counter()
+            img = mi.render(built, spp=args.spp, seed=k + 1)
+            dr.eval(img)
+            dr.sync_thread()
+            img = np.asarray(img, dtype=np.float64)[..., :3]
+            seconds = time.perf_counter() - start
+            runs["mitsuba"].append((seconds, rel_mse(img, reference), img.mean((0, 1))))
+            print(f"round {k + 1}: rift {runs['rift'][-1][0]:.2f} s relMSE {runs['rift'][-1][1]:.4e}"
+                  f" | mitsuba {seconds:.2f} s relMSE {runs['mitsuba'][-1][1]:.4e}", flush=True)
+
+    ref_mean = reference.mean((0, 1))
+    print(f"\nCornell box, {args.spp} spp, {args.threads} threads, Mitsuba {mi.__version__} "
+          f"{args.variant}, medians of {args.rounds} rounds")
+    print(f"{'':10} {'seconds':>9} {'relMSE':>11} {'efficiency':>11}")
+    eff = {}
+    for who, rows in runs.items():
+        seconds = statistics.median(r[0] for r in rows)
+        rel = statistics.median(r[1] for r in rows)
+        eff[who] = 1.0 / (seconds * rel)
+        print(f"{who:10} {seconds:9.3f} {rel:11.4e} {eff[who]:11.1f}")
+    mean = np.mean([r[2] for r in runs["mitsuba"]], axis=0)
+    print(f"Mitsuba's mean against the reference: "
+          f"{np.round((mean / ref_mean - 1) * 100, 3)} % per channel")
+    print(f"efficiency rift/mitsuba: {eff['rift'] / eff['mitsuba']:.2f}")
+
+
+if __name__ == "__main__":
+    main()
