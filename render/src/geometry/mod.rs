@@ -15,7 +15,7 @@ pub use accel::{Accel, Hit, STATIC, every_triangle};
 pub use instance::{MovingInstance, Placement};
 pub use motion::{ObjectMotion, changes_during};
 pub use offset::{offset_origin, offset_target};
-pub use round_cone::{ConeRay, RoundCone, RoundConeHit};
+pub use round_cone::{RoundCone, RoundConeHit};
 pub use strands::{Ring, RingFrame, Segment, StrandHit, Strands};
 pub use triangle::{Triangle, intersect_watertight};
 pub use triangle_bvh::{TriangleBvh, TriangleHit};

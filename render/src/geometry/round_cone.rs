@@ -38,55 +38,7 @@ pub struct RoundConeHit {
     pub s: f32,
 }
 
-/// A ray prepared for testing many segments: what [`RoundCone::may_meet`] reuses.
-#[derive(Clone, Copy, Debug)]
-pub struct ConeRay {
-    origin: Vec3,
-    dir: Vec3,
-    /// 1 / |dir|².
-    inv_length2: f32,
-    /// The origin's largest coordinate, for the rounding margin.
-    magnitude: f32,
-}
-
-impl ConeRay {
-    #[inline]
-    pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        Self {
-            origin,
-            dir,
-            inv_length2: dir.length_squared().recip(),
-            magnitude: origin.abs().max_element(),
-        }
-    }
-}
-
 impl RoundCone {
-    /// False when the ray piece with t in [t_min, t_max] surely misses the segment; cheap
-    /// enough to run on every candidate a BVH hands over (no division, no branch on the way),
-    /// where most of a thin strand's candidates end. Two lower bounds on the distance from the
-    /// ray to the segment are compared with the larger radius: the distance to the sphere
-    /// around the segment's middle that holds it, and the distance between the two lines
-    /// (skipped when they are nearly parallel, where the cross product is mostly rounding).
-    #[inline(always)]
-    pub fn may_meet(&self, ray: &ConeRay, t_min: f32, t_max: f32) -> bool {
-        let magnitude = ray.magnitude + self.a.abs().max_element();
-        let reach = self.radius_a.max(self.radius_b) + 1e-5 * magnitude;
-        let e = self.b - self.a;
-        let ee = e.length_squared();
-        // The sphere through both ends' spheres, around the middle.
-        let to_middle = self.a + 0.5 * e - ray.origin;
-        let t = (to_middle.dot(ray.dir) * ray.inv_length2).clamp(t_min, t_max);
-        let off_middle = (to_middle - ray.dir * t).length_squared();
-        let sphere = 0.5 * ee.sqrt() + reach;
-        // The lines: |q·(d × e)| / |d × e|.
-        let n = ray.dir.cross(e);
-        let nn = n.length_squared();
-        let across = (ray.origin - self.a).dot(n);
-        let skew = nn > 1e-2 * ee * ray.inv_length2.recip();
-        !(off_middle > sphere * sphere || skew && across * across > reach * reach * nn)
-    }
-
     /// The first surface point of `origin + t·dir` with t in (t_min, t_max).
     pub fn intersect(
         &self,
@@ -351,62 +303,6 @@ mod tests {
             }
         }
         assert!(hits > 150, "only {hits} hits");
-    }
-
-    /// `may_meet` never rejects a ray piece that `intersect` hits (random segments, thin and
-    /// thick, near and 10 km from the origin; rays aimed near them, with random ranges), and
-    /// it does reject most of the pieces that pass well clear.
-    #[test]
-    fn the_quick_rejection_never_drops_a_hit() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let (mut hits, mut clear, mut rejected) = (0, 0, 0);
-        for k in 0..4000 {
-            let far = if k % 4 == 0 { 1e4 } else { 0.0 };
-            let scale = [1e-3, 0.1, 1.0][k % 3];
-            let a = Vec3::new(next(), next(), next()) * 4.0 + Vec3::splat(far);
-            let b = a + (Vec3::new(next(), next(), next()) - 0.5) * 4.0 * scale;
-            let c = RoundCone {
-                a,
-                b,
-                radius_a: next() * scale,
-                radius_b: next() * scale,
-            };
-            let o = a + (Vec3::new(next(), next(), next()) - 0.5) * 20.0;
-            let aim = a.lerp(b, next()) + (Vec3::new(next(), next(), next()) - 0.5) * 3.0 * scale;
-            let d = (aim - o) * (0.1 + 4.0 * next());
-            let (t_min, t_max) = match k % 3 {
-                0 => (0.0, f32::INFINITY),
-                1 => (0.0, next() * 2.0),
-                _ => (next() * 0.5, 0.5 + next()),
-            };
-            let quick = c.may_meet(&ConeRay::new(o, d), t_min, t_max);
-            if c.intersect(o, d, t_min, t_max).is_some() {
-                hits += 1;
-                assert!(
-                    quick,
-                    "case {k}: a hit rejected: {c:?} {o} {d} {t_min} {t_max}"
-                );
-            }
-            // Clear of the segment's bounding sphere by a margin of its size.
-            let middle = 0.5 * (a + b);
-            let t = ((middle - o).dot(d) / d.length_squared()).clamp(t_min, t_max);
-            let reach = 0.5 * a.distance(b) + c.radius_a.max(c.radius_b);
-            if (o + d * t).distance(middle) > 1.5 * reach + 1e-3 * far {
-                clear += 1;
-                rejected += !quick as u32;
-            }
-        }
-        assert!(hits > 400, "only {hits} hits");
-        assert!(
-            clear > 400 && rejected == clear,
-            "{rejected} of {clear} clear rays rejected"
-        );
     }
 
     #[test]

@@ -11,7 +11,7 @@
 //! test; a ring whose opening does not move keeps its frame precomputed.
 
 use super::instance::{box_corners, swept_bounds};
-use super::round_cone::{ConeRay, RoundCone};
+use super::round_cone::RoundCone;
 use super::wide_bvh::{BoxRay, any_hit, closest_hit};
 use crate::ray::Ray;
 use glam::Vec3;
@@ -437,7 +437,6 @@ impl Ring {
         let (o, d, to_local) = self.local_ray(origin, dir, time);
         let mut found = None;
         let leaves = &slice.bvh.primitive_indices;
-        let ray = ConeRay::new(o, d);
         closest_hit(
             &slice.bvh,
             &BoxRay::new(o, d),
@@ -445,11 +444,9 @@ impl Ring {
             leaves,
             |slot, range| {
                 let i = leaves[slot];
-                let cone = segments[i as usize].at(delta, self.moving);
-                if !cone.may_meet(&ray, 0.0, range) {
-                    return None;
-                }
-                let h = cone.intersect(o, d, 0.0, range)?;
+                let h = segments[i as usize]
+                    .at(delta, self.moving)
+                    .intersect(o, d, 0.0, range)?;
                 found = Some((h, self.first + i));
                 Some(h.t)
             },
@@ -485,10 +482,11 @@ impl Ring {
         };
         let (o, d, _) = self.local_ray(origin, dir, time);
         let leaves = &slice.bvh.primitive_indices;
-        let ray = ConeRay::new(o, d);
         any_hit(&slice.bvh, &BoxRay::new(o, d), t_max, leaves, |slot| {
-            let cone = segments[leaves[slot] as usize].at(delta, self.moving);
-            cone.may_meet(&ray, 0.0, t_max) && cone.intersect(o, d, 0.0, t_max).is_some()
+            segments[leaves[slot] as usize]
+                .at(delta, self.moving)
+                .intersect(o, d, 0.0, t_max)
+                .is_some()
         })
     }
 }
