@@ -304,12 +304,7 @@ impl Lights {
     /// An unoccluded estimate of the light every emitter and the environment can send to `at`
     /// (about π times its irradiance), for weighing light-sampling strategies.
     pub fn importance(&self, at: &Receiver) -> f32 {
-        self.tree.importance(at.p, at.n, self.tau(at.time)) + self.environment_importance()
-    }
-
-    /// The environment's part of [`Self::importance`] (the same everywhere).
-    pub fn environment_importance(&self) -> f32 {
-        PI * self.environment_luminance
+        self.tree.importance(at.p, at.n, self.tau(at.time)) + PI * self.environment_luminance
     }
 
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
