@@ -30,6 +30,7 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod sobol;
+pub mod strand_exposure;
 pub mod through;
 pub mod untrusted;
 pub mod vdb;

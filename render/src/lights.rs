@@ -10,6 +10,7 @@ use crate::environment::Environment;
 use crate::geometry::{MovingInstance, RoundCone, STATIC, Strands, Triangle};
 use crate::light_tree::{LightBounds, LightTree, Path};
 use crate::sampling::{AliasTable, uniform_triangle};
+use crate::strand_exposure;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -250,9 +251,17 @@ impl Lights {
             .collect();
         let strand_count = strands.segments.len();
         bounds.extend((0..strand_count as u32).map(|i| segment_bounds(strands, i, times)));
-        let tree = LightTree::new(&bounds);
         let picker = match selection {
-            LightSelection::Tree => Picker::Tree,
+            LightSelection::Tree => {
+                // The tree weighs strands by what gets out of the rings; power alone stays
+                // the plain comparison.
+                let middle = 0.5 * (times[0] + times[1]);
+                let exposure = strand_exposure::exposure(strands, middle);
+                for (b, e) in bounds[emitters.len()..].iter_mut().zip(exposure) {
+                    b.power *= e;
+                }
+                Picker::Tree
+            }
             LightSelection::Power if bounds.is_empty() => Picker::Power(AliasTable::default()),
             LightSelection::Power => Picker::Power(AliasTable::new(
                 &bounds
@@ -261,6 +270,7 @@ impl Lights {
                     .collect::<Vec<_>>(),
             )),
         };
+        let tree = LightTree::new(&bounds);
         let mut by_triangle = vec![u32::MAX; triangle_count];
         for (i, e) in emitters.iter().enumerate() {
             by_triangle[e.triangle as usize] = i as u32;

@@ -1,0 +1,202 @@
+//! How much of each strand segment's light gets out of the rings: the share of rays leaving
+//! its surface that no strand stops.
+//!
+//! A ring is a bundle of strands wound round each other, so most strands lie behind others
+//! from almost anywhere: on the showcase two thirds of the shadow rays aimed at a picked strand
+//! met another strand first. The light tree cannot see this (its bounds ignore occlusion), so
+//! it spent those samples on strands buried inside the bundle. Light selection scales each
+//! segment's power by its exposure, which moves samples to the strands on the outside. Any
+//! positive weight keeps the estimate unbiased (the pick's pmf uses the same weights); a
+//! strand no probe saw out of still keeps a small share, because probes are few and light
+//! leaks between strands.
+//!
+//! Each segment sends a few cosine-weighted rays from points spread over its surface at one
+//! time, and the counts are pooled with the segments next to it along the same strand, whose
+//! exposure differs little: four rays a segment pooled over five segments came within 1% of
+//! the noise of sixteen rays a segment.
+
+use crate::geometry::{Strands, offset_origin};
+use crate::ray::Ray;
+use crate::sampling::{Frame, SampleStream, cosine_hemisphere};
+use glam::Vec2;
+use rayon::prelude::*;
+
+/// Rays traced over all segments, at most (about a second of one core on large rings).
+const RAY_BUDGET: usize = 1 << 20;
+/// Rays per segment, whatever the budget allows.
+const FEWEST_RAYS: u32 = 4;
+const MOST_RAYS: u32 = 16;
+/// Segments either side along the same strand whose counts are pooled with a segment's own.
+const NEIGHBOURS: usize = 2;
+/// Escaped rays counted for every segment before any is traced: what keeps a buried strand's
+/// share above zero.
+const PRIOR: f32 = 0.5;
+
+/// The exposure of every segment of `strands` at `time`, in (0, 1], in segment order.
+pub fn exposure(strands: &Strands, time: f64) -> Vec<f32> {
+    let count = strands.segments.len();
+    if count == 0 {
+        return Vec::new();
+    }
+    let rays = (RAY_BUDGET / count).clamp(FEWEST_RAYS as usize, MOST_RAYS as usize) as u32;
+    let escaped: Vec<u32> = (0..count as u32)
+        .into_par_iter()
+        .map(|segment| escaped_rays(strands, segment, time, rays))
+        .collect();
+    (0..count)
+        .map(|i| {
+            let (lo, hi) = strand_window(strands, i);
+            let pooled: u32 = escaped[lo..=hi].iter().sum();
+            let traced = (rays * (hi - lo + 1) as u32) as f32;
+            (pooled as f32 + PRIOR) / (traced + PRIOR)
+        })
+        .collect()
+}
+
+/// How many of `rays` cosine-weighted rays from points on `segment` (uniform along it and
+/// around it) no strand stops.
+fn escaped_rays(strands: &Strands, segment: u32, time: f64, rays: u32) -> u32 {
+    let cone = strands.world_segment(segment, time);
+    let along = cone.b - cone.a;
+    let Some(axis) = along.try_normalize() else {
+        return rays;
+    };
+    let across = Frame::new(axis);
+    let mut stream = SampleStream::new(segment, 0x5eed_e4f0);
+    (0..rays)
+        .filter(|_| {
+            let [s, turn, u1, u2] = stream.uniform_4d();
+            let angle = std::f32::consts::TAU * turn;
+            let normal = across.s * angle.cos() + across.t * angle.sin();
+            let radius = cone.radius_a + (cone.radius_b - cone.radius_a) * s;
+            let point = cone.a + along * s + normal * radius;
+            let dir = Frame::new(normal).to_world(cosine_hemisphere(Vec2::new(u1, u2)));
+            let ray = Ray::new(offset_origin(point, normal), dir, f32::INFINITY, time);
+            !strands.occluded(&ray, |_| true)
+        })
+        .count() as u32
+}
+
+/// The first and last segment within [`NEIGHBOURS`] of segment `i` along its strand: a strand's
+/// segments are stored in a row, each starting where the one before it ends.
+fn strand_window(strands: &Strands, i: usize) -> (usize, usize) {
+    let joined = |k: usize| {
+        let (a, b) = (&strands.segments[k], &strands.segments[k + 1]);
+        a.p[1] == b.p[0] && strands.segment_ring[k] == strands.segment_ring[k + 1]
+    };
+    let mut lo = i;
+    while lo > 0 && i - lo < NEIGHBOURS && joined(lo - 1) {
+        lo -= 1;
+    }
+    let mut hi = i;
+    while hi + 1 < strands.segments.len() && hi - i < NEIGHBOURS && joined(hi) {
+        hi += 1;
+    }
+    (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::RingFrame;
+    use glam::Vec3;
+    use rift_fx::rig::Similarity;
+    use rift_fx::ring::RingCurves;
+
+    const SEGMENTS: usize = 64;
+
+    /// A still ring of `side` × `side` circular strands (radius 0.01) round the z axis: strand
+    /// (row, column) at radius 1 + row·`pitch` and height column·`pitch`.
+    fn bundle(side: usize, pitch: f32) -> Strands {
+        let mut c = RingCurves::default();
+        for row in 0..side {
+            for column in 0..side {
+                c.vertex_counts.push(SEGMENTS as u32);
+                c.directions.push(1);
+                let (radius, height) = (1.0 + row as f32 * pitch, column as f32 * pitch);
+                for k in 0..SEGMENTS {
+                    let angle = std::f32::consts::TAU * k as f32 / SEGMENTS as f32;
+                    c.points.push(Vec3::new(
+                        radius * angle.cos(),
+                        radius * angle.sin(),
+                        height,
+                    ));
+                    c.velocities.push(Vec3::ZERO);
+                    c.accelerations.push(Vec3::ZERO);
+                    c.widths.push(0.02);
+                    c.colors.push(Vec3::ONE);
+                    c.intensities.push(1.0);
+                }
+            }
+        }
+        let mut strands = Strands::default();
+        let frame = RingFrame::Fixed {
+            to_world: Similarity::IDENTITY,
+            to_local: Similarity::IDENTITY,
+        };
+        strands.add_ring(&c, frame, 0.0, [0.0, 1.0], 1.0);
+        strands
+    }
+
+    /// The mean exposure of strand `k`'s segments.
+    fn strand_mean(exposure: &[f32], k: usize) -> f32 {
+        exposure[k * SEGMENTS..(k + 1) * SEGMENTS]
+            .iter()
+            .sum::<f32>()
+            / SEGMENTS as f32
+    }
+
+    #[test]
+    fn a_lone_strand_is_exposed() {
+        let strands = bundle(1, 0.0);
+        let exposure = exposure(&strands, 0.5);
+        assert_eq!(exposure.len(), SEGMENTS);
+        // Only rays towards the loop's far side, two metres off, can meet it again.
+        assert!(
+            strand_mean(&exposure, 0) > 0.95,
+            "{}",
+            strand_mean(&exposure, 0)
+        );
+    }
+
+    #[test]
+    fn buried_strands_are_less_exposed_than_outer_ones_and_never_zero() {
+        // Five by five strands 0.025 apart: radius 0.01, so 0.005 between neighbours' surfaces.
+        let strands = bundle(5, 0.025);
+        let exposure = exposure(&strands, 0.5);
+        assert_eq!(exposure.len(), 25 * SEGMENTS);
+        assert!(exposure.iter().all(|&e| e > 0.0 && e <= 1.0));
+        let centre = strand_mean(&exposure, 2 * 5 + 2);
+        let corner = strand_mean(&exposure, 0);
+        let edge = strand_mean(&exposure, 2);
+        // A corner strand sees out over three quarters of its surroundings, a strand in the
+        // middle of an edge over half; the centre is walled in by eight neighbours, with gaps
+        // of a quarter of their spacing between them.
+        assert!(corner > 0.5, "corner {corner}");
+        assert!(
+            edge > 0.25 && edge < 0.8 * corner,
+            "edge {edge}, corner {corner}"
+        );
+        assert!(centre < 0.25 * edge, "centre {centre}, edge {edge}");
+    }
+
+    #[test]
+    fn neighbours_are_pooled_along_a_strand_only() {
+        let strands = bundle(2, 0.5);
+        // Segment 0 starts a strand: it pools with the next two segments only.
+        assert_eq!(strand_window(&strands, 0), (0, 2));
+        assert_eq!(strand_window(&strands, 10), (8, 12));
+        // The last segment closes the loop back to the first vertex; the next strand's first
+        // segment does not start where it ends.
+        assert_eq!(
+            strand_window(&strands, SEGMENTS - 1),
+            (SEGMENTS - 3, SEGMENTS - 1)
+        );
+        assert_eq!(strand_window(&strands, SEGMENTS), (SEGMENTS, SEGMENTS + 2));
+    }
+
+    #[test]
+    fn no_strands_no_exposure() {
+        assert!(exposure(&Strands::default(), 0.0).is_empty());
+    }
+}
