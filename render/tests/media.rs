@@ -441,7 +441,7 @@ fn the_ring_glows_into_the_haze_on_both_sides_of_its_opening() {
         let mut scene = Scene::build(&shot, 1).unwrap();
         scene.settings.light_through_openings = through;
         scene.settings.seed = seed;
-        rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(32))
+        rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(128))
     };
     let (on, on_again) = (render(true, 1), render(true, 2));
     let (off, off_again) = (render(false, 3), render(false, 4));
