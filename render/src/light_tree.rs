@@ -176,27 +176,31 @@ impl Cluster {
 }
 
 /// cos(max(0, θ − σ − u)), lane by lane: the cosine of the smallest angle between a cone's
-/// normals (σ from its axis) and a direction θ from its axis, less the half-angle u a sphere
-/// subtends (given by its sine, at most 1). The sine of the first difference comes from the
-/// angle-difference formula rather than a square root.
+/// normals (σ from its axis) and a direction θ from its axis, less the half-angle u a sphere of
+/// `radius` subtends at distance `dist`. θ comes as lengths, `along` = d·cos θ and `across` =
+/// d·sin θ, and the sines and cosines stay scaled by d (the angle-difference formula is
+/// homogeneous in them), so the square roots all start from the inputs side by side and one
+/// division by d² ends the chain: this runs once a tree level, in series.
 #[inline(always)]
-fn cone_bound(cos_theta: Vec4, cos_spread: Vec4, sin_u: Vec4) -> Vec4 {
-    let sine = |cos: Vec4| (Vec4::ONE - cos * cos).max(Vec4::ZERO).sqrt();
-    let (sin_theta, sin_spread) = (sine(cos_theta), sine(cos_spread));
-    let within = cos_theta.cmpge(cos_spread);
-    let cos_a = Vec4::select(
-        within,
-        Vec4::ONE,
-        cos_theta * cos_spread + sin_theta * sin_spread,
-    );
+fn cone_bound(along: Vec4, across: Vec4, dist: Vec4, cos_spread: Vec4, radius: Vec4) -> Vec4 {
+    let dist2 = dist * dist;
+    let sin_spread = (Vec4::ONE - cos_spread * cos_spread).max(Vec4::ZERO).sqrt();
+    let within = along.cmpge(cos_spread * dist);
+    // d·cos a and d·sin a, a = max(0, θ − σ).
+    let cos_a = Vec4::select(within, dist, along * cos_spread + across * sin_spread);
     let sin_a = Vec4::select(
         within,
         Vec4::ZERO,
-        (sin_theta * cos_spread - cos_theta * sin_spread).max(Vec4::ZERO),
+        (across * cos_spread - along * sin_spread).max(Vec4::ZERO),
     );
-    let sin_u = sin_u.min(Vec4::ONE);
-    let cos_u = sine(sin_u);
-    Vec4::select(cos_a.cmpge(cos_u), Vec4::ONE, cos_a * cos_u + sin_a * sin_u)
+    // d·sin u and d·cos u (u a right angle from inside the sphere).
+    let sin_u = radius.min(dist);
+    let cos_u = (dist2 - radius * radius).max(Vec4::ZERO).sqrt();
+    Vec4::select(
+        cos_a.cmpge(cos_u),
+        Vec4::ONE,
+        (cos_a * cos_u + sin_a * sin_u) / dist2,
+    )
 }
 
 /// The smallest cone holding two cones (axis, cosine of half-angle).
@@ -290,14 +294,15 @@ impl Node {
             / dist2
                 .max(radius2 * (1.0 / 16.0))
                 .max(Vec4::splat(f32::MIN_POSITIVE));
-        let inv_dist = dist2.sqrt().recip();
+        let dist = dist2.sqrt();
         // Emitter side: angle from the cone's nearest normal to the point, less the angle the
         // sphere subtends. Lanes that emit every way (round strands) take no angular factor:
         // a node of nothing else skips the cone's square roots altogether.
         let has_cone = self.cos_spread.cmpgt(-Vec4::ONE);
         let angular = if has_cone.any() {
-            let cos_theta = (-dot(&self.axis, &to_centre) * inv_dist).clamp(-Vec4::ONE, Vec4::ONE);
-            let cone = cone_bound(cos_theta, self.cos_spread, self.radius * inv_dist);
+            let along = -dot(&self.axis, &to_centre);
+            let across = (dist2 - along * along).max(Vec4::ZERO).sqrt();
+            let cone = cone_bound(along, across, dist, self.cos_spread, self.radius);
             Vec4::select(has_cone, cone.max(Vec4::ZERO), Vec4::ONE)
         } else {
             Vec4::ONE
@@ -318,7 +323,7 @@ impl Node {
                 // taken over the centre's distance. It is positive whenever some corner of the
                 // box is in front and costs no more square roots.
                 let normal = [n.x, n.y, n.z].map(Vec4::splat);
-                let receiver = ((dot(&to_centre, &normal) + self.radius) * inv_dist)
+                let receiver = ((dot(&to_centre, &normal) + self.radius) / dist)
                     .clamp(Vec4::splat(f32::MIN_POSITIVE), Vec4::ONE);
                 angular * receiver
             }
