@@ -228,12 +228,14 @@ impl State {
     }
 }
 
-/// The scene the page shows and edits are checked on: the renderer's own, without the probing
-/// of where openings let light in (which only rendering needs, and a fifth of a build); the
-/// check render builds its scene whole.
+/// The scene the page shows and edits are checked on: the renderer's own, without what only
+/// rendering needs: the probing of where openings let light in (a fifth of a build) and the
+/// strands' exposure the light tree weighs them by (power alone picks lights here); the check
+/// render builds its scene whole.
 fn staged_scene(shot: &Shot, frame: i64) -> Result<Scene, rift_render::RenderError> {
     let overrides = rift_render::scene::Overrides {
         light_through_openings: Some(false),
+        light_selection: Some(rift_render::lights::LightSelection::Power),
         ..Default::default()
     };
     Scene::build_with(shot, frame, &overrides)
