@@ -98,7 +98,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "PATTERN")]
     rings: Option<PathBuf>,
     /// How light sampling picks emitters: `tree` (by what each can send to the shaded point,
-    /// the default) or `power` (by power alone; for comparison).
+    /// strands by the share of their light that gets out of the rings; the default) or `power`
+    /// (by power alone; for comparison).
     #[arg(long, value_enum)]
     light_selection: Option<SelectionArg>,
     /// Render only this eye of a stereo shot (`[camera.stereo]`); by default both are

@@ -17,7 +17,8 @@ use std::f32::consts::PI;
 /// How next-event estimation picks an emitter.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightSelection {
-    /// By what each can send to the shading point (the light BVH).
+    /// By what each can send to the shading point (the light BVH), strand segments weighed by
+    /// their exposure ([`crate::strand_exposure`]).
     #[default]
     Tree,
     /// By power alone, wherever the shading point is.
