@@ -91,11 +91,23 @@ pair = "a"
 }
 
 fn render_with(dir: &Path, text: &str, spp: u32, selection: LightSelection) -> Image {
+    render_seeded(dir, text, spp, selection, None)
+}
+
+/// [`render_with`] at `seed` (`None`: the shot's).
+fn render_seeded(
+    dir: &Path,
+    text: &str,
+    spp: u32,
+    selection: LightSelection,
+    seed: Option<u32>,
+) -> Image {
     let path = dir.join("strands.toml");
     std::fs::write(&path, text).unwrap();
     let shot = Shot::load(&path).unwrap();
     let overrides = Overrides {
         light_selection: Some(selection),
+        seed,
         ..Default::default()
     };
     let scene = Scene::build_with(&shot, 1, &overrides).unwrap();
@@ -168,22 +180,15 @@ fn strand_irradiance(r: f64, l: f64, h: f64, z0: f64, a: f64) -> f64 {
     2.0 * r * l * h * d * integral
 }
 
-/// The long strand of [`strand_irradiance`] in 64 pieces end to end (ring strands are closed
-/// loops, so each piece is a strand of its own), still or sliding along its own axis by 2.5
-/// pieces over the shutter: that leaves the light on the floor unchanged while every piece's
-/// bounds and the light tree's moving spheres do change.
-#[test]
-fn a_long_straight_strand_lights_a_floor_as_the_analytic_irradiance_says() {
-    let dir = tempfile::tempdir().unwrap();
-    let (r, l, h, z0, a, albedo) = (0.01, 10.0, 1.0, 1.5, 20.0, 0.5);
-    // A floor facing +Y: the square faces +Z, turned −90° about X.
-    std::fs::write(dir.path().join("floor.obj"), square(0.0, 60.0)).unwrap();
-    let camera = r#"resolution = [16, 16]
+/// A camera on a small patch of [`FLOOR`] around (0, 0, 1.5).
+const FLOOR_CAMERA: &str = r#"resolution = [16, 16]
 fov_degrees = 1.0
 [camera.transform]
 position = [0.0, 4.0, 2.5]
 look_at = [0.0, 0.0, 1.5]"#;
-    let floor = r#"[[material]]
+
+/// A grey floor facing +Y (`floor.obj`, the square facing +Z, turned −90° about X).
+const FLOOR: &str = r#"[[material]]
 name = "grey"
 type = "diffuse"
 reflectance = [0.5, 0.5, 0.5]
@@ -192,6 +197,17 @@ name = "floor"
 mesh = "floor.obj"
 material = "grey"
 transform = { position = [0.0, 0.0, 0.0], rotation_degrees = [-90.0, 0.0, 0.0] }"#;
+
+/// The long strand of [`strand_irradiance`] in 64 pieces end to end (ring strands are closed
+/// loops, so each piece is a strand of its own), still or sliding along its own axis by 2.5
+/// pieces over the shutter: that leaves the light on the floor unchanged while every piece's
+/// bounds and the light tree's moving spheres do change.
+#[test]
+fn a_long_straight_strand_lights_a_floor_as_the_analytic_irradiance_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let (r, l, h, z0, a, albedo) = (0.01, 10.0, 1.0, 1.5, 20.0, 0.5);
+    std::fs::write(dir.path().join("floor.obj"), square(0.0, 60.0)).unwrap();
+    let (camera, floor) = (FLOOR_CAMERA, FLOOR);
     let want = albedo / std::f64::consts::PI
         * strand_irradiance(r as f64, l as f64, h as f64, z0, a as f64);
     let pieces = 64;
@@ -222,6 +238,46 @@ transform = { position = [0.0, 0.0, 0.0], rotation_degrees = [-90.0, 0.0, 0.0] }
             );
         }
     }
+}
+
+/// A dense bundle over the floor: five by five straight strands 1 m up (radius 0.01, 0.005
+/// between neighbours' surfaces), the middle ones hidden from the floor by the others. The
+/// tree weighs every strand by its exposure, power alone does not; both must light the floor
+/// alike.
+#[test]
+fn a_dense_bundle_lights_a_floor_alike_whether_exposure_weighs_its_strands_or_not() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("floor.obj"), square(0.0, 60.0)).unwrap();
+    let (radius, pitch, pieces, half_length) = (0.01f32, 0.025f32, 32, 5.0f32);
+    let mut bundle = Vec::new();
+    for row in 0..5 {
+        for column in 0..5 {
+            let (y, z) = (1.0 + row as f32 * pitch, column as f32 * pitch);
+            let x = |k: usize| -half_length + 2.0 * half_length * k as f32 / pieces as f32;
+            bundle.extend((0..pieces).map(|k| Straight {
+                a: Vec3::new(x(k), y, z),
+                b: Vec3::new(x(k + 1), y, z),
+                radius,
+                radiance: Vec3::splat(10.0),
+                velocity: Vec3::ZERO,
+                acceleration: Vec3::ZERO,
+            }));
+        }
+    }
+    write_cache(dir.path(), &bundle);
+    let text = strand_shot(FLOOR_CAMERA, [0.0, 0.0], "", FLOOR);
+    let [tree, tree_again, power, power_again] = [
+        (LightSelection::Tree, 1),
+        (LightSelection::Tree, 2),
+        (LightSelection::Power, 3),
+        (LightSelection::Power, 4),
+    ]
+    .map(|(selection, seed)| render_seeded(dir.path(), &text, 128, selection, Some(seed)));
+    common::assert_statistically_equal(
+        [&tree.rgb, &tree_again.rgb],
+        [&power.rgb, &power_again.rgb],
+        "floor under a dense bundle",
+    );
 }
 
 #[test]
