@@ -2,7 +2,7 @@
 //! its surface that no strand stops.
 //!
 //! A ring is a bundle of strands wound round each other, so most strands lie behind others
-//! from almost anywhere: on the showcase two thirds of the shadow rays aimed at a picked strand
+//! from almost anywhere: on the showcase 62% of the shadow rays aimed at a picked strand
 //! met another strand first. The light tree cannot see this (its bounds ignore occlusion), so
 //! it spent those samples on strands buried inside the bundle. Light selection scales each
 //! segment's power by its exposure, which moves samples to the strands on the outside. Any
