@@ -252,17 +252,17 @@ impl Lights {
             .collect();
         let strand_count = strands.segments.len();
         bounds.extend((0..strand_count as u32).map(|i| segment_bounds(strands, i, times)));
-        let picker = match selection {
-            LightSelection::Tree => {
-                // The tree weighs strands by what gets out of the rings; power alone stays
-                // the plain comparison.
-                let middle = 0.5 * (times[0] + times[1]);
-                let exposure = strand_exposure::exposure(strands, middle);
-                for (b, e) in bounds[emitters.len()..].iter_mut().zip(exposure) {
-                    b.power *= e;
-                }
-                Picker::Tree
+        if selection == LightSelection::Tree {
+            // The tree weighs strands by what gets out of the rings; power alone stays the
+            // plain comparison.
+            let middle = 0.5 * (times[0] + times[1]);
+            let exposure = strand_exposure::exposure(strands, middle);
+            for (b, e) in bounds[emitters.len()..].iter_mut().zip(exposure) {
+                b.power *= e;
             }
+        }
+        let picker = match selection {
+            LightSelection::Tree => Picker::Tree,
             LightSelection::Power if bounds.is_empty() => Picker::Power(AliasTable::default()),
             LightSelection::Power => Picker::Power(AliasTable::new(
                 &bounds
@@ -313,7 +313,8 @@ impl Lights {
     }
 
     /// An unoccluded estimate of the light every emitter and the environment can send to `at`
-    /// (about π times its irradiance), for weighing light-sampling strategies.
+    /// (about π times its irradiance; under the tree, strands count by their exposure), for
+    /// weighing light-sampling strategies.
     pub fn importance(&self, at: &Receiver) -> f32 {
         self.tree.importance(at.p, at.n, self.tau(at.time)) + PI * self.environment_luminance
     }

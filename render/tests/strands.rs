@@ -207,7 +207,6 @@ fn a_long_straight_strand_lights_a_floor_as_the_analytic_irradiance_says() {
     let dir = tempfile::tempdir().unwrap();
     let (r, l, h, z0, a, albedo) = (0.01, 10.0, 1.0, 1.5, 20.0, 0.5);
     std::fs::write(dir.path().join("floor.obj"), square(0.0, 60.0)).unwrap();
-    let (camera, floor) = (FLOOR_CAMERA, FLOOR);
     let want = albedo / std::f64::consts::PI
         * strand_irradiance(r as f64, l as f64, h as f64, z0, a as f64);
     let pieces = 64;
@@ -226,7 +225,7 @@ fn a_long_straight_strand_lights_a_floor_as_the_analytic_irradiance_says() {
             })
             .collect();
         write_cache(dir.path(), &strand);
-        let text = strand_shot(camera, shutter, "", floor);
+        let text = strand_shot(FLOOR_CAMERA, shutter, "", FLOOR);
         for selection in [LightSelection::Tree, LightSelection::Power] {
             let image = render_with(dir.path(), &text, 256, selection);
             let got = mean(&image.rgb);
