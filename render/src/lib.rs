@@ -14,6 +14,7 @@ pub mod exit_light;
 pub mod film;
 pub mod geometry;
 pub mod grid_medium;
+pub mod huge_pages;
 pub mod integrator;
 pub mod light_tree;
 pub mod light_visibility;

@@ -28,6 +28,7 @@
 //! point's surface, or every normal facing away), so no emitter that contributes is ever
 //! skipped.
 
+use crate::huge_pages;
 use glam::{Vec3, Vec4};
 
 /// Path bits: two per level, so the deepest tree they describe has 32 levels.
@@ -351,7 +352,7 @@ impl LightTree {
             "too many emitters for one light tree"
         );
         let mut tree = Self {
-            nodes: Vec::with_capacity(emitters.len() / 2 + 1),
+            nodes: huge_pages::with_capacity(emitters.len() / 2 + 1),
             paths: vec![(0, 0); emitters.len()],
         };
         if !emitters.is_empty() {

@@ -13,6 +13,7 @@
 use super::instance::{box_corners, swept_bounds};
 use super::round_cone::RoundCone;
 use super::wide_bvh::{BoxRay, any_hit, closest_hit};
+use crate::huge_pages;
 use crate::ray::Ray;
 use glam::Vec3;
 use obvhs::BvhBuildParams;
@@ -252,11 +253,12 @@ impl Strands {
             for b in &boxes {
                 all = all.union(b);
             }
-            let bvh = build_cwbvh(
+            let mut bvh = build_cwbvh(
                 &boxes,
                 BvhBuildParams::medium_build(),
                 &mut Default::default(),
             );
+            bvh.nodes = huge_pages::collect(bvh.nodes);
             slices.push(Slice { bvh });
         }
         let bounds = if slices.is_empty() {
@@ -271,7 +273,10 @@ impl Strands {
                 FRAME_BOUND_STEPS,
             )
         };
-        self.segments.extend(local);
+        let mut segments = huge_pages::with_capacity(self.segments.len() + local.len());
+        segments.append(&mut self.segments);
+        segments.append(&mut local);
+        self.segments = segments;
         self.rings.push(Ring {
             frame,
             frame_time,

@@ -58,12 +58,11 @@ impl TriangleBvh {
                 leaf_ids: Vec::new(),
             };
         }
-        let bvh = build_cwbvh(triangles);
-        let leaf_triangles = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| triangles[i as usize])
-            .collect();
+        let mut bvh = build_cwbvh(triangles);
+        bvh.nodes = crate::huge_pages::collect(bvh.nodes);
+        let leaf_triangles = crate::huge_pages::collect(
+            bvh.primitive_indices.iter().map(|&i| triangles[i as usize]),
+        );
         let leaf_ids = bvh
             .primitive_indices
             .iter()
