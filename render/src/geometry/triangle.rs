@@ -42,6 +42,7 @@ pub struct ShearedRay {
 
 impl ShearedRay {
     /// Prepares `direction` (need not be normalised).
+    #[inline]
     pub fn new(origin: Vec3, direction: Vec3) -> Self {
         let a = direction.abs();
         let kz = if a.x > a.y {
@@ -56,14 +57,16 @@ impl ShearedRay {
         if direction[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
+        // One division: every triangle sees the same shear, which is all watertightness needs.
+        let sz = 1.0 / direction[kz];
         Self {
             origin,
             kx,
             ky,
             kz,
-            sx: direction[kx] / direction[kz],
-            sy: direction[ky] / direction[kz],
-            sz: 1.0 / direction[kz],
+            sx: direction[kx] * sz,
+            sy: direction[ky] * sz,
+            sz,
         }
     }
 }
