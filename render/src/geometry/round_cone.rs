@@ -47,13 +47,7 @@ impl RoundCone {
         t_min: f32,
         t_max: f32,
     ) -> Option<RoundConeHit> {
-        // Early out in f32: the hull lies within the larger radius of the segment, so a ray
-        // piece that passes farther from it misses (most candidates a BVH hands over end
-        // here). The margin covers f32 rounding at the coordinates' magnitude.
-        let magnitude = origin.abs().max_element() + self.a.abs().max_element();
-        let reach = self.radius_a.max(self.radius_b) + 1e-5 * magnitude;
-        let (e, q) = (self.b - self.a, origin - self.a);
-        if ray_segment_distance_squared(q, dir, e, t_min, t_max) > reach * reach {
+        if self.nearest_approach(origin, dir, t_min, t_max) == Approach::Misses {
             return None;
         }
         let d = dir.as_dvec3();
@@ -127,6 +121,48 @@ impl RoundCone {
         })
     }
 
+    /// True when `origin + t·dir` meets the surface for some t in (t_min, t_max): what a
+    /// shadow ray asks, the same answer as [`Self::intersect`]'s. Most hits are decided in f32
+    /// without the roots: a ray piece that starts outside the hull and passes inside the
+    /// thinner end's sphere swept along the segment must cross the surface on the way in.
+    pub fn occludes(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> bool {
+        match self.nearest_approach(origin, dir, t_min, t_max) {
+            Approach::Misses => false,
+            Approach::EntersFromOutside => true,
+            Approach::Undecided => self.intersect(origin, dir, t_min, t_max).is_some(),
+        }
+    }
+
+    /// What f32 distances alone say of the ray piece `origin + t·dir`, t in [t_min, t_max],
+    /// with a margin for f32 rounding at the coordinates' magnitude on each side: the hull
+    /// lies within the larger radius of the segment (a piece passing farther misses: most
+    /// candidates a BVH hands over end here) and holds everything within the smaller one.
+    #[inline]
+    fn nearest_approach(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Approach {
+        let magnitude = origin.abs().max_element() + self.a.abs().max_element();
+        let margin = 1e-5 * magnitude;
+        let reach = self.radius_a.max(self.radius_b) + margin;
+        let (e, q) = (self.b - self.a, origin - self.a);
+        let closest = ray_segment_distance_squared(q, dir, e, t_min, t_max);
+        if closest > reach * reach {
+            return Approach::Misses;
+        }
+        let within = self.radius_a.min(self.radius_b) - margin;
+        if within > 0.0 && closest < within * within && t_min.is_finite() {
+            let start = q + dir * t_min;
+            let ee = e.length_squared();
+            let s = if ee > 0.0 {
+                (start.dot(e) / ee).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            if (start - e * s).length_squared() > reach * reach {
+                return Approach::EntersFromOutside;
+            }
+        }
+        Approach::Undecided
+    }
+
     /// The segment's bounding box.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let (ra, rb) = (Vec3::splat(self.radius_a), Vec3::splat(self.radius_b));
@@ -137,18 +173,32 @@ impl RoundCone {
     }
 }
 
+/// What a ray piece does near a round cone, as far as f32 distances tell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Approach {
+    /// It passes outside the larger radius: no surface point.
+    Misses,
+    /// It starts outside the hull and passes inside the smaller radius: it crosses the
+    /// surface on the way in.
+    EntersFromOutside,
+    /// The roots decide.
+    Undecided,
+}
+
 /// Squared distance between the ray piece `q + t·d`, t in [lo, hi] (q relative to the
 /// segment's start), and the segment from 0 to `e`. The squared distance is convex in (t, s):
 /// the free line's nearest point to the clamped segment is the answer when its t lies in
-/// range; otherwise the minimum lies on the edge t = lo or t = hi.
+/// range; otherwise the minimum lies on the edge t = lo or t = hi. Either way it is measured
+/// between a point of the piece and one of the segment, so rounding in choosing them only
+/// lengthens it. NaN when the two are too nearly parallel to choose (every comparison then
+/// fails, so it neither rules the segment out nor in).
 #[inline]
 fn ray_segment_distance_squared(q: Vec3, d: Vec3, e: Vec3, lo: f32, hi: f32) -> f32 {
     let (dd, de, ee) = (d.dot(d), d.dot(e), e.dot(e));
     let (dq, eq) = (d.dot(q), e.dot(q));
     let denominator = dd * ee - de * de;
     if denominator <= 1e-6 * dd * ee {
-        // Nearly parallel: no early out rather than a rounded distance.
-        return 0.0;
+        return f32::NAN;
     }
     let s = ((dd * eq - de * dq) / denominator).clamp(0.0, 1.0);
     let t = (de * s - dq) / dd;
@@ -303,6 +353,59 @@ mod tests {
             }
         }
         assert!(hits > 150, "only {hits} hits");
+    }
+
+    #[test]
+    fn occlusion_agrees_with_the_roots() {
+        // Rays from outside, from inside, along the axis, grazing the silhouette and ending
+        // short of, inside or beyond the hull: `occludes` answers as `intersect` does,
+        // whether the f32 distances decide or the roots do.
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let shapes = [
+            cone([0.0, 0.0, 0.0], [2.0, 0.5, 0.0], 0.4, 0.1),
+            cone([0.0, 0.0, 0.0], [0.0, 2.0, 0.0], 0.3, 0.3),
+            cone([1e3, 0.0, 1e3], [1e3 + 0.01, 0.0, 1e3], 0.002, 0.0015),
+            cone([0.0, 0.0, 0.0], [0.3, 0.0, 0.0], 0.5, 0.1),
+        ];
+        let (mut decided, mut total) = (0, 0);
+        for c in &shapes {
+            let (a, e) = (c.a, c.b - c.a);
+            let scale = e.length() + c.radius_a.max(c.radius_b);
+            for i in 0..4000 {
+                let spread = if i % 2 == 0 { 4.0 } else { 0.6 };
+                let mut jitter = |k: f32| Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * k;
+                let (j0, j1, j2) = (jitter(spread * scale), jitter(0.2 * scale), jitter(scale));
+                let (s0, s1) = (next(), next());
+                let origin = a + e * s0 + j0;
+                let target = match i % 4 {
+                    // Along the axis, and towards the silhouette.
+                    0 => origin + e,
+                    1 => a + e * s1 + j1.normalize() * c.radius_a,
+                    _ => a + e * s1 + j2,
+                };
+                let dir = target - origin;
+                let t_max = [f32::INFINITY, 1.0, 0.5 + s1][i % 3];
+                let expected = c.intersect(origin, dir, 0.0, t_max).is_some();
+                assert_eq!(
+                    c.occludes(origin, dir, 0.0, t_max),
+                    expected,
+                    "{c:?} from {origin} along {dir} to {t_max}"
+                );
+                total += 1;
+                decided += (c.nearest_approach(origin, dir, 0.0, t_max)
+                    == Approach::EntersFromOutside) as usize;
+            }
+        }
+        assert!(
+            decided > total / 10,
+            "f32 decided only {decided} of {total}"
+        );
     }
 
     #[test]

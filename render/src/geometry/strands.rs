@@ -490,8 +490,7 @@ impl Ring {
         any_hit(&slice.bvh, &BoxRay::new(o, d), t_max, leaves, |slot| {
             segments[leaves[slot] as usize]
                 .at(delta, self.moving)
-                .intersect(o, d, 0.0, t_max)
-                .is_some()
+                .occludes(o, d, 0.0, t_max)
         })
     }
 }
