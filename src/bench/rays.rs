@@ -42,15 +42,15 @@ pub fn rays(args: RaysArgs) -> anyhow::Result<()> {
         "expected positive counts"
     );
     let tris = height_field(args.cells);
+    // Made before timing, as another tracer reads them from the dump.
+    let rays: Vec<(Vec3, Vec3)> = (0..args.rays).map(ray).collect();
     if let Some(dir) = &args.dump {
-        dump(dir, &tris, args.rays)?;
+        dump(dir, &tris, &rays)?;
     }
     let t = Instant::now();
     let accel = TriangleBvh::build(&tris, 0);
     let build = t.elapsed().as_secs_f64();
     let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
-    // Made before timing, as another tracer reads them from the dump.
-    let rays: Vec<(Vec3, Vec3)> = (0..args.rays).map(ray).collect();
     let mut closest = Vec::new();
     let mut occlusion = Vec::new();
     let mut hits = 0;
@@ -128,8 +128,8 @@ fn height_field(cells: usize) -> Vec<Triangle> {
     tris
 }
 
-/// Writes the triangles and the first `count` rays to `dir` (see [`RaysArgs::dump`]).
-fn dump(dir: &Path, tris: &[Triangle], count: usize) -> anyhow::Result<()> {
+/// Writes the triangles and `rays` to `dir` (see [`RaysArgs::dump`]).
+fn dump(dir: &Path, tris: &[Triangle], rays: &[(Vec3, Vec3)]) -> anyhow::Result<()> {
     use anyhow::Context;
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     let vertices: Vec<f32> = tris
@@ -137,10 +137,17 @@ fn dump(dir: &Path, tris: &[Triangle], count: usize) -> anyhow::Result<()> {
         .flat_map(|t| t.v.iter().flat_map(|v| v.to_array()))
         .collect();
     write_npy(&dir.join("triangles.npy"), &[tris.len(), 3, 3], &vertices)?;
-    let (origins, directions): (Vec<Vec3>, Vec<Vec3>) = (0..count).map(ray).unzip();
-    let flat = |v: Vec<Vec3>| v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>();
-    write_npy(&dir.join("origins.npy"), &[count, 3], &flat(origins))?;
-    write_npy(&dir.join("directions.npy"), &[count, 3], &flat(directions))?;
+    let flat = |pick: fn(&(Vec3, Vec3)) -> Vec3| {
+        rays.iter()
+            .flat_map(|r| pick(r).to_array())
+            .collect::<Vec<f32>>()
+    };
+    write_npy(&dir.join("origins.npy"), &[rays.len(), 3], &flat(|r| r.0))?;
+    write_npy(
+        &dir.join("directions.npy"),
+        &[rays.len(), 3],
+        &flat(|r| r.1),
+    )?;
     let distance = dir.join("occlusion_distance.txt");
     std::fs::write(&distance, format!("{OCCLUSION_DISTANCE}\n"))
         .with_context(|| format!("{}: cannot write", distance.display()))

@@ -302,15 +302,19 @@ mod tests {
         }
     }
 
-    #[test]
-    fn matches_the_swept_sphere_distance_on_random_rays() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
+    /// Uniform numbers in [0, 1) from a xorshift generator seeded with `state`.
+    fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
             (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    #[test]
+    fn matches_the_swept_sphere_distance_on_random_rays() {
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
         let shapes = [
             cone([0.0, 0.0, 0.0], [2.0, 0.5, 0.0], 0.4, 0.1),
             cone([0.0, 0.0, 0.0], [0.0, 2.0, 0.0], 0.3, 0.3),
@@ -360,13 +364,8 @@ mod tests {
         // Rays from outside, from inside, along the axis, grazing the silhouette and ending
         // short of, inside or beyond the hull: `occludes` answers as `intersect` does,
         // whether the f32 distances decide or the roots do.
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut uniform = uniform(0x9e37_79b9_7f4a_7c15);
+        let mut next = || uniform() as f32;
         let shapes = [
             cone([0.0, 0.0, 0.0], [2.0, 0.5, 0.0], 0.4, 0.1),
             cone([0.0, 0.0, 0.0], [0.0, 2.0, 0.0], 0.3, 0.3),
