@@ -25,6 +25,15 @@ pub fn collect<T>(items: impl IntoIterator<Item = T, IntoIter: ExactSizeIterator
     out
 }
 
+/// `items`, built elsewhere, moved into huge pages: copied into a vector from
+/// [`with_capacity`] when it spans one, returned as it is when it is too small to.
+pub fn adopt<T>(items: Vec<T>) -> Vec<T> {
+    if items.capacity() * std::mem::size_of::<T>() < HUGE_PAGE {
+        return items;
+    }
+    collect(items)
+}
+
 /// Asks for huge pages over the 2 MiB-aligned spans of `bytes` bytes from `start`. Only
 /// advice: where the kernel declines, the memory keeps its ordinary pages.
 #[cfg(target_os = "linux")]
@@ -45,3 +54,21 @@ fn advise(start: *mut u8, bytes: usize) {
 
 #[cfg(not(target_os = "linux"))]
 fn advise(_: *mut u8, _: usize) {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn small_vectors_stay_put_and_large_ones_keep_their_items() {
+        let small: Vec<u32> = (0..1000).collect();
+        let at = small.as_ptr();
+        assert_eq!(adopt(small).as_ptr(), at, "a small vector is not copied");
+        let large: Vec<u64> = (0..(HUGE_PAGE as u64)).collect();
+        let moved = adopt(large);
+        assert_eq!(moved.len(), HUGE_PAGE);
+        assert!(moved.iter().enumerate().all(|(i, &v)| v == i as u64));
+        let gathered = collect((0..5u8).map(|k| k * 2));
+        assert_eq!(gathered, [0, 2, 4, 6, 8]);
+    }
+}

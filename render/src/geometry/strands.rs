@@ -258,7 +258,7 @@ impl Strands {
                 BvhBuildParams::medium_build(),
                 &mut Default::default(),
             );
-            bvh.nodes = huge_pages::collect(bvh.nodes);
+            bvh.nodes = huge_pages::adopt(bvh.nodes);
             slices.push(Slice { bvh });
         }
         let bounds = if slices.is_empty() {

@@ -59,7 +59,7 @@ impl TriangleBvh {
             };
         }
         let mut bvh = build_cwbvh(triangles);
-        bvh.nodes = crate::huge_pages::collect(bvh.nodes);
+        bvh.nodes = crate::huge_pages::adopt(bvh.nodes);
         let leaf_triangles = crate::huge_pages::collect(
             bvh.primitive_indices.iter().map(|&i| triangles[i as usize]),
         );
