@@ -433,31 +433,9 @@ impl LightTree {
                     crate::prefetch::prefetch(next);
                 }
             }
-            let weights = node.importance(p, n, tau);
-            let total: f32 = weights.iter().sum();
-            if !total.is_finite() || total <= 0.0 {
-                return None;
-            }
-            // The first lane whose share of [0, total) holds u·total; rounding past the end
-            // falls to the last lane with any weight.
-            let target = u * total;
-            let (mut lane, mut below, mut last) = (None, 0.0f32, 0);
-            for (k, &w) in weights.iter().enumerate() {
-                if w > 0.0 {
-                    if target < below + w {
-                        lane = Some(k);
-                        break;
-                    }
-                    below += w;
-                    last = k;
-                }
-            }
-            let k = lane.unwrap_or_else(|| {
-                below -= weights[last];
-                last
-            });
-            u = ((target - below) / weights[k]).clamp(0.0, 1.0 - f32::EPSILON);
-            pmf *= weights[k] / total;
+            let (k, share, rest) = choose(node.importance(p, n, tau), u)?;
+            u = rest;
+            pmf *= share;
             let child = node.child[k];
             if child & LEAF != 0 {
                 return Some(((child & !LEAF) as usize, pmf, u));
@@ -487,7 +465,7 @@ impl LightTree {
         let mut pmf = 1.0f32;
         for level in 0..depth {
             let weights = node.importance(p, n, tau);
-            let total: f32 = weights.iter().sum();
+            let total = running_totals(weights)[WIDTH - 1];
             if !total.is_finite() || total <= 0.0 {
                 return 0.0;
             }
@@ -499,6 +477,39 @@ impl LightTree {
         }
         pmf
     }
+}
+
+/// The sums of `weights` up to and including each lane, added in lane order (what a descent
+/// and the replay of its path must agree on bit for bit).
+#[inline(always)]
+fn running_totals(weights: [f32; WIDTH]) -> [f32; WIDTH] {
+    let [w0, w1, w2, w3] = weights;
+    let (c1, c2) = (w0 + w1, w0 + w1 + w2);
+    [w0, c1, c2, c2 + w3]
+}
+
+/// The lane whose share of the weights' total holds `u` in [0, 1): its index, its share, and
+/// `u` rescaled within it; `None` when no lane has weight. The lane is a count of comparisons,
+/// not a search: which lane a descent takes is a coin flip no branch predictor learns. Rounding
+/// that puts `u` at the very end falls to the last lane with any weight.
+#[inline(always)]
+fn choose(weights: [f32; WIDTH], u: f32) -> Option<(usize, f32, f32)> {
+    let ends = running_totals(weights);
+    let total = ends[WIDTH - 1];
+    if !total.is_finite() || total <= 0.0 {
+        return None;
+    }
+    let target = u * total;
+    let mut k = ends[..WIDTH - 1]
+        .iter()
+        .map(|&end| (end <= target) as usize)
+        .sum::<usize>();
+    if weights[k] <= 0.0 {
+        k = weights.iter().rposition(|&w| w > 0.0)?;
+    }
+    let below = if k == 0 { 0.0 } else { ends[k - 1] };
+    let rest = ((target - below) / weights[k]).clamp(0.0, 1.0 - f32::EPSILON);
+    Some((k, weights[k] / total, rest))
 }
 
 /// Splits `order` at its median centre (halfway through the time range) along the centres'
