@@ -12,7 +12,7 @@
 
 use super::instance::{box_corners, swept_bounds};
 use super::round_cone::RoundCone;
-use super::wide_bvh::{BoxRay, any_hit, closest_hit};
+use super::wide_bvh::{BoxRay, any_hit, closest_hit, worth_fetching_ahead};
 use crate::huge_pages;
 use crate::ray::Ray;
 use glam::Vec3;
@@ -176,6 +176,9 @@ pub struct Strands {
     pub segment_ring: Vec<u32>,
     /// Emitted radiance at each end of each segment (Cd · intensity · scale).
     pub radiance: Vec<[Vec3; 2]>,
+    /// Whether queries fetch nodes and leaves ahead: decided by the nodes of every ring's
+    /// every time slice together, since rays at random times and places visit them all.
+    fetch_ahead: bool,
 }
 
 impl Strands {
@@ -291,6 +294,8 @@ impl Strands {
             first,
             bounds,
         });
+        let nodes = self.rings.iter().flat_map(|r| &r.slices);
+        self.fetch_ahead = worth_fetching_ahead(nodes.map(|s| s.bvh.nodes.len()).sum());
     }
 
     /// True when there are no segments.
@@ -307,8 +312,9 @@ impl Strands {
             if !admit(index) || !meets(&ring.bounds, ray.origin, ray.dir, limit) {
                 continue;
             }
-            if let Some(hit) =
-                ring.intersect(self.segments_of(ring), ray.origin, ray.dir, limit, ray.time)
+            let segments = self.segments_of(ring);
+            let ahead = self.fetch_ahead;
+            if let Some(hit) = ring.intersect(segments, ray.origin, ray.dir, limit, ray.time, ahead)
             {
                 best = Some(hit);
             }
@@ -328,6 +334,7 @@ impl Strands {
                     ray.dir,
                     ray.t_max,
                     ray.time,
+                    self.fetch_ahead,
                 )
         })
     }
@@ -428,7 +435,7 @@ impl Ring {
     }
 
     /// The first of `segments` (the ring's, in strand order) along `origin + t·dir`, t in
-    /// (0, t_max), at `time`.
+    /// (0, t_max), at `time` (fetching ahead as `fetch_ahead` says).
     fn intersect(
         &self,
         segments: &[Segment],
@@ -436,6 +443,7 @@ impl Ring {
         dir: Vec3,
         t_max: f32,
         time: f64,
+        fetch_ahead: bool,
     ) -> Option<StrandHit> {
         let delta = self.delta(time);
         let slice = self.slice(delta)?;
@@ -447,6 +455,7 @@ impl Ring {
             &BoxRay::new(o, d),
             t_max,
             leaves,
+            fetch_ahead,
             |slot, range| {
                 let i = leaves[slot];
                 let h = segments[i as usize]
@@ -472,7 +481,7 @@ impl Ring {
     }
 
     /// True when one of `segments` (the ring's) lies along `origin + t·dir`, t in (0, t_max),
-    /// at `time`.
+    /// at `time` (fetching ahead as `fetch_ahead` says).
     fn occluded(
         &self,
         segments: &[Segment],
@@ -480,6 +489,7 @@ impl Ring {
         dir: Vec3,
         t_max: f32,
         time: f64,
+        fetch_ahead: bool,
     ) -> bool {
         let delta = self.delta(time);
         let Some(slice) = self.slice(delta) else {
@@ -487,7 +497,8 @@ impl Ring {
         };
         let (o, d, _) = self.local_ray(origin, dir, time);
         let leaves = &slice.bvh.primitive_indices;
-        any_hit(&slice.bvh, &BoxRay::new(o, d), t_max, leaves, |slot| {
+        let ray = BoxRay::new(o, d);
+        any_hit(&slice.bvh, &ray, t_max, leaves, fetch_ahead, |slot| {
             segments[leaves[slot] as usize]
                 .at(delta, self.moving)
                 .occludes(o, d, 0.0, t_max)

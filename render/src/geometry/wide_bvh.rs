@@ -27,10 +27,16 @@ const MIN_COMPONENT: f32 = 1e-18;
 /// spill onto the heap.
 const STACK: usize = 32;
 
-/// Trees with at least this many nodes (80 bytes each: 2.5 MiB, beyond a core's L2) have their
-/// next nodes and leaves fetched ahead; smaller ones stay in cache, and fetching ahead only
-/// costs them (6% on the Cornell box).
+/// Trees a query may visit with at least this many nodes together (80 bytes each: 2.5 MiB,
+/// beyond a core's L2) have their next nodes and leaves fetched ahead; smaller ones stay in
+/// cache, and fetching ahead only costs them (6% on the Cornell box).
 const LARGE_TREE_NODES: usize = 32 * 1024;
+
+/// Whether queries over trees of `nodes` nodes in all (one tree, or every tree a ray may pick
+/// from, such as a moving ring's time slices) should fetch nodes and leaves ahead.
+pub fn worth_fetching_ahead(nodes: usize) -> bool {
+    nodes >= LARGE_TREE_NODES
+}
 
 /// The bits of a node group that name inner children (the rest name primitives).
 const INNER_BITS: u32 = 0xff00_0000;
@@ -96,16 +102,18 @@ pub trait LeafTest {
 
 /// Runs `test` on the primitives of `bvh` along `ray` for t in [0, `range`], in an order that
 /// finds near ones early, until it asks to stop (true) or none is left (false). `leaves` is
-/// what the test reads, by slot (empty if nothing such), fetched ahead in large trees.
+/// what the test reads, by slot (empty if nothing such), fetched ahead with the nodes when
+/// `fetch_ahead` (see [`worth_fetching_ahead`]).
 #[inline]
 pub fn traverse_with<L>(
     bvh: &CwBvh,
     ray: &BoxRay,
     range: &mut f32,
     leaves: &[L],
+    fetch_ahead: bool,
     test: &mut impl LeafTest,
 ) -> bool {
-    traverse(bvh, ray, range, leaves, test)
+    traverse(bvh, ray, range, leaves, fetch_ahead, test)
 }
 
 /// A closest-hit test from a closure: `leaf(slot, t_max)` returns the primitive's distance
@@ -134,33 +142,42 @@ impl<F: FnMut(usize) -> bool> LeafTest for AnyOf<F> {
 
 /// The closest primitive along `ray` for t in [0, `t_max`]: `leaf(slot, t_max)` tests the one
 /// at `slot` and returns its distance when it is hit nearer than `t_max`, which then becomes the
-/// range. Returns the final range: below `t_max` exactly when something was hit. `leaves` as in
-/// [`traverse_with`].
+/// range. Returns the final range: below `t_max` exactly when something was hit. `leaves` and
+/// `fetch_ahead` as in [`traverse_with`].
 #[inline]
 pub fn closest_hit<L>(
     bvh: &CwBvh,
     ray: &BoxRay,
     t_max: f32,
     leaves: &[L],
+    fetch_ahead: bool,
     leaf: impl FnMut(usize, f32) -> Option<f32>,
 ) -> f32 {
     let mut range = t_max;
-    traverse(bvh, ray, &mut range, leaves, &mut Nearest(leaf));
+    traverse(
+        bvh,
+        ray,
+        &mut range,
+        leaves,
+        fetch_ahead,
+        &mut Nearest(leaf),
+    );
     range
 }
 
 /// True when `hit(slot)` holds for some primitive along `ray` for t in [0, `t_max`] (visited and
-/// with `leaves` as in [`traverse_with`]); stops at the first.
+/// with `leaves` and `fetch_ahead` as in [`traverse_with`]); stops at the first.
 #[inline]
 pub fn any_hit<L>(
     bvh: &CwBvh,
     ray: &BoxRay,
     t_max: f32,
     leaves: &[L],
+    fetch_ahead: bool,
     hit: impl FnMut(usize) -> bool,
 ) -> bool {
     let mut range = t_max;
-    traverse(bvh, ray, &mut range, leaves, &mut AnyOf(hit))
+    traverse(bvh, ray, &mut range, leaves, fetch_ahead, &mut AnyOf(hit))
 }
 
 /// The traversal both queries share, compiled twice: for AVX2 and for the baseline.
@@ -170,14 +187,15 @@ fn traverse<L>(
     ray: &BoxRay,
     range: &mut f32,
     leaves: &[L],
+    fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the processor has AVX2, checked just above.
-        return unsafe { traverse_avx2(bvh, ray, range, leaves, leaf) };
+        return unsafe { traverse_avx2(bvh, ray, range, leaves, fetch_ahead, leaf) };
     }
-    traverse_groups::<false, STACK, L>(bvh, ray, range, leaves, leaf)
+    traverse_groups::<false, STACK, L>(bvh, ray, range, leaves, fetch_ahead, leaf)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -187,9 +205,10 @@ fn traverse_avx2<L>(
     ray: &BoxRay,
     range: &mut f32,
     leaves: &[L],
+    fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
-    traverse_groups::<true, STACK, L>(bvh, ray, range, leaves, leaf)
+    traverse_groups::<true, STACK, L>(bvh, ray, range, leaves, fetch_ahead, leaf)
 }
 
 /// A node's children still to visit: `base` is the first child node (or first primitive) and
@@ -211,12 +230,12 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
     ray: &BoxRay,
     range: &mut f32,
     leaves: &[L],
+    fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
     if bvh.nodes.is_empty() {
         return false;
     }
-    let fetch_ahead = bvh.nodes.len() >= LARGE_TREE_NODES;
     // Uninitialised: only slots below `depth` are read, each after it was written (zeroing
     // the stack, and making an empty spill vector, cost every query stores of its own).
     let mut stack = [const { MaybeUninit::<Group>::uninit() }; STACK_SLOTS];
@@ -460,9 +479,10 @@ mod tests {
             for &dir in &directions {
                 let sheared = ShearedRay::new(origin, dir);
                 let ray = BoxRay::new(origin, dir);
-                for t_max in [f32::INFINITY, 0.5] {
+                // Fetching ahead (the large trees' path) must change nothing found.
+                for (t_max, ahead) in [(f32::INFINITY, false), (0.5, false), (0.5, true)] {
                     let expected = brute(tris, origin, dir, t_max);
-                    let t = closest_hit(&bvh, &ray, t_max, tris, |slot, range| {
+                    let t = closest_hit(&bvh, &ray, t_max, tris, ahead, |slot, range| {
                         let tri = &tris[bvh.primitive_indices[slot] as usize];
                         intersect_watertight(&sheared, tri, range).map(|h| h.0)
                     });
@@ -471,7 +491,7 @@ mod tests {
                         expected,
                         "closest from {origin} along {dir} to {t_max}"
                     );
-                    let any = any_hit(&bvh, &ray, t_max, tris, |slot| {
+                    let any = any_hit(&bvh, &ray, t_max, tris, ahead, |slot| {
                         let tri = &tris[bvh.primitive_indices[slot] as usize];
                         intersect_watertight(&sheared, tri, t_max).is_some()
                     });
@@ -525,6 +545,7 @@ mod tests {
                 &BoxRay::new(origin, dir),
                 &mut range,
                 &[],
+                false,
                 &mut Nearest(|slot: usize, r: f32| {
                     let tri = &tris[bvh.primitive_indices[slot] as usize];
                     intersect_watertight(&sheared, tri, r).map(|h| h.0)
