@@ -12,7 +12,7 @@
 
 use super::instance::{box_corners, swept_bounds};
 use super::round_cone::RoundCone;
-use super::wide_bvh::{BoxRay, any_hit, closest_hit, worth_fetching_ahead};
+use super::wide_bvh::{BoxRay, Indexed, any_hit, closest_hit, worth_fetching_ahead};
 use crate::huge_pages;
 use crate::ray::Ray;
 use glam::Vec3;
@@ -454,7 +454,10 @@ impl Ring {
             &slice.bvh,
             &BoxRay::new(o, d),
             t_max,
-            leaves,
+            &Indexed {
+                indices: leaves,
+                items: segments,
+            },
             fetch_ahead,
             |slot, range| {
                 let i = leaves[slot];
@@ -498,7 +501,11 @@ impl Ring {
         let (o, d, _) = self.local_ray(origin, dir, time);
         let leaves = &slice.bvh.primitive_indices;
         let ray = BoxRay::new(o, d);
-        any_hit(&slice.bvh, &ray, t_max, leaves, fetch_ahead, |slot| {
+        let data = Indexed {
+            indices: leaves,
+            items: segments,
+        };
+        any_hit(&slice.bvh, &ray, t_max, &data, fetch_ahead, |slot| {
             segments[leaves[slot] as usize]
                 .at(delta, self.moving)
                 .occludes(o, d, 0.0, t_max)

@@ -96,7 +96,7 @@ impl TriangleBvh {
             bvh,
             &BoxRay::new(origin, dir),
             &mut t,
-            &self.leaf_triangles,
+            self.leaf_triangles.as_slice(),
             worth_fetching_ahead(bvh.nodes.len()),
             &mut test,
         );
@@ -130,7 +130,7 @@ impl TriangleBvh {
             bvh,
             &BoxRay::new(origin, dir),
             &mut range,
-            &self.leaf_triangles,
+            self.leaf_triangles.as_slice(),
             worth_fetching_ahead(bvh.nodes.len()),
             &mut test,
         )

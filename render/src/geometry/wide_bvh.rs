@@ -17,6 +17,7 @@ use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
 use std::mem::MaybeUninit;
+use std::ops::RangeInclusive;
 
 /// Direction components are kept at least this far from zero, so inverses stay finite and a
 /// quantized plane at 0 never makes 0 × ∞; at 1e-18 a box 1e12 m across is still exact.
@@ -105,11 +106,11 @@ pub trait LeafTest {
 /// what the test reads, by slot (empty if nothing such), fetched ahead with the nodes when
 /// `fetch_ahead` (see [`worth_fetching_ahead`]).
 #[inline]
-pub fn traverse_with<L>(
+pub fn traverse_with<L: LeafData + ?Sized>(
     bvh: &CwBvh,
     ray: &BoxRay,
     range: &mut f32,
-    leaves: &[L],
+    leaves: &L,
     fetch_ahead: bool,
     test: &mut impl LeafTest,
 ) -> bool {
@@ -145,11 +146,11 @@ impl<F: FnMut(usize) -> bool> LeafTest for AnyOf<F> {
 /// range. Returns the final range: below `t_max` exactly when something was hit. `leaves` and
 /// `fetch_ahead` as in [`traverse_with`].
 #[inline]
-pub fn closest_hit<L>(
+pub fn closest_hit<L: LeafData + ?Sized>(
     bvh: &CwBvh,
     ray: &BoxRay,
     t_max: f32,
-    leaves: &[L],
+    leaves: &L,
     fetch_ahead: bool,
     leaf: impl FnMut(usize, f32) -> Option<f32>,
 ) -> f32 {
@@ -168,11 +169,11 @@ pub fn closest_hit<L>(
 /// True when `hit(slot)` holds for some primitive along `ray` for t in [0, `t_max`] (visited and
 /// with `leaves` and `fetch_ahead` as in [`traverse_with`]); stops at the first.
 #[inline]
-pub fn any_hit<L>(
+pub fn any_hit<L: LeafData + ?Sized>(
     bvh: &CwBvh,
     ray: &BoxRay,
     t_max: f32,
-    leaves: &[L],
+    leaves: &L,
     fetch_ahead: bool,
     hit: impl FnMut(usize) -> bool,
 ) -> bool {
@@ -182,11 +183,11 @@ pub fn any_hit<L>(
 
 /// The traversal both queries share, compiled twice: for AVX2 and for the baseline.
 #[inline]
-fn traverse<L>(
+fn traverse<L: LeafData + ?Sized>(
     bvh: &CwBvh,
     ray: &BoxRay,
     range: &mut f32,
-    leaves: &[L],
+    leaves: &L,
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
@@ -200,11 +201,11 @@ fn traverse<L>(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn traverse_avx2<L>(
+fn traverse_avx2<L: LeafData + ?Sized>(
     bvh: &CwBvh,
     ray: &BoxRay,
     range: &mut f32,
-    leaves: &[L],
+    leaves: &L,
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
@@ -225,11 +226,11 @@ struct Group {
 /// hit inner children in octant order, the rest of a group waiting on the stack. Returns true
 /// when `leaf` asked to stop.
 #[inline(always)]
-fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
+fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L: LeafData + ?Sized>(
     bvh: &CwBvh,
     ray: &BoxRay,
     range: &mut f32,
-    leaves: &[L],
+    leaves: &L,
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
@@ -306,12 +307,44 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L>(
 /// [`prefetch_inner_children`]: inlined, they left the traversal too big to take in the leaf
 /// tests, which cost small scenes more than the call costs large ones.
 #[inline(never)]
-fn prefetch_leaves<L>(leaves: &[L], group: Group) {
+fn prefetch_leaves<L: LeafData + ?Sized>(leaves: &L, group: Group) {
     if group.bits != 0 {
         let first = (group.base + group.bits.trailing_zeros()) as usize;
         let last = (group.base + 31 - group.bits.leading_zeros()) as usize;
-        if let Some(run) = leaves.get(first..=last) {
+        leaves.prefetch(first..=last);
+    }
+}
+
+/// What a leaf test reads for the primitives at a run of slots, which a traversal of a large
+/// tree asks the cache for as soon as it knows the slots.
+pub trait LeafData {
+    fn prefetch(&self, slots: RangeInclusive<usize>);
+}
+
+/// Items stored in the tree's primitive order, one a slot.
+impl<T> LeafData for [T] {
+    #[inline(always)]
+    fn prefetch(&self, slots: RangeInclusive<usize>) {
+        if let Some(run) = self.get(slots) {
             prefetch(run);
+        }
+    }
+}
+
+/// Items read through the tree's primitive indices (shared by several trees, so not in any
+/// one tree's order): the items the slots' indices name.
+pub struct Indexed<'a, T> {
+    pub indices: &'a [u32],
+    pub items: &'a [T],
+}
+
+impl<T> LeafData for Indexed<'_, T> {
+    #[inline(always)]
+    fn prefetch(&self, slots: RangeInclusive<usize>) {
+        for &i in self.indices.get(slots).unwrap_or_default() {
+            if let Some(item) = self.items.get(i as usize) {
+                prefetch(std::slice::from_ref(item));
+            }
         }
     }
 }
@@ -540,7 +573,7 @@ mod tests {
                 .normalize();
             let sheared = ShearedRay::new(origin, dir);
             let mut range = f32::INFINITY;
-            traverse_groups::<false, 1, Triangle>(
+            traverse_groups::<false, 1, [Triangle]>(
                 &bvh,
                 &BoxRay::new(origin, dir),
                 &mut range,
