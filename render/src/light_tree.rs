@@ -4,8 +4,8 @@
 //! normals, and a descent picks a child in proportion to an importance that estimates what the
 //! child can send to the point. Four children per node (the halves of the halves of a median
 //! split) are scored in one pass of vector instructions, and each choice sees finer clusters
-//! than a binary tree's would. The
-//! importance follows Conty Estevez & Kulla, "Importance Sampling of Many Lights with Adaptive
+//! than a binary tree's would. A child of at most four emitters is a bucket, within which
+//! power alone chooses. The importance follows Conty Estevez & Kulla, "Importance Sampling of Many Lights with Adaptive
 //! Tree Splitting" (2018): power over the squared distance, times the cosine of the smallest
 //! angle between the cone's normals and the direction to the point, and a cosine at the
 //! receiver. Two changes make it find the few strands beside a point out of a whole ring: the
@@ -235,8 +235,27 @@ fn merge_cones(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
 /// Children per node.
 const WIDTH: usize = 4;
 
-/// Marks a lane that holds an emitter rather than a node.
+/// Marks a lane that holds a bucket of emitters rather than a node.
 const LEAF: u32 = 1 << 31;
+
+/// Most emitters one lane holds as a bucket. Within a bucket an emitter is chosen by power
+/// alone: a bucket's members lie side by side (a few centimetres of strand), where the
+/// importance would hardly tell them apart, and the bottom level of nodes it replaces held
+/// three quarters of the tree, so a descent reads one level fewer and the tree takes a quarter
+/// of the memory (a ring-lit frame's picks waited on those nodes' cache misses).
+const BUCKET: usize = 4;
+
+/// Where a bucket lane keeps its size less one; its first entry in `LightTree::buckets` is in
+/// the bits below.
+const BUCKET_SIZE_SHIFT: u32 = 29;
+
+/// A bucket lane's entries: `(first, count)`.
+#[inline(always)]
+fn bucket_of(child: u32) -> (usize, usize) {
+    let first = child & ((1 << BUCKET_SIZE_SHIFT) - 1);
+    let count = (child & !LEAF) >> BUCKET_SIZE_SHIFT;
+    (first as usize, count as usize + 1)
+}
 
 /// Up to four children's bounds side by side, one lane each (per axis, a [`Vec4`] across the
 /// lanes), so one pass of vector instructions computes all four importances. A descent then
@@ -253,7 +272,8 @@ struct Node {
     power: Vec4,
     axis: [Vec4; 3],
     cos_spread: Vec4,
-    /// Per lane: a node's index, or an emitter's with [`LEAF`] set. Unused lanes have no power.
+    /// Per lane: a node's index, or a bucket's (see [`bucket_of`]) with [`LEAF`] set. Unused
+    /// lanes have no power.
     child: [u32; WIDTH],
 }
 
@@ -340,7 +360,10 @@ impl Node {
 pub struct LightTree {
     /// The root first.
     nodes: Vec<Node>,
-    /// Per emitter: its root path, two bits per level (the lane taken), and its depth.
+    /// Every bucket's members, bucket after bucket: (emitter, power).
+    buckets: Vec<(u32, f32)>,
+    /// Per emitter: its root path, two bits per level (the lane taken) and then two for its
+    /// place in its bucket, and the number of nodes on the path.
     paths: Vec<(u64, u32)>,
 }
 
@@ -348,11 +371,12 @@ impl LightTree {
     /// Builds over `emitters` (indexed as given).
     pub fn new(emitters: &[LightBounds]) -> Self {
         assert!(
-            emitters.len() < LEAF as usize,
+            emitters.len() < 1 << BUCKET_SIZE_SHIFT,
             "too many emitters for one light tree"
         );
         let mut tree = Self {
-            nodes: huge_pages::with_capacity(emitters.len() / 2 + 1),
+            nodes: huge_pages::with_capacity(emitters.len() / 8 + 1),
+            buckets: huge_pages::with_capacity(emitters.len()),
             paths: vec![(0, 0); emitters.len()],
         };
         if !emitters.is_empty() {
@@ -363,10 +387,12 @@ impl LightTree {
     }
 
     /// Appends a node over the emitters of `order` (reached by `path` at `depth`) and its
-    /// descendants; returns its index. Its lanes are the halves of the halves of `order`.
+    /// descendants; returns its index. Its lanes are the halves of the halves of `order`, each
+    /// a bucket when it has at most [`BUCKET`] members.
     fn build(&mut self, emitters: &[LightBounds], order: &mut [u32], path: u64, depth: u32) -> u32 {
-        // Median splits keep the depth at ⌈log₄ n⌉, far inside the path bits.
-        debug_assert!(2 * depth < PATH_BITS);
+        // Median splits keep the depth at ⌈log₄ n⌉, far inside the path bits (which end with
+        // two for the place in a bucket).
+        debug_assert!(2 * (depth + 2) <= PATH_BITS);
         let slot = self.nodes.len();
         self.nodes.push(Node::default());
         let mut groups = Vec::with_capacity(WIDTH);
@@ -386,9 +412,14 @@ impl LightTree {
         for (k, group) in groups.into_iter().enumerate() {
             let members = &mut order[group];
             let lane_path = path | (k as u64) << (2 * depth);
-            let child = if let [e] = *members {
-                self.paths[e as usize] = (lane_path, depth + 1);
-                e | LEAF
+            let child = if members.len() <= BUCKET {
+                let first = self.buckets.len() as u32;
+                for (place, &e) in members.iter().enumerate() {
+                    let bits = (place as u64) << (2 * (depth + 1));
+                    self.paths[e as usize] = (lane_path | bits, depth + 1);
+                    self.buckets.push((e, emitters[e as usize].power));
+                }
+                LEAF | ((members.len() as u32 - 1) << BUCKET_SIZE_SHIFT) | first
             } else {
                 self.build(emitters, members, lane_path, depth + 1)
             };
@@ -427,10 +458,15 @@ impl LightTree {
         let mut u = u;
         loop {
             for &child in &node.child {
-                if child & LEAF != 0 {
-                    fetch((child & !LEAF) as usize);
-                } else if let Some(next) = self.nodes.get(child as usize..=child as usize) {
-                    crate::prefetch::prefetch(next);
+                if child & LEAF == 0 {
+                    if let Some(next) = self.nodes.get(child as usize..=child as usize) {
+                        crate::prefetch::prefetch(next);
+                    }
+                } else if let Some(run) = self.bucket(child) {
+                    crate::prefetch::prefetch(run);
+                    if let [(e, _)] = *run {
+                        fetch(e as usize);
+                    }
                 }
             }
             let (k, share, rest) = choose(node.importance(p, n, tau), u)?;
@@ -438,7 +474,15 @@ impl LightTree {
             pmf *= share;
             let child = node.child[k];
             if child & LEAF != 0 {
-                return Some(((child & !LEAF) as usize, pmf, u));
+                return match *self.bucket(child)? {
+                    [(emitter, _)] => Some((emitter as usize, pmf, u)),
+                    ref run => {
+                        let (place, share, rest) = choose(bucket_powers(run), u)?;
+                        let emitter = run[place].0 as usize;
+                        fetch(emitter);
+                        Some((emitter, pmf * share, rest))
+                    }
+                };
             }
             node = &self.nodes[child as usize];
         }
@@ -456,7 +500,7 @@ impl LightTree {
 
     /// The probability [`Self::sample`] picks `emitter` for point `p` (normal `n`) at `tau`.
     pub fn pmf(&self, emitter: usize, p: Vec3, n: Option<Vec3>, tau: f32) -> f32 {
-        let Some(&(path, depth)) = self.paths.get(emitter) else {
+        let Some(&(path, depth)) = self.paths.get(emitter).filter(|&&(_, d)| d > 0) else {
             return 0.0;
         };
         let Some(mut node) = self.nodes.first() else {
@@ -464,18 +508,40 @@ impl LightTree {
         };
         let mut pmf = 1.0f32;
         for level in 0..depth {
-            let weights = node.importance(p, n, tau);
-            let total = running_totals(weights)[WIDTH - 1];
-            if !total.is_finite() || total <= 0.0 {
-                return 0.0;
-            }
             let k = (path >> (2 * level) & 3) as usize;
-            pmf *= weights[k] / total;
+            pmf *= share(node.importance(p, n, tau), k);
             if level + 1 < depth {
                 node = &self.nodes[node.child[k] as usize];
             }
         }
-        pmf
+        let Some(run) = self.bucket(node.child[(path >> (2 * (depth - 1)) & 3) as usize]) else {
+            return 0.0;
+        };
+        pmf * share(bucket_powers(run), (path >> (2 * depth) & 3) as usize)
+    }
+
+    /// The members of the bucket lane `child` names.
+    #[inline(always)]
+    fn bucket(&self, child: u32) -> Option<&[(u32, f32)]> {
+        let (first, count) = bucket_of(child);
+        self.buckets.get(first..first + count)
+    }
+}
+
+/// A bucket's powers as lanes (the missing ones empty).
+#[inline(always)]
+fn bucket_powers(run: &[(u32, f32)]) -> [f32; WIDTH] {
+    std::array::from_fn(|k| run.get(k).map_or(0.0, |&(_, power)| power))
+}
+
+/// Lane `k`'s share of `weights` in all, as a descent computes it; 0 when none has weight.
+#[inline(always)]
+fn share(weights: [f32; WIDTH], k: usize) -> f32 {
+    let total = running_totals(weights)[WIDTH - 1];
+    if total.is_finite() && total > 0.0 {
+        weights[k] / total
+    } else {
+        0.0
     }
 }
 
@@ -512,24 +578,29 @@ fn choose(weights: [f32; WIDTH], u: f32) -> Option<(usize, f32, f32)> {
     Some((k, weights[k] / total, rest))
 }
 
-/// Splits `order` at its median centre (halfway through the time range) along the centres'
-/// widest axis; returns where the second half starts.
+/// Splits `order` at its median centre along the widest of nine coordinates, the centres'
+/// three axes at the middle, start and end of the time range; returns where the second half
+/// starts. Emitters that meet halfway but move apart (a ring's counter-rotating strands) part
+/// by where they are at the ends, so each cluster stays small at every time. Still emitters,
+/// and ties, split at the middle of the range as before.
 fn split(emitters: &[LightBounds], order: &mut [u32]) -> usize {
-    let key = |i: u32| emitters[i as usize].centre.at(0.5);
-    let (lo, hi) = order.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &i| (lo.min(key(i)), hi.max(key(i))),
-    );
-    let extent = hi - lo;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z {
-        0
-    } else if extent.y >= extent.z {
-        1
-    } else {
-        2
+    const TIMES: [f32; 3] = [0.5, 0.0, 1.0];
+    let key = |i: u32, c: usize| emitters[i as usize].centre.at(TIMES[c / 3])[c % 3];
+    let extent = |c: usize| {
+        let (lo, hi) = order
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &i| {
+                (lo.min(key(i, c)), hi.max(key(i, c)))
+            });
+        hi - lo
     };
+    let extents: [f32; 9] = std::array::from_fn(extent);
+    let widest = (1..9).fold(
+        0,
+        |best, c| if extents[c] > extents[best] { c } else { best },
+    );
     let mid = order.len() / 2;
-    order.select_nth_unstable_by(mid, |&a, &b| key(a)[axis].total_cmp(&key(b)[axis]));
+    order.select_nth_unstable_by(mid, |&a, &b| key(a, widest).total_cmp(&key(b, widest)));
     mid
 }
 
