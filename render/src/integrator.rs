@@ -714,8 +714,11 @@ fn next_event(
     let dir = incoming.dir;
     let from = offset_origin(at.receiver.p, if dir.dot(ng) > 0.0 { ng } else { -ng });
     let chain = space.map_or(Chain::default(), |s| s.chain);
-    let Some((tint, coins)) = shadow(scene, &chain, from, dir, incoming.target, at.receiver.time)
-    else {
+    let end = ShadowEnd {
+        target: incoming.target,
+        strand: incoming.strand,
+    };
+    let Some((tint, coins)) = shadow(scene, &chain, from, dir, end, at.receiver.time) else {
         return NONE;
     };
     let pdf_light = q * incoming.pdf;
@@ -736,6 +739,8 @@ pub(crate) struct Incoming {
     /// The point the shadow ray must reach (off the emitter's surface, beyond the openings);
     /// `None`: infinitely far.
     pub target: Option<Vec3>,
+    /// The strand segment the target lies on, if it does.
+    pub strand: Option<u32>,
     /// Solid-angle pdf (of all the strategy's techniques that could draw it).
     pub pdf: f32,
     /// False when rays that scatter cannot see the emitter, so BSDF sampling cannot find it.
@@ -785,8 +790,12 @@ pub(crate) fn probe_light(scene: &Scene, at: &Receiver, u: glam::Vec2) -> Option
         return None;
     }
     let none = Chain::default();
-    let transmitted = shadow(scene, &none, at.p, light.dir, light.target, at.time)
-        .map_or(0.0, |(_, coins)| coins as f64);
+    let end = ShadowEnd {
+        target: light.target,
+        strand: light.strand,
+    };
+    let transmitted =
+        shadow(scene, &none, at.p, light.dir, end, at.time).map_or(0.0, |(_, coins)| coins as f64);
     Some(Probe {
         dir: light.dir,
         weight,
@@ -838,6 +847,7 @@ fn sky_through_aperture(
         dir,
         radiance: sky.radiance(beyond),
         target: None,
+        strand: None,
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
         group: scene.environment_group,
@@ -871,6 +881,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
             dir,
             radiance: light.radiance,
             target: None,
+            strand: None,
             pdf: light.pdf,
             bsdf_can_find,
             group,
@@ -898,6 +909,10 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
                 dir,
                 radiance: light.radiance,
                 target: Some(offset_target(point, light_side)),
+                strand: match source {
+                    LightSource::Strand(segment) => Some(segment),
+                    LightSource::Triangle(_) => None,
+                },
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find,
                 group,
@@ -906,9 +921,23 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
     }
 }
 
+/// Where a shadow ray ends.
+#[derive(Clone, Copy)]
+pub(crate) struct ShadowEnd {
+    /// The point just off the emitter; `None`: infinitely far.
+    pub target: Option<Vec3>,
+    /// The strand segment the point lies on, which the ray is not tested against. Light
+    /// sampling spreads points over the side of a cylinder facing the ray, which the segment
+    /// cannot block; testing it would only find where its taper puts the round surface a hair
+    /// outside that cylinder (darkening 0.01% of the light), and it is the costliest test a
+    /// shadow ray makes, since the ray ends on its surface where no quick distance test
+    /// decides.
+    pub strand: Option<u32>,
+}
+
 /// Follows a shadow ray from `from` at `time` along `dir` through the openings of `chain` in
 /// order (each must be the one it meets, inside its mask at the ray's time, with nothing in
-/// front), then on to `target` beyond the last (or to infinity); an empty chain goes straight
+/// front), then on to `end` beyond the last (or to infinity); an empty chain goes straight
 /// there. Returns the openings' tint and the probability of the coin flips a path along it
 /// makes (opacity per teleport, 1 − opacity per opening passed), or `None` when it is blocked
 /// or leaves the chain.
@@ -917,7 +946,7 @@ pub(crate) fn shadow(
     chain: &Chain,
     from: Vec3,
     dir: Vec3,
-    target: Option<Vec3>,
+    end: ShadowEnd,
     time: f64,
 ) -> Option<(Vec3, f32)> {
     let portals = &scene.portals;
@@ -936,10 +965,13 @@ pub(crate) fn shadow(
         };
         coins *= portals.transmittance(&before);
         if coins == 0.0
-            || scene.occluded(&Ray {
-                t_max: hit.t * (1.0 - PORTAL_TIE),
-                ..ray
-            })
+            || scene.occluded(
+                &Ray {
+                    t_max: hit.t * (1.0 - PORTAL_TIE),
+                    ..ray
+                },
+                None,
+            )
         {
             return None;
         }
@@ -950,7 +982,7 @@ pub(crate) fn shadow(
         let next = portals.teleport(&hit, ray.dir, exit_time)?;
         ray = Ray::new(next.origin, next.direction, f32::INFINITY, exit_time);
     }
-    if let Some(target) = target {
+    if let Some(target) = end.target {
         // Beyond openings the target lies on the teleported line; it must lie past the last
         // exit.
         let to = target - ray.origin;
@@ -967,5 +999,5 @@ pub(crate) fn shadow(
         }
     }
     coins *= portals.transmittance(&ray);
-    (coins != 0.0 && !scene.occluded(&ray)).then_some((tint, coins))
+    (coins != 0.0 && !scene.occluded(&ray, end.strand)).then_some((tint, coins))
 }

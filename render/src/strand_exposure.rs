@@ -91,7 +91,7 @@ fn escaped_rays(strands: &Strands, segment: u32, time: f64, rays: u32) -> u32 {
             let point = cone.a + along * s + normal * radius;
             let dir = Frame::new(normal).to_world(cosine_hemisphere(Vec2::new(u1, u2)));
             let ray = Ray::new(offset_origin(point, normal), dir, f32::INFINITY, time);
-            !strands.occluded(&ray, |_| true)
+            !strands.occluded(&ray, None, |_| true)
         })
         .count() as u32
 }

@@ -126,7 +126,7 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
                     .into_par_iter()
                     .filter(|&i| {
                         let (o, d, time) = ray(i);
-                        set.occluded(&Ray::new(o, d, f32::INFINITY, at(time)), |_| true)
+                        set.occluded(&Ray::new(o, d, f32::INFINITY, at(time)), None, |_| true)
                     })
                     .count()
             })?;

@@ -322,8 +322,9 @@ impl Strands {
         best
     }
 
-    /// True when a strand of an admitted ring lies along `ray` (t in (0, t_max)).
-    pub fn occluded(&self, ray: &Ray, admit: impl Fn(usize) -> bool) -> bool {
+    /// True when a strand of an admitted ring lies along `ray` (t in (0, t_max)), other than
+    /// segment `except` (scene-wide index).
+    pub fn occluded(&self, ray: &Ray, except: Option<u32>, admit: impl Fn(usize) -> bool) -> bool {
         debug_assert!(ray.t_min == 0.0);
         self.rings.iter().enumerate().any(|(index, ring)| {
             admit(index)
@@ -334,6 +335,7 @@ impl Strands {
                     ray.dir,
                     ray.t_max,
                     ray.time,
+                    except,
                     self.fetch_ahead,
                 )
         })
@@ -483,8 +485,10 @@ impl Ring {
         })
     }
 
-    /// True when one of `segments` (the ring's) lies along `origin + t·dir`, t in (0, t_max),
-    /// at `time` (fetching ahead as `fetch_ahead` says).
+    /// True when one of `segments` (the ring's) other than `except` (scene-wide index) lies
+    /// along `origin + t·dir`, t in (0, t_max), at `time` (fetching ahead as `fetch_ahead`
+    /// says).
+    #[allow(clippy::too_many_arguments)]
     fn occluded(
         &self,
         segments: &[Segment],
@@ -492,6 +496,7 @@ impl Ring {
         dir: Vec3,
         t_max: f32,
         time: f64,
+        except: Option<u32>,
         fetch_ahead: bool,
     ) -> bool {
         let delta = self.delta(time);
@@ -506,9 +511,11 @@ impl Ring {
             items: segments,
         };
         any_hit(&slice.bvh, &ray, t_max, &data, fetch_ahead, |slot| {
-            segments[leaves[slot] as usize]
-                .at(delta, self.moving)
-                .occludes(o, d, 0.0, t_max)
+            let i = leaves[slot];
+            except != Some(self.first + i)
+                && segments[i as usize]
+                    .at(delta, self.moving)
+                    .occludes(o, d, 0.0, t_max)
         })
     }
 }
@@ -622,8 +629,14 @@ mod tests {
                 hits += 1;
                 assert!((g.t - w.0).abs() <= 1e-5 * w.0.max(1.0), "ray {k}");
                 assert!(g.normal.dot(dir) < 0.0, "ray {k}: the normal faces the ray");
-                assert!(strands.occluded(&Ray::new(origin, dir, g.t * 1.0001, time), |_| true));
-                assert!(!strands.occluded(&Ray::new(origin, dir, g.t * 0.9999, time), |_| true));
+                assert!(
+                    strands.occluded(&Ray::new(origin, dir, g.t * 1.0001, time), None, |_| true)
+                );
+                assert!(!strands.occluded(
+                    &Ray::new(origin, dir, g.t * 0.9999, time),
+                    None,
+                    |_| true
+                ));
                 assert!(
                     strands
                         .intersect(&Ray::new(origin, dir, f32::INFINITY, time), |_| false)

@@ -475,9 +475,9 @@ impl Scene {
     }
 
     /// True when a surface or strand that shadow rays see blocks `ray` (which starts at its
-    /// origin: t in (0, t_max)).
+    /// origin: t in (0, t_max)); the strand segment it ends on, if any, is not tested.
     #[inline]
-    pub fn occluded(&self, ray: &Ray) -> bool {
+    pub fn occluded(&self, ray: &Ray, ends_on_strand: Option<u32>) -> bool {
         debug_assert!(ray.t_min == 0.0);
         let blocked = if !self.visibility.hides_anything() {
             self.accel.occluded(ray, &every_triangle)
@@ -490,9 +490,9 @@ impl Scene {
         };
         blocked
             || (!self.strands.is_empty()
-                && self
-                    .strands
-                    .occluded(ray, |ring| self.strand_flags[ring].sees(RayClass::Shadow)))
+                && self.strands.occluded(ray, ends_on_strand, |ring| {
+                    self.strand_flags[ring].sees(RayClass::Shadow)
+                }))
     }
 
     /// The world-space point and normal of `hit` at time `time`.
