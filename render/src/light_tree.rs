@@ -245,16 +245,15 @@ const LEAF: u32 = 1 << 31;
 /// of the memory (a ring-lit frame's picks waited on those nodes' cache misses).
 const BUCKET: usize = 4;
 
-/// Where a bucket lane keeps its size less one; its first entry in `LightTree::buckets` is in
-/// the bits below.
+/// Where a bucket lane keeps its size less one. The bits below hold its first entry in
+/// `LightTree::buckets`, or for a bucket of one the emitter itself (one read fewer for
+/// scenes of few emitters, such as a single area light).
 const BUCKET_SIZE_SHIFT: u32 = 29;
 
-/// A bucket lane's entries: `(first, count)`.
-#[inline(always)]
-fn bucket_of(child: u32) -> (usize, usize) {
-    let first = child & ((1 << BUCKET_SIZE_SHIFT) - 1);
-    let count = (child & !LEAF) >> BUCKET_SIZE_SHIFT;
-    (first as usize, count as usize + 1)
+/// The members of a bucket lane.
+enum Members<'a> {
+    One(usize),
+    Some(&'a [(u32, f32)]),
 }
 
 /// Up to four children's bounds side by side, one lane each (per axis, a [`Vec4`] across the
@@ -412,7 +411,10 @@ impl LightTree {
         for (k, group) in groups.into_iter().enumerate() {
             let members = &mut order[group];
             let lane_path = path | (k as u64) << (2 * depth);
-            let child = if members.len() <= BUCKET {
+            let child = if let [e] = *members {
+                self.paths[e as usize] = (lane_path, depth + 1);
+                LEAF | e
+            } else if members.len() <= BUCKET {
                 let first = self.buckets.len() as u32;
                 for (place, &e) in members.iter().enumerate() {
                     let bits = (place as u64) << (2 * (depth + 1));
@@ -462,10 +464,11 @@ impl LightTree {
                     if let Some(next) = self.nodes.get(child as usize..=child as usize) {
                         crate::prefetch::prefetch(next);
                     }
-                } else if let Some(run) = self.bucket(child) {
-                    crate::prefetch::prefetch(run);
-                    if let [(e, _)] = *run {
-                        fetch(e as usize);
+                } else {
+                    match self.members(child) {
+                        Some(Members::One(e)) => fetch(e),
+                        Some(Members::Some(run)) => crate::prefetch::prefetch(run),
+                        None => {}
                     }
                 }
             }
@@ -474,9 +477,9 @@ impl LightTree {
             pmf *= share;
             let child = node.child[k];
             if child & LEAF != 0 {
-                return match *self.bucket(child)? {
-                    [(emitter, _)] => Some((emitter as usize, pmf, u)),
-                    ref run => {
+                return match self.members(child)? {
+                    Members::One(emitter) => Some((emitter, pmf, u)),
+                    Members::Some(run) => {
                         let (place, share, rest) = choose(bucket_powers(run), u)?;
                         let emitter = run[place].0 as usize;
                         fetch(emitter);
@@ -514,17 +517,27 @@ impl LightTree {
                 node = &self.nodes[node.child[k] as usize];
             }
         }
-        let Some(run) = self.bucket(node.child[(path >> (2 * (depth - 1)) & 3) as usize]) else {
-            return 0.0;
-        };
-        pmf * share(bucket_powers(run), (path >> (2 * depth) & 3) as usize)
+        let lane = node.child[(path >> (2 * (depth - 1)) & 3) as usize];
+        match self.members(lane) {
+            Some(Members::One(_)) => pmf,
+            Some(Members::Some(run)) => {
+                pmf * share(bucket_powers(run), (path >> (2 * depth) & 3) as usize)
+            }
+            None => 0.0,
+        }
     }
 
     /// The members of the bucket lane `child` names.
     #[inline(always)]
-    fn bucket(&self, child: u32) -> Option<&[(u32, f32)]> {
-        let (first, count) = bucket_of(child);
-        self.buckets.get(first..first + count)
+    fn members(&self, child: u32) -> Option<Members<'_>> {
+        let first = (child & ((1 << BUCKET_SIZE_SHIFT) - 1)) as usize;
+        match (child & !LEAF) >> BUCKET_SIZE_SHIFT {
+            0 => Some(Members::One(first)),
+            less_one => {
+                let run = self.buckets.get(first..=first + less_one as usize)?;
+                Some(Members::Some(run))
+            }
+        }
     }
 }
 
