@@ -5,7 +5,7 @@
 use super::instance::{MovingInstance, Placement};
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
-use super::wide_bvh::{BoxRay, any_hit, closest_hit, worth_fetching_ahead};
+use super::wide_bvh::{BoxRay, any_hit, closest_hit, node_bytes, worth_fetching_ahead};
 use crate::ray::Ray;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
@@ -84,7 +84,7 @@ impl Accel {
                 &BoxRay::new(ray.origin, ray.dir),
                 nearest,
                 NOTHING_TO_FETCH,
-                worth_fetching_ahead(top.nodes.len()),
+                worth_fetching_ahead(node_bytes(top)),
                 |slot, range| {
                     let i = top.primitive_indices[slot];
                     let bounded = Ray {
@@ -117,7 +117,7 @@ impl Accel {
             &BoxRay::new(ray.origin, ray.dir),
             ray.t_max,
             NOTHING_TO_FETCH,
-            worth_fetching_ahead(top.nodes.len()),
+            worth_fetching_ahead(node_bytes(top)),
             |slot| self.instances[top.primitive_indices[slot] as usize].occluded(ray, accept),
         )
     }

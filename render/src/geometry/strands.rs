@@ -12,7 +12,7 @@
 
 use super::instance::{box_corners, swept_bounds};
 use super::round_cone::RoundCone;
-use super::wide_bvh::{BoxRay, Indexed, any_hit, closest_hit, worth_fetching_ahead};
+use super::wide_bvh::{BoxRay, Indexed, any_hit, closest_hit, node_bytes, worth_fetching_ahead};
 use crate::huge_pages;
 use crate::ray::Ray;
 use glam::Vec3;
@@ -177,7 +177,8 @@ pub struct Strands {
     /// Emitted radiance at each end of each segment (Cd · intensity · scale).
     pub radiance: Vec<[Vec3; 2]>,
     /// Whether queries fetch nodes and leaves ahead: decided by the nodes of every ring's
-    /// every time slice together, since rays at random times and places visit them all.
+    /// every time slice and the segments together, since rays at random times and places
+    /// read them all.
     fetch_ahead: bool,
 }
 
@@ -294,8 +295,9 @@ impl Strands {
             first,
             bounds,
         });
-        let nodes = self.rings.iter().flat_map(|r| &r.slices);
-        self.fetch_ahead = worth_fetching_ahead(nodes.map(|s| s.bvh.nodes.len()).sum());
+        let slices = self.rings.iter().flat_map(|r| &r.slices);
+        let nodes: usize = slices.map(|s| node_bytes(&s.bvh)).sum();
+        self.fetch_ahead = worth_fetching_ahead(nodes + std::mem::size_of_val(&self.segments[..]));
     }
 
     /// True when there are no segments.

@@ -3,7 +3,7 @@
 //! closest-hit and occlusion queries using the watertight triangle test.
 
 use super::triangle::{ShearedRay, Triangle, intersect_watertight};
-use super::wide_bvh::{BoxRay, LeafTest, traverse_with, worth_fetching_ahead};
+use super::wide_bvh::{BoxRay, LeafTest, node_bytes, traverse_with, worth_fetching_ahead};
 use glam::Vec3;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
@@ -97,7 +97,7 @@ impl TriangleBvh {
             &BoxRay::new(origin, dir),
             &mut t,
             self.leaf_triangles.as_slice(),
-            worth_fetching_ahead(bvh.nodes.len()),
+            worth_fetching_ahead(node_bytes(bvh)),
             &mut test,
         );
         test.nearest.map(|(slot, b1, b2)| TriangleHit {
@@ -131,7 +131,7 @@ impl TriangleBvh {
             &BoxRay::new(origin, dir),
             &mut range,
             self.leaf_triangles.as_slice(),
-            worth_fetching_ahead(bvh.nodes.len()),
+            worth_fetching_ahead(node_bytes(bvh)),
             &mut test,
         )
     }

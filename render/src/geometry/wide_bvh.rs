@@ -28,15 +28,21 @@ const MIN_COMPONENT: f32 = 1e-18;
 /// spill onto the heap.
 const STACK: usize = 32;
 
-/// Trees a query may visit with at least this many nodes together (80 bytes each: 2.5 MiB,
-/// beyond a core's L2) have their next nodes and leaves fetched ahead; smaller ones stay in
-/// cache, and fetching ahead only costs them (6% on the Cornell box).
-const LARGE_TREE_NODES: usize = 32 * 1024;
+/// Trees whose queries read at least this many bytes at random (32Ki nodes of 80 bytes: 2.5
+/// MiB, beyond a core's L2) have their next nodes and leaves fetched ahead; smaller ones stay
+/// in cache, and fetching ahead only costs them (6% on the Cornell box).
+const LARGE_TREE_BYTES: usize = 32 * 1024 * std::mem::size_of::<CwBvhNode>();
 
-/// Whether queries over trees of `nodes` nodes in all (one tree, or every tree a ray may pick
-/// from, such as a moving ring's time slices) should fetch nodes and leaves ahead.
-pub fn worth_fetching_ahead(nodes: usize) -> bool {
-    nodes >= LARGE_TREE_NODES
+/// Whether queries that read `bytes` at random (the nodes of one tree, or of every tree a ray
+/// may pick from, such as a moving ring's time slices, and what their leaves read) should
+/// fetch nodes and leaves ahead.
+pub fn worth_fetching_ahead(bytes: usize) -> bool {
+    bytes >= LARGE_TREE_BYTES
+}
+
+/// The bytes of `bvh`'s nodes.
+pub fn node_bytes(bvh: &CwBvh) -> usize {
+    std::mem::size_of_val(bvh.nodes.as_slice())
 }
 
 /// The bits of a node group that name inner children (the rest name primitives).
