@@ -714,11 +714,8 @@ fn next_event(
     let dir = incoming.dir;
     let from = offset_origin(at.receiver.p, if dir.dot(ng) > 0.0 { ng } else { -ng });
     let chain = space.map_or(Chain::default(), |s| s.chain);
-    let end = ShadowEnd {
-        target: incoming.target,
-        strand: incoming.strand,
-    };
-    let Some((tint, coins)) = shadow(scene, &chain, from, dir, end, at.receiver.time) else {
+    let Some((tint, coins)) = shadow(scene, &chain, from, dir, incoming.end, at.receiver.time)
+    else {
         return NONE;
     };
     let pdf_light = q * incoming.pdf;
@@ -736,11 +733,8 @@ pub(crate) struct Incoming {
     /// Unit direction at the point.
     pub dir: Vec3,
     pub radiance: Vec3,
-    /// The point the shadow ray must reach (off the emitter's surface, beyond the openings);
-    /// `None`: infinitely far.
-    pub target: Option<Vec3>,
-    /// The strand segment the target lies on, if it does.
-    pub strand: Option<u32>,
+    /// Where the shadow ray must reach (off the emitter's surface, beyond the openings).
+    pub end: ShadowEnd,
     /// Solid-angle pdf (of all the strategy's techniques that could draw it).
     pub pdf: f32,
     /// False when rays that scatter cannot see the emitter, so BSDF sampling cannot find it.
@@ -790,17 +784,13 @@ pub(crate) fn probe_light(scene: &Scene, at: &Receiver, u: glam::Vec2) -> Option
         return None;
     }
     let none = Chain::default();
-    let end = ShadowEnd {
-        target: light.target,
-        strand: light.strand,
-    };
-    let transmitted =
-        shadow(scene, &none, at.p, light.dir, end, at.time).map_or(0.0, |(_, coins)| coins as f64);
+    let transmitted = shadow(scene, &none, at.p, light.dir, light.end, at.time)
+        .map_or(0.0, |(_, coins)| coins as f64);
     Some(Probe {
         dir: light.dir,
         weight,
         transmitted,
-        sky: light.target.is_none(),
+        sky: light.end.target.is_none(),
     })
 }
 
@@ -822,7 +812,7 @@ pub(crate) struct Probe {
 #[inline(never)]
 fn brought_back(scene: &Scene, at: &Receiver, space: &Space, arrival: Incoming) -> Incoming {
     let dir = space.direction_back(arrival.dir);
-    let sky = arrival.target.is_none().then_some((at, dir));
+    let sky = arrival.end.target.is_none().then_some((at, dir));
     Incoming {
         dir,
         pdf: space.density(&scene.portals, arrival.pdf, sky),
@@ -846,8 +836,7 @@ fn sky_through_aperture(
     Some(Incoming {
         dir,
         radiance: sky.radiance(beyond),
-        target: None,
-        strand: None,
+        end: ShadowEnd::SKY,
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
         group: scene.environment_group,
@@ -880,8 +869,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
         LightPlace::Direction(dir) => Some(Incoming {
             dir,
             radiance: light.radiance,
-            target: None,
-            strand: None,
+            end: ShadowEnd::SKY,
             pdf: light.pdf,
             bsdf_can_find,
             group,
@@ -908,10 +896,12 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
             Some(Incoming {
                 dir,
                 radiance: light.radiance,
-                target: Some(offset_target(point, light_side)),
-                strand: match source {
-                    LightSource::Strand(segment) => Some(segment),
-                    LightSource::Triangle(_) => None,
+                end: ShadowEnd {
+                    target: Some(offset_target(point, light_side)),
+                    strand: match source {
+                        LightSource::Strand(segment) => Some(segment),
+                        LightSource::Triangle(_) => None,
+                    },
                 },
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find,
@@ -933,6 +923,14 @@ pub(crate) struct ShadowEnd {
     /// shadow ray makes, since the ray ends on its surface where no quick distance test
     /// decides.
     pub strand: Option<u32>,
+}
+
+impl ShadowEnd {
+    /// Infinitely far: the sky.
+    const SKY: Self = Self {
+        target: None,
+        strand: None,
+    };
 }
 
 /// Follows a shadow ray from `from` at `time` along `dir` through the openings of `chain` in

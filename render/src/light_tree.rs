@@ -5,10 +5,10 @@
 //! child can send to the point. Four children per node (the halves of the halves of a median
 //! split) are scored in one pass of vector instructions, and each choice sees finer clusters
 //! than a binary tree's would. A child of at most four emitters is a bucket, within which
-//! power alone chooses. The importance follows Conty Estevez & Kulla, "Importance Sampling of Many Lights with Adaptive
-//! Tree Splitting" (2018): power over the squared distance, times the cosine of the smallest
-//! angle between the cone's normals and the direction to the point, and a cosine at the
-//! receiver. Two changes make it find the few strands beside a point out of a whole ring: the
+//! power alone chooses. The importance follows Conty Estevez & Kulla, "Importance Sampling of
+//! Many Lights with Adaptive Tree Splitting" (2018): power over the squared distance, times
+//! the cosine of the smallest angle between the cone's normals and the direction to the
+//! point, and a cosine at the receiver. Two changes make it find the few strands beside a point out of a whole ring: the
 //! distance is taken from the emitters' power-weighted mean (the middle of an arc's box lies
 //! off the arc) and is clamped at a quarter of the node's radius, not the whole radius, so a
 //! point inside a big node still prefers the child whose emitters are nearer.
@@ -250,10 +250,10 @@ const BUCKET: usize = 4;
 /// scenes of few emitters, such as a single area light).
 const BUCKET_SIZE_SHIFT: u32 = 29;
 
-/// The members of a bucket lane.
+/// The members of a bucket lane: one emitter, or several with their powers.
 enum Members<'a> {
     One(usize),
-    Some(&'a [(u32, f32)]),
+    Many(&'a [(u32, f32)]),
 }
 
 /// Up to four children's bounds side by side, one lane each (per axis, a [`Vec4`] across the
@@ -271,8 +271,8 @@ struct Node {
     power: Vec4,
     axis: [Vec4; 3],
     cos_spread: Vec4,
-    /// Per lane: a node's index, or a bucket's (see [`bucket_of`]) with [`LEAF`] set. Unused
-    /// lanes have no power.
+    /// Per lane: a node's index, or a bucket (see [`BUCKET_SIZE_SHIFT`]) with [`LEAF`] set.
+    /// Unused lanes have no power.
     child: [u32; WIDTH],
 }
 
@@ -467,7 +467,7 @@ impl LightTree {
                 } else {
                     match self.members(child) {
                         Some(Members::One(e)) => fetch(e),
-                        Some(Members::Some(run)) => crate::prefetch::prefetch(run),
+                        Some(Members::Many(run)) => crate::prefetch::prefetch(run),
                         None => {}
                     }
                 }
@@ -479,7 +479,7 @@ impl LightTree {
             if child & LEAF != 0 {
                 return match self.members(child)? {
                     Members::One(emitter) => Some((emitter, pmf, u)),
-                    Members::Some(run) => {
+                    Members::Many(run) => {
                         let (place, share, rest) = choose(bucket_powers(run), u)?;
                         let emitter = run[place].0 as usize;
                         fetch(emitter);
@@ -520,7 +520,7 @@ impl LightTree {
         let lane = node.child[(path >> (2 * (depth - 1)) & 3) as usize];
         match self.members(lane) {
             Some(Members::One(_)) => pmf,
-            Some(Members::Some(run)) => {
+            Some(Members::Many(run)) => {
                 pmf * share(bucket_powers(run), (path >> (2 * depth) & 3) as usize)
             }
             None => 0.0,
@@ -535,7 +535,7 @@ impl LightTree {
             0 => Some(Members::One(first)),
             less_one => {
                 let run = self.buckets.get(first..=first + less_one as usize)?;
-                Some(Members::Some(run))
+                Some(Members::Many(run))
             }
         }
     }
