@@ -98,7 +98,7 @@ pub struct Space {
     /// Probability that the strategy draws a point on the chain's first opening, for the sky
     /// beyond ([`crate::aperture`]), rather than a light sample there: the sky's share of the
     /// light at the last exit, less where the openings fill much of the point's view (there
-    /// the sky's own sampling finds them as often), and never above [`MAX_APERTURE_SHARE`], so
+    /// the sky's own sampling finds them as often), and never above `MAX_APERTURE_SHARE`, so
     /// a sun behind a window is still sampled as a light.
     pub aperture: f32,
 }

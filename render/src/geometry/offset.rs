@@ -41,7 +41,7 @@ pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
 }
 
 /// Moves the point `p` a light sampler chose on an emitter (geometric normal `n`, unit) off
-/// it towards `n`, as the end of a shadow ray: [`TARGET_ULPS`], far less than
+/// it towards `n`, as the end of a shadow ray: `TARGET_ULPS`, far less than
 /// [`offset_origin`].
 #[inline]
 pub fn offset_target(p: Vec3, n: Vec3) -> Vec3 {

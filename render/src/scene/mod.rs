@@ -182,7 +182,7 @@ pub struct Scene {
     /// The object of each triangle (an index into [`Self::id_names`]), shared with
     /// [`Self::visibility`].
     pub triangle_object: Arc<[u32]>,
-    /// The objects', then the rings' names ("<opening>/ring"), which object IDs index
+    /// The objects', then the rings' names (`"<opening>/ring"`), which object IDs index
     /// (Cryptomatte).
     pub id_names: Vec<String>,
     /// How many of [`Self::id_names`] are objects (the rings follow).
