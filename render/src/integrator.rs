@@ -919,9 +919,9 @@ pub(crate) struct ShadowEnd {
     /// The strand segment the point lies on, which the ray is not tested against. Light
     /// sampling spreads points over the side of a cylinder facing the ray, which the segment
     /// cannot block; testing it would only find where its taper puts the round surface a hair
-    /// outside that cylinder (darkening 0.01% of the light), and it is the costliest test a
-    /// shadow ray makes, since the ray ends on its surface where no quick distance test
-    /// decides.
+    /// outside that cylinder (which darkened the showcase by 0.01%), and it is the costliest
+    /// test a shadow ray makes, since the ray ends on its surface where no quick distance
+    /// test decides.
     pub strand: Option<u32>,
 }
 

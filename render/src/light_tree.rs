@@ -595,23 +595,22 @@ fn choose(weights: [f32; WIDTH], u: f32) -> Option<(usize, f32, f32)> {
 /// three axes at the middle, start and end of the time range; returns where the second half
 /// starts. Emitters that meet halfway but move apart (a ring's counter-rotating strands) part
 /// by where they are at the ends, so each cluster stays small at every time. Still emitters,
-/// and ties, split at the middle of the range as before.
+/// and ties, split by the middle of the range.
 fn split(emitters: &[LightBounds], order: &mut [u32]) -> usize {
     const TIMES: [f32; 3] = [0.5, 0.0, 1.0];
     let key = |i: u32, c: usize| emitters[i as usize].centre.at(TIMES[c / 3])[c % 3];
-    let extent = |c: usize| {
-        let (lo, hi) = order
-            .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &i| {
-                (lo.min(key(i, c)), hi.max(key(i, c)))
-            });
-        hi - lo
-    };
-    let extents: [f32; 9] = std::array::from_fn(extent);
-    let widest = (1..9).fold(
-        0,
-        |best, c| if extents[c] > extents[best] { c } else { best },
-    );
+    let extents = TIMES.map(|tau| {
+        let (lo, hi) = order.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &i| {
+                let c = emitters[i as usize].centre.at(tau);
+                (lo.min(c), hi.max(c))
+            },
+        );
+        (hi - lo).to_array()
+    });
+    let extent = |c: usize| extents[c / 3][c % 3];
+    let widest = (1..9).fold(0, |best, c| if extent(c) > extent(best) { c } else { best });
     let mid = order.len() / 2;
     order.select_nth_unstable_by(mid, |&a, &b| key(a, widest).total_cmp(&key(b, widest)));
     mid

@@ -650,6 +650,65 @@ mod tests {
     }
 
     #[test]
+    fn a_shadow_ray_skips_only_the_segment_it_names() {
+        // Two rings, so the second's segments have scene-wide indices past the first's.
+        let times = [-0.1, 0.1];
+        let mut strands = Strands::default();
+        let place = Similarity::new(DQuat::IDENTITY, DVec3::new(0.3, -0.2, 0.5), 1.0);
+        let fixed = RingFrame::Fixed {
+            to_world: place,
+            to_local: place.inverse(),
+        };
+        strands.add_ring(&spinning_ring(3, 32, 2.0), fixed, 0.0, times, 1.0);
+        strands.add_ring(&spinning_ring(6, 64, 2.0), sliding_frame(), 0.0, times, 1.0);
+        let count = strands.segments.len() as u32;
+        let second = strands.rings[1].first;
+        let (mut checked, mut freed) = (0, 0);
+        for k in 0..3000 {
+            let f = k as f32;
+            let time = times[0] + (times[1] - times[0]) * ((f * 0.618).fract() as f64);
+            let frame = strands.rings[1].frame.to_world(time);
+            let angle = f * 2.39;
+            let target = Vec3::new(angle.cos(), angle.sin(), 0.0) * (1.0 + 0.12 * (f * 0.77).sin());
+            let target = frame.transform_point(target.as_dvec3()).as_vec3();
+            let origin =
+                target + Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.31).sin() + 0.2) * 3.0;
+            let dir = (target - origin).normalize();
+            let Some((t, hit)) = brute_force(&strands, origin, dir, time) else {
+                continue;
+            };
+            // Other segments' distances along the ray; rays where one lies within rounding of
+            // the end are left out (neighbours share the sphere at their joint).
+            let others: Vec<f32> = (0..count)
+                .filter(|&i| i != hit)
+                .filter_map(|i| {
+                    let cone = strands.world_segment(i, time);
+                    cone.intersect(origin, dir, 0.0, f32::INFINITY).map(|h| h.t)
+                })
+                .collect();
+            let end = t * 1.0001;
+            if others.iter().any(|&o| (o - end).abs() < 1e-3 * end) {
+                continue;
+            }
+            let ray = Ray::new(origin, dir, end, time);
+            let blocked_by_others = others.iter().any(|&o| o < end);
+            assert_eq!(
+                strands.occluded(&ray, Some(hit), |_| true),
+                blocked_by_others,
+                "ray {k} skipping segment {hit}"
+            );
+            let elsewhere = if hit >= second { 0 } else { count - 1 };
+            assert!(strands.occluded(&ray, Some(elsewhere), |_| true), "ray {k}");
+            checked += 1;
+            freed += !blocked_by_others as usize;
+        }
+        assert!(
+            checked > 300 && freed > 100,
+            "{checked} rays checked, {freed} freed"
+        );
+    }
+
+    #[test]
     fn bounds_hold_every_segment_at_every_time() {
         let times = [-0.05, 0.2];
         let mut strands = Strands::default();
