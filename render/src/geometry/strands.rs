@@ -605,6 +605,20 @@ mod tests {
             .min_by(|a, b| a.0.total_cmp(&b.0))
     }
 
+    /// Ray `k` of a sequence aimed at points near `ring` (of unit radius in its frame), so
+    /// many graze strands: (origin, unit direction, time in `times`).
+    fn aimed_ray(ring: &Ring, times: [f64; 2], k: usize) -> (Vec3, Vec3, f64) {
+        let f = k as f32;
+        let time = times[0] + (times[1] - times[0]) * ((f * 0.618).fract() as f64);
+        let frame = ring.frame.to_world(time);
+        let angle = f * 2.39;
+        let target = Vec3::new(angle.cos(), angle.sin(), 0.0) * (1.0 + 0.12 * (f * 0.77).sin());
+        let target = frame.transform_point(target.as_dvec3()).as_vec3();
+        let origin =
+            target + Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.31).sin() + 0.2) * 3.0;
+        (origin, (target - origin).normalize(), time)
+    }
+
     #[test]
     fn the_bvh_finds_what_testing_every_segment_at_the_ray_time_finds() {
         let times = [-0.1, 0.1];
@@ -613,16 +627,7 @@ mod tests {
         assert!(strands.rings[0].moving);
         let mut hits = 0;
         for k in 0..3000 {
-            let f = k as f32;
-            let time = times[0] + (times[1] - times[0]) * ((f * 0.618).fract() as f64);
-            let frame = strands.rings[0].frame.to_world(time);
-            // Aim at a point near the ring so many rays graze strands.
-            let angle = f * 2.39;
-            let target = Vec3::new(angle.cos(), angle.sin(), 0.0) * (1.0 + 0.12 * (f * 0.77).sin());
-            let target = frame.transform_point(target.as_dvec3()).as_vec3();
-            let origin =
-                target + Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.31).sin() + 0.2) * 3.0;
-            let dir = (target - origin).normalize();
+            let (origin, dir, time) = aimed_ray(&strands.rings[0], times, k);
             let got = strands.intersect(&Ray::new(origin, dir, f32::INFINITY, time), |_| true);
             let want = brute_force(&strands, origin, dir, time);
             // Neighbours share the sphere at their joint, so a tie may go either way.
@@ -665,15 +670,7 @@ mod tests {
         let second = strands.rings[1].first;
         let (mut checked, mut freed) = (0, 0);
         for k in 0..3000 {
-            let f = k as f32;
-            let time = times[0] + (times[1] - times[0]) * ((f * 0.618).fract() as f64);
-            let frame = strands.rings[1].frame.to_world(time);
-            let angle = f * 2.39;
-            let target = Vec3::new(angle.cos(), angle.sin(), 0.0) * (1.0 + 0.12 * (f * 0.77).sin());
-            let target = frame.transform_point(target.as_dvec3()).as_vec3();
-            let origin =
-                target + Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.31).sin() + 0.2) * 3.0;
-            let dir = (target - origin).normalize();
+            let (origin, dir, time) = aimed_ray(&strands.rings[1], times, k);
             let Some((t, hit)) = brute_force(&strands, origin, dir, time) else {
                 continue;
             };
