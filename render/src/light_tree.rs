@@ -183,9 +183,14 @@ impl Cluster {
 /// homogeneous in them), so the square roots all start from the inputs side by side and one
 /// division by d² ends the chain: this runs once a tree level, in series.
 #[inline(always)]
-fn cone_bound(along: Vec4, across: Vec4, dist: Vec4, cos_spread: Vec4, radius: Vec4) -> Vec4 {
+fn cone_bound(
+    along: Vec4,
+    across: Vec4,
+    dist: Vec4,
+    [cos_spread, sin_spread]: [Vec4; 2],
+    radius: Vec4,
+) -> Vec4 {
     let dist2 = dist * dist;
-    let sin_spread = (Vec4::ONE - cos_spread * cos_spread).max(Vec4::ZERO).sqrt();
     let within = along.cmpge(cos_spread * dist);
     // d·cos a and d·sin a, a = max(0, θ − σ).
     let cos_a = Vec4::select(within, dist, along * cos_spread + across * sin_spread);
@@ -271,6 +276,8 @@ struct Node {
     power: Vec4,
     axis: [Vec4; 3],
     cos_spread: Vec4,
+    /// The sine of the same half-angle, so the descent takes no square root for it.
+    sin_spread: Vec4,
     /// Per lane: a node's index, or a bucket (see [`BUCKET_SIZE_SHIFT`]) with [`LEAF`] set.
     /// Unused lanes have no power.
     child: [u32; WIDTH],
@@ -290,6 +297,7 @@ impl Node {
         self.radius[k] = c.radius;
         self.power[k] = c.power;
         self.cos_spread[k] = c.cos_spread;
+        self.sin_spread[k] = (1.0 - c.cos_spread * c.cos_spread).max(0.0).sqrt();
         self.child[k] = child;
     }
 
@@ -322,7 +330,8 @@ impl Node {
         let angular = if has_cone.any() {
             let along = -dot(&self.axis, &to_centre);
             let across = (dist2 - along * along).max(Vec4::ZERO).sqrt();
-            let cone = cone_bound(along, across, dist, self.cos_spread, self.radius);
+            let spread = [self.cos_spread, self.sin_spread];
+            let cone = cone_bound(along, across, dist, spread, self.radius);
             Vec4::select(has_cone, cone.max(Vec4::ZERO), Vec4::ONE)
         } else {
             Vec4::ONE
@@ -440,12 +449,13 @@ impl LightTree {
     /// time range (0 at its start, 1 at its end) from `u` in [0, 1); returns it, its
     /// probability and `u` rescaled for reuse. `None` when nothing can reach the point.
     pub fn sample(&self, u: f32, p: Vec3, n: Option<Vec3>, tau: f32) -> Option<(usize, f32, f32)> {
-        self.sample_fetching(u, p, n, tau, |_| {})
+        self.descend(u, p, n, tau, None::<fn(usize)>)
     }
 
     /// [`Self::sample`], calling `fetch` with each emitter a node may pick before its
     /// importances are computed, so what the caller reads of the chosen one can be on its way
     /// into the cache meanwhile; the child nodes a level may pick are fetched the same way.
+    /// Worth it only for trees too big for the cache (see [`Self::bytes`]).
     #[inline(always)]
     pub fn sample_fetching(
         &self,
@@ -455,22 +465,25 @@ impl LightTree {
         tau: f32,
         fetch: impl Fn(usize),
     ) -> Option<(usize, f32, f32)> {
+        self.descend(u, p, n, tau, Some(fetch))
+    }
+
+    /// The descent of [`Self::sample`], fetching ahead when `fetch` is given.
+    #[inline(always)]
+    fn descend(
+        &self,
+        u: f32,
+        p: Vec3,
+        n: Option<Vec3>,
+        tau: f32,
+        fetch: Option<impl Fn(usize)>,
+    ) -> Option<(usize, f32, f32)> {
         let mut node = self.nodes.first()?;
         let mut pmf = 1.0f32;
         let mut u = u;
         loop {
-            for &child in &node.child {
-                if child & LEAF == 0 {
-                    if let Some(next) = self.nodes.get(child as usize..=child as usize) {
-                        crate::prefetch::prefetch(next);
-                    }
-                } else {
-                    match self.members(child) {
-                        Some(Members::One(e)) => fetch(e),
-                        Some(Members::Many(run)) => crate::prefetch::prefetch(run),
-                        None => {}
-                    }
-                }
+            if let Some(fetch) = &fetch {
+                self.fetch_lanes(node, fetch);
             }
             let (k, share, rest) = choose(node.importance(p, n, tau), u)?;
             u = rest;
@@ -482,13 +495,40 @@ impl LightTree {
                     Members::Many(run) => {
                         let (place, share, rest) = choose(bucket_powers(run), u)?;
                         let emitter = run[place].0 as usize;
-                        fetch(emitter);
+                        if let Some(fetch) = &fetch {
+                            fetch(emitter);
+                        }
                         Some((emitter, pmf * share, rest))
                     }
                 };
             }
             node = &self.nodes[child as usize];
         }
+    }
+
+    /// Asks the cache for every child node of `node` and, through `fetch`, every emitter it
+    /// names directly (with the members of its buckets).
+    #[inline(always)]
+    fn fetch_lanes(&self, node: &Node, fetch: &impl Fn(usize)) {
+        for &child in &node.child {
+            if child & LEAF == 0 {
+                if let Some(next) = self.nodes.get(child as usize..=child as usize) {
+                    crate::prefetch::prefetch(next);
+                }
+            } else {
+                match self.members(child) {
+                    Some(Members::One(e)) => fetch(e),
+                    Some(Members::Many(run)) => crate::prefetch::prefetch(run),
+                    None => {}
+                }
+            }
+        }
+    }
+
+    /// The bytes a descent reads from, at random: every node and bucket.
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.buckets.as_slice())
     }
 
     /// What all emitters together can send to `p` (normal `n`) at `tau`, in the units of the
