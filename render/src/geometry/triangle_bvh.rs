@@ -2,7 +2,7 @@
 //! triangles (a static scene part in world space, or one moving object in its own space), with
 //! closest-hit and occlusion queries using the watertight triangle test.
 
-use super::triangle::{ShearedRay, Triangle, intersect_watertight};
+use super::triangle::{PackedTriangles, ShearedRay, Triangle};
 use super::wide_bvh::{BoxRay, LeafTest, node_bytes, traverse_with, worth_fetching_ahead};
 use glam::Vec3;
 use obvhs::BvhBuildParams;
@@ -42,7 +42,7 @@ pub struct TriangleHit {
 pub struct TriangleBvh {
     bvh: Option<CwBvh>,
     /// Triangles in the BVH's primitive order.
-    leaf_triangles: Vec<Triangle>,
+    leaf_triangles: PackedTriangles,
     /// Scene-wide index of each leaf triangle.
     leaf_ids: Vec<u32>,
 }
@@ -54,15 +54,14 @@ impl TriangleBvh {
         if triangles.is_empty() {
             return Self {
                 bvh: None,
-                leaf_triangles: Vec::new(),
+                leaf_triangles: PackedTriangles::new(std::iter::empty()),
                 leaf_ids: Vec::new(),
             };
         }
         let mut bvh = build_cwbvh(triangles);
         bvh.nodes = crate::huge_pages::adopt(bvh.nodes);
-        let leaf_triangles = crate::huge_pages::collect(
-            bvh.primitive_indices.iter().map(|&i| triangles[i as usize]),
-        );
+        let leaf_triangles =
+            PackedTriangles::new(bvh.primitive_indices.iter().map(|&i| triangles[i as usize]));
         let leaf_ids = bvh
             .primitive_indices
             .iter()
@@ -96,7 +95,7 @@ impl TriangleBvh {
             bvh,
             &BoxRay::new(origin, dir),
             &mut t,
-            self.leaf_triangles.as_slice(),
+            &self.leaf_triangles,
             worth_fetching_ahead(node_bytes(bvh)),
             &mut test,
         );
@@ -130,7 +129,7 @@ impl TriangleBvh {
             bvh,
             &BoxRay::new(origin, dir),
             &mut range,
-            self.leaf_triangles.as_slice(),
+            &self.leaf_triangles,
             worth_fetching_ahead(node_bytes(bvh)),
             &mut test,
         )
@@ -149,8 +148,10 @@ struct NearestTriangle<'a, A> {
 impl<A: Fn(u32, f32) -> bool> LeafTest for NearestTriangle<'_, A> {
     #[inline(always)]
     fn test(&mut self, slot: usize, range: &mut f32) -> bool {
-        let triangle = &self.bvh.leaf_triangles[slot];
-        if let Some((t, b1, b2)) = intersect_watertight(&self.sheared, triangle, *range)
+        if let Some((t, b1, b2)) = self
+            .bvh
+            .leaf_triangles
+            .intersect(slot, &self.sheared, *range)
             && (self.accept)(self.bvh.leaf_ids[slot], t)
         {
             *range = t;
@@ -171,7 +172,8 @@ struct AnyTriangle<'a, A> {
 impl<A: Fn(u32, f32) -> bool> LeafTest for AnyTriangle<'_, A> {
     #[inline(always)]
     fn test(&mut self, slot: usize, _: &mut f32) -> bool {
-        intersect_watertight(&self.sheared, &self.bvh.leaf_triangles[slot], self.t_max)
+        (self.bvh.leaf_triangles)
+            .intersect(slot, &self.sheared, self.t_max)
             .is_some_and(|(t, ..)| (self.accept)(self.bvh.leaf_ids[slot], t))
     }
 }
@@ -179,6 +181,7 @@ impl<A: Fn(u32, f32) -> bool> LeafTest for AnyTriangle<'_, A> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::triangle::intersect_watertight;
 
     const ALL: fn(u32, f32) -> bool = |_, _| true;
 
