@@ -54,21 +54,23 @@ impl ShearedRay {
         } else {
             2
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if direction[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        // The other two axes in cyclic order, swapped when the ray runs down kz (the sheared
+        // frame keeps its handedness). Arrays indexed by axis, not vector components, so
+        // choosing costs loads and no branches.
+        const CYCLIC: [[usize; 2]; 3] = [[1, 2], [2, 0], [0, 1]];
+        let (d, o) = (direction.to_array(), origin.to_array());
+        let [kx, ky] = CYCLIC[kz];
+        let [kx, ky] = if d[kz] < 0.0 { [ky, kx] } else { [kx, ky] };
         // One division: every triangle sees the same shear, which is all watertightness needs.
-        let sz = 1.0 / direction[kz];
+        let sz = 1.0 / d[kz];
         Self {
             origin,
             kx,
             ky,
             kz,
-            origin_k: [origin[kx], origin[ky], origin[kz]],
-            sx: direction[kx] * sz,
-            sy: direction[ky] * sz,
+            origin_k: [o[kx], o[ky], o[kz]],
+            sx: d[kx] * sz,
+            sy: d[ky] * sz,
             sz,
         }
     }

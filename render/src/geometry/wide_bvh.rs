@@ -65,21 +65,12 @@ impl BoxRay {
     #[inline]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let down = [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0];
-        let inverse = |d: f32, down: bool| {
-            let magnitude = d.abs().max(MIN_COMPONENT);
-            if down {
-                -1.0 / magnitude
-            } else {
-                1.0 / magnitude
-            }
-        };
+        // Signs by selection rather than per-axis branches: a ray's axis signs are coin flips
+        // to the branch predictor.
+        let inverse = Vec3::ONE / dir.abs().max(Vec3::splat(MIN_COMPONENT));
         Self {
             origin,
-            inv_dir: Vec3::new(
-                inverse(dir.x, down[0]),
-                inverse(dir.y, down[1]),
-                inverse(dir.z, down[2]),
-            ),
+            inv_dir: Vec3::select(dir.cmplt(Vec3::ZERO), -inverse, inverse),
             down,
             octant_order: (!down[0] as u32) << 2 | (!down[1] as u32) << 1 | !down[2] as u32,
         }
