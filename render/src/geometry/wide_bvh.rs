@@ -450,14 +450,16 @@ fn slab_hits_avx2(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
     let mut near = _mm256_setzero_ps();
     let mut far = _mm256_set1_ps(t_max);
     for (a, (lo, hi)) in axes.into_iter().enumerate() {
-        let (entry, exit) = if ray.down[a] { (hi, lo) } else { (lo, hi) };
         let grid = f32::from_bits((node.e[a] as u32) << 23);
         let scale = _mm256_set1_ps(grid * ray.inv_dir[a]);
         let offset = _mm256_set1_ps(corner[a] * ray.inv_dir[a]);
-        let t_in = _mm256_add_ps(_mm256_mul_ps(planes(entry), scale), offset);
-        let t_out = _mm256_add_ps(_mm256_mul_ps(planes(exit), scale), offset);
-        near = _mm256_max_ps(near, t_in);
-        far = _mm256_min_ps(far, t_out);
+        let t_lo = _mm256_add_ps(_mm256_mul_ps(planes(lo), scale), offset);
+        let t_hi = _mm256_add_ps(_mm256_mul_ps(planes(hi), scale), offset);
+        // The entry plane is the nearer of the two whichever way the ray runs (the distance
+        // is monotonic in the plane): a minimum, not a branch on the ray's direction that
+        // each new ray's signs mispredict.
+        near = _mm256_max_ps(near, _mm256_min_ps(t_lo, t_hi));
+        far = _mm256_min_ps(far, _mm256_max_ps(t_lo, t_hi));
     }
     _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
 }
