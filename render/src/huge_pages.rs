@@ -63,7 +63,8 @@ mod tests {
     fn small_vectors_stay_put_and_large_ones_keep_their_items() {
         let small: Vec<u32> = (0..1000).collect();
         let at = small.as_ptr();
-        assert_eq!(adopt(small).as_ptr(), at, "a small vector is not copied");
+        let kept = adopt(small);
+        assert_eq!(kept.as_ptr(), at, "a small vector is not copied");
         let large: Vec<u64> = (0..(HUGE_PAGE as u64)).collect();
         let moved = adopt(large);
         assert_eq!(moved.len(), HUGE_PAGE);
