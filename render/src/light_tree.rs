@@ -587,11 +587,18 @@ fn bucket_powers(run: &[(u32, f32)]) -> [f32; WIDTH] {
     std::array::from_fn(|k| run.get(k).map_or(0.0, |&(_, power)| power))
 }
 
+/// A positive, finite total of weights (NaN fails both comparisons): two comparisons, where
+/// `is_finite` compiled to a classification of the bits a descent paid for at every level.
+#[inline(always)]
+fn usable_total(total: f32) -> bool {
+    total > 0.0 && total < f32::INFINITY
+}
+
 /// Lane `k`'s share of `weights` in all, as a descent computes it; 0 when none has weight.
 #[inline(always)]
 fn share(weights: [f32; WIDTH], k: usize) -> f32 {
     let total = running_totals(weights)[WIDTH - 1];
-    if total.is_finite() && total > 0.0 {
+    if usable_total(total) {
         weights[k] / total
     } else {
         0.0
@@ -615,7 +622,7 @@ fn running_totals(weights: [f32; WIDTH]) -> [f32; WIDTH] {
 fn choose(weights: [f32; WIDTH], u: f32) -> Option<(usize, f32, f32)> {
     let ends = running_totals(weights);
     let total = ends[WIDTH - 1];
-    if !total.is_finite() || total <= 0.0 {
+    if !usable_total(total) {
         return None;
     }
     let target = u * total;
