@@ -587,8 +587,8 @@ fn bucket_powers(run: &[(u32, f32)]) -> [f32; WIDTH] {
     std::array::from_fn(|k| run.get(k).map_or(0.0, |&(_, power)| power))
 }
 
-/// A positive, finite total of weights (NaN fails both comparisons): two comparisons, where
-/// `is_finite` compiled to a classification of the bits a descent paid for at every level.
+/// A positive, finite total of weights (NaN fails both comparisons). Two comparisons:
+/// `is_finite` compiled to a classification of the bits, paid at every level of a descent.
 #[inline(always)]
 fn usable_total(total: f32) -> bool {
     total > 0.0 && total < f32::INFINITY
