@@ -189,15 +189,37 @@ fn traverse<L: LeafData + ?Sized>(
     leaf: &mut impl LeafTest,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the processor has AVX2, checked just above.
+    if has_avx2_set() {
+        // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
         return unsafe { traverse_avx2(bvh, ray, range, leaves, fetch_ahead, leaf) };
     }
     traverse_groups::<false, STACK, L>(bvh, ray, range, leaves, fetch_ahead, leaf)
 }
 
+/// Whether the processor has AVX2 and the bit instructions that came with it (POPCNT, LZCNT,
+/// BMI1), which the traversal's bookkeeping uses in place of multiply-and-shift emulations.
+/// Every processor with AVX2 has them; checked all the same, once.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[inline(always)]
+fn has_avx2_set() -> bool {
+    use std::sync::atomic::{AtomicU8, Ordering};
+    // 0: not checked yet, 1: no, 2: yes.
+    static FOUND: AtomicU8 = AtomicU8::new(0);
+    match FOUND.load(Ordering::Relaxed) {
+        0 => {
+            let found = std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("popcnt")
+                && std::arch::is_x86_feature_detected!("lzcnt")
+                && std::arch::is_x86_feature_detected!("bmi1");
+            FOUND.store(1 + found as u8, Ordering::Relaxed);
+            found
+        }
+        state => state == 2,
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
 fn traverse_avx2<L: LeafData + ?Sized>(
     bvh: &CwBvh,
     ray: &BoxRay,
