@@ -8,10 +8,11 @@
 //! power alone chooses. The importance follows Conty Estevez & Kulla, "Importance Sampling of
 //! Many Lights with Adaptive Tree Splitting" (2018): power over the squared distance, times
 //! the cosine of the smallest angle between the cone's normals and the direction to the
-//! point, and a cosine at the receiver. Two changes make it find the few strands beside a point out of a whole ring: the
-//! distance is taken from the emitters' power-weighted mean (the middle of an arc's box lies
-//! off the arc) and is clamped at a quarter of the node's radius, not the whole radius, so a
-//! point inside a big node still prefers the child whose emitters are nearer.
+//! point, and a cosine at the receiver. Two changes make it find the few strands beside a
+//! point out of a whole ring: the distance is taken from the emitters' power-weighted mean
+//! (the middle of an arc's box lies off the arc) and is clamped at a quarter of the node's
+//! radius, not the whole radius, so a point inside a big node still prefers the child whose
+//! emitters are nearer.
 //!
 //! Emitters that move (strands spinning over the shutter) are bounded twice: a box over every
 //! time a ray can have, for the exact test of what lies behind a surface, and a sphere whose

@@ -77,7 +77,9 @@ impl ShearedRay {
 }
 
 /// Distance along the ray to the triangle (in units of the direction's length), with the
-/// barycentrics (b1, b2) of the hit, if hit within (0, t_max).
+/// barycentrics (b1, b2) of the hit, if hit within (0, t_max). The plain form of the test, for
+/// one triangle; the BVHs run [`PackedTriangles::intersect`], which must agree with it to the
+/// bit (its test compares the two).
 #[inline(always)]
 pub fn intersect_watertight(
     ray: &ShearedRay,
