@@ -498,11 +498,8 @@ impl Scene {
                     self.strand_flags[ring].sees(RayClass::Shadow)
                 })
         };
-        if ends_on_strand.is_some() {
-            strands() || surfaces()
-        } else {
-            surfaces() || strands()
-        }
+        let aimed_at_strand = ends_on_strand.is_some();
+        (aimed_at_strand && strands()) || surfaces() || (!aimed_at_strand && strands())
     }
 
     /// The world-space point and normal of `hit` at time `time`.
