@@ -25,9 +25,6 @@
 //! same product can be recomputed for multiple importance sampling by replaying the path
 //! (stored as two bits per level).
 //!
-//! A scene whose emitters are the few pieces of one lamp (a quad light's two triangles) keeps
-//! them in one bucket at the root, which a descent takes without scoring.
-//!
 //! Importance is zero only where nothing in the node can reach the point (all of it behind the
 //! point's surface, or every normal facing away), so no emitter that contributes is ever
 //! skipped.
@@ -377,9 +374,6 @@ pub struct LightTree {
     /// Per emitter: its root path, two bits per level (the lane taken) and then two for its
     /// place in its bucket, and the number of nodes on the path.
     paths: Vec<(u64, u32)>,
-    /// The root holds one lane, a bucket of every emitter ([`one_lamp`]): a descent takes it
-    /// without scoring it, as its share would be 1 wherever it can send anything.
-    one_lamp: bool,
 }
 
 impl LightTree {
@@ -393,7 +387,6 @@ impl LightTree {
             nodes: huge_pages::with_capacity(emitters.len() / 8 + 1),
             buckets: huge_pages::with_capacity(emitters.len()),
             paths: vec![(0, 0); emitters.len()],
-            one_lamp: false,
         };
         if !emitters.is_empty() {
             let mut order: Vec<u32> = (0..emitters.len() as u32).collect();
@@ -412,10 +405,7 @@ impl LightTree {
         let slot = self.nodes.len();
         self.nodes.push(Node::default());
         let mut groups = Vec::with_capacity(WIDTH);
-        if depth == 0 && one_lamp(emitters, order) {
-            self.one_lamp = true;
-            groups.push(0..order.len());
-        } else if order.len() == 1 {
+        if order.len() == 1 {
             groups.push(0..1);
         } else {
             let mid = split(emitters, order);
@@ -490,9 +480,6 @@ impl LightTree {
         fetch: Option<impl Fn(usize)>,
     ) -> Option<(usize, f32, f32)> {
         let mut node = self.nodes.first()?;
-        if self.one_lamp {
-            return self.pick_in_bucket(node.child[0], 1.0, u, &fetch);
-        }
         let mut pmf = 1.0f32;
         let mut u = u;
         loop {
@@ -504,32 +491,19 @@ impl LightTree {
             pmf *= share;
             let child = node.child[k];
             if child & LEAF != 0 {
-                return self.pick_in_bucket(child, pmf, u, &fetch);
+                return match self.members(child)? {
+                    Members::One(emitter) => Some((emitter, pmf, u)),
+                    Members::Many(run) => {
+                        let (place, share, rest) = choose(bucket_powers(run), u)?;
+                        let emitter = run[place].0 as usize;
+                        if let Some(fetch) = &fetch {
+                            fetch(emitter);
+                        }
+                        Some((emitter, pmf * share, rest))
+                    }
+                };
             }
             node = &self.nodes[child as usize];
-        }
-    }
-
-    /// The end of a descent that reached the bucket lane `child` with probability `pmf` and
-    /// `u` rescaled: one of its members by power.
-    #[inline(always)]
-    fn pick_in_bucket(
-        &self,
-        child: u32,
-        pmf: f32,
-        u: f32,
-        fetch: &Option<impl Fn(usize)>,
-    ) -> Option<(usize, f32, f32)> {
-        match self.members(child)? {
-            Members::One(emitter) => Some((emitter, pmf, u)),
-            Members::Many(run) => {
-                let (place, share, rest) = choose(bucket_powers(run), u)?;
-                let emitter = run[place].0 as usize;
-                if let Some(fetch) = fetch {
-                    fetch(emitter);
-                }
-                Some((emitter, pmf * share, rest))
-            }
         }
     }
 
@@ -579,9 +553,7 @@ impl LightTree {
         let mut pmf = 1.0f32;
         for level in 0..depth {
             let k = (path >> (2 * level) & 3) as usize;
-            if !self.one_lamp {
-                pmf *= share(node.importance(p, n, tau), k);
-            }
+            pmf *= share(node.importance(p, n, tau), k);
             if level + 1 < depth {
                 node = &self.nodes[node.child[k] as usize];
             }
@@ -608,35 +580,6 @@ impl LightTree {
             }
         }
     }
-}
-
-/// True when the emitters of `order` are the pieces of one lamp: at most [`BUCKET`] of them,
-/// whose boxes touch one another (the two triangles of a quad light, say). The root then holds
-/// them as one bucket chosen by power, that is by area for an even lamp, as renderers sample
-/// an area light. Scoring them apart gained nothing measurable on the Cornell box's ceiling
-/// light (two triangles), where the scoring took a tenth of the render time.
-fn one_lamp(emitters: &[LightBounds], order: &[u32]) -> bool {
-    if order.len() > BUCKET {
-        return false;
-    }
-    let touch =
-        |a: &LightBounds, b: &LightBounds| a.min.cmple(b.max).all() && b.min.cmple(a.max).all();
-    // Grow the set reachable from the first emitter through touching boxes.
-    let mut reached = 1usize;
-    let mut grown = true;
-    while grown {
-        grown = false;
-        for (i, &e) in order.iter().enumerate() {
-            let joins = order.iter().enumerate().any(|(j, &f)| {
-                reached & 1 << j != 0 && touch(&emitters[e as usize], &emitters[f as usize])
-            });
-            if reached & 1 << i == 0 && joins {
-                reached |= 1 << i;
-                grown = true;
-            }
-        }
-    }
-    reached == (1 << order.len()) - 1
 }
 
 /// A bucket's powers as lanes (the missing ones empty).
@@ -841,79 +784,6 @@ mod tests {
         assert!((pmf.iter().sum::<f32>() - 1.0).abs() < 1e-5);
         // Behind the receiver's surface: never picked.
         assert_eq!(tree.pmf(0, p, Some(-Vec3::X), 0.0), 0.0);
-    }
-
-    #[test]
-    fn the_pieces_of_one_lamp_are_picked_by_power_and_separate_lamps_by_importance() {
-        // A quad light's two triangles (boxes sharing the diagonal), one bigger than the other.
-        let quad = [
-            LightBounds::still(
-                Vec3::new(-1.0, 2.0, -1.0),
-                Vec3::new(1.0, 2.0, 1.0),
-                3.0,
-                -Vec3::Y,
-                1.0,
-            ),
-            LightBounds::still(
-                Vec3::new(1.0, 2.0, -1.0),
-                Vec3::new(2.0, 2.0, 1.0),
-                1.0,
-                -Vec3::Y,
-                1.0,
-            ),
-        ];
-        let tree = LightTree::new(&quad);
-        assert!(tree.one_lamp);
-        for p in [
-            Vec3::ZERO,
-            Vec3::new(1.9, 1.9, 0.0),
-            Vec3::new(-5.0, 0.0, 3.0),
-        ] {
-            for n in [None, Some(Vec3::Y), Some(-Vec3::Y)] {
-                let pmf = [0, 1].map(|i| tree.pmf(i, p, n, 0.0));
-                assert_eq!(pmf, [0.75, 0.25], "at {p} with normal {n:?}");
-                let mut picked = [0usize; 2];
-                for k in 0..1000 {
-                    let (i, prob, rest) =
-                        tree.sample((k as f32 + 0.5) / 1000.0, p, n, 0.0).unwrap();
-                    assert_eq!(prob, pmf[i]);
-                    assert!((0.0..1.0).contains(&rest));
-                    picked[i] += 1;
-                }
-                assert_eq!(picked, [750, 250]);
-            }
-        }
-        // The same two apart are two lamps: the one beside the point is picked more.
-        let apart = [
-            quad[0],
-            LightBounds::still(
-                quad[1].min + 5.0 * Vec3::X,
-                quad[1].max + 5.0 * Vec3::X,
-                1.0,
-                -Vec3::Y,
-                1.0,
-            ),
-        ];
-        let tree = LightTree::new(&apart);
-        assert!(!tree.one_lamp);
-        let p = Vec3::new(6.5, 1.5, 0.0);
-        let beside = tree.pmf(1, p, Some(Vec3::Y), 0.0);
-        assert!(beside > 0.9, "{beside}");
-        // Five touching pieces are more than a bucket holds.
-        let strip: Vec<LightBounds> = (0..5)
-            .map(|i| {
-                LightBounds::still(
-                    Vec3::new(i as f32, 2.0, 0.0),
-                    Vec3::new(i as f32 + 1.0, 2.0, 1.0),
-                    1.0,
-                    -Vec3::Y,
-                    1.0,
-                )
-            })
-            .collect();
-        assert!(!LightTree::new(&strip).one_lamp);
-        assert!(LightTree::new(&strip[..4]).one_lamp);
-        assert!(!LightTree::new(&[strip[0], strip[2]]).one_lamp);
     }
 
     /// Second moment of (contribution / probability) over the squared mean: 1 for a pmf
