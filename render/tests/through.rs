@@ -7,8 +7,10 @@ use common::{box_obj, render_at};
 use glam::{DVec2, DVec3, Vec3};
 use rift_render::Scene;
 use rift_render::film::{Image, relative_mse};
+use rift_render::lights::Receiver;
 use rift_render::ray::Ray;
 use rift_render::rift_fx::Shot;
+use rift_render::through::Strategies;
 use std::path::Path;
 
 /// A dark room (a closed grey box around the origin, camera inside) whose only light comes
@@ -89,6 +91,34 @@ mesh = "lamp.obj"
 material = "lamp"
 transform = { position = [29.6, 1.5, 0.2] }
 "#;
+
+/// The lamp in a third room, reached from the far room's −Z wall: two openings in a row
+/// (the `extra` of [`two_rooms`], with no light in the far room).
+fn third_room_lamp() -> String {
+    format!(
+        r#"
+[[object]]
+name = "third_room"
+mesh = "room.obj"
+material = "soot"
+transform = {{ position = [60.0, 0.0, 0.0] }}
+{}
+[[portal]]
+name = "door"
+here = {{ position = [30.0, 1.4, -1.98] }}
+pair = "door_there"
+[portal.surface]
+rectangle = [1.4, 1.4]
+[[portal]]
+name = "door_there"
+here = {{ position = [60.0, 1.4, 1.98], rotation_degrees = [0.0, 180.0, 0.0] }}
+pair = "door"
+[portal.surface]
+rectangle = [1.4, 1.4]
+"#,
+        LAMP.replace("[29.6, 1.5, 0.2]", "[60.2, 1.5, 0.6]")
+    )
+}
 
 const RECTANGLE: &str = "rectangle = [1.6, 1.2]";
 /// Half of [`RECTANGLE`]'s sides.
@@ -343,32 +373,54 @@ pair = "ringed"
     let packed = two_rooms(dir.path(), RECTANGLE, RECTANGLE, "", packed);
     same_estimate(dir.path(), "packed strands", &packed, 256, true, beauty);
 
-    // The lamp in a third room, reached from the far room's −Z wall: two openings in a row.
-    let chain = format!(
-        r#"
-[[object]]
-name = "third_room"
-mesh = "room.obj"
-material = "soot"
-transform = {{ position = [60.0, 0.0, 0.0] }}
-{}
-[[portal]]
-name = "door"
-here = {{ position = [30.0, 1.4, -1.98] }}
-pair = "door_there"
-[portal.surface]
-rectangle = [1.4, 1.4]
-[[portal]]
-name = "door_there"
-here = {{ position = [60.0, 1.4, 1.98], rotation_degrees = [0.0, 180.0, 0.0] }}
-pair = "door"
-[portal.surface]
-rectangle = [1.4, 1.4]
-"#,
-        LAMP.replace("[29.6, 1.5, 0.2]", "[60.2, 1.5, 0.6]")
-    );
-    let two = two_rooms(dir.path(), RECTANGLE, RECTANGLE, "", &chain);
+    let two = two_rooms(dir.path(), RECTANGLE, RECTANGLE, "", &third_room_lamp());
     same_estimate(dir.path(), "two openings", &two, 256, true, beauty);
+}
+
+#[test]
+fn chains_of_two_openings_are_searched_only_where_they_may_matter() {
+    let dir = tempfile::tempdir().unwrap();
+    // The chains light sampling may take at a floor point of the dark room, as their lengths,
+    // when the dark room holds `own_light` and the third room the lamp.
+    let chains = |own_light: &str| -> Vec<u32> {
+        let text = two_rooms(
+            dir.path(),
+            RECTANGLE,
+            RECTANGLE,
+            own_light,
+            &third_room_lamp(),
+        );
+        let path = dir.path().join("rooms.toml");
+        std::fs::write(&path, &text).unwrap();
+        let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
+        let [start, end] = scene.portals.times();
+        let at = Receiver {
+            p: Vec3::new(0.5, 0.01, 0.0),
+            n: Some(Vec3::Y),
+            time: 0.5 * (start + end),
+        };
+        let mut strategies = None;
+        Strategies::update(&mut strategies, &scene, &at);
+        let spaces = strategies.iter().flat_map(|s| s.spaces());
+        spaces.map(|(space, _)| space.chain.teleports()).collect()
+    };
+    // Lit only from the third room: window then door is the chain that brings the light.
+    let dark = chains("");
+    assert!(
+        dark.contains(&2),
+        "lit from the third room: chains {dark:?}"
+    );
+    // A lamp of the room's own half a metre above the point outshines anything two openings
+    // away: the search stops at the window (which the lamp's light comes back through).
+    let own = r#"
+[[object]]
+name = "own_lamp"
+mesh = "lamp.obj"
+material = "lamp"
+transform = { position = [0.5, 0.6, 0.0] }
+"#;
+    let lit = chains(own);
+    assert!(!lit.contains(&2), "a lamp beside the point: chains {lit:?}");
 }
 
 #[test]
