@@ -643,10 +643,7 @@ mod tests {
         }
         let mut strands = Strands::default();
         let to_world = Similarity::new(DQuat::IDENTITY, DVec3::new(0.0, 0.0, -3.0), 1.0);
-        let frame = RingFrame::Fixed {
-            to_world,
-            to_local: to_world.inverse(),
-        };
+        let frame = RingFrame::fixed(to_world);
         strands.add_ring(&c, frame, 0.0, [0.0, 1.0], 1.0);
         strands
     }

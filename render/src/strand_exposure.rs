@@ -150,10 +150,7 @@ mod tests {
             }
         }
         let mut strands = Strands::default();
-        let frame = RingFrame::Fixed {
-            to_world: Similarity::IDENTITY,
-            to_local: Similarity::IDENTITY,
-        };
+        let frame = RingFrame::fixed(Similarity::IDENTITY);
         strands.add_ring(&c, frame, 0.0, [0.0, 1.0], 1.0);
         strands
     }

@@ -218,10 +218,7 @@ fn measure_strands(segments: usize, timing: &Timing) -> anyhow::Result<Point> {
     let shutter = [-1.0 / 96.0, 1.0 / 96.0];
     let t = Instant::now();
     let mut set = Strands::default();
-    let frame = RingFrame::Fixed {
-        to_world: Similarity::IDENTITY,
-        to_local: Similarity::IDENTITY,
-    };
+    let frame = RingFrame::fixed(Similarity::IDENTITY);
     set.add_ring(&ring, frame, 0.0, shutter, 1.0);
     let build = t.elapsed().as_secs_f64();
     let rays = 500_000;

@@ -76,10 +76,7 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
         "expected positive counts (and at least 3 segments per strand)"
     );
     let ring = spinning_ring(args.strands, args.segments);
-    let fixed = || RingFrame::Fixed {
-        to_world: Similarity::IDENTITY,
-        to_local: Similarity::IDENTITY,
-    };
+    let fixed = || RingFrame::fixed(Similarity::IDENTITY);
     // Shutter of half a frame at 24 fps around the frame.
     let shutter = [-1.0 / 96.0, 1.0 / 96.0];
     let threads = crate::with_threads(args.timing.threads, rayon::current_num_threads)?;

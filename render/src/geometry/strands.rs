@@ -15,7 +15,7 @@ use super::round_cone::RoundCone;
 use super::wide_bvh::{BoxRay, Indexed, any_hit, closest_hit, node_bytes, worth_fetching_ahead};
 use crate::huge_pages;
 use crate::ray::Ray;
-use glam::Vec3;
+use glam::{DAffine3, DVec3, Vec3};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
@@ -96,16 +96,36 @@ impl Segment {
 }
 
 /// Where a ring sits: its opening's here frame, fixed or evaluated at each ray's time.
+// One a ring: boxing the fixed frame would cost every ray test a pointer chase for nothing.
+#[allow(clippy::large_enum_variant)]
 pub enum RingFrame {
+    /// Made by [`RingFrame::fixed`].
     Fixed {
         to_world: Similarity,
         to_local: Similarity,
+        /// `to_local` as a matrix and offset: every ray a ring is tested against goes through
+        /// it, and the quaternion's rotation took a tenth of a shadow ray's strand test.
+        to_local_affine: DAffine3,
     },
     /// P_H(t).
     Moving(Box<dyn Fn(f64) -> Similarity + Send + Sync>),
 }
 
 impl RingFrame {
+    /// A frame that stays at `to_world`.
+    pub fn fixed(to_world: Similarity) -> Self {
+        let to_local = to_world.inverse();
+        RingFrame::Fixed {
+            to_world,
+            to_local,
+            to_local_affine: DAffine3::from_scale_rotation_translation(
+                DVec3::splat(to_local.scale),
+                to_local.rotation,
+                to_local.translation,
+            ),
+        }
+    }
+
     /// Local to world at `time`.
     #[inline]
     pub fn to_world(&self, time: f64) -> Similarity {
@@ -430,6 +450,20 @@ impl Ring {
     /// The ray in the ring's local frame at `time`; parameters stay in world units.
     #[inline]
     fn local_ray(&self, origin: Vec3, dir: Vec3, time: f64) -> (Vec3, Vec3, Similarity) {
+        if let RingFrame::Fixed {
+            to_local,
+            to_local_affine,
+            ..
+        } = &self.frame
+        {
+            return (
+                to_local_affine
+                    .transform_point3(origin.as_dvec3())
+                    .as_vec3(),
+                to_local_affine.transform_vector3(dir.as_dvec3()).as_vec3(),
+                *to_local,
+            );
+        }
         let to_local = self.frame.to_local(time);
         (
             to_local.transform_point(origin.as_dvec3()).as_vec3(),
@@ -660,10 +694,7 @@ mod tests {
         let times = [-0.1, 0.1];
         let mut strands = Strands::default();
         let place = Similarity::new(DQuat::IDENTITY, DVec3::new(0.3, -0.2, 0.5), 1.0);
-        let fixed = RingFrame::Fixed {
-            to_world: place,
-            to_local: place.inverse(),
-        };
+        let fixed = RingFrame::fixed(place);
         strands.add_ring(&spinning_ring(3, 32, 2.0), fixed, 0.0, times, 1.0);
         strands.add_ring(&spinning_ring(6, 64, 2.0), sliding_frame(), 0.0, times, 1.0);
         let count = strands.segments.len() as u32;
@@ -736,10 +767,7 @@ mod tests {
     fn still_strands_store_positions_only() {
         let mut curves = spinning_ring(2, 16, 0.0);
         let fixed = Similarity::new(DQuat::IDENTITY, DVec3::new(0.0, 0.0, 5.0), 1.0);
-        let frame = || RingFrame::Fixed {
-            to_world: fixed,
-            to_local: fixed.inverse(),
-        };
+        let frame = || RingFrame::fixed(fixed);
         let mut strands = Strands::default();
         strands.add_ring(&curves, frame(), 0.0, [-0.1, 0.1], 1.0);
         assert!(!strands.rings[0].moving);

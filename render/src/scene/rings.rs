@@ -202,10 +202,7 @@ pub(super) fn strands(
             geometry::RingFrame::Moving(Box::new(move |t| rig.here_at(opening, t)))
         } else {
             let to_world = shot.rig.here_at(opening, times[0]);
-            geometry::RingFrame::Fixed {
-                to_world,
-                to_local: to_world.inverse(),
-            }
+            geometry::RingFrame::fixed(to_world)
         };
         let look = looks[opening];
         strands.add_ring(
