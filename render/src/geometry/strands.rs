@@ -100,46 +100,69 @@ impl Segment {
 #[allow(clippy::large_enum_variant)]
 pub enum RingFrame {
     /// Made by [`RingFrame::fixed`].
-    Fixed {
-        to_world: Similarity,
-        to_local: Similarity,
-        /// `to_local` as a matrix and offset: every ray a ring is tested against goes through
-        /// it, and the quaternion's rotation took a tenth of a shadow ray's strand test.
-        to_local_affine: DAffine3,
-    },
+    Fixed { to_world: Mapped, to_local: Mapped },
     /// P_H(t).
     Moving(Box<dyn Fn(f64) -> Similarity + Send + Sync>),
+}
+
+/// A similarity with its matrix and offset, which map points and vectors without the
+/// quaternion's rotation: every ray a ring is tested against, and every point light sampling
+/// draws on a strand, goes through one, and the rotation took a tenth of a shadow ray's test.
+#[derive(Clone, Copy)]
+pub struct Mapped {
+    pub similarity: Similarity,
+    affine: DAffine3,
+}
+
+impl Mapped {
+    fn new(similarity: Similarity) -> Self {
+        let affine = DAffine3::from_scale_rotation_translation(
+            DVec3::splat(similarity.scale),
+            similarity.rotation,
+            similarity.translation,
+        );
+        Self { similarity, affine }
+    }
+
+    #[inline]
+    fn point(&self, p: Vec3) -> Vec3 {
+        self.affine.transform_point3(p.as_dvec3()).as_vec3()
+    }
+
+    #[inline]
+    fn vector(&self, v: Vec3) -> Vec3 {
+        self.affine.transform_vector3(v.as_dvec3()).as_vec3()
+    }
 }
 
 impl RingFrame {
     /// A frame that stays at `to_world`.
     pub fn fixed(to_world: Similarity) -> Self {
-        let to_local = to_world.inverse();
         RingFrame::Fixed {
-            to_world,
-            to_local,
-            to_local_affine: DAffine3::from_scale_rotation_translation(
-                DVec3::splat(to_local.scale),
-                to_local.rotation,
-                to_local.translation,
-            ),
+            to_world: Mapped::new(to_world),
+            to_local: Mapped::new(to_world.inverse()),
         }
     }
 
     /// Local to world at `time`.
     #[inline]
     pub fn to_world(&self, time: f64) -> Similarity {
+        self.mapped_to_world(time).similarity
+    }
+
+    #[inline]
+    fn mapped_to_world(&self, time: f64) -> Mapped {
         match self {
             RingFrame::Fixed { to_world, .. } => *to_world,
-            RingFrame::Moving(at) => at(time),
+            RingFrame::Moving(at) => Mapped::new(at(time)),
         }
     }
 
     #[inline]
-    fn to_local(&self, time: f64) -> Similarity {
+    fn mapped_to_local(&self, time: f64) -> Mapped {
         match self {
             RingFrame::Fixed { to_local, .. } => *to_local,
-            RingFrame::Moving(at) => at(time).inverse(),
+            RingFrame::Moving(at) => Mapped::new(at(time).inverse()),
         }
     }
 }
@@ -377,11 +400,11 @@ impl Strands {
     pub fn world_segment(&self, i: u32, time: f64) -> RoundCone {
         let ring = &self.rings[self.segment_ring[i as usize] as usize];
         let local = self.segments[i as usize].at(ring.delta(time), ring.moving);
-        let to_world = ring.frame.to_world(time);
-        let scale = to_world.scale as f32;
+        let to_world = ring.frame.mapped_to_world(time);
+        let scale = to_world.similarity.scale as f32;
         RoundCone {
-            a: to_world.transform_point(local.a.as_dvec3()).as_vec3(),
-            b: to_world.transform_point(local.b.as_dvec3()).as_vec3(),
+            a: to_world.point(local.a),
+            b: to_world.point(local.b),
             radius_a: local.radius_a * scale,
             radius_b: local.radius_b * scale,
         }
@@ -412,7 +435,7 @@ impl Strands {
             RingFrame::Fixed { to_world, .. } => {
                 let mut b = Aabb::empty();
                 for c in corners {
-                    b.extend(to_world.transform_point(c.as_dvec3()).as_vec3().into());
+                    b.extend(to_world.point(c).into());
                 }
                 b
             }
@@ -450,25 +473,11 @@ impl Ring {
     /// The ray in the ring's local frame at `time`; parameters stay in world units.
     #[inline]
     fn local_ray(&self, origin: Vec3, dir: Vec3, time: f64) -> (Vec3, Vec3, Similarity) {
-        if let RingFrame::Fixed {
-            to_local,
-            to_local_affine,
-            ..
-        } = &self.frame
-        {
-            return (
-                to_local_affine
-                    .transform_point3(origin.as_dvec3())
-                    .as_vec3(),
-                to_local_affine.transform_vector3(dir.as_dvec3()).as_vec3(),
-                *to_local,
-            );
-        }
-        let to_local = self.frame.to_local(time);
+        let to_local = self.frame.mapped_to_local(time);
         (
-            to_local.transform_point(origin.as_dvec3()).as_vec3(),
-            to_local.transform_vector(dir.as_dvec3()).as_vec3(),
-            to_local,
+            to_local.point(origin),
+            to_local.vector(dir),
+            to_local.similarity,
         )
     }
 
