@@ -181,7 +181,7 @@ impl PathState {
             return 1.0;
         }
         let (q, space) = match strategies {
-            Some(strategies) => strategies.find(&self.chain),
+            Some(strategies) => strategies.find(scene, &self.chain),
             None if self.chain == Chain::default() => (1.0, None),
             None => (0.0, None),
         };
@@ -637,10 +637,11 @@ fn scatter_at(
             side,
         };
         let (space, q) = match strategies {
-            Some(strategies) => strategies.pick(u_strategy),
+            Some(strategies) => strategies.pick(scene, u_strategy),
             None => (None, 1.0),
         };
         let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
+        let space = space.as_ref();
         let (light, group) = next_event(scene, &shading, space, q, u_light, u_technique);
         out.gather(path.beta * light, through, group);
     }

@@ -164,7 +164,19 @@ impl Space {
 pub struct Strategies {
     /// Probability of ordinary light sampling.
     direct: f32,
-    spaces: [Option<(Space, f32)>; MAX_SPACES],
+    /// The shading point, from which a kept chain's [`Space`] is built when a sample or a
+    /// weight needs it: most points take ordinary light sampling, and building every kept
+    /// chain's space at every point took a third of the search.
+    at: Receiver,
+    kept: [Option<(Kept, f32)>; MAX_SPACES],
+}
+
+/// A chain kept at a shading point, with the share of its samples drawn on its first opening
+/// ([`Space::aperture`]).
+#[derive(Clone, Copy, Debug)]
+struct Kept {
+    chain: Chain,
+    aperture: f32,
 }
 
 impl Strategies {
@@ -188,7 +200,8 @@ impl Strategies {
     fn search(slot: &mut Option<Self>, scene: &Scene, at: &Receiver, max_depth: u32) {
         let table = slot.insert(Self {
             direct: 0.0,
-            spaces: [None; MAX_SPACES],
+            at: *at,
+            kept: [None; MAX_SPACES],
         });
         let depth = CHAIN_DEPTH.min(max_depth as usize);
         let direct = scene.lights.importance(at) * scene.light_visibility.at(at.p);
@@ -219,50 +232,51 @@ impl Strategies {
             let kept = estimate > 0.0 && estimate.is_finite() && self.would_keep(estimate);
             let deeper = depth > 1
                 && reach_factor * apertures.brightest_exit >= DEEPER_SHARE * (direct + estimate);
-            if !kept && !deeper {
-                continue;
-            }
-            let exit_time = portals.exit_time(i, from.time);
             let sky_share = apertures.exits[i].sky_share;
-            let reach = from.beyond(&aperture, i, exit_time, solid_angle, sky_share);
             if kept {
-                self.keep(reach.space(), estimate);
+                let mut chain = from.chain;
+                chain.push(i);
+                let smallest = from.solid_angle.min(solid_angle);
+                let aperture = aperture_share(sky_share, smallest);
+                self.keep(Kept { chain, aperture }, estimate);
             }
             if deeper {
+                let exit_time = portals.exit_time(i, from.time);
+                let reach = from.beyond(&aperture, i, exit_time, solid_angle);
                 self.extend(scene, &reach, depth - 1, direct);
             }
         }
     }
 
-    /// True when a space with `estimate` would be among the [`MAX_SPACES`] kept.
+    /// True when a chain with `estimate` would be among the [`MAX_SPACES`] kept.
     fn would_keep(&self, estimate: f32) -> bool {
-        self.spaces[MAX_SPACES - 1].is_none_or(|(_, kept)| kept < estimate)
+        self.kept[MAX_SPACES - 1].is_none_or(|(_, kept)| kept < estimate)
     }
 
-    /// Keeps `space` if it is among the [`MAX_SPACES`] most promising so far, in order of
+    /// Keeps `chain` if it is among the [`MAX_SPACES`] most promising so far, in order of
     /// estimate; ties keep the enumeration order (depth first), so the choice is the same
     /// wherever it is made.
-    fn keep(&mut self, space: Space, estimate: f32) {
-        let spaces = &mut self.spaces;
-        let Some(at) = spaces
+    fn keep(&mut self, chain: Kept, estimate: f32) {
+        let kept = &mut self.kept;
+        let Some(at) = kept
             .iter()
-            .position(|s| s.is_none_or(|(_, kept)| kept < estimate))
+            .position(|s| s.is_none_or(|(_, other)| other < estimate))
         else {
             return;
         };
-        spaces[at..].rotate_right(1);
-        spaces[at] = Some((space, estimate));
+        kept[at..].rotate_right(1);
+        kept[at] = Some((chain, estimate));
     }
 
     /// Turns the kept estimates and ordinary sampling's `direct` into probabilities; false
     /// when there is nothing to choose between.
     fn normalise(&mut self, direct: f32) -> bool {
-        let total = direct + self.spaces.iter().flatten().map(|s| s.1).sum::<f32>();
-        if !(total > 0.0 && total.is_finite()) || self.spaces[0].is_none() {
+        let total = direct + self.kept.iter().flatten().map(|s| s.1).sum::<f32>();
+        if !(total > 0.0 && total.is_finite()) || self.kept[0].is_none() {
             return false;
         }
         self.direct = direct / total;
-        for (_, q) in self.spaces.iter_mut().flatten() {
+        for (_, q) in self.kept.iter_mut().flatten() {
             *q /= total;
         }
         true
@@ -273,41 +287,74 @@ impl Strategies {
         self.direct
     }
 
-    /// The virtual spaces with their probabilities, the most promising first.
-    pub fn spaces(&self) -> impl Iterator<Item = (&Space, f32)> {
-        self.spaces.iter().flatten().map(|(space, q)| (space, *q))
+    /// The chains light sampling may take, with their probabilities, the most promising first.
+    pub fn chains(&self) -> impl Iterator<Item = (Chain, f32)> + '_ {
+        self.kept.iter().flatten().map(|(kept, q)| (kept.chain, *q))
     }
 
-    /// Picks a strategy with `u` in [0, 1): `None` is ordinary light sampling. Returns its
-    /// probability too.
-    pub fn pick(&self, u: f32) -> (Option<&Space>, f32) {
+    /// Picks a strategy with `u` in [0, 1): `None` is ordinary light sampling, else the space
+    /// beyond the chain picked. Returns its probability too.
+    pub fn pick(&self, scene: &Scene, u: f32) -> (Option<Space>, f32) {
         let mut below = self.direct;
-        if u < below || self.spaces[0].is_none() {
+        if u < below || self.kept[0].is_none() {
             return (None, self.direct);
         }
-        let mut last = (None, self.direct);
-        for (space, q) in self.spaces.iter().flatten() {
+        let mut last = None;
+        for (kept, q) in self.kept.iter().flatten() {
             below += q;
-            last = (Some(space), *q);
+            last = Some((kept, *q));
             if u < below {
                 break;
             }
         }
-        last
+        match last {
+            Some((kept, q)) => (Some(self.space(scene, kept)), q),
+            None => (None, self.direct),
+        }
     }
 
     /// The probability of the strategy that samples light through `chain` (ordinary light
     /// sampling for an empty chain), with its space; 0 when no strategy does.
-    pub fn find(&self, chain: &Chain) -> (f32, Option<&Space>) {
+    pub fn find(&self, scene: &Scene, chain: &Chain) -> (f32, Option<Space>) {
         if *chain == Chain::default() {
             return (self.direct, None);
         }
-        self.spaces
+        self.kept
             .iter()
             .flatten()
-            .find(|(space, _)| space.chain == *chain)
-            .map_or((0.0, None), |(space, q)| (*q, Some(space)))
+            .find(|(kept, _)| kept.chain == *chain)
+            .map_or((0.0, None), |(kept, q)| (*q, Some(self.space(scene, kept))))
     }
+
+    /// The space beyond a kept chain: the shading point taken through its openings as a
+    /// teleport takes it, at each opening's time.
+    fn space(&self, scene: &Scene, kept: &Kept) -> Space {
+        let (portals, apertures) = (&scene.portals, &scene.apertures);
+        let mut reach = Reach::start(&self.at);
+        for i in kept.chain.openings() {
+            let aperture = apertures.get(portals, i, reach.time);
+            let exit_time = portals.exit_time(i, reach.time);
+            reach = reach.beyond(&aperture, i, exit_time, f32::INFINITY);
+        }
+        Space {
+            aperture: kept.aperture,
+            chain: kept.chain,
+            rotation: reach.rotation,
+            receiver: Receiver {
+                p: reach.point.as_vec3(),
+                n: reach.normal.map(DVec3::as_vec3),
+                time: reach.time,
+            },
+        }
+    }
+}
+
+/// The share of a chain's samples drawn on its first opening ([`Space::aperture`]), where the
+/// sky brings `sky_share` of the light at its last exit and its openings' smallest projected
+/// solid angle is `solid_angle`.
+fn aperture_share(sky_share: f32, solid_angle: f32) -> f32 {
+    let open_view = (1.0 - solid_angle / (2.0 * std::f32::consts::PI)).max(0.0);
+    (sky_share * open_view).min(MAX_APERTURE_SHARE)
 }
 
 /// A chain being extended while strategies are enumerated: where the shading point is in the
@@ -325,9 +372,8 @@ struct Reach {
     factor: f32,
     /// The smallest projected solid angle of the chain's openings seen along the way.
     solid_angle: f32,
-    /// The last exit, and the sky's share of the light it passes on.
+    /// The last exit.
     exit: Option<Exit>,
-    sky_share: f32,
 }
 
 impl Reach {
@@ -341,7 +387,6 @@ impl Reach {
             factor: 1.0,
             solid_angle: f32::INFINITY,
             exit: None,
-            sky_share: 0.0,
         }
     }
 
@@ -378,15 +423,8 @@ impl Reach {
     }
 
     /// The chain extended through opening `i` (seen as `a`, with `solid_angle`; rays leave it
-    /// at `exit_time`, where the sky brings `sky_share` of the light).
-    fn beyond(
-        &self,
-        a: &Aperture,
-        i: usize,
-        exit_time: f64,
-        solid_angle: f32,
-        sky_share: f32,
-    ) -> Self {
+    /// at `exit_time`).
+    fn beyond(&self, a: &Aperture, i: usize, exit_time: f64, solid_angle: f32) -> Self {
         let mut chain = self.chain;
         chain.push(i);
         Self {
@@ -398,21 +436,6 @@ impl Reach {
             factor: self.factor * a.factor,
             solid_angle: self.solid_angle.min(solid_angle),
             exit: Some(a.exit),
-            sky_share,
-        }
-    }
-
-    fn space(&self) -> Space {
-        let open_view = (1.0 - self.solid_angle / (2.0 * std::f32::consts::PI)).max(0.0);
-        Space {
-            aperture: (self.sky_share * open_view).min(MAX_APERTURE_SHARE),
-            chain: self.chain,
-            rotation: self.rotation,
-            receiver: Receiver {
-                p: self.point.as_vec3(),
-                n: self.normal.map(DVec3::as_vec3),
-                time: self.time,
-            },
         }
     }
 }

@@ -401,8 +401,8 @@ fn chains_of_two_openings_are_searched_only_where_they_may_matter() {
         };
         let mut strategies = None;
         Strategies::update(&mut strategies, &scene, &at);
-        let spaces = strategies.iter().flat_map(|s| s.spaces());
-        spaces.map(|(space, _)| space.chain.teleports()).collect()
+        let chains = strategies.iter().flat_map(|s| s.chains());
+        chains.map(|(chain, _)| chain.teleports()).collect()
     };
     // Lit only from the third room: window then door is the chain that brings the light.
     let dark = chains("");
