@@ -26,7 +26,7 @@
 use crate::geometry::offset_origin;
 pub use crate::mask::Mask;
 use crate::ray::Ray;
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DAffine3, DVec2, DVec3, Vec3};
 use noise::{NoiseFn, Perlin};
 use rift_fx::rig::{Rig, Similarity};
 
@@ -96,6 +96,9 @@ struct Frames {
     here: Similarity,
     /// P_H⁻¹: world to here-local.
     here_inverse: Similarity,
+    /// P_H⁻¹ as a matrix and offset: every ray near the opening is taken into its frame, and
+    /// the quaternion's rotation cost more than the test itself.
+    here_inverse_affine: DAffine3,
     /// P_T: there-local to world.
     there: Similarity,
     /// A world-space sphere (centre, radius) holding the teleport region: rays that miss it
@@ -176,6 +179,7 @@ impl Portals {
                     Frames {
                         here,
                         here_inverse: here.inverse(),
+                        here_inverse_affine: here.inverse().to_affine(),
                         there,
                         bound: (centre, radius),
                     }
@@ -285,9 +289,25 @@ impl Portals {
             return None;
         }
         let (t_min, t_max, time) = (ray.t_min, ray.t_max, ray.time);
-        let here_inverse = self.here_inverse(i, time);
-        let o = here_inverse.transform_point(ray.origin.as_dvec3());
-        let d = here_inverse.transform_vector(ray.dir.as_dvec3());
+        let (origin, dir) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+        let (here_inverse, o, d) = match &self.fixed[i] {
+            Some(f) => {
+                let to_local = &f.here_inverse_affine;
+                let (o, d) = (
+                    to_local.transform_point3(origin),
+                    to_local.transform_vector3(dir),
+                );
+                (f.here_inverse, o, d)
+            }
+            None => {
+                let here_inverse = self.rig.here_at(i, time).inverse();
+                let (o, d) = (
+                    here_inverse.transform_point(origin),
+                    here_inverse.transform_vector(dir),
+                );
+                (here_inverse, o, d)
+            }
+        };
         // Only rays going into the front (towards local −Z) teleport.
         if d.z >= 0.0 || o.z <= 0.0 {
             return None;

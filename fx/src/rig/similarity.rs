@@ -110,6 +110,7 @@ impl Similarity {
     }
 
     /// As an affine matrix.
+    #[inline]
     pub fn to_affine(&self) -> DAffine3 {
         DAffine3::from_scale_rotation_translation(
             DVec3::splat(self.scale),

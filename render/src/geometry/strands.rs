@@ -15,7 +15,7 @@ use super::round_cone::RoundCone;
 use super::wide_bvh::{BoxRay, Indexed, any_hit, closest_hit, node_bytes, worth_fetching_ahead};
 use crate::huge_pages;
 use crate::ray::Ray;
-use glam::{DAffine3, DVec3, Vec3};
+use glam::{DAffine3, Vec3};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
@@ -116,11 +116,7 @@ pub struct Mapped {
 
 impl Mapped {
     fn new(similarity: Similarity) -> Self {
-        let affine = DAffine3::from_scale_rotation_translation(
-            DVec3::splat(similarity.scale),
-            similarity.rotation,
-            similarity.translation,
-        );
+        let affine = similarity.to_affine();
         Self { similarity, affine }
     }
 
@@ -147,22 +143,28 @@ impl RingFrame {
     /// Local to world at `time`.
     #[inline]
     pub fn to_world(&self, time: f64) -> Similarity {
-        self.mapped_to_world(time).similarity
-    }
-
-    #[inline]
-    fn mapped_to_world(&self, time: f64) -> Mapped {
         match self {
-            RingFrame::Fixed { to_world, .. } => *to_world,
-            RingFrame::Moving(at) => Mapped::new(at(time)),
+            RingFrame::Fixed { to_world, .. } => to_world.similarity,
+            RingFrame::Moving(at) => at(time),
         }
     }
 
+    /// Runs `map` with local to world at `time` (borrowed where the frame is fixed: a copy of
+    /// the matrix cost as much as using it).
     #[inline]
-    fn mapped_to_local(&self, time: f64) -> Mapped {
+    fn with_to_world<R>(&self, time: f64, map: impl FnOnce(&Mapped) -> R) -> R {
         match self {
-            RingFrame::Fixed { to_local, .. } => *to_local,
-            RingFrame::Moving(at) => Mapped::new(at(time).inverse()),
+            RingFrame::Fixed { to_world, .. } => map(to_world),
+            RingFrame::Moving(at) => map(&Mapped::new(at(time))),
+        }
+    }
+
+    /// Runs `map` with world to local at `time` (borrowed where the frame is fixed).
+    #[inline]
+    fn with_to_local<R>(&self, time: f64, map: impl FnOnce(&Mapped) -> R) -> R {
+        match self {
+            RingFrame::Fixed { to_local, .. } => map(to_local),
+            RingFrame::Moving(at) => map(&Mapped::new(at(time).inverse())),
         }
     }
 }
@@ -400,14 +402,15 @@ impl Strands {
     pub fn world_segment(&self, i: u32, time: f64) -> RoundCone {
         let ring = &self.rings[self.segment_ring[i as usize] as usize];
         let local = self.segments[i as usize].at(ring.delta(time), ring.moving);
-        let to_world = ring.frame.mapped_to_world(time);
-        let scale = to_world.similarity.scale as f32;
-        RoundCone {
-            a: to_world.point(local.a),
-            b: to_world.point(local.b),
-            radius_a: local.radius_a * scale,
-            radius_b: local.radius_b * scale,
-        }
+        ring.frame.with_to_world(time, |to_world| {
+            let scale = to_world.similarity.scale as f32;
+            RoundCone {
+                a: to_world.point(local.a),
+                b: to_world.point(local.b),
+                radius_a: local.radius_a * scale,
+                radius_b: local.radius_b * scale,
+            }
+        })
     }
 
     /// Asks the cache for what light sampling reads of segment `i`.
@@ -473,12 +476,13 @@ impl Ring {
     /// The ray in the ring's local frame at `time`; parameters stay in world units.
     #[inline]
     fn local_ray(&self, origin: Vec3, dir: Vec3, time: f64) -> (Vec3, Vec3, Similarity) {
-        let to_local = self.frame.mapped_to_local(time);
-        (
-            to_local.point(origin),
-            to_local.vector(dir),
-            to_local.similarity,
-        )
+        self.frame.with_to_local(time, |to_local| {
+            (
+                to_local.point(origin),
+                to_local.vector(dir),
+                to_local.similarity,
+            )
+        })
     }
 
     /// The first of `segments` (the ring's, in strand order) along `origin + t·dir`, t in
