@@ -412,14 +412,10 @@ fn chains_of_two_openings_are_searched_only_where_they_may_matter() {
     );
     // A lamp of the room's own half a metre above the point outshines anything two openings
     // away: the search stops at the window (which the lamp's light comes back through).
-    let own = r#"
-[[object]]
-name = "own_lamp"
-mesh = "lamp.obj"
-material = "lamp"
-transform = { position = [0.5, 0.6, 0.0] }
-"#;
-    let lit = chains(own);
+    let own = LAMP
+        .replace("\"lamp\"\nmesh", "\"own_lamp\"\nmesh")
+        .replace("[29.6, 1.5, 0.2]", "[0.5, 0.6, 0.0]");
+    let lit = chains(&own);
     assert!(!lit.contains(&2), "a lamp beside the point: chains {lit:?}");
 }
 
