@@ -290,23 +290,16 @@ impl Portals {
         }
         let (t_min, t_max, time) = (ray.t_min, ray.t_max, ray.time);
         let (origin, dir) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
-        let (here_inverse, o, d) = match &self.fixed[i] {
-            Some(f) => {
-                let to_local = &f.here_inverse_affine;
-                let (o, d) = (
-                    to_local.transform_point3(origin),
-                    to_local.transform_vector3(dir),
-                );
-                (f.here_inverse, o, d)
-            }
-            None => {
-                let here_inverse = self.rig.here_at(i, time).inverse();
-                let (o, d) = (
-                    here_inverse.transform_point(origin),
-                    here_inverse.transform_vector(dir),
-                );
-                (here_inverse, o, d)
-            }
+        let here_inverse = self.here_inverse(i, time);
+        let (o, d) = match &self.fixed[i] {
+            Some(f) => (
+                f.here_inverse_affine.transform_point3(origin),
+                f.here_inverse_affine.transform_vector3(dir),
+            ),
+            None => (
+                here_inverse.transform_point(origin),
+                here_inverse.transform_vector(dir),
+            ),
         };
         // Only rays going into the front (towards local −Z) teleport.
         if d.z >= 0.0 || o.z <= 0.0 {
