@@ -74,11 +74,8 @@ impl TriangleBvh {
         bvh.nodes = crate::huge_pages::adopt(bvh.nodes);
         let leaf_triangles =
             PackedTriangles::new(bvh.primitive_indices.iter().map(|&i| triangles[i as usize]));
-        let leaf_ids = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| i + first_id)
-            .collect();
+        let leaf_ids =
+            crate::huge_pages::collect(bvh.primitive_indices.iter().map(|&i| i + first_id));
         Self {
             bvh: Some(bvh),
             leaf_triangles,
@@ -168,6 +165,9 @@ impl<A: Fn(u32, f32) -> bool> LeafTest for NearestTriangle<'_, A> {
         {
             *range = t;
             self.nearest = Some((slot, b1, b2));
+            // The hit's scene-wide index is read once the traversal ends; on a big mesh it
+            // would wait on memory then (about 5% of a closest-hit query's time).
+            crate::prefetch::prefetch(&self.bvh.leaf_ids[slot..=slot]);
         }
         false
     }
