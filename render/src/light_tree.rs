@@ -107,7 +107,9 @@ pub struct LightBounds {
     pub centre: Path,
     /// Radius of the sphere around that moving centre that holds the emitter at every time.
     pub reach: f32,
-    /// Emitted power (any consistent scale).
+    /// What the emitter is weighed by, on any consistent scale: its power, or as light
+    /// selection gives it, π times the most light it sends in one direction (see
+    /// `lights::ROUND_PEAK_SHARE`).
     pub power: f32,
     /// Unit axis of the cone of normals.
     pub axis: Vec3,

@@ -194,6 +194,22 @@ fn time_at(times: [f64; 2], tau: f32) -> f64 {
 /// (the ends of the range included).
 const PATH_STEPS: usize = 8;
 
+/// What the light tree weighs a round strand by, as a share of its power (before its
+/// exposure). The tree compares emitters by π times the most light each sends in one direction:
+/// for a flat one-sided emitter that is its power, for a two-sided one half of it, and for a
+/// round strand a π-th of it (its side, of area A and radiance L, emits πLA in all but shows at
+/// most its silhouette, A/π, to any one direction). Then each strand counts by the root of its
+/// exposure q: a shadow ray finds it a share q of the time, so its contribution's second moment
+/// goes as q and its mean as q, and one-sample selection has the least variance with weights
+/// going as the root of the second moment.
+///
+/// Weighed by power and q instead, strands drew about three times their share of samples
+/// against a room's lamps. Median noise at 320×180, two seeds: the showcase (32 spp) 10.75% →
+/// 10.44%, with samples about 10% faster (strand shadow rays cost the most); `ring_on_wall`,
+/// lit by its ring alone, 18.3% → 17.9%; `foggy_portal` unchanged and about 5% faster;
+/// `lit_through`, whose two-sided lamp now counts half, 44.2% → 45.1% and a few % slower.
+const ROUND_PEAK_SHARE: f32 = 1.0 / PI;
+
 /// The path of a moving emitter's centre over the time range and the reach that holds the
 /// emitter around it, from the emitter placed at τ (`at`), its centre, and its farthest
 /// extent from a point.
@@ -258,12 +274,16 @@ impl Lights {
         let strand_count = strands.segments.len();
         bounds.extend((0..strand_count as u32).map(|i| segment_bounds(strands, i, times)));
         if selection == LightSelection::Tree {
-            // The tree weighs strands by what gets out of the rings; power alone stays the
-            // plain comparison.
+            // The tree weighs emitters by the most light they send one way, and strands by
+            // what gets out of the rings (see `ROUND_PEAK_SHARE`); power alone stays the plain
+            // comparison.
+            for (b, e) in bounds.iter_mut().zip(&emitters) {
+                b.power *= if e.two_sided { 0.5 } else { 1.0 };
+            }
             let middle = 0.5 * (times[0] + times[1]);
             let exposure = strand_exposure::exposure(strands, middle);
             for (b, e) in bounds[emitters.len()..].iter_mut().zip(exposure) {
-                b.power *= e;
+                b.power *= ROUND_PEAK_SHARE * e.sqrt();
             }
         }
         let picker = match selection {
@@ -324,8 +344,8 @@ impl Lights {
     }
 
     /// An unoccluded estimate of the light every emitter and the environment can send to `at`
-    /// (about π times its irradiance; under the tree, strands count by their exposure), for
-    /// weighing light-sampling strategies.
+    /// (about π times its irradiance; under the tree, strands count by the root of their
+    /// exposure), for weighing light-sampling strategies.
     pub fn importance(&self, at: &Receiver) -> f32 {
         self.tree.importance(at.p, at.n, self.tau(at.time)) + PI * self.environment_luminance
     }
@@ -769,6 +789,54 @@ mod tests {
             assert!(
                 placement.scale > 1.5
                     && (area(LightSource::Triangle(2)) - grown as f64).abs() < 1e-4
+            );
+        }
+    }
+
+    /// A lamp and a ring that send a far point the same light are picked about equally, however
+    /// many sides the lamp emits from: the tree weighs both by their intensity toward it.
+    #[test]
+    fn a_lamp_and_a_ring_that_send_a_point_the_same_light_are_picked_alike() {
+        // The square ring's four segments (radius 0.05, length 2, radiance 1) each show the
+        // point, far along the ring's axis, a silhouette of 0.1 x 2: 0.8 in all. The lamp, a
+        // 0.4 x 0.4 square of radiance 5 in the ring's plane facing the point, shows 0.16 x 5.
+        let strands = square_ring();
+        let lamp = |two_sided: bool| {
+            let c = |x: f32, y: f32| Vec3::new(x, y, -3.0);
+            [
+                [c(-0.2, -0.2), c(0.2, -0.2), c(0.2, 0.2)],
+                [c(-0.2, -0.2), c(0.2, 0.2), c(-0.2, 0.2)],
+            ]
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| Emitter {
+                radiance: Vec3::splat(5.0),
+                two_sided,
+                ..emitter(i as u32, STATIC, v)
+            })
+            .collect::<Vec<_>>()
+        };
+        let at = Receiver {
+            p: Vec3::new(0.0, 0.0, 7.0),
+            n: Some(-Vec3::Z),
+            time: 0.5,
+        };
+        for two_sided in [false, true] {
+            let lights = Lights::new(
+                lamp(two_sided),
+                2,
+                &strands,
+                [0.0, 1.0],
+                &[],
+                None,
+                LightSelection::Tree,
+            );
+            let share = lights.pick_pmf(0, &at) + lights.pick_pmf(1, &at);
+            // Weighed by power, the ring would take π times the lamp's share (a quarter for the
+            // lamp, or two fifths when it emits both ways).
+            assert!(
+                (0.45..0.6).contains(&share),
+                "two-sided {two_sided}: the lamp gets {share}"
             );
         }
     }

@@ -5,7 +5,8 @@
 //! from almost anywhere: on the showcase 62% of the shadow rays aimed at a picked strand
 //! met another strand first. The light tree cannot see this (its bounds ignore occlusion), so
 //! it spent those samples on strands buried inside the bundle. Light selection scales each
-//! segment's power by its exposure, which moves samples to the strands on the outside. Any
+//! segment's weight by the root of its exposure (see `lights::ROUND_PEAK_SHARE`), which moves
+//! samples to the strands on the outside. Any
 //! positive weight keeps the estimate unbiased (the pick's pmf uses the same weights); a
 //! strand no probe saw out of still keeps a small share, because probes are few and light
 //! leaks between strands.
