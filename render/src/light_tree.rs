@@ -109,7 +109,7 @@ pub struct LightBounds {
     pub reach: f32,
     /// What the emitter is weighed by, on any consistent scale: its power, or as light
     /// selection gives it, π times the most light it sends in one direction (see
-    /// `lights::ROUND_PEAK_SHARE`).
+    /// `lights::TWO_SIDED_PEAK_SHARE`).
     pub power: f32,
     /// Unit axis of the cone of normals.
     pub axis: Vec3,

@@ -194,14 +194,16 @@ fn time_at(times: [f64; 2], tau: f32) -> f64 {
 /// (the ends of the range included).
 const PATH_STEPS: usize = 8;
 
-/// What the light tree weighs a round strand by, as a share of its power (before its
-/// exposure). The tree compares emitters by π times the most light each sends in one direction:
-/// for a flat one-sided emitter that is its power, for a two-sided one half of it, and for a
-/// round strand a π-th of it (its side, of area A and radiance L, emits πLA in all but shows at
-/// most its silhouette, A/π, to any one direction). Then each strand counts by the root of its
-/// exposure q: a shadow ray finds it a share q of the time, so its contribution's second moment
-/// goes as q and its mean as q, and one-sample selection has the least variance with weights
-/// going as the root of the second moment.
+/// The light tree compares emitters by π times the most light each sends in one direction,
+/// which for a flat one-sided emitter is its power. A two-sided one sends each way what a
+/// one-sided one would: half its power.
+const TWO_SIDED_PEAK_SHARE: f32 = 0.5;
+
+/// The same for a round strand, before its exposure: its side, of area A and radiance L, emits
+/// πLA in all but shows at most its silhouette, A/π, to any one direction. Then each strand
+/// counts by the root of its exposure q: a shadow ray finds it a share q of the time, so the
+/// second moment of its contribution goes as q, and one-sample selection has the least
+/// variance with weights that go as the root of the second moment.
 ///
 /// Weighed by power and q instead, strands drew about three times their share of samples
 /// against a room's lamps. Median noise at 320×180, two seeds: the showcase (32 spp) 10.75% →
@@ -275,10 +277,11 @@ impl Lights {
         bounds.extend((0..strand_count as u32).map(|i| segment_bounds(strands, i, times)));
         if selection == LightSelection::Tree {
             // The tree weighs emitters by the most light they send one way, and strands by
-            // what gets out of the rings (see `ROUND_PEAK_SHARE`); power alone stays the plain
-            // comparison.
+            // what gets out of the rings; power alone stays the plain comparison.
             for (b, e) in bounds.iter_mut().zip(&emitters) {
-                b.power *= if e.two_sided { 0.5 } else { 1.0 };
+                if e.two_sided {
+                    b.power *= TWO_SIDED_PEAK_SHARE;
+                }
             }
             let middle = 0.5 * (times[0] + times[1]);
             let exposure = strand_exposure::exposure(strands, middle);
