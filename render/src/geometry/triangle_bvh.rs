@@ -93,10 +93,12 @@ impl TriangleBvh {
         accept: &impl Fn(u32, f32) -> bool,
     ) -> Option<TriangleHit> {
         let bvh = self.bvh.as_ref()?;
+        let fetch_ahead = worth_fetching_ahead(node_bytes(bvh));
         let mut test = NearestTriangle {
             sheared: ShearedRay::new(origin, dir),
             bvh: self,
             accept,
+            fetch_ahead,
             nearest: None,
         };
         let mut t = t_max;
@@ -105,7 +107,7 @@ impl TriangleBvh {
             &BoxRay::new(origin, dir),
             &mut t,
             &self.leaf_triangles,
-            worth_fetching_ahead(node_bytes(bvh)),
+            fetch_ahead,
             &mut test,
         );
         test.nearest.map(|(slot, b1, b2)| TriangleHit {
@@ -150,6 +152,8 @@ struct NearestTriangle<'a, A> {
     sheared: ShearedRay,
     bvh: &'a TriangleBvh,
     accept: &'a A,
+    /// Whether the tree is big enough that its data is fetched ahead.
+    fetch_ahead: bool,
     /// The nearest admitted hit so far: its slot and barycentrics.
     nearest: Option<(usize, f32, f32)>,
 }
@@ -167,7 +171,9 @@ impl<A: Fn(u32, f32) -> bool> LeafTest for NearestTriangle<'_, A> {
             self.nearest = Some((slot, b1, b2));
             // The hit's scene-wide index is read once the traversal ends; on a big mesh it
             // would wait on memory then (about 5% of a closest-hit query's time).
-            crate::prefetch::prefetch(&self.bvh.leaf_ids[slot..=slot]);
+            if self.fetch_ahead {
+                crate::prefetch::prefetch(&self.bvh.leaf_ids[slot..=slot]);
+            }
         }
         false
     }
