@@ -833,7 +833,7 @@ fn sky_through_aperture(
     let sky = scene.lights.environment.as_ref()?;
     let (dir, pdf_aperture) = aperture::sample(&scene.portals, space.first(), at.time, at.p, u)?;
     let beyond = space.direction_beyond(dir);
-    let pdf_light = scene.lights.pdf_environment(beyond);
+    let pdf_light = scene.lights.pdf_environment(beyond, &space.receiver);
     Some(Incoming {
         dir,
         radiance: sky.radiance(beyond),
