@@ -152,7 +152,8 @@ enum EnvironmentSplit {
     /// emitters' light (π times their irradiance, unoccluded) against π times the
     /// environment's mean radiance, within [`LEAST_SPLIT_SHARE`] of either end. A fixed half
     /// spent samples on the sky beside a ring and on the ring under open sky: on
-    /// `portal_pair`, a fixed tenth for the sky lowered the noise by a sixth.
+    /// `portal_pair` (320×180, two seeds) this split took the noise at 32 spp from 5.69% to
+    /// 4.73%, for samples 25% dearer (more go to the rings).
     ByEstimate,
 }
 
