@@ -98,8 +98,9 @@ pub struct RenderArgs {
     #[arg(long, value_name = "PATTERN")]
     rings: Option<PathBuf>,
     /// How light sampling picks emitters: `tree` (by what each can send to the shaded point,
-    /// strands by the share of their light that gets out of the rings; the default) or `power`
-    /// (by power alone; for comparison).
+    /// strands also by how much of their light gets out of the rings, and the sky against them
+    /// the same way; the default) or `power` (by power alone, the sky half the time; for
+    /// comparison).
     #[arg(long, value_enum)]
     light_selection: Option<SelectionArg>,
     /// Render only this eye of a stereo shot (`[camera.stereo]`); by default both are
