@@ -176,10 +176,11 @@ impl Portals {
                     // Wide enough for single-precision rounding at the centre's magnitude.
                     let radius = (masks[i].bounding_radius() * here.scale) as f32 * (1.0 + 1e-3)
                         + 1e-5 * (1.0 + centre.abs().max_element());
+                    let here_inverse = here.inverse();
                     Frames {
                         here,
-                        here_inverse: here.inverse(),
-                        here_inverse_affine: here.inverse().to_affine(),
+                        here_inverse,
+                        here_inverse_affine: here_inverse.to_affine(),
                         there,
                         bound: (centre, radius),
                     }
