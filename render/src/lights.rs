@@ -363,7 +363,7 @@ impl Lights {
         match self.environment_split {
             EnvironmentSplit::Fixed(p) => p,
             EnvironmentSplit::ByEstimate => {
-                let sky = PI * self.environment_luminance;
+                let sky = self.sky_importance();
                 let emitters = self.tree.importance(at.p, at.n, self.tau(at.time));
                 if emitters > 0.0 {
                     (sky / (sky + emitters)).clamp(LEAST_SPLIT_SHARE, 1.0 - LEAST_SPLIT_SHARE)
@@ -393,7 +393,13 @@ impl Lights {
     /// (about π times its irradiance; under the tree, strands count by the root of their
     /// exposure), for weighing light-sampling strategies.
     pub fn importance(&self, at: &Receiver) -> f32 {
-        self.tree.importance(at.p, at.n, self.tau(at.time)) + PI * self.environment_luminance
+        self.tree.importance(at.p, at.n, self.tau(at.time)) + self.sky_importance()
+    }
+
+    /// The environment's part of [`Self::importance`]: π times its mean radiance, what it
+    /// sends a surface open to all of it.
+    fn sky_importance(&self) -> f32 {
+        PI * self.environment_luminance
     }
 
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
