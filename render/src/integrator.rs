@@ -636,22 +636,19 @@ fn scatter_at(
             bsdf,
             side,
         };
-        // Without strategies, no `Space` is made or copied: the copy of its empty payload was
-        // a stall on every vertex of scenes without openings.
-        let (light, group, through) = match strategies {
+        // Without strategies no `Space` is made or moved: copying an empty one's payload was a
+        // stall on every vertex of scenes without openings.
+        let picked;
+        let (space, q) = match strategies {
             Some(strategies) => {
-                let (space, q) = strategies.pick(scene, u_strategy);
-                let space = space.as_ref();
-                let through = space.is_some_and(|s| s.chain.teleports() > 0);
-                let (light, group) = next_event(scene, &shading, space, q, u_light, u_technique);
-                (light, group, through)
+                picked = strategies.pick(scene, u_strategy);
+                (picked.0.as_ref(), picked.1)
             }
-            None => {
-                let (light, group) = next_event(scene, &shading, None, 1.0, u_light, u_technique);
-                (light, group, false)
-            }
+            None => (None, 1.0),
         };
-        out.gather(path.beta * light, path.lit_through || through, group);
+        let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
+        let (light, group) = next_event(scene, &shading, space, q, u_light, u_technique);
+        out.gather(path.beta * light, through, group);
     }
     let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
         return false;
