@@ -636,17 +636,12 @@ fn scatter_at(
             bsdf,
             side,
         };
-        // Without strategies no `Space` is made or moved: copying an empty one's payload was a
-        // stall on every vertex of scenes without openings.
-        let picked;
         let (space, q) = match strategies {
-            Some(strategies) => {
-                picked = strategies.pick(scene, u_strategy);
-                (picked.0.as_ref(), picked.1)
-            }
+            Some(strategies) => strategies.pick(scene, u_strategy),
             None => (None, 1.0),
         };
         let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
+        let space = space.as_ref();
         let (light, group) = next_event(scene, &shading, space, q, u_light, u_technique);
         out.gather(path.beta * light, through, group);
     }
