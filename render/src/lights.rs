@@ -3,8 +3,9 @@
 //! send to the shading point (or, for comparison, an alias table in proportion to power alone),
 //! then a point on it: uniform on a triangle; on a strand segment, uniform along its length and
 //! cosine-distributed around the half of its circumference that faces the point. The
-//! environment is sampled by its own distribution; when it and emitters both exist each is
-//! picked half the time.
+//! environment is sampled by its own distribution; when it and emitters both exist, the tree
+//! gives it a share of the samples at each point by its estimate against the emitters' (see
+//! `EnvironmentSplit`), and selection by power gives it half.
 
 use crate::environment::Environment;
 use crate::geometry::{MovingInstance, RoundCone, STATIC, Strands, Triangle};
@@ -18,11 +19,12 @@ use std::f32::consts::PI;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightSelection {
     /// By what each can send to the shading point (the light BVH), strand segments weighed by
-    /// their exposure ([`crate::strand_exposure`]); by power when the emitters are the few
-    /// touching pieces of one lamp (a quad light's two triangles).
+    /// the root of their exposure ([`crate::strand_exposure`]), and the environment against
+    /// the emitters the same way; by power when the emitters are the few touching pieces of
+    /// one lamp (a quad light's two triangles).
     #[default]
     Tree,
-    /// By power alone, wherever the shading point is.
+    /// By power alone, wherever the shading point is; the environment half the time.
     Power,
 }
 

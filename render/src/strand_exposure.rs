@@ -6,10 +6,9 @@
 //! met another strand first. The light tree cannot see this (its bounds ignore occlusion), so
 //! it spent those samples on strands buried inside the bundle. Light selection scales each
 //! segment's weight by the root of its exposure (see `lights::ROUND_PEAK_SHARE`), which moves
-//! samples to the strands on the outside. Any
-//! positive weight keeps the estimate unbiased (the pick's pmf uses the same weights); a
-//! strand no probe saw out of still keeps a small share, because probes are few and light
-//! leaks between strands.
+//! samples to the strands on the outside. Any positive weight keeps the estimate unbiased (the
+//! pick's pmf uses the same weights); a strand no probe saw out of still keeps a small share,
+//! because probes are few and light leaks between strands.
 //!
 //! Each segment sends a few cosine-weighted rays from points spread over its surface at one
 //! time, and the counts are pooled with the segments next to it along the same strand, whose
