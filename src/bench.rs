@@ -89,17 +89,18 @@ pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Renders two variants of a scene in turn (`build(k, seed)` for variant k), `repeats` times
-/// each with its own seed, so a change in the machine's load between runs falls on both
-/// alike; prints each one's median seconds, median relMSE against `reference` over the
-/// pixels `keep` selects, and their product, which it returns (lower is better).
-pub(crate) fn alternate(
-    names: [&str; 2],
+/// Renders variants of a scene in turn (`build(k, seed)` for variant k), `repeats` times each
+/// with its own seed, so a change in the machine's load between runs falls on all alike;
+/// prints each one's median seconds (of rendering, and of learning light selection where the
+/// variant does), median relMSE against `reference` over the pixels `keep` selects, and their
+/// product, which it returns (lower is better).
+pub(crate) fn alternate<const N: usize>(
+    names: [&str; N],
     build: impl Fn(usize, u32) -> anyhow::Result<rift_render::Scene>,
     (spp, repeats, threads): (u32, usize, Option<usize>),
     reference: &[glam::Vec3],
     keep: impl Fn(usize) -> bool,
-) -> anyhow::Result<[f64; 2]> {
+) -> anyhow::Result<[f64; N]> {
     use rift_render::film::relative_mse;
     use rift_render::render::{RenderOptions, render};
     let kept = |pixels: &[glam::Vec3]| -> Vec<glam::Vec3> {
@@ -109,14 +110,16 @@ pub(crate) fn alternate(
             .collect()
     };
     let reference = kept(reference);
-    let mut seconds = [Vec::new(), Vec::new()];
-    let mut errors = [Vec::new(), Vec::new()];
+    let mut seconds = [(); N].map(|_| Vec::new());
+    let mut errors = [(); N].map(|_| Vec::new());
     for seed in 0..repeats as u32 {
-        for k in 0..2 {
+        for k in 0..N {
             let scene = build(k, seed)?;
             let t = Instant::now();
             let image = crate::with_threads(threads, || render(&scene, &RenderOptions::new(spp)))?;
-            seconds[k].push(t.elapsed().as_secs_f64());
+            // Learning light selection is part of what a variant costs.
+            let training = scene.lights.training_seconds();
+            seconds[k].push(t.elapsed().as_secs_f64() + training);
             errors[k].push(relative_mse(&kept(&image.rgb), &reference));
         }
     }
@@ -124,7 +127,7 @@ pub(crate) fn alternate(
         "{:<8} {:>5} {:>10} {:>10} {:>14}",
         "choice", "spp", "seconds", "relMSE", "relMSE·s"
     );
-    let mut products = [0.0; 2];
+    let mut products = [0.0; N];
     for (k, (seconds, errors)) in seconds.into_iter().zip(errors).enumerate() {
         let (s, e) = (median(seconds), median(errors));
         products[k] = s * e;

@@ -97,10 +97,12 @@ pub struct RenderArgs {
     /// rings`; without either the rings are generated in memory.
     #[arg(long, value_name = "PATTERN")]
     rings: Option<PathBuf>,
-    /// How light sampling picks emitters: `tree` (by what each can send to the shaded point,
-    /// strands also by how much of their light gets out of the rings, and the sky against them
-    /// the same way; the default) or `power` (by power alone, the sky half the time; for
-    /// comparison).
+    /// How light sampling picks emitters: `learned` (the default: `tree`, with its first two
+    /// choices reweighed per region of the scene by what a few training paths, traced before
+    /// the render, saw each branch bring there, shadow rays included), `tree` (by what each can
+    /// send to the shaded point, strands also by how much of their light gets out of the rings,
+    /// and the sky against them the same way) or `power` (by power alone, the sky half the
+    /// time). `tree` and `power` are for comparison.
     #[arg(long, value_enum)]
     light_selection: Option<SelectionArg>,
     /// Render only this eye of a stereo shot (`[camera.stereo]`); by default both are
@@ -112,6 +114,7 @@ pub struct RenderArgs {
 /// `--light-selection`.
 #[derive(Clone, Copy, ValueEnum)]
 enum SelectionArg {
+    Learned,
     Tree,
     Power,
 }
@@ -119,6 +122,7 @@ enum SelectionArg {
 impl From<SelectionArg> for LightSelection {
     fn from(s: SelectionArg) -> Self {
         match s {
+            SelectionArg::Learned => LightSelection::Learned,
             SelectionArg::Tree => LightSelection::Tree,
             SelectionArg::Power => LightSelection::Power,
         }

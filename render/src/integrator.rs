@@ -702,12 +702,24 @@ fn next_event(
     if q <= 0.0 {
         return NONE;
     }
+    let training = scene.lights.training();
+    let learn = |emitter: Option<u32>, value: f32| {
+        if training {
+            crate::light_guide::record(crate::light_guide::Record {
+                receiver: *space.map_or(at.receiver, |s| &s.receiver),
+                emitter,
+                value,
+            });
+        }
+    };
     let Some(incoming) = incoming(scene, at.receiver, space, u, u_technique) else {
+        learn(None, 0.0);
         return NONE;
     };
     let wi = at.frame.to_local(incoming.dir);
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
+        learn(incoming.emitter, 0.0);
         return NONE;
     }
     // The shadow ray leaves from the side of the surface it goes to.
@@ -717,8 +729,13 @@ fn next_event(
     let chain = space.map_or(Chain::default(), |s| s.chain);
     let Some((tint, coins)) = shadow(scene, &chain, from, dir, incoming.end, at.receiver.time)
     else {
+        learn(incoming.emitter, 0.0);
         return NONE;
     };
+    if training {
+        let brought = f * incoming.radiance * tint * (coins / incoming.pdf);
+        learn(incoming.emitter, crate::lights::luminance(brought));
+    }
     let pdf_light = q * incoming.pdf;
     let weight = if incoming.bsdf_can_find {
         power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side) * coins)
@@ -742,6 +759,8 @@ pub(crate) struct Incoming {
     bsdf_can_find: bool,
     /// The light group of the emitter.
     pub group: u8,
+    /// The emitter's index in light selection (`None`: the environment).
+    pub emitter: Option<u32>,
 }
 
 /// Draws light for `at` with the strategy of `space` (`None`: ordinary light sampling): a
@@ -841,6 +860,7 @@ fn sky_through_aperture(
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
         group: scene.environment_group,
+        emitter: None,
     })
 }
 
@@ -874,6 +894,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
             pdf: light.pdf,
             bsdf_can_find,
             group,
+            emitter: None,
         }),
         LightPlace::Point {
             point,
@@ -907,6 +928,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find,
                 group,
+                emitter: scene.lights.emitter_index(source),
             })
         }
     }

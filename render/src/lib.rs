@@ -16,6 +16,7 @@ pub mod geometry;
 pub mod grid_medium;
 pub mod huge_pages;
 pub mod integrator;
+pub mod light_guide;
 pub mod light_tree;
 pub mod light_visibility;
 pub mod lights;

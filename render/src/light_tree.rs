@@ -247,7 +247,7 @@ fn merge_cones(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
 }
 
 /// Children per node.
-const WIDTH: usize = 4;
+pub const WIDTH: usize = 4;
 
 /// Marks a lane that holds a bucket of emitters rather than a node.
 const LEAF: u32 = 1 << 31;
@@ -387,6 +387,12 @@ pub struct LightTree {
 impl LightTree {
     /// Builds over `emitters` (indexed as given).
     pub fn new(emitters: &[LightBounds]) -> Self {
+        Self::with_kinds(emitters, &[])
+    }
+
+    /// Builds over `emitters`, the root's lanes holding the emitters of each kind apart when
+    /// `kinds` (a key per emitter) names two to four kinds; otherwise as [`Self::new`].
+    pub fn with_kinds(emitters: &[LightBounds], kinds: &[u32]) -> Self {
         assert!(
             emitters.len() < 1 << BUCKET_SIZE_SHIFT,
             "too many emitters for one light tree"
@@ -398,7 +404,24 @@ impl LightTree {
         };
         if !emitters.is_empty() {
             let mut order: Vec<u32> = (0..emitters.len() as u32).collect();
-            tree.build(emitters, &mut order, 0, 0);
+            let mut keys: Vec<u32> = kinds.to_vec();
+            keys.sort_unstable();
+            keys.dedup();
+            if kinds.len() == emitters.len() && (2..=WIDTH).contains(&keys.len()) {
+                order.sort_by_key(|&e| kinds[e as usize]);
+                let mut runs = Vec::new();
+                let mut start = 0;
+                for (i, pair) in order.windows(2).enumerate() {
+                    if kinds[pair[0] as usize] != kinds[pair[1] as usize] {
+                        runs.push(start..i + 1);
+                        start = i + 1;
+                    }
+                }
+                runs.push(start..order.len());
+                tree.build_runs(emitters, &mut order, runs, 0, 0);
+            } else {
+                tree.build(emitters, &mut order, 0, 0);
+            }
         }
         tree
     }
@@ -410,8 +433,6 @@ impl LightTree {
         // Median splits keep the depth at ⌈log₄ n⌉, far inside the path bits (which end with
         // two for the place in a bucket).
         debug_assert!(2 * (depth + 2) <= PATH_BITS);
-        let slot = self.nodes.len();
-        self.nodes.push(Node::default());
         let mut groups = Vec::with_capacity(WIDTH);
         if order.len() == 1 {
             groups.push(0..1);
@@ -426,6 +447,20 @@ impl LightTree {
                 }
             }
         }
+        self.build_runs(emitters, order, groups, path, depth)
+    }
+
+    /// Appends a node whose lanes hold the runs `groups` of `order` and their descendants.
+    fn build_runs(
+        &mut self,
+        emitters: &[LightBounds],
+        order: &mut [u32],
+        groups: Vec<std::ops::Range<usize>>,
+        path: u64,
+        depth: u32,
+    ) -> u32 {
+        let slot = self.nodes.len();
+        self.nodes.push(Node::default());
         for (k, group) in groups.into_iter().enumerate() {
             let members = &mut order[group];
             let lane_path = path | (k as u64) << (2 * depth);
@@ -457,8 +492,15 @@ impl LightTree {
     /// Picks an emitter for point `p` (normal `n` when it only reflects) at `tau` through the
     /// time range (0 at its start, 1 at its end) from `u` in [0, 1); returns it, its
     /// probability and `u` rescaled for reuse. `None` when nothing can reach the point.
-    pub fn sample(&self, u: f32, p: Vec3, n: Option<Vec3>, tau: f32) -> Option<(usize, f32, f32)> {
-        self.descend(u, p, n, tau, None::<fn(usize)>)
+    pub fn sample(
+        &self,
+        u: f32,
+        p: Vec3,
+        n: Option<Vec3>,
+        tau: f32,
+        guide: Option<&LaneFactors>,
+    ) -> Option<(usize, f32, f32)> {
+        self.descend(u, p, n, tau, guide, None::<fn(usize)>)
     }
 
     /// [`Self::sample`], calling `fetch` with each emitter a node may pick before its
@@ -472,9 +514,10 @@ impl LightTree {
         p: Vec3,
         n: Option<Vec3>,
         tau: f32,
+        guide: Option<&LaneFactors>,
         fetch: impl Fn(usize),
     ) -> Option<(usize, f32, f32)> {
-        self.descend(u, p, n, tau, Some(fetch))
+        self.descend(u, p, n, tau, guide, Some(fetch))
     }
 
     /// The descent of [`Self::sample`], fetching ahead when `fetch` is given.
@@ -485,20 +528,31 @@ impl LightTree {
         p: Vec3,
         n: Option<Vec3>,
         tau: f32,
+        guide: Option<&LaneFactors>,
         fetch: Option<impl Fn(usize)>,
     ) -> Option<(usize, f32, f32)> {
         let mut node = self.nodes.first()?;
         let mut pmf = 1.0f32;
         let mut u = u;
         let mut level = 0;
+        let mut lanes = [0usize; GUIDED_LEVELS];
         loop {
             if let Some(fetch) = &fetch
                 && level >= CACHED_LEVELS
             {
                 self.fetch_lanes(node, fetch);
             }
+            let mut weights = node.importance(p, n, tau);
+            if let Some(guide) = guide
+                && (level as usize) < GUIDED_LEVELS
+            {
+                weights = guide.apply(level as usize, &lanes, weights);
+            }
+            let (k, share, rest) = choose(weights, u)?;
+            if (level as usize) < GUIDED_LEVELS {
+                lanes[level as usize] = k;
+            }
             level += 1;
-            let (k, share, rest) = choose(node.importance(p, n, tau), u)?;
             u = rest;
             pmf *= share;
             let child = node.child[k];
@@ -555,7 +609,14 @@ impl LightTree {
     }
 
     /// The probability [`Self::sample`] picks `emitter` for point `p` (normal `n`) at `tau`.
-    pub fn pmf(&self, emitter: usize, p: Vec3, n: Option<Vec3>, tau: f32) -> f32 {
+    pub fn pmf(
+        &self,
+        emitter: usize,
+        p: Vec3,
+        n: Option<Vec3>,
+        tau: f32,
+        guide: Option<&LaneFactors>,
+    ) -> f32 {
         let Some(&(path, depth)) = self.paths.get(emitter).filter(|&&(_, d)| d > 0) else {
             return 0.0;
         };
@@ -563,9 +624,16 @@ impl LightTree {
             return 0.0;
         };
         let mut pmf = 1.0f32;
+        let lanes = [0, 1].map(|level| (path >> (2 * level) & 3) as usize);
         for level in 0..depth {
             let k = (path >> (2 * level) & 3) as usize;
-            pmf *= share(node.importance(p, n, tau), k);
+            let mut weights = node.importance(p, n, tau);
+            if let Some(guide) = guide
+                && (level as usize) < GUIDED_LEVELS
+            {
+                weights = guide.apply(level as usize, &lanes, weights);
+            }
+            pmf *= share(weights, k);
             if level + 1 < depth {
                 node = &self.nodes[node.child[k] as usize];
             }
@@ -591,6 +659,85 @@ impl LightTree {
                 Some(Members::Many(run))
             }
         }
+    }
+}
+
+/// Levels of the tree whose choices a [`LaneFactors`] reweighs: the root's lanes and each of
+/// their children's.
+pub const GUIDED_LEVELS: usize = 2;
+
+/// Multipliers of the importances of the top [`GUIDED_LEVELS`] levels' lanes, learned for one
+/// place (see [`crate::light_guide`]): the root's four, and for each root lane the four of the
+/// node below it. A descent and the replay of its path multiply alike, so choices stay
+/// consistent with their probabilities.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaneFactors {
+    pub root: [f32; WIDTH],
+    pub second: [[f32; WIDTH]; WIDTH],
+}
+
+impl Default for LaneFactors {
+    fn default() -> Self {
+        Self {
+            root: [1.0; WIDTH],
+            second: [[1.0; WIDTH]; WIDTH],
+        }
+    }
+}
+
+impl LaneFactors {
+    /// `weights` of the node at `level`, reached through the root lane `lanes[0]` (below the
+    /// root), scaled by their factors.
+    #[inline(always)]
+    fn apply(
+        &self,
+        level: usize,
+        lanes: &[usize; GUIDED_LEVELS],
+        weights: [f32; WIDTH],
+    ) -> [f32; WIDTH] {
+        let f = if level == 0 {
+            &self.root
+        } else {
+            &self.second[lanes[0] & (WIDTH - 1)]
+        };
+        std::array::from_fn(|k| weights[k] * f[k])
+    }
+}
+
+/// The shares the unguided descent gives at the top [`GUIDED_LEVELS`] levels at one point,
+/// and the lanes an emitter's path takes there.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LaneShares {
+    /// The root's lanes' shares.
+    pub root: [f32; WIDTH],
+    /// For each root lane that is a node, its lanes' shares (zero otherwise).
+    pub second: [[f32; WIDTH]; WIDTH],
+}
+
+impl LightTree {
+    /// The unguided shares of the top two levels at `p` (normal `n`) at `tau`.
+    pub fn lane_shares(&self, p: Vec3, n: Option<Vec3>, tau: f32) -> Option<LaneShares> {
+        let root = self.nodes.first()?;
+        let weights = root.importance(p, n, tau);
+        let mut shares = LaneShares {
+            root: std::array::from_fn(|k| share(weights, k)),
+            ..Default::default()
+        };
+        for (k, &child) in root.child.iter().enumerate() {
+            if child & LEAF == 0 && shares.root[k] > 0.0 {
+                let w = self.nodes[child as usize].importance(p, n, tau);
+                shares.second[k] = std::array::from_fn(|j| share(w, j));
+            }
+        }
+        Some(shares)
+    }
+
+    /// The lanes `emitter`'s path takes at the top two levels (the second `None` when the
+    /// root lane is a bucket).
+    pub fn top_lanes(&self, emitter: usize) -> Option<(usize, Option<usize>)> {
+        let &(path, depth) = self.paths.get(emitter).filter(|&&(_, d)| d > 0)?;
+        let first = (path & 3) as usize;
+        Some((first, (depth >= 2).then_some((path >> 2 & 3) as usize)))
     }
 }
 
@@ -730,7 +877,7 @@ mod tests {
             let n = Vec3::new((f * 0.5).cos(), (f * 0.9).sin(), 0.4).normalize();
             let receiver = if k % 4 == 0 { None } else { Some(n) };
             let pmf: Vec<f32> = (0..lights.len())
-                .map(|i| tree.pmf(i, p, receiver, 0.5))
+                .map(|i| tree.pmf(i, p, receiver, 0.5, None))
                 .collect();
             // A node whose children both turn out unreachable (their union reaches corners or
             // directions neither does) loses its share: the sample is then empty, which is
@@ -756,7 +903,7 @@ mod tests {
             let mut empty = 0u32;
             for j in 0..draws {
                 let u = (j as f32 + 0.5) / draws as f32;
-                let Some((i, prob, rest)) = tree.sample(u, p, receiver, 0.5) else {
+                let Some((i, prob, rest)) = tree.sample(u, p, receiver, 0.5, None) else {
                     empty += 1;
                     continue;
                 };
@@ -790,12 +937,12 @@ mod tests {
         };
         let tree = LightTree::new(&[at(1.0, 1.0), at(4.0, 1.0), at(-2.0, 8.0)]);
         let p = Vec3::ZERO;
-        let pmf: Vec<f32> = (0..3).map(|i| tree.pmf(i, p, None, 0.0)).collect();
+        let pmf: Vec<f32> = (0..3).map(|i| tree.pmf(i, p, None, 0.0, None)).collect();
         // Power over distance squared is 1, 1/16 and 2; inner nodes blur it but keep the order.
         assert!(pmf[2] > pmf[0] && pmf[0] > 4.0 * pmf[1], "{pmf:?}");
         assert!((pmf.iter().sum::<f32>() - 1.0).abs() < 1e-5);
         // Behind the receiver's surface: never picked.
-        assert_eq!(tree.pmf(0, p, Some(-Vec3::X), 0.0), 0.0);
+        assert_eq!(tree.pmf(0, p, Some(-Vec3::X), 0.0, None), 0.0);
     }
 
     /// Second moment of (contribution / probability) over the squared mean: 1 for a pmf
@@ -853,7 +1000,8 @@ mod tests {
                     (e.power * d.dot(n).max(0.0) / d.length().powi(3)) as f64
                 })
                 .collect();
-            let tree_moment = relative_second_moment(&f, |i| tree.pmf(i, p, Some(n), 0.0) as f64);
+            let tree_moment =
+                relative_second_moment(&f, |i| tree.pmf(i, p, Some(n), 0.0, None) as f64);
             let total_power: f64 = lights.iter().map(|e| e.power as f64).sum();
             let power_moment = relative_second_moment(&f, |i| lights[i].power as f64 / total_power);
             // Beside the ring, choosing by power alone has several times the variance; the tree
@@ -939,9 +1087,10 @@ mod tests {
                         (e.power * d.dot(n).max(0.0) / d.length().powi(3)) as f64
                     })
                     .collect();
-                let moment = relative_second_moment(&f, |i| tree.pmf(i, p, Some(n), tau) as f64);
+                let moment =
+                    relative_second_moment(&f, |i| tree.pmf(i, p, Some(n), tau, None) as f64);
                 let swept_moment =
-                    relative_second_moment(&f, |i| swept_tree.pmf(i, p, Some(n), tau) as f64);
+                    relative_second_moment(&f, |i| swept_tree.pmf(i, p, Some(n), tau, None) as f64);
                 // Within a small factor of the ideal pmf at every time; at the ends of the range,
                 // where the strands are farthest from the middle of their boxes, the boxes alone
                 // do markedly worse (1.5 to 1.8 times the second moment here).

@@ -85,17 +85,23 @@ pub fn run(args: LightsArgs) -> anyhow::Result<()> {
         "{:<8} {:>5} {:>10} {:>10} {:>14}",
         "choice", "spp", "seconds", "relMSE", "relMSE·s"
     );
-    let choices = [LightSelection::Tree, LightSelection::Power];
+    let choices = [
+        LightSelection::Learned,
+        LightSelection::Tree,
+        LightSelection::Power,
+    ];
     let products = alternate(
-        ["tree", "power"],
+        ["learned", "tree", "power"],
         |k, seed| build(choices[k], seed),
         (args.spp, args.repeats, args.threads.threads),
         &reference.rgb,
         |_| true,
     )?;
     println!(
-        "power-proportional needs {:.1}x the time of the light tree for the same error",
-        products[1] / products[0]
+        "for the same error, the plain tree needs {:.2}x the time of the learned one, and \
+         power-proportional {:.2}x",
+        products[1] / products[0],
+        products[2] / products[0]
     );
     Ok(())
 }

@@ -414,6 +414,14 @@ impl Scene {
             let exits = crate::exit_light::measure(&scene);
             scene.apertures.set_exits(exits);
         }
+        if light_selection == LightSelection::Learned {
+            let started = std::time::Instant::now();
+            scene.lights.set_training(true);
+            let guide = crate::light_guide::train(&scene);
+            scene
+                .lights
+                .set_guide(guide, started.elapsed().as_secs_f64());
+        }
         Ok(scene)
     }
 
