@@ -52,7 +52,7 @@ const LEAST_SAMPLES: usize = 32;
 const TREE_SHARE: f64 = 0.2;
 
 /// Per-region factors for the light tree's top two levels.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct LightGuide {
     /// The box the regions cover.
     lower: Vec3,
@@ -63,7 +63,7 @@ pub struct LightGuide {
 }
 
 /// A node of the regions' k-d tree, eight bytes.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct RegionNode {
     /// Where a split node halves its box.
     at: f32,

@@ -866,7 +866,46 @@ mod tests {
     #[test]
     fn probabilities_sum_to_one_match_sampling_and_skip_nothing_that_contributes() {
         let lights = emitters();
-        let tree = LightTree::new(&lights);
+        check_probabilities(&lights, &LightTree::new(&lights), None);
+    }
+
+    #[test]
+    fn a_guided_descent_of_a_tree_of_kinds_matches_its_probabilities_too() {
+        let lights = emitters();
+        let kinds: Vec<u32> = (0..lights.len() as u32).map(|i| i % 3).collect();
+        let tree = LightTree::with_kinds(&lights, &kinds);
+        // The root's lanes are the kinds.
+        for (i, &kind) in kinds.iter().enumerate() {
+            let (lane, _) = tree.top_lanes(i).unwrap();
+            assert_eq!(lane, kind as usize, "emitter {i}");
+        }
+        let factor = |k: usize| 0.2 + 4.8 * ((k as f32 * 0.77).sin() * 0.5 + 0.5);
+        let guide = LaneFactors {
+            root: std::array::from_fn(factor),
+            second: std::array::from_fn(|j| std::array::from_fn(|k| factor(4 + 4 * j + k))),
+        };
+        check_probabilities(&lights, &tree, Some(&guide));
+        // The factors move the choices: the root's shares are no longer the tree's.
+        let p = Vec3::new(0.5, 0.2, -0.3);
+        let shares = tree.lane_shares(p, None, 0.5).unwrap().root;
+        let guided: [f32; 3] = std::array::from_fn(|lane| {
+            (0..lights.len())
+                .filter(|&i| kinds[i] as usize == lane)
+                .map(|i| tree.pmf(i, p, None, 0.5, Some(&guide)))
+                .sum()
+        });
+        let total: f32 = (0..3).map(|j| guide.root[j] * shares[j]).sum();
+        for j in 0..3 {
+            let expected = guide.root[j] * shares[j] / total;
+            assert!(
+                (guided[j] - expected).abs() < 1e-4,
+                "lane {j}: {guided:?} {shares:?}"
+            );
+        }
+    }
+
+    /// The checks of the test above, for `tree` over `lights` descended with `guide`.
+    fn check_probabilities(lights: &[LightBounds], tree: &LightTree, guide: Option<&LaneFactors>) {
         for k in 0..40 {
             let f = k as f32;
             let p = Vec3::new(
@@ -877,7 +916,7 @@ mod tests {
             let n = Vec3::new((f * 0.5).cos(), (f * 0.9).sin(), 0.4).normalize();
             let receiver = if k % 4 == 0 { None } else { Some(n) };
             let pmf: Vec<f32> = (0..lights.len())
-                .map(|i| tree.pmf(i, p, receiver, 0.5, None))
+                .map(|i| tree.pmf(i, p, receiver, 0.5, guide))
                 .collect();
             // A node whose children both turn out unreachable (their union reaches corners or
             // directions neither does) loses its share: the sample is then empty, which is
@@ -903,7 +942,7 @@ mod tests {
             let mut empty = 0u32;
             for j in 0..draws {
                 let u = (j as f32 + 0.5) / draws as f32;
-                let Some((i, prob, rest)) = tree.sample(u, p, receiver, 0.5, None) else {
+                let Some((i, prob, rest)) = tree.sample(u, p, receiver, 0.5, guide) else {
                     empty += 1;
                     continue;
                 };

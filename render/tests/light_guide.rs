@@ -1,0 +1,176 @@
+//! Light selection learned per region: it must move samples away from lights the tree cannot
+//! know are hidden, keep the estimate (the same means, less noise), and learn the same guide
+//! whatever the thread count.
+
+mod common;
+
+use common::{assert_statistically_equal, box_obj};
+use glam::Vec3;
+use rift_render::Scene;
+use rift_render::film::relative_mse;
+use rift_render::lights::{LightSelection, Receiver};
+use rift_render::render::{RenderOptions, render};
+use rift_render::rift_fx::Shot;
+use rift_render::scene::Overrides;
+use std::path::Path;
+
+/// A closed grey room around the camera, lit by a dim lamp inside it, beside a bright lamp
+/// outside it that the light tree, which does not know about walls, prefers.
+fn room_beside_a_hidden_lamp(dir: &Path) -> std::path::PathBuf {
+    std::fs::write(
+        dir.join("room.obj"),
+        box_obj([-2.0, 0.0, -2.0], [2.0, 3.0, 2.0], &[]),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("lamp.obj"),
+        box_obj([-0.2, -0.2, -0.2], [0.2, 0.2, 0.2], &[]),
+    )
+    .unwrap();
+    let shot = r#"
+[shot]
+name = "hidden"
+fps = 24.0
+frames = [1, 1]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [40, 30]
+fov_degrees = 70.0
+[camera.transform]
+position = [1.5, 1.6, 1.5]
+look_at = [-1.0, 0.3, -1.0]
+[render]
+max_bounces = 3
+[[material]]
+name = "grey"
+type = "diffuse"
+reflectance = [0.6, 0.6, 0.6]
+[[material]]
+name = "dim"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [4.0, 4.0, 4.0]
+[[material]]
+name = "bright"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [400.0, 400.0, 400.0]
+[[object]]
+name = "room"
+mesh = "room.obj"
+material = "grey"
+[[object]]
+name = "inside"
+mesh = "lamp.obj"
+material = "dim"
+transform = { position = [-0.5, 2.5, 0.0] }
+[[object]]
+name = "outside"
+mesh = "lamp.obj"
+material = "bright"
+transform = { position = [-4.0, 1.5, 0.0] }
+"#;
+    let path = dir.join("hidden.toml");
+    std::fs::write(&path, shot).unwrap();
+    path
+}
+
+fn build(path: &Path, selection: LightSelection, seed: u32) -> Scene {
+    let shot = Shot::load(path).unwrap();
+    let overrides = Overrides {
+        light_selection: Some(selection),
+        seed: Some(seed),
+        ..Default::default()
+    };
+    Scene::build_with(&shot, 1, &overrides).unwrap()
+}
+
+/// The probability light selection at `at` picks an emitter on the lamp outside the room (the
+/// twelve emitters after the inside lamp's twelve).
+fn outside_share(scene: &Scene, at: &Receiver) -> f32 {
+    (12..24).map(|i| scene.lights.pick_pmf(i, at)).sum()
+}
+
+#[test]
+fn a_lamp_behind_a_wall_gets_few_samples_once_learned() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = room_beside_a_hidden_lamp(dir.path());
+    let (tree, learned) = (
+        build(&path, LightSelection::Tree, 1),
+        build(&path, LightSelection::Learned, 1),
+    );
+    assert!(tree.lights.guide().is_none());
+    let (with_factors, regions) = learned.lights.guide().expect("a guide").learned();
+    assert!(
+        with_factors > 0 && with_factors <= regions,
+        "{with_factors} of {regions}"
+    );
+    for (x, z) in [(-1.0, -1.0), (0.0, 0.5), (-1.5, 1.0), (0.8, -0.8)] {
+        let at = Receiver {
+            p: Vec3::new(x, 0.0, z),
+            n: Some(Vec3::Y),
+            time: 0.0,
+        };
+        let (plain, guided) = (outside_share(&tree, &at), outside_share(&learned, &at));
+        eprintln!(
+            "floor at ({x}, {z}): hidden lamp share {plain:.3} under the tree, {guided:.3} learned"
+        );
+        assert!(
+            plain > 0.5 && guided < 0.35 * plain,
+            "floor at ({x}, {z}): the hidden lamp's share {plain} under the tree, {guided} learned"
+        );
+    }
+}
+
+#[test]
+fn learned_selection_keeps_the_estimate_and_lowers_the_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = room_beside_a_hidden_lamp(dir.path());
+    let images = |selection| {
+        [1, 2].map(|seed| render(&build(&path, selection, seed), &RenderOptions::new(32)).rgb)
+    };
+    let (learned, tree) = (
+        images(LightSelection::Learned),
+        images(LightSelection::Tree),
+    );
+    assert_statistically_equal(
+        [&learned[0], &learned[1]],
+        [&tree[0], &tree[1]],
+        "learned against tree",
+    );
+    let noise = |pair: &[Vec<Vec3>; 2]| relative_mse(&pair[0], &pair[1]);
+    eprintln!(
+        "noise {:e} learned against {:e}",
+        noise(&learned),
+        noise(&tree)
+    );
+    assert!(
+        noise(&learned) < 0.6 * noise(&tree),
+        "noise {:e} learned against {:e}",
+        noise(&learned),
+        noise(&tree)
+    );
+}
+
+#[test]
+fn the_guide_and_the_image_are_the_same_for_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = room_beside_a_hidden_lamp(dir.path());
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let scene = build(&path, LightSelection::Learned, 3);
+                let image = render(&scene, &RenderOptions::new(4)).rgb;
+                (scene.lights.guide().cloned(), image)
+            })
+    };
+    let (one, three) = (run(1), run(3));
+    assert!(one.0.is_some());
+    assert!(
+        one == three,
+        "the guide or the image depends on the thread count"
+    );
+}
