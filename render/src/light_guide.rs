@@ -26,7 +26,7 @@
 //! sample range or the thread count, so every part of a split render learns the same guide.
 
 use crate::integrator::trace;
-use crate::light_tree::{LaneFactors, LaneShares, WIDTH};
+use crate::light_tree::{PerLane, WIDTH};
 use crate::lights::Receiver;
 use crate::ray::Ray;
 use crate::sampling::{SampleStream, hash32};
@@ -59,7 +59,7 @@ pub struct LightGuide {
     upper: Vec3,
     /// The regions' k-d tree, its root first.
     nodes: Vec<RegionNode>,
-    factors: Vec<LaneFactors>,
+    factors: Vec<PerLane>,
 }
 
 /// A node of the regions' k-d tree, eight bytes.
@@ -91,7 +91,7 @@ impl LightGuide {
     /// The factors at `p` (its region's); `None` outside the regions or where nothing was
     /// learned.
     #[inline]
-    pub fn at(&self, p: Vec3) -> Option<&LaneFactors> {
+    pub fn at(&self, p: Vec3) -> Option<&PerLane> {
         if !(p.cmpge(self.lower).all() && p.cmple(self.upper).all()) {
             return None;
         }
@@ -173,7 +173,7 @@ pub fn train(scene: &Scene) -> Option<LightGuide> {
     };
     regions.split(0, 0..regions.kept.len(), [lower, upper], 0);
     let leaves = regions.leaves;
-    let learned: Vec<Option<LaneFactors>> = leaves
+    let learned: Vec<Option<PerLane>> = leaves
         .par_iter()
         .map(|(_, members)| learn(scene, &records, &kept[members.clone()]))
         .collect();
@@ -244,7 +244,7 @@ impl Regions<'_> {
 
 /// The factors one region's samples (`members`, indices of `records`) teach; `None` when they
 /// are too few.
-fn learn(scene: &Scene, records: &[Record], members: &[u32]) -> Option<LaneFactors> {
+fn learn(scene: &Scene, records: &[Record], members: &[u32]) -> Option<PerLane> {
     if members.len() < LEAST_SAMPLES {
         return None;
     }
@@ -258,7 +258,7 @@ fn learn(scene: &Scene, records: &[Record], members: &[u32]) -> Option<LaneFacto
         let lanes = r.emitter.and_then(|e| lights.top_lanes(e as usize));
         moments.add(&shares, lanes, r.value as f64);
     }
-    Some(moments.factors())
+    Some(moments.factors(lights.lane_costs()))
 }
 
 /// The records of [`TRAINING_SPP`] paths a pixel over the camera's frame at about
@@ -323,7 +323,7 @@ struct Moments {
 impl Moments {
     /// Adds a sample whose point the tree gives `shares`, which took the lanes `lanes` (none
     /// for the environment or no light) and brought `value`.
-    fn add(&mut self, shares: &LaneShares, lanes: Option<(usize, Option<usize>)>, value: f64) {
+    fn add(&mut self, shares: &PerLane, lanes: Option<(usize, Option<usize>)>, value: f64) {
         for j in 0..WIDTH {
             self.root_share[j] += shares.root[j] as f64;
             for k in 0..WIDTH {
@@ -342,20 +342,29 @@ impl Moments {
         }
     }
 
-    /// The factors that take the tree's shares to the learned ones.
-    fn factors(&self) -> LaneFactors {
-        LaneFactors {
-            root: lane_factors(&self.root, &self.root_share),
-            second: std::array::from_fn(|j| lane_factors(&self.second[j], &self.second_share[j])),
+    /// The factors that take the tree's shares to the learned ones, for lanes whose samples
+    /// cost `costs`.
+    fn factors(&self, costs: &PerLane) -> PerLane {
+        PerLane {
+            root: lane_factors(&self.root, &self.root_share, &costs.root),
+            second: std::array::from_fn(|j| {
+                lane_factors(&self.second[j], &self.second_share[j], &costs.second[j])
+            }),
         }
     }
 }
 
 /// Factors that turn lanes' mean shares (`share_sums`, summed over the samples) into shares in
-/// proportion to the root of their second moments (`moment_sums`), blended with the tree's own
-/// by [`TREE_SHARE`]; all 1 when the lanes brought nothing.
-fn lane_factors(moment_sums: &[f64; WIDTH], share_sums: &[f64; WIDTH]) -> [f32; WIDTH] {
-    let roots = moment_sums.map(|m| m.max(0.0).sqrt());
+/// proportion to the root of their second moments (`moment_sums`) over their samples' `costs`
+/// (the most efficient one-sample choice), blended with the tree's own by [`TREE_SHARE`]; all
+/// 1 when the lanes brought nothing.
+fn lane_factors(
+    moment_sums: &[f64; WIDTH],
+    share_sums: &[f64; WIDTH],
+    costs: &[f32; WIDTH],
+) -> [f32; WIDTH] {
+    let roots: [f64; WIDTH] =
+        std::array::from_fn(|k| (moment_sums[k].max(0.0) / costs[k].max(1e-6) as f64).sqrt());
     let (root_total, share_total) = (roots.iter().sum::<f64>(), share_sums.iter().sum::<f64>());
     if !(root_total > 0.0 && share_total > 0.0 && root_total.is_finite()) {
         return [1.0; WIDTH];

@@ -498,7 +498,7 @@ impl LightTree {
         p: Vec3,
         n: Option<Vec3>,
         tau: f32,
-        guide: Option<&LaneFactors>,
+        guide: Option<&PerLane>,
     ) -> Option<(usize, f32, f32)> {
         self.descend(u, p, n, tau, guide, None::<fn(usize)>)
     }
@@ -514,7 +514,7 @@ impl LightTree {
         p: Vec3,
         n: Option<Vec3>,
         tau: f32,
-        guide: Option<&LaneFactors>,
+        guide: Option<&PerLane>,
         fetch: impl Fn(usize),
     ) -> Option<(usize, f32, f32)> {
         self.descend(u, p, n, tau, guide, Some(fetch))
@@ -528,7 +528,7 @@ impl LightTree {
         p: Vec3,
         n: Option<Vec3>,
         tau: f32,
-        guide: Option<&LaneFactors>,
+        guide: Option<&PerLane>,
         fetch: Option<impl Fn(usize)>,
     ) -> Option<(usize, f32, f32)> {
         let mut node = self.nodes.first()?;
@@ -615,7 +615,7 @@ impl LightTree {
         p: Vec3,
         n: Option<Vec3>,
         tau: f32,
-        guide: Option<&LaneFactors>,
+        guide: Option<&PerLane>,
     ) -> f32 {
         let Some(&(path, depth)) = self.paths.get(emitter).filter(|&&(_, d)| d > 0) else {
             return 0.0;
@@ -662,32 +662,39 @@ impl LightTree {
     }
 }
 
-/// Levels of the tree whose choices a [`LaneFactors`] reweighs: the root's lanes and each of
-/// their children's.
+/// Levels of the tree whose choices a guide reweighs: the root's lanes and each of their
+/// children's.
 pub const GUIDED_LEVELS: usize = 2;
 
-/// Multipliers of the importances of the top [`GUIDED_LEVELS`] levels' lanes, learned for one
-/// place (see [`crate::light_guide`]): the root's four, and for each root lane the four of the
-/// node below it. A descent and the replay of its path multiply alike, so choices stay
-/// consistent with their probabilities.
+/// A number for each lane of the top [`GUIDED_LEVELS`] levels: the root's four, and for each
+/// root lane the four of the node below it (unused where that lane is a bucket). Learned
+/// factors, shares and costs come this way.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LaneFactors {
+pub struct PerLane {
     pub root: [f32; WIDTH],
     pub second: [[f32; WIDTH]; WIDTH],
 }
 
-impl Default for LaneFactors {
+impl Default for PerLane {
+    /// Ones: the factors that change nothing.
     fn default() -> Self {
-        Self {
-            root: [1.0; WIDTH],
-            second: [[1.0; WIDTH]; WIDTH],
-        }
+        Self::splat(1.0)
     }
 }
 
-impl LaneFactors {
-    /// `weights` of the node at `level`, reached through the root lane `lanes[0]` (below the
-    /// root), scaled by their factors.
+impl PerLane {
+    /// `value` in every lane.
+    pub const fn splat(value: f32) -> Self {
+        Self {
+            root: [value; WIDTH],
+            second: [[value; WIDTH]; WIDTH],
+        }
+    }
+
+    /// As factors (see [`crate::light_guide`]): `weights` of the node at `level`, reached
+    /// through the root lane `lanes[0]` (below the root), multiplied lane by lane. A descent
+    /// and the replay of its path multiply alike, so choices stay consistent with their
+    /// probabilities.
     #[inline(always)]
     fn apply(
         &self,
@@ -704,24 +711,15 @@ impl LaneFactors {
     }
 }
 
-/// The shares the unguided descent gives at the top [`GUIDED_LEVELS`] levels at one point,
-/// and the lanes an emitter's path takes there.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct LaneShares {
-    /// The root's lanes' shares.
-    pub root: [f32; WIDTH],
-    /// For each root lane that is a node, its lanes' shares (zero otherwise).
-    pub second: [[f32; WIDTH]; WIDTH],
-}
-
 impl LightTree {
-    /// The unguided shares of the top two levels at `p` (normal `n`) at `tau`.
-    pub fn lane_shares(&self, p: Vec3, n: Option<Vec3>, tau: f32) -> Option<LaneShares> {
+    /// The unguided descent's shares of the top two levels' lanes at `p` (normal `n`) at
+    /// `tau` (zero below a root lane that is a bucket or has no share).
+    pub fn lane_shares(&self, p: Vec3, n: Option<Vec3>, tau: f32) -> Option<PerLane> {
         let root = self.nodes.first()?;
         let weights = root.importance(p, n, tau);
-        let mut shares = LaneShares {
+        let mut shares = PerLane {
             root: std::array::from_fn(|k| share(weights, k)),
-            ..Default::default()
+            ..PerLane::splat(0.0)
         };
         for (k, &child) in root.child.iter().enumerate() {
             if child & LEAF == 0 && shares.root[k] > 0.0 {
@@ -880,7 +878,7 @@ mod tests {
             assert_eq!(lane, kind as usize, "emitter {i}");
         }
         let factor = |k: usize| 0.2 + 4.8 * ((k as f32 * 0.77).sin() * 0.5 + 0.5);
-        let guide = LaneFactors {
+        let guide = PerLane {
             root: std::array::from_fn(factor),
             second: std::array::from_fn(|j| std::array::from_fn(|k| factor(4 + 4 * j + k))),
         };
@@ -905,7 +903,7 @@ mod tests {
     }
 
     /// The checks of the test above, for `tree` over `lights` descended with `guide`.
-    fn check_probabilities(lights: &[LightBounds], tree: &LightTree, guide: Option<&LaneFactors>) {
+    fn check_probabilities(lights: &[LightBounds], tree: &LightTree, guide: Option<&PerLane>) {
         for k in 0..40 {
             let f = k as f32;
             let p = Vec3::new(

@@ -10,7 +10,7 @@
 use crate::environment::Environment;
 use crate::geometry::{MovingInstance, RoundCone, STATIC, Strands, Triangle};
 use crate::light_guide::LightGuide;
-use crate::light_tree::{LaneShares, LightBounds, LightTree, Path};
+use crate::light_tree::{LightBounds, LightTree, Path, PerLane};
 use crate::sampling::{AliasTable, uniform_triangle};
 use crate::strand_exposure;
 use glam::{Vec2, Vec3};
@@ -156,6 +156,9 @@ pub struct Lights {
     times: [f64; 2],
     /// The tree's first choices as learned per place, once trained.
     guide: Guide,
+    /// What a light sample costs, relative to one aimed at a lamp, in each lane of the tree's
+    /// top two levels (the mean over its emitters, weighed as the tree weighs them).
+    lane_costs: PerLane,
 }
 
 /// Where learning light selection per place stands.
@@ -250,6 +253,13 @@ const PATH_STEPS: usize = 8;
 /// which for a flat one-sided emitter is its power. A two-sided one sends each way what a
 /// one-sided one would: half its power.
 const TWO_SIDED_PEAK_SHARE: f32 = 0.5;
+
+/// What a light sample aimed at a strand costs against one aimed at a lamp, for learned
+/// selection, which picks a branch in proportion to the root of its second moment over its
+/// cost. Its shadow ray threads the ring's bundle of moving strands. On the showcase (640×360,
+/// 4 spp, one thread, two seeds), learned selection with costs 1, 3 and 9 had efficiencies
+/// (1/(noise²·s)) 2.46, 2.71 and 2.75, against 2.10 for the plain tree.
+const STRAND_SAMPLE_COST: f32 = 4.0;
 
 /// The same for a round strand, before its exposure: its side, of area A and radiance L, emits
 /// πLA in all but shows at most its silhouette, A/π, to any one direction. Then each strand
@@ -359,6 +369,7 @@ impl Lights {
             .chain(strands.segment_ring.iter().map(|r| r + 1))
             .collect();
         let tree = LightTree::with_kinds(&bounds, &kinds);
+        let lane_costs = lane_costs(&tree, &bounds, emitters.len());
         let fetch_ahead = crate::geometry::wide_bvh::worth_fetching_ahead(
             tree.bytes()
                 + std::mem::size_of_val(emitters.as_slice())
@@ -389,7 +400,14 @@ impl Lights {
             environment_split,
             times,
             guide: Guide::Off,
+            lane_costs,
         }
+    }
+
+    /// What a light sample costs in each lane of the tree's top two levels, relative to one
+    /// aimed at a lamp.
+    pub fn lane_costs(&self) -> &PerLane {
+        &self.lane_costs
     }
 
     /// True when light selection descends the tree (not power, not the pieces of one lamp).
@@ -435,7 +453,7 @@ impl Lights {
 
     /// The guide's factors at `at`, if guided.
     #[inline(always)]
-    fn factors(&self, at: &Receiver) -> Option<&crate::light_tree::LaneFactors> {
+    fn factors(&self, at: &Receiver) -> Option<&PerLane> {
         match &self.guide {
             Guide::On(guide, _) => guide.at(at.p),
             _ => None,
@@ -443,7 +461,7 @@ impl Lights {
     }
 
     /// The unguided tree's shares at the top two levels at `at`.
-    pub fn lane_shares(&self, at: &Receiver) -> Option<LaneShares> {
+    pub fn lane_shares(&self, at: &Receiver) -> Option<PerLane> {
         self.tree.lane_shares(at.p, at.n, self.tau(at.time))
     }
 
@@ -720,6 +738,35 @@ impl Cylinder {
             return 0.0;
         }
         cos_phi / (2.0 * self.radius * self.length)
+    }
+}
+
+/// The mean cost of a light sample in each lane of `tree`'s top two levels over `bounds` (the
+/// first `triangles` of them lamps, the rest strands), weighed as the tree weighs emitters.
+fn lane_costs(tree: &LightTree, bounds: &[LightBounds], triangles: usize) -> PerLane {
+    let (mut cost, mut weight) = (PerLane::splat(0.0), PerLane::splat(0.0));
+    for (i, b) in bounds.iter().enumerate() {
+        let Some((j, second)) = tree.top_lanes(i) else {
+            continue;
+        };
+        let c = if i < triangles {
+            1.0
+        } else {
+            STRAND_SAMPLE_COST
+        };
+        cost.root[j] += b.power * c;
+        weight.root[j] += b.power;
+        if let Some(k) = second {
+            cost.second[j][k] += b.power * c;
+            weight.second[j][k] += b.power;
+        }
+    }
+    let mean = |c: f32, w: f32| if w > 0.0 { c / w } else { 1.0 };
+    PerLane {
+        root: std::array::from_fn(|j| mean(cost.root[j], weight.root[j])),
+        second: std::array::from_fn(|j| {
+            std::array::from_fn(|k| mean(cost.second[j][k], weight.second[j][k]))
+        }),
     }
 }
 
