@@ -378,3 +378,60 @@ fn lane_factors(
         (((1.0 - TREE_SHARE) * learned + TREE_SHARE * tree) / tree) as f32
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn factors_move_shares_towards_the_root_of_second_moments_over_costs() {
+        let even = [0.25f64; WIDTH];
+        let ones = [1.0f32; WIDTH];
+        // What the tree gives is what was seen: nothing moves.
+        let f = lane_factors(&[1.0, 1.0, 1.0, 1.0], &even, &ones);
+        assert!(f.iter().all(|&f| (f - 1.0).abs() < 1e-6), "{f:?}");
+        // A lane that never brought light keeps only the tree's share of it.
+        let f = lane_factors(&[1.0, 1.0, 1.0, 0.0], &even, &ones);
+        assert!((f[3] - TREE_SHARE as f32).abs() < 1e-6, "{f:?}");
+        // Second moments 16:4:1:1 want shares 4:2:1:1; a lane costing four times as much
+        // wants half the share.
+        let f = lane_factors(&[16.0, 4.0, 1.0, 1.0], &even, &ones);
+        let g = lane_factors(&[16.0, 4.0, 1.0, 1.0], &even, &[4.0, 1.0, 1.0, 1.0]);
+        let shares = |f: [f32; WIDTH]| {
+            let total: f32 = f.iter().sum();
+            f.map(|f| f / total)
+        };
+        let blend = |learned: f32| (1.0 - TREE_SHARE as f32) * learned + TREE_SHARE as f32 * 0.25;
+        let (s, t) = (shares(f), shares(g));
+        assert!(
+            (s[0] - blend(0.5)).abs() < 1e-5 && (s[1] - blend(0.25)).abs() < 1e-5,
+            "{s:?}"
+        );
+        assert!((t[0] - blend(2.0 / 6.0)).abs() < 1e-5, "{t:?}");
+        // Nothing seen at all: no change.
+        assert_eq!(lane_factors(&[0.0; WIDTH], &even, &ones), [1.0; WIDTH]);
+    }
+
+    #[test]
+    fn points_outside_the_regions_or_in_regions_without_samples_are_not_guided() {
+        let factors = PerLane::splat(2.0);
+        let guide = LightGuide {
+            lower: Vec3::ZERO,
+            upper: Vec3::ONE,
+            nodes: vec![
+                RegionNode {
+                    at: 0.5,
+                    bits: 1 << 30 | 1,
+                },
+                RegionNode::leaf(0),
+                RegionNode::leaf(NOTHING_LEARNED),
+            ],
+            factors: vec![factors],
+        };
+        assert_eq!(guide.at(Vec3::new(0.5, 0.2, 0.5)), Some(&factors));
+        assert_eq!(guide.at(Vec3::new(0.5, 0.7, 0.5)), None);
+        assert_eq!(guide.at(Vec3::new(1.5, 0.2, 0.5)), None);
+        assert_eq!(guide.at(Vec3::splat(f32::NAN)), None);
+        assert_eq!(guide.learned(), (1, 2));
+    }
+}
