@@ -702,14 +702,16 @@ fn next_event(
     if q <= 0.0 {
         return NONE;
     }
+    // Training paths record every light sample (see `crate::light_guide`), out of line.
     let training = scene.lights.training();
-    let learn = |emitter: Option<u32>, value: f32| {
+    let learn = |source: Option<LightSource>, value: f32| {
         if training {
-            crate::light_guide::record(crate::light_guide::Record {
-                receiver: *space.map_or(at.receiver, |s| &s.receiver),
-                emitter,
+            record_light_sample(
+                scene,
+                space.map_or(at.receiver, |s| &s.receiver),
+                source,
                 value,
-            });
+            );
         }
     };
     let Some(incoming) = incoming(scene, at.receiver, space, u, u_technique) else {
@@ -719,7 +721,7 @@ fn next_event(
     let wi = at.frame.to_local(incoming.dir);
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
-        learn(incoming.emitter, 0.0);
+        learn(incoming.source, 0.0);
         return NONE;
     }
     // The shadow ray leaves from the side of the surface it goes to.
@@ -729,12 +731,12 @@ fn next_event(
     let chain = space.map_or(Chain::default(), |s| s.chain);
     let Some((tint, coins)) = shadow(scene, &chain, from, dir, incoming.end, at.receiver.time)
     else {
-        learn(incoming.emitter, 0.0);
+        learn(incoming.source, 0.0);
         return NONE;
     };
     if training {
         let brought = f * incoming.radiance * tint * (coins / incoming.pdf);
-        learn(incoming.emitter, crate::lights::luminance(brought));
+        learn(incoming.source, crate::lights::luminance(brought));
     }
     let pdf_light = q * incoming.pdf;
     let weight = if incoming.bsdf_can_find {
@@ -759,8 +761,25 @@ pub(crate) struct Incoming {
     bsdf_can_find: bool,
     /// The light group of the emitter.
     pub group: u8,
-    /// The emitter's index in light selection (`None`: the environment).
-    pub emitter: Option<u32>,
+    /// The emitter it lies on (`None`: the environment).
+    pub source: Option<LightSource>,
+}
+
+/// Records a training path's light sample at `receiver` (where light selection saw it), drawn
+/// on `source`, which brought `value` (luminance over its density, shadow ray included).
+#[cold]
+#[inline(never)]
+fn record_light_sample(
+    scene: &Scene,
+    receiver: &Receiver,
+    source: Option<LightSource>,
+    value: f32,
+) {
+    crate::light_guide::record(crate::light_guide::Record {
+        receiver: *receiver,
+        emitter: source.and_then(|s| scene.lights.emitter_index(s)),
+        value,
+    });
 }
 
 /// Draws light for `at` with the strategy of `space` (`None`: ordinary light sampling): a
@@ -860,7 +879,7 @@ fn sky_through_aperture(
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
         group: scene.environment_group,
-        emitter: None,
+        source: None,
     })
 }
 
@@ -894,7 +913,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
             pdf: light.pdf,
             bsdf_can_find,
             group,
-            emitter: None,
+            source: None,
         }),
         LightPlace::Point {
             point,
@@ -928,7 +947,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find,
                 group,
-                emitter: scene.lights.emitter_index(source),
+                source: Some(source),
             })
         }
     }
