@@ -81,10 +81,6 @@ pub fn run(args: LightsArgs) -> anyhow::Result<()> {
         t.elapsed().as_secs_f64(),
         args.repeats
     );
-    println!(
-        "{:<8} {:>5} {:>10} {:>10} {:>14}",
-        "choice", "spp", "seconds", "relMSE", "relMSE·s"
-    );
     let choices = [
         LightSelection::Learned,
         LightSelection::Tree,
