@@ -51,6 +51,10 @@ const LEAST_SAMPLES: usize = 32;
 /// and `lit_through`, 0.1 to 0.35 all measured within half a percent of noise of 0.2.
 const TREE_SHARE: f64 = 0.2;
 
+/// The largest factor a lane gets: a lane the tree all but ignores where it brought most of the
+/// light is raised this far, which keeps the descent's weights far from overflow.
+const MAX_FACTOR: f64 = 1e4;
+
 /// Per-region factors for the light tree's top two levels.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LightGuide {
@@ -381,7 +385,8 @@ fn lane_factors(
             return 1.0;
         }
         let learned = roots[k] / root_total;
-        (((1.0 - TREE_SHARE) * learned + TREE_SHARE * tree) / tree) as f32
+        let factor = ((1.0 - TREE_SHARE) * learned + TREE_SHARE * tree) / tree;
+        factor.min(MAX_FACTOR) as f32
     })
 }
 
