@@ -38,7 +38,7 @@ impl LightVisibility {
     pub fn new(scene: &Scene, bounds: [Vec3; 2], times: [f64; 2]) -> Self {
         let [lower, upper] = bounds;
         let extent = (upper - lower).max(Vec3::splat(1e-3));
-        let Some(dims) = grid_shape(extent, CELLS) else {
+        let Some(dims) = grid_shape(extent) else {
             return Self::default();
         };
         let cell = extent / dims.as_vec3();
@@ -73,18 +73,18 @@ impl LightVisibility {
     }
 }
 
-/// Cells along each axis for a box of `extent`: about `cells` of them, as near cubes as the
-/// box allows (a long thin scene gets a row, not billions of cells); `None` for an infinite
-/// box.
-pub(crate) fn grid_shape(extent: Vec3, cells: f32) -> Option<UVec3> {
+/// Cells along each axis for a box of `extent`: about [`CELLS`] of them, as near cubes as
+/// the box allows (a long thin scene gets a row, not billions of cells); `None` for an
+/// infinite box.
+fn grid_shape(extent: Vec3) -> Option<UVec3> {
     if !extent.is_finite() {
         return None;
     }
     let count = |side: f32| (extent / side).ceil().max(Vec3::ONE);
-    let mut side = (extent.element_product() / cells)
+    let mut side = (extent.element_product() / CELLS)
         .cbrt()
         .max(f32::MIN_POSITIVE);
-    while count(side).element_product() > 2.0 * cells {
+    while count(side).element_product() > 2.0 * CELLS {
         side *= 1.25;
     }
     Some(count(side).as_uvec3())
@@ -130,15 +130,15 @@ mod tests {
             Vec3::new(1e-3, 1e-3, 1e-3),
             Vec3::new(3e38, 3e38, 3e38),
         ] {
-            let dims = grid_shape(extent, CELLS).unwrap();
+            let dims = grid_shape(extent).unwrap();
             let cells = dims.as_vec3().element_product();
             assert!(
                 dims.min_element() >= 1 && cells <= 2.0 * CELLS,
                 "{extent}: {dims}"
             );
         }
-        let room = grid_shape(Vec3::new(4.0, 3.0, 4.0), CELLS).unwrap();
+        let room = grid_shape(Vec3::new(4.0, 3.0, 4.0)).unwrap();
         assert!(room.as_vec3().element_product() >= 0.5 * CELLS, "{room}");
-        assert!(grid_shape(Vec3::new(f32::INFINITY, 1.0, 1.0), CELLS).is_none());
+        assert!(grid_shape(Vec3::new(f32::INFINITY, 1.0, 1.0)).is_none());
     }
 }
