@@ -702,26 +702,24 @@ fn next_event(
     if q <= 0.0 {
         return NONE;
     }
-    // Training paths record every light sample (see `crate::light_guide`), out of line.
+    // Training paths record every light sample (see `crate::light_guide`), out of line: the
+    // emitter a sample took is found again from `u` (none for a point on an opening's aperture).
     let training = scene.lights.training();
-    let learn = |source: Option<LightSource>, value: f32| {
+    let learn = |value: f32| {
         if training {
-            record_light_sample(
-                scene,
-                space.map_or(at.receiver, |s| &s.receiver),
-                source,
-                value,
-            );
+            let on_aperture = space.is_some_and(|s| u_technique < s.aperture);
+            let receiver = space.map_or(at.receiver, |s| &s.receiver);
+            record_light_sample(scene, receiver, (!on_aperture).then_some(u), value);
         }
     };
     let Some(incoming) = incoming(scene, at.receiver, space, u, u_technique) else {
-        learn(None, 0.0);
+        learn(0.0);
         return NONE;
     };
     let wi = at.frame.to_local(incoming.dir);
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
-        learn(incoming.source, 0.0);
+        learn(0.0);
         return NONE;
     }
     // The shadow ray leaves from the side of the surface it goes to.
@@ -731,12 +729,12 @@ fn next_event(
     let chain = space.map_or(Chain::default(), |s| s.chain);
     let Some((tint, coins)) = shadow(scene, &chain, from, dir, incoming.end, at.receiver.time)
     else {
-        learn(incoming.source, 0.0);
+        learn(0.0);
         return NONE;
     };
     if training {
         let brought = f * incoming.radiance * tint * (coins / incoming.pdf);
-        learn(incoming.source, crate::lights::luminance(brought));
+        learn(crate::lights::luminance(brought));
     }
     let pdf_light = q * incoming.pdf;
     let weight = if incoming.bsdf_can_find {
@@ -761,23 +759,20 @@ pub(crate) struct Incoming {
     bsdf_can_find: bool,
     /// The light group of the emitter.
     pub group: u8,
-    /// The emitter it lies on (`None`: the environment).
-    pub source: Option<LightSource>,
 }
 
 /// Records a training path's light sample at `receiver` (where light selection saw it), drawn
-/// on `source`, which brought `value` (luminance over its density, shadow ray included).
+/// with `u` from the light sampler (`None`: on an opening's aperture), which brought `value`
+/// (luminance over its density, shadow ray included).
 #[cold]
 #[inline(never)]
-fn record_light_sample(
-    scene: &Scene,
-    receiver: &Receiver,
-    source: Option<LightSource>,
-    value: f32,
-) {
+fn record_light_sample(scene: &Scene, receiver: &Receiver, u: Option<glam::Vec2>, value: f32) {
+    let lights = &scene.lights;
     crate::light_guide::record(crate::light_guide::Record {
         receiver: *receiver,
-        emitter: source.and_then(|s| scene.lights.emitter_index(s)),
+        emitter: u
+            .and_then(|u| lights.picked(u, receiver, &scene.strands))
+            .map(|i| i as u32),
         value,
     });
 }
@@ -879,7 +874,6 @@ fn sky_through_aperture(
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
         group: scene.environment_group,
-        source: None,
     })
 }
 
@@ -913,7 +907,6 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
             pdf: light.pdf,
             bsdf_can_find,
             group,
-            source: None,
         }),
         LightPlace::Point {
             point,
@@ -947,7 +940,6 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find,
                 group,
-                source: Some(source),
             })
         }
     }

@@ -470,18 +470,6 @@ impl Lights {
         self.tree.top_lanes(i)
     }
 
-    /// The emitter index of `source`.
-    pub fn emitter_index(&self, source: LightSource) -> Option<u32> {
-        match source {
-            LightSource::Triangle(t) => self
-                .by_triangle
-                .get(t as usize)
-                .copied()
-                .filter(|&i| i != u32::MAX),
-            LightSource::Strand(s) => Some(self.emitters.len() as u32 + s),
-        }
-    }
-
     /// Probability that light sampling at `at` takes the environment rather than an emitter.
     #[inline]
     fn environment_probability(&self, at: &Receiver) -> f32 {
@@ -566,6 +554,31 @@ impl Lights {
         }
     }
 
+    /// How [`Self::sample`] splits `u` between the environment and the emitters at `at`: the
+    /// environment's probability, whether `u` takes it, and `u` rescaled within the choice.
+    #[inline(always)]
+    fn split(&self, u: Vec2, at: &Receiver) -> (f32, bool, Vec2) {
+        let p_env = self.environment_probability(at);
+        let on_environment = u.x < p_env;
+        let u_point = if on_environment {
+            Vec2::new(u.x / p_env, u.y)
+        } else {
+            Vec2::new((u.x - p_env) / (1.0 - p_env), u.y)
+        };
+        (p_env, on_environment, u_point)
+    }
+
+    /// The emitter [`Self::sample`] picks from `u` at `at`; `None` when it takes the
+    /// environment or nothing. For training, which records `u` rather than have every light
+    /// sample carry its emitter (that cost the Cornell box 2.5%).
+    pub fn picked(&self, u: Vec2, at: &Receiver, strands: &Strands) -> Option<usize> {
+        let (_, on_environment, u_point) = self.split(u, at);
+        if on_environment && self.environment.is_some() {
+            return None;
+        }
+        self.pick(u_point.x, at, strands).map(|(i, _, _)| i)
+    }
+
     /// Picks a light and a point (or direction) on it for the point `at`, from one stratified
     /// 2-D sample: `u.x` chooses the light and is then rescaled to be reused for the point, so
     /// the light samples of a pixel stay stratified across the emitters' surface. `moving`
@@ -579,13 +592,7 @@ impl Lights {
         moving: impl Fn(&Emitter) -> Triangle,
         strands: &Strands,
     ) -> Option<LightSample> {
-        let p_env = self.environment_probability(at);
-        let on_environment = u.x < p_env;
-        let u_point = if on_environment {
-            Vec2::new(u.x / p_env, u.y)
-        } else {
-            Vec2::new((u.x - p_env) / (1.0 - p_env), u.y)
-        };
+        let (p_env, on_environment, u_point) = self.split(u, at);
         if let Some(env) = self.environment.as_ref().filter(|_| on_environment) {
             let s = env.sample(u_point);
             return (s.pdf > 0.0).then_some(LightSample {
