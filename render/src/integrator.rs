@@ -732,16 +732,18 @@ fn next_event(
         learn(0.0);
         return NONE;
     };
-    if training {
-        let brought = f * incoming.radiance * tint * (coins / incoming.pdf);
-        learn(crate::lights::luminance(brought));
-    }
     let pdf_light = q * incoming.pdf;
     let weight = if incoming.bsdf_can_find {
         power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side) * coins)
     } else {
         1.0
     };
+    if training {
+        // What light sampling must bring: its MIS weight leaves out what BSDF sampling finds
+        // well (a wide sky, a big lamp close by).
+        let brought = f * incoming.radiance * tint * (weight * coins / incoming.pdf);
+        learn(crate::lights::luminance(brought));
+    }
     let light = f * incoming.radiance * tint * (weight * coins / pdf_light);
     (light, incoming.group)
 }
@@ -770,9 +772,7 @@ fn record_light_sample(scene: &Scene, receiver: &Receiver, u: Option<glam::Vec2>
     let lights = &scene.lights;
     crate::light_guide::record(crate::light_guide::Record {
         receiver: *receiver,
-        emitter: u
-            .and_then(|u| lights.picked(u, receiver, &scene.strands))
-            .map(|i| i as u32),
+        took: u.and_then(|u| lights.picked(u, receiver, &scene.strands)),
         value,
     });
 }

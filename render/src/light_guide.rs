@@ -18,6 +18,13 @@
 //! The descent and the replay of its pmf apply the same factors, so the estimate stays unbiased
 //! whatever was learned: a poor guide costs noise, never bias.
 //!
+//! Where the scene has an environment beside its emitters, each region also learns the split
+//! between them the same way: the estimate behind the split counts the sky in full inside a
+//! closed room, and the emitters in full behind a wall.
+//!
+//! What is recorded is each sample's MIS-weighted value: what light sampling itself must bring,
+//! leaving out what BSDF sampling finds well (a wide sky, a big lamp close by).
+//!
 //! The tree's root holds the kinds of emitters apart when there are at most four (the lamps,
 //! and each ring's strands; see [`crate::lights`]), so the root's factors are what a region
 //! learns about each ring and the lamps, and the next level's about each quarter of a ring.
@@ -27,7 +34,7 @@
 
 use crate::integrator::trace;
 use crate::light_tree::{PerLane, WIDTH};
-use crate::lights::Receiver;
+use crate::lights::{Picked, Receiver};
 use crate::ray::Ray;
 use crate::sampling::{SampleStream, hash32};
 use crate::scene::Scene;
@@ -63,7 +70,27 @@ pub struct LightGuide {
     upper: Vec3,
     /// The regions' k-d tree, its root first.
     nodes: Vec<RegionNode>,
-    factors: Vec<PerLane>,
+    factors: Vec<RegionFactors>,
+}
+
+/// What one region learned.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegionFactors {
+    /// Factors of the light tree's top two levels' lanes.
+    pub lanes: PerLane,
+    /// The factor of the environment's weight against the emitters' where the split between
+    /// them follows estimates: light sampling takes the environment with probability
+    /// `sky·p / (sky·p + 1 − p)` where the estimate gives it `p`.
+    pub sky: f32,
+}
+
+impl Default for RegionFactors {
+    fn default() -> Self {
+        Self {
+            lanes: PerLane::default(),
+            sky: 1.0,
+        }
+    }
 }
 
 /// A node of the regions' k-d tree, eight bytes.
@@ -95,7 +122,7 @@ impl LightGuide {
     /// The factors at `p` (its region's); `None` outside the regions or where nothing was
     /// learned.
     #[inline]
-    pub fn at(&self, p: Vec3) -> Option<&PerLane> {
+    pub fn at(&self, p: Vec3) -> Option<&RegionFactors> {
         if !(p.cmpge(self.lower).all() && p.cmple(self.upper).all()) {
             return None;
         }
@@ -121,8 +148,8 @@ impl LightGuide {
 pub(crate) struct Record {
     /// Where it was taken, as light selection saw it (beyond openings for a chain's strategy).
     pub receiver: Receiver,
-    /// The emitter picked (`None`: the environment, or no light at all).
-    pub emitter: Option<u32>,
+    /// What it took (`None`: a point on an opening's aperture, or no light at all).
+    pub took: Option<Picked>,
     /// Luminance of what it brought over the density it was drawn with, shadow ray included.
     pub value: f32,
 }
@@ -177,7 +204,7 @@ pub fn train(scene: &Scene) -> Option<LightGuide> {
     };
     regions.split(0, 0..regions.kept.len(), [lower, upper], 0);
     let leaves = regions.leaves;
-    let learned: Vec<Option<PerLane>> = leaves
+    let learned: Vec<Option<RegionFactors>> = leaves
         .par_iter()
         .map(|(_, members)| learn(scene, &records, &kept[members.clone()]))
         .collect();
@@ -248,7 +275,7 @@ impl Regions<'_> {
 
 /// The factors one region's samples (`members`, indices of `records`) teach; `None` when they
 /// are too few.
-fn learn(scene: &Scene, records: &[Record], members: &[u32]) -> Option<PerLane> {
+fn learn(scene: &Scene, records: &[Record], members: &[u32]) -> Option<RegionFactors> {
     if members.len() < LEAST_SAMPLES {
         return None;
     }
@@ -259,10 +286,29 @@ fn learn(scene: &Scene, records: &[Record], members: &[u32]) -> Option<PerLane> 
         let Some(shares) = lights.lane_shares(&r.receiver) else {
             continue;
         };
-        let lanes = r.emitter.and_then(|e| lights.top_lanes(e as usize));
-        moments.add(&shares, lanes, r.value as f64);
+        let sky_share = lights.estimated_environment_share(&r.receiver) as f64;
+        let (lanes, took_sky) = match r.took {
+            Some(Picked::Emitter(e)) => (lights.top_lanes(e), false),
+            Some(Picked::Environment) => (None, true),
+            None => (None, false),
+        };
+        // Within the emitters' side, a sample's own estimate leaves out the split's share.
+        moments.add(&shares, lanes, r.value as f64 * (1.0 - sky_share));
+        let side = if took_sky {
+            Some(true)
+        } else {
+            lanes.map(|_| false)
+        };
+        moments.add_split(sky_share, side, r.value as f64);
     }
-    Some(moments.factors(lights.lane_costs()))
+    Some(RegionFactors {
+        lanes: moments.factors(lights.lane_costs()),
+        sky: if lights.splits_by_estimate() {
+            moments.sky_factor()
+        } else {
+            1.0
+        },
+    })
 }
 
 /// The records of [`TRAINING_SPP`] paths a pixel over the camera's frame at about
@@ -328,6 +374,12 @@ struct Moments {
     /// Sums of the tree's shares at every sample's point.
     root_share: [f64; WIDTH],
     second_share: [[f64; WIDTH]; WIDTH],
+    /// The same for the split between the environment and the emitters: the second moments
+    /// of each side's own estimate, and the sum of the environment's estimated share.
+    sky: f64,
+    emitters: f64,
+    sky_share: f64,
+    samples: f64,
 }
 
 impl Moments {
@@ -350,6 +402,33 @@ impl Moments {
         if let Some(k) = second {
             self.second[j][k] += value * value * root_share * shares.second[j][k] as f64;
         }
+    }
+
+    /// Adds a sample to the split: the environment's estimated share at its point, whether it
+    /// took the environment (`Some(true)`) or an emitter (`Some(false)`), and what it brought.
+    fn add_split(&mut self, sky_share: f64, took_sky: Option<bool>, value: f64) {
+        self.samples += 1.0;
+        self.sky_share += sky_share;
+        match took_sky {
+            Some(true) => self.sky += value * value * sky_share,
+            Some(false) => self.emitters += value * value * (1.0 - sky_share),
+            None => {}
+        }
+    }
+
+    /// The factor of the environment's weight that takes its mean estimated share to the
+    /// root of its second moment's share, blended like the lanes'.
+    fn sky_factor(&self) -> f32 {
+        let mean = self.sky_share / self.samples.max(1.0);
+        let [sky, emitters] = [self.sky, self.emitters].map(|m| m.max(0.0).sqrt());
+        if !(sky + emitters > 0.0 && (sky + emitters).is_finite() && mean > 0.0 && mean < 1.0) {
+            return 1.0;
+        }
+        let learned = sky / (sky + emitters);
+        let blended = (1.0 - TREE_SHARE) * learned + TREE_SHARE * mean;
+        // The weight ratio that turns the mean share into the blended one.
+        let factor = blended * (1.0 - mean) / ((1.0 - blended) * mean);
+        factor.clamp(1.0 / MAX_FACTOR, MAX_FACTOR) as f32
     }
 
     /// The factors that take the tree's shares to the learned ones, for lanes whose samples
@@ -425,7 +504,10 @@ mod tests {
 
     #[test]
     fn points_outside_the_regions_or_in_regions_without_samples_are_not_guided() {
-        let factors = PerLane::splat(2.0);
+        let factors = RegionFactors {
+            lanes: PerLane::splat(2.0),
+            sky: 0.5,
+        };
         let guide = LightGuide {
             lower: Vec3::ZERO,
             upper: Vec3::ONE,

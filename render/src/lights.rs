@@ -49,6 +49,14 @@ pub enum LightSource {
     Strand(u32),
 }
 
+/// What a light sample took (see [`Lights::picked`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Picked {
+    Environment,
+    /// Emitter `i` (triangles first, then strand segments).
+    Emitter(usize),
+}
+
 /// The point being lit, as emitter selection sees it.
 #[derive(Clone, Copy, Debug)]
 pub struct Receiver {
@@ -173,7 +181,7 @@ enum Guide {
 }
 
 /// How light sampling shares its samples between the environment and the emitters.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum EnvironmentSplit {
     /// The environment's share, the same everywhere: all or nothing when only one of them
     /// exists, half when selection goes by power.
@@ -196,6 +204,8 @@ impl Default for EnvironmentSplit {
 /// The least share of samples either side of the environment split keeps: both estimates
 /// ignore occlusion, so neither may starve the other.
 const LEAST_SPLIT_SHARE: f32 = 0.05;
+/// The same once the split is learned (see [`crate::light_guide`]), which sees occlusion.
+const LEAST_LEARNED_SPLIT_SHARE: f32 = 0.01;
 
 /// Rec. 709 luminance of a linear colour.
 pub fn luminance(c: Vec3) -> f32 {
@@ -453,11 +463,17 @@ impl Lights {
 
     /// The guide's factors at `at`, if guided.
     #[inline(always)]
-    fn factors(&self, at: &Receiver) -> Option<&PerLane> {
+    fn factors(&self, at: &Receiver) -> Option<&crate::light_guide::RegionFactors> {
         match &self.guide {
             Guide::On(guide, _) => guide.at(at.p),
             _ => None,
         }
+    }
+
+    /// The guide's factors for the tree's lanes at `at`, if guided.
+    #[inline(always)]
+    fn lane_factors(&self, at: &Receiver) -> Option<&PerLane> {
+        self.factors(at).map(|f| &f.lanes)
     }
 
     /// The unguided tree's shares at the top two levels at `at`.
@@ -470,9 +486,24 @@ impl Lights {
         self.tree.top_lanes(i)
     }
 
-    /// Probability that light sampling at `at` takes the environment rather than an emitter.
+    /// Probability that light sampling at `at` takes the environment rather than an emitter:
+    /// the estimate's share, moved by the guide's learned factor where there is one.
     #[inline]
     fn environment_probability(&self, at: &Receiver) -> f32 {
+        let estimated = self.estimated_environment_share(at);
+        match self.factors(at) {
+            Some(factors) if self.environment_split == EnvironmentSplit::ByEstimate => {
+                let sky = factors.sky * estimated;
+                (sky / (sky + 1.0 - estimated))
+                    .clamp(LEAST_LEARNED_SPLIT_SHARE, 1.0 - LEAST_LEARNED_SPLIT_SHARE)
+            }
+            _ => estimated,
+        }
+    }
+
+    /// The environment's share of light samples at `at` before anything learned.
+    #[inline]
+    pub fn estimated_environment_share(&self, at: &Receiver) -> f32 {
         match self.environment_split {
             EnvironmentSplit::Fixed(p) => p,
             EnvironmentSplit::ByEstimate => {
@@ -485,6 +516,12 @@ impl Lights {
                 }
             }
         }
+    }
+
+    /// True when the environment's share of light samples follows estimates at each point
+    /// (and so may be learned).
+    pub fn splits_by_estimate(&self) -> bool {
+        self.environment_split == EnvironmentSplit::ByEstimate
     }
 
     /// True when there is nothing to sample.
@@ -518,15 +555,18 @@ impl Lights {
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
     pub fn pick(&self, u: f32, at: &Receiver, strands: &Strands) -> Option<(usize, f32, f32)> {
         match &self.picker {
-            Picker::Tree if self.fetch_ahead => {
+            Picker::Tree if self.fetch_ahead => self.tree.sample_fetching(
+                u,
+                at.p,
+                at.n,
+                self.tau(at.time),
+                self.lane_factors(at),
+                |i| self.fetch(i, strands),
+            ),
+            Picker::Tree => {
                 self.tree
-                    .sample_fetching(u, at.p, at.n, self.tau(at.time), self.factors(at), |i| {
-                        self.fetch(i, strands)
-                    })
+                    .sample(u, at.p, at.n, self.tau(at.time), self.lane_factors(at))
             }
-            Picker::Tree => self
-                .tree
-                .sample(u, at.p, at.n, self.tau(at.time), self.factors(at)),
             Picker::Power(table) if table.is_empty() => None,
             Picker::Power(table) => {
                 let (i, rest) = table.sample(u.clamp(0.0, 1.0 - f32::EPSILON));
@@ -549,7 +589,7 @@ impl Lights {
         match &self.picker {
             Picker::Tree => self
                 .tree
-                .pmf(i, at.p, at.n, self.tau(at.time), self.factors(at)),
+                .pmf(i, at.p, at.n, self.tau(at.time), self.lane_factors(at)),
             Picker::Power(table) => table.pmf(i),
         }
     }
@@ -568,15 +608,16 @@ impl Lights {
         (p_env, on_environment, u_point)
     }
 
-    /// The emitter [`Self::sample`] picks from `u` at `at`; `None` when it takes the
-    /// environment or nothing. For training, which records `u` rather than have every light
-    /// sample carry its emitter (that cost the Cornell box 2.5%).
-    pub fn picked(&self, u: Vec2, at: &Receiver, strands: &Strands) -> Option<usize> {
+    /// What [`Self::sample`] takes with `u` at `at`: the environment, an emitter, or nothing
+    /// (`None`). For training, which records `u` rather than have every light sample carry its
+    /// emitter (that cost the Cornell box 2.5%).
+    pub fn picked(&self, u: Vec2, at: &Receiver, strands: &Strands) -> Option<Picked> {
         let (_, on_environment, u_point) = self.split(u, at);
         if on_environment && self.environment.is_some() {
-            return None;
+            return Some(Picked::Environment);
         }
-        self.pick(u_point.x, at, strands).map(|(i, _, _)| i)
+        self.pick(u_point.x, at, strands)
+            .map(|(i, _, _)| Picked::Emitter(i))
     }
 
     /// Picks a light and a point (or direction) on it for the point `at`, from one stratified

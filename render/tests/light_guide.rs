@@ -174,3 +174,107 @@ fn the_guide_and_the_image_are_the_same_for_any_thread_count() {
         "the guide or the image depends on the thread count"
     );
 }
+
+/// A closed grey room around the camera, lit (directly only) by a small lamp in one corner,
+/// under a bright sky it cannot see: the sky's estimate, which ignores walls, asks for most of
+/// the light samples far from the lamp.
+fn closed_room_under_a_sky(dir: &Path) -> std::path::PathBuf {
+    std::fs::write(
+        dir.join("room.obj"),
+        box_obj([-3.0, 0.0, -3.0], [3.0, 3.0, 3.0], &[]),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("lamp.obj"),
+        box_obj([-0.1, -0.1, -0.1], [0.1, 0.1, 0.1], &[]),
+    )
+    .unwrap();
+    let shot = r#"
+[shot]
+name = "sky"
+fps = 24.0
+frames = [1, 1]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [40, 30]
+fov_degrees = 70.0
+[camera.transform]
+position = [2.5, 1.6, 2.5]
+look_at = [-1.0, 0.3, -1.0]
+[render]
+max_bounces = 1
+[environment]
+radiance = [2.0, 2.0, 2.0]
+[[material]]
+name = "grey"
+type = "diffuse"
+reflectance = [0.6, 0.6, 0.6]
+[[material]]
+name = "lamp"
+type = "diffuse"
+reflectance = [0.0, 0.0, 0.0]
+emission = [20.0, 20.0, 20.0]
+[[object]]
+name = "room"
+mesh = "room.obj"
+material = "grey"
+[[object]]
+name = "lamp"
+mesh = "lamp.obj"
+material = "lamp"
+transform = { position = [2.5, 2.7, -2.5] }
+"#;
+    let path = dir.join("sky.toml");
+    std::fs::write(&path, shot).unwrap();
+    path
+}
+
+#[test]
+fn a_sky_behind_walls_gets_few_samples_once_learned() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = closed_room_under_a_sky(dir.path());
+    let (tree, learned) = (
+        build(&path, LightSelection::Tree, 1),
+        build(&path, LightSelection::Learned, 1),
+    );
+    // The environment is uniform, so its pdf in any direction is its share of the samples
+    // over 4π.
+    let sky_share = |scene: &Scene, at: &Receiver| {
+        scene.lights.pdf_environment(Vec3::Y, at) * 4.0 * std::f32::consts::PI
+    };
+    for (x, z) in [(-1.0, -1.0), (-2.0, -2.0), (0.0, 0.0), (-2.0, 0.5)] {
+        let at = Receiver {
+            p: Vec3::new(x, 0.0, z),
+            n: Some(Vec3::Y),
+            time: 0.0,
+        };
+        let (plain, guided) = (sky_share(&tree, &at), sky_share(&learned, &at));
+        eprintln!(
+            "floor at ({x}, {z}): the sky's share {plain:.3} by estimate, {guided:.3} learned"
+        );
+        assert!(
+            plain > 0.5 && guided < 0.4 * plain,
+            "floor at ({x}, {z}): the sky's share {plain} by estimate, {guided} learned"
+        );
+    }
+    // The same estimate, with less noise.
+    let images = |selection| {
+        [1, 2].map(|seed| render(&build(&path, selection, seed), &RenderOptions::new(16)).rgb)
+    };
+    let (learned, tree) = (
+        images(LightSelection::Learned),
+        images(LightSelection::Tree),
+    );
+    assert_statistically_equal(
+        [&learned[0], &learned[1]],
+        [&tree[0], &tree[1]],
+        "learned against tree, under a sky",
+    );
+    let noise = |pair: &[Vec<Vec3>; 2]| relative_mse(&pair[0], &pair[1]);
+    eprintln!(
+        "noise {:e} learned against {:e}",
+        noise(&learned),
+        noise(&tree)
+    );
+    assert!(noise(&learned) < 0.5 * noise(&tree));
+}
