@@ -4,17 +4,17 @@
 //! The tree's importance is an unoccluded bound. It cannot see that a ring lying in the plane of
 //! the wall it lights sends that wall little, that the lamps of a room are behind a wall from the
 //! room next door, or that one side of a ring hides behind the other. So, before rendering, a few
-//! camera paths are traced at a low resolution ([`TRAINING_WIDTH`] pixels across,
-//! [`TRAINING_SPP`] paths each), and every light sample they take is recorded with what it
+//! camera paths are traced at a low resolution (`TRAINING_WIDTH` pixels across,
+//! `TRAINING_SPP` paths each), and every light sample they take is recorded with what it
 //! brought, shadow ray included. The places those samples were taken at are cut into regions,
 //! the leaves of a k-d tree halved at the middle of their longest side until each holds about
-//! [`REGION_SAMPLES`] of them, so regions are small where shading is dense.
+//! `REGION_SAMPLES` of them, so regions are small where shading is dense.
 //!
 //! In each region, for each lane of the tree's root and of the root's children, the samples
 //! give the second moment of the estimate that lane alone would make. One-sample selection has
 //! the least variance when lanes are chosen in proportion to the root of that moment. Each
 //! lane's factor turns the tree's mean share in the region into that proportion, blended with
-//! the tree's own share ([`TREE_SHARE`]) so that no lane the tree would pick is ever starved.
+//! the tree's own share (`TREE_SHARE`) so that no lane the tree would pick is ever starved.
 //! The descent and the replay of its pmf apply the same factors, so the estimate stays unbiased
 //! whatever was learned: a poor guide costs noise, never bias.
 //!
