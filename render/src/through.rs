@@ -23,7 +23,7 @@
 //!   scene with ordinary light samples and their shadow rays ([`crate::exit_light`]).
 //!
 //! A chain grows by a further opening only where the longer chains could bring a noticeable
-//! share of the light ([`DEEPER_SHARE`], bounded with the brightest exit): a room lit through
+//! share of the light (`DEEPER_SHARE`, bounded with the brightest exit): a room lit through
 //! two openings in a row searches them, a room with its own light does not pay for them.
 //!
 //! Openings behind the point, facing away, below its surface or hidden behind the previous
