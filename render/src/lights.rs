@@ -491,13 +491,17 @@ impl Lights {
     #[inline]
     fn environment_probability(&self, at: &Receiver) -> f32 {
         let estimated = self.estimated_environment_share(at);
+        // Only a split by estimate is learned: a fixed one needs no guide lookup.
+        if self.environment_split != EnvironmentSplit::ByEstimate {
+            return estimated;
+        }
         match self.factors(at) {
-            Some(factors) if self.environment_split == EnvironmentSplit::ByEstimate => {
+            Some(factors) => {
                 let sky = factors.sky * estimated;
                 (sky / (sky + 1.0 - estimated))
                     .clamp(LEAST_LEARNED_SPLIT_SHARE, 1.0 - LEAST_LEARNED_SPLIT_SHARE)
             }
-            _ => estimated,
+            None => estimated,
         }
     }
 
