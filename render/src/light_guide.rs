@@ -52,6 +52,11 @@ const TRAINING_SPP: u32 = 4;
 const REGION_SAMPLES: usize = 512;
 /// Deepest halving of the regions.
 const MAX_DEPTH: u32 = 48;
+/// Halvings of the regions' box that a lookup skips through a regular grid of 2^this cells
+/// (4 KiB): each cell names the deepest node whose region holds it whole, where the lookup goes
+/// on. A lookup is made at every light pick and pmf, and descending from the root had been a
+/// chain of a dozen dependent loads, a fifth of a ring-lit pick.
+const GRID_LEVELS: u32 = 10;
 /// Light samples a region must have seen before its factors are trusted.
 const LEAST_SAMPLES: usize = 32;
 /// The tree's own share kept in every choice: what the guide cannot starve. On the showcase
@@ -71,6 +76,19 @@ pub struct LightGuide {
     /// The regions' k-d tree, its root first.
     nodes: Vec<RegionNode>,
     factors: Vec<RegionFactors>,
+    /// Where a lookup starts in `nodes`, by cell of a regular grid over the box.
+    grid: Grid,
+}
+
+/// A regular grid over a [`LightGuide`]'s box (see [`GRID_LEVELS`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Grid {
+    /// Cells along each axis.
+    cells: [u32; 3],
+    /// Cells per unit of length along each axis (0 across a flat axis).
+    scale: Vec3,
+    /// Per cell, x fastest: the node a lookup of a point in it starts from.
+    start: Vec<u32>,
 }
 
 /// What one region learned.
@@ -126,14 +144,70 @@ impl LightGuide {
         if !(p.cmpge(self.lower).all() && p.cmple(self.upper).all()) {
             return None;
         }
+        let [nx, ny, _] = self.grid.cells;
+        let cell = ((p - self.lower) * self.grid.scale)
+            .as_uvec3()
+            .min(glam::UVec3::from(self.grid.cells) - 1);
+        let index = cell.x + nx * (cell.y + ny * cell.z);
+        let start = *self.grid.start.get(index as usize)?;
         let p = p.to_array();
-        let mut node = *self.nodes.first()?;
+        let mut node = *self.nodes.get(start as usize)?;
         while node.bits & LEAF != LEAF {
             let axis = (node.bits >> 30) as usize;
             let below = (node.bits & !LEAF) as usize;
             node = *self.nodes.get(below + (p[axis] >= node.at) as usize)?;
         }
         self.factors.get((node.bits & !LEAF) as usize)
+    }
+
+    /// `self` with the grid its lookups start from built over its regions.
+    fn with_grid(mut self) -> Self {
+        let extent = self.upper - self.lower;
+        let mut cells = [1u32; 3];
+        let mut halved = extent;
+        for _ in 0..GRID_LEVELS {
+            let axis = halved.max_position();
+            cells[axis] *= 2;
+            halved[axis] *= 0.5;
+        }
+        let counts = Vec3::from(cells.map(|c| c as f32));
+        let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), counts / extent, Vec3::ZERO);
+        let corner = |cell: Vec3| self.lower + extent * (cell / counts);
+        let mut start = Vec::with_capacity(cells.iter().product::<u32>() as usize);
+        for z in 0..cells[2] {
+            for y in 0..cells[1] {
+                for x in 0..cells[0] {
+                    let cell = Vec3::new(x as f32, y as f32, z as f32);
+                    start.push(self.deepest_holding(corner(cell), corner(cell + 1.0)));
+                }
+            }
+        }
+        self.grid = Grid {
+            cells,
+            scale,
+            start,
+        };
+        self
+    }
+
+    /// The deepest node whose region holds the whole box from `lo` to `hi` (its lower half
+    /// takes what lies below a split, the upper half the rest).
+    fn deepest_holding(&self, lo: Vec3, hi: Vec3) -> u32 {
+        let mut index = 0u32;
+        while let Some(node) = self.nodes.get(index as usize)
+            && node.bits & LEAF != LEAF
+        {
+            let axis = (node.bits >> 30) as usize;
+            let below = node.bits & !LEAF;
+            index = if hi[axis] <= node.at {
+                below
+            } else if lo[axis] >= node.at {
+                below + 1
+            } else {
+                break;
+            };
+        }
+        index
     }
 
     /// Regions learned from, of all regions.
@@ -195,6 +269,7 @@ pub fn train(scene: &Scene) -> Option<LightGuide> {
         upper,
         nodes: vec![RegionNode::leaf(NOTHING_LEARNED)],
         factors: Vec::new(),
+        grid: Grid::default(),
     };
     let mut regions = Regions {
         nodes: &mut guide.nodes,
@@ -214,7 +289,7 @@ pub fn train(scene: &Scene) -> Option<LightGuide> {
             guide.factors.push(factors);
         }
     }
-    Some(guide)
+    Some(guide.with_grid())
 }
 
 /// The regions' k-d tree as it is built over the training records.
@@ -502,6 +577,86 @@ mod tests {
         assert_eq!(lane_factors(&[0.0; WIDTH], &even, &ones), [1.0; WIDTH]);
     }
 
+    /// A k-d tree over `[lower, upper]` halved at the middle of the longest side, as training
+    /// halves it, to an uneven depth (up to 16 levels), each leaf its own factors.
+    fn uneven_guide(lower: Vec3, upper: Vec3) -> LightGuide {
+        fn split(guide: &mut LightGuide, slot: usize, bounds: [Vec3; 2], depth: u32) {
+            let [lo, hi] = bounds;
+            let stop = depth >= 16 || hash32(slot as u32 ^ 0x5bd1) % 5 == 0 && depth > 3;
+            if stop {
+                guide.nodes[slot] = RegionNode::leaf(guide.factors.len() as u32);
+                let factor = guide.factors.len() as f32;
+                guide.factors.push(RegionFactors {
+                    sky: factor,
+                    ..RegionFactors::default()
+                });
+                return;
+            }
+            let axis = (hi - lo).max_position();
+            let at = lo[axis] + 0.5 * (hi - lo)[axis];
+            let first = guide.nodes.len();
+            guide.nodes.extend([RegionNode::leaf(NOTHING_LEARNED); 2]);
+            guide.nodes[slot] = RegionNode {
+                at,
+                bits: (axis as u32) << 30 | first as u32,
+            };
+            let (mut low_hi, mut high_lo) = (hi, lo);
+            low_hi[axis] = at;
+            high_lo[axis] = at;
+            split(guide, first, [lo, low_hi], depth + 1);
+            split(guide, first + 1, [high_lo, hi], depth + 1);
+        }
+        let mut guide = LightGuide {
+            lower,
+            upper,
+            nodes: vec![RegionNode::leaf(NOTHING_LEARNED)],
+            ..LightGuide::default()
+        };
+        split(&mut guide, 0, [lower, upper], 0);
+        guide.with_grid()
+    }
+
+    #[test]
+    fn a_lookup_through_the_grid_finds_the_region_a_descent_from_the_root_finds() {
+        let (lower, upper) = (Vec3::new(-3.0, 0.0, -7.5), Vec3::new(4.0, 2.9, 3.0));
+        let guide = uneven_guide(lower, upper);
+        assert!(
+            guide.factors.len() > 1000,
+            "{} regions",
+            guide.factors.len()
+        );
+        let from_root = |p: Vec3| {
+            let mut node = guide.nodes[0];
+            while node.bits & LEAF != LEAF {
+                let below = (node.bits & !LEAF) as usize;
+                node = guide.nodes[below + (p[(node.bits >> 30) as usize] >= node.at) as usize];
+            }
+            guide.factors.get((node.bits & !LEAF) as usize)
+        };
+        let mut skipped = 0;
+        for i in 0..20_000u32 {
+            let u = Vec3::new(
+                hash32(3 * i) as f32,
+                hash32(3 * i + 1) as f32,
+                hash32(3 * i + 2) as f32,
+            ) / u32::MAX as f32;
+            let p = lower + (upper - lower) * u;
+            assert_eq!(guide.at(p), from_root(p), "{p}");
+            // The grid skipped levels: the cell's start is below the root.
+            let cell = ((p - lower) * guide.grid.scale).as_uvec3();
+            let [nx, ny, _] = guide.grid.cells;
+            skipped +=
+                (guide.grid.start[(cell.x + nx * (cell.y + ny * cell.z)) as usize] != 0) as u32;
+        }
+        assert!(
+            skipped > 19_000,
+            "{skipped} of 20000 lookups skipped levels"
+        );
+        // The box's far corner and points just outside it.
+        assert_eq!(guide.at(upper), from_root(upper));
+        assert_eq!(guide.at(upper + 1e-3), None);
+    }
+
     #[test]
     fn points_outside_the_regions_or_in_regions_without_samples_are_not_guided() {
         let factors = RegionFactors {
@@ -520,7 +675,9 @@ mod tests {
                 RegionNode::leaf(NOTHING_LEARNED),
             ],
             factors: vec![factors],
-        };
+            grid: Grid::default(),
+        }
+        .with_grid();
         assert_eq!(guide.at(Vec3::new(0.5, 0.2, 0.5)), Some(&factors));
         assert_eq!(guide.at(Vec3::new(0.5, 0.7, 0.5)), None);
         assert_eq!(guide.at(Vec3::new(1.5, 0.2, 0.5)), None);
