@@ -309,9 +309,7 @@ impl Regions<'_> {
     /// halves follow the nodes made so far.
     fn split(&mut self, slot: usize, members: Range<usize>, bounds: [Vec3; 2], depth: u32) {
         let [lower, upper] = bounds;
-        let extent = upper - lower;
-        let axis = extent.max_position();
-        let at = lower[axis] + 0.5 * extent[axis];
+        let (axis, at) = middle_of_longest_side(bounds);
         let halves = members.len() > REGION_SAMPLES
             && depth < MAX_DEPTH
             && at > lower[axis]
@@ -329,24 +327,40 @@ impl Regions<'_> {
                 below += 1;
             }
         }
-        let first = self.nodes.len();
-        self.nodes.extend([RegionNode::leaf(NOTHING_LEARNED); 2]);
-        self.nodes[slot] = RegionNode {
-            at,
-            bits: (axis as u32) << 30 | first as u32,
-        };
-        let (mut low_upper, mut high_lower) = (upper, lower);
-        low_upper[axis] = at;
-        high_lower[axis] = at;
+        let (first, [low, high]) = split_node(self.nodes, slot, bounds, axis, at);
         let middle = members.start + below;
-        self.split(first, members.start..middle, [lower, low_upper], depth + 1);
-        self.split(
-            first + 1,
-            middle..members.end,
-            [high_lower, upper],
-            depth + 1,
-        );
+        self.split(first, members.start..middle, low, depth + 1);
+        self.split(first + 1, middle..members.end, high, depth + 1);
     }
+}
+
+/// Where a region's box is halved: the middle of its longest side (the axis, the coordinate).
+fn middle_of_longest_side([lower, upper]: [Vec3; 2]) -> (usize, f32) {
+    let extent = upper - lower;
+    let axis = extent.max_position();
+    (axis, lower[axis] + 0.5 * extent[axis])
+}
+
+/// Makes node `slot` a split of the box `bounds` at `at` along `axis`, its halves two new
+/// nodes after the others (leaves with nothing learned); returns the first of them and the
+/// halves' boxes.
+fn split_node(
+    nodes: &mut Vec<RegionNode>,
+    slot: usize,
+    [lower, upper]: [Vec3; 2],
+    axis: usize,
+    at: f32,
+) -> (usize, [[Vec3; 2]; 2]) {
+    let first = nodes.len();
+    nodes.extend([RegionNode::leaf(NOTHING_LEARNED); 2]);
+    nodes[slot] = RegionNode {
+        at,
+        bits: (axis as u32) << 30 | first as u32,
+    };
+    let (mut low_upper, mut high_lower) = (upper, lower);
+    low_upper[axis] = at;
+    high_lower[axis] = at;
+    (first, [[lower, low_upper], [high_lower, upper]])
 }
 
 /// The factors one region's samples (`members`, indices of `records`) teach; `None` when they
@@ -582,7 +596,6 @@ mod tests {
     /// halves it, to an uneven depth (up to 16 levels), each leaf its own factors.
     fn uneven_guide(lower: Vec3, upper: Vec3) -> LightGuide {
         fn split(guide: &mut LightGuide, slot: usize, bounds: [Vec3; 2], depth: u32) {
-            let [lo, hi] = bounds;
             let stop = depth >= 16 || hash32(slot as u32 ^ 0x5bd1) % 5 == 0 && depth > 3;
             if stop {
                 guide.nodes[slot] = RegionNode::leaf(guide.factors.len() as u32);
@@ -593,19 +606,10 @@ mod tests {
                 });
                 return;
             }
-            let axis = (hi - lo).max_position();
-            let at = lo[axis] + 0.5 * (hi - lo)[axis];
-            let first = guide.nodes.len();
-            guide.nodes.extend([RegionNode::leaf(NOTHING_LEARNED); 2]);
-            guide.nodes[slot] = RegionNode {
-                at,
-                bits: (axis as u32) << 30 | first as u32,
-            };
-            let (mut low_hi, mut high_lo) = (hi, lo);
-            low_hi[axis] = at;
-            high_lo[axis] = at;
-            split(guide, first, [lo, low_hi], depth + 1);
-            split(guide, first + 1, [high_lo, hi], depth + 1);
+            let (axis, at) = middle_of_longest_side(bounds);
+            let (first, [low, high]) = split_node(&mut guide.nodes, slot, bounds, axis, at);
+            split(guide, first, low, depth + 1);
+            split(guide, first + 1, high, depth + 1);
         }
         let mut guide = LightGuide {
             lower,
