@@ -302,11 +302,11 @@ struct Node {
     power: Vec4,
     axis: [Vec4; 3],
     cos_spread: Vec4,
+    /// The sine of the same half-angle, so the descent takes no square root for it.
+    sin_spread: Vec4,
     /// The squared distance beyond which a lane is far ([`FAR_RADII`]); infinite for lanes
     /// that never are.
     far2: Vec4,
-    /// The sine of the same half-angle, so the descent takes no square root for it.
-    sin_spread: Vec4,
     /// Per lane: a node's index, or a bucket (see [`BUCKET_SIZE_SHIFT`]) with [`LEAF`] set.
     /// Unused lanes have no power.
     child: [u32; WIDTH],
@@ -1066,7 +1066,8 @@ mod tests {
         );
     }
 
-    /// The checks of the test above, for `tree` over `lights` descended with `guide`.
+    /// The checks of `probabilities_sum_to_one_match_sampling_and_skip_nothing_that_contributes`,
+    /// for `tree` over `lights` descended with `guide`.
     fn check_probabilities(lights: &[LightBounds], tree: &LightTree, guide: Option<&PerLane>) {
         for k in 0..40 {
             let f = k as f32;
