@@ -92,6 +92,19 @@ struct Grid {
     start: Vec<u32>,
 }
 
+impl Grid {
+    /// The index in `start` of the cell holding the point `offset` from the box's lower
+    /// corner (points on the upper faces in the last cells).
+    #[inline]
+    fn cell(&self, offset: Vec3) -> usize {
+        let [nx, ny, _] = self.cells;
+        let cell = (offset * self.scale)
+            .as_uvec3()
+            .min(glam::UVec3::from(self.cells) - 1);
+        (cell.x + nx * (cell.y + ny * cell.z)) as usize
+    }
+}
+
 /// What one region learned.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RegionFactors {
@@ -145,14 +158,15 @@ impl LightGuide {
         if !(p.cmpge(self.lower).all() && p.cmple(self.upper).all()) {
             return None;
         }
-        let [nx, ny, _] = self.grid.cells;
-        let cell = ((p - self.lower) * self.grid.scale)
-            .as_uvec3()
-            .min(glam::UVec3::from(self.grid.cells) - 1);
-        let index = cell.x + nx * (cell.y + ny * cell.z);
-        let start = *self.grid.start.get(index as usize)?;
+        let start = *self.grid.start.get(self.grid.cell(p - self.lower))?;
+        self.region_from(start as usize, p)
+    }
+
+    /// The factors of the region holding `p`, found by descending from node `start`.
+    #[inline]
+    fn region_from(&self, start: usize, p: Vec3) -> Option<&RegionFactors> {
         let p = p.to_array();
-        let mut node = *self.nodes.get(start as usize)?;
+        let mut node = *self.nodes.get(start)?;
         while node.bits & LEAF != LEAF {
             let axis = (node.bits >> 30) as usize;
             let below = (node.bits & !LEAF) as usize;
@@ -377,18 +391,18 @@ fn learn(scene: &Scene, records: &[Record], members: &[u32]) -> Option<RegionFac
             continue;
         };
         let sky_share = lights.estimated_environment_share(&r.receiver) as f64;
-        let (lanes, took_sky) = match r.took {
-            Some(Picked::Emitter(e)) => (lights.top_lanes(e), false),
-            Some(Picked::Environment) => (None, true),
-            None => (None, false),
+        // The lanes an emitter's path took, and which side of the split the sample fell on
+        // (`Some(true)`: the environment).
+        let (lanes, side) = match r.took {
+            Some(Picked::Emitter(e)) => {
+                let lanes = lights.top_lanes(e);
+                (lanes, lanes.map(|_| false))
+            }
+            Some(Picked::Environment) => (None, Some(true)),
+            None => (None, None),
         };
         // Within the emitters' side, a sample's own estimate leaves out the split's share.
         moments.add(&shares, lanes, r.value as f64 * (1.0 - sky_share));
-        let side = if took_sky {
-            Some(true)
-        } else {
-            lanes.map(|_| false)
-        };
         moments.add_split(sky_share, side, r.value as f64);
     }
     Some(RegionFactors {
@@ -630,14 +644,7 @@ mod tests {
             "{} regions",
             guide.factors.len()
         );
-        let from_root = |p: Vec3| {
-            let mut node = guide.nodes[0];
-            while node.bits & LEAF != LEAF {
-                let below = (node.bits & !LEAF) as usize;
-                node = guide.nodes[below + (p[(node.bits >> 30) as usize] >= node.at) as usize];
-            }
-            guide.factors.get((node.bits & !LEAF) as usize)
-        };
+        let from_root = |p: Vec3| guide.region_from(0, p);
         let mut skipped = 0;
         for i in 0..20_000u32 {
             let u = Vec3::new(
@@ -648,10 +655,7 @@ mod tests {
             let p = lower + (upper - lower) * u;
             assert_eq!(guide.at(p), from_root(p), "{p}");
             // The grid skipped levels: the cell's start is below the root.
-            let cell = ((p - lower) * guide.grid.scale).as_uvec3();
-            let [nx, ny, _] = guide.grid.cells;
-            skipped +=
-                (guide.grid.start[(cell.x + nx * (cell.y + ny * cell.z)) as usize] != 0) as u32;
+            skipped += (guide.grid.start[guide.grid.cell(p - lower)] != 0) as u32;
         }
         assert!(
             skipped > 19_000,
