@@ -14,19 +14,26 @@ use rift_render::rift_fx::Shot;
 use rift_render::scene::Overrides;
 use std::path::Path;
 
+/// Writes into `dir` a closed room (`room.obj`, the box from `room[0]` to `room[1]`), a lamp
+/// (`lamp.obj`, a cube of half-size `lamp`) and the shot `shot` as `name`.toml; returns the
+/// shot's path.
+fn write_room_and_lamp(
+    dir: &Path,
+    room: [[f32; 3]; 2],
+    lamp: f32,
+    name: &str,
+    shot: &str,
+) -> std::path::PathBuf {
+    std::fs::write(dir.join("room.obj"), box_obj(room[0], room[1], &[])).unwrap();
+    std::fs::write(dir.join("lamp.obj"), box_obj([-lamp; 3], [lamp; 3], &[])).unwrap();
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, shot).unwrap();
+    path
+}
+
 /// A closed grey room around the camera, lit by a dim lamp inside it, beside a bright lamp
 /// outside it that the light tree, which does not know about walls, prefers.
 fn room_beside_a_hidden_lamp(dir: &Path) -> std::path::PathBuf {
-    std::fs::write(
-        dir.join("room.obj"),
-        box_obj([-2.0, 0.0, -2.0], [2.0, 3.0, 2.0], &[]),
-    )
-    .unwrap();
-    std::fs::write(
-        dir.join("lamp.obj"),
-        box_obj([-0.2, -0.2, -0.2], [0.2, 0.2, 0.2], &[]),
-    )
-    .unwrap();
     let shot = r#"
 [shot]
 name = "hidden"
@@ -70,9 +77,13 @@ mesh = "lamp.obj"
 material = "bright"
 transform = { position = [-4.0, 1.5, 0.0] }
 "#;
-    let path = dir.join("hidden.toml");
-    std::fs::write(&path, shot).unwrap();
-    path
+    write_room_and_lamp(
+        dir,
+        [[-2.0, 0.0, -2.0], [2.0, 3.0, 2.0]],
+        0.2,
+        "hidden",
+        shot,
+    )
 }
 
 fn build(path: &Path, selection: LightSelection, seed: u32) -> Scene {
@@ -179,16 +190,6 @@ fn the_guide_and_the_image_are_the_same_for_any_thread_count() {
 /// under a bright sky it cannot see: the sky's estimate, which ignores walls, asks for most of
 /// the light samples far from the lamp.
 fn closed_room_under_a_sky(dir: &Path) -> std::path::PathBuf {
-    std::fs::write(
-        dir.join("room.obj"),
-        box_obj([-3.0, 0.0, -3.0], [3.0, 3.0, 3.0], &[]),
-    )
-    .unwrap();
-    std::fs::write(
-        dir.join("lamp.obj"),
-        box_obj([-0.1, -0.1, -0.1], [0.1, 0.1, 0.1], &[]),
-    )
-    .unwrap();
     let shot = r#"
 [shot]
 name = "sky"
@@ -224,9 +225,7 @@ mesh = "lamp.obj"
 material = "lamp"
 transform = { position = [2.5, 2.7, -2.5] }
 "#;
-    let path = dir.join("sky.toml");
-    std::fs::write(&path, shot).unwrap();
-    path
+    write_room_and_lamp(dir, [[-3.0, 0.0, -3.0], [3.0, 3.0, 3.0]], 0.1, "sky", shot)
 }
 
 #[test]
