@@ -116,19 +116,38 @@ fn a_lamp_behind_a_wall_gets_few_samples_once_learned() {
         with_factors > 0 && with_factors <= regions,
         "{with_factors} of {regions}"
     );
-    for (x, z) in [(-1.0, -1.0), (0.0, 0.5), (-1.5, 1.0), (0.8, -0.8)] {
+    let floor = [(-1.0, -1.0), (0.0, 0.5), (-1.5, 1.0), (0.8, -0.8)];
+    assert_share_falls(
+        &tree,
+        &learned,
+        floor,
+        outside_share,
+        0.35,
+        "the hidden lamp",
+    );
+}
+
+/// At each floor point (x, z) of `floor`, `share` of light samples is over half under `tree`
+/// and below `ratio` times that under `learned`; `what` names what takes the share.
+fn assert_share_falls(
+    tree: &Scene,
+    learned: &Scene,
+    floor: [(f32, f32); 4],
+    share: impl Fn(&Scene, &Receiver) -> f32,
+    ratio: f32,
+    what: &str,
+) {
+    for (x, z) in floor {
         let at = Receiver {
             p: Vec3::new(x, 0.0, z),
             n: Some(Vec3::Y),
             time: 0.0,
         };
-        let (plain, guided) = (outside_share(&tree, &at), outside_share(&learned, &at));
-        eprintln!(
-            "floor at ({x}, {z}): hidden lamp share {plain:.3} under the tree, {guided:.3} learned"
-        );
+        let (plain, guided) = (share(tree, &at), share(learned, &at));
+        eprintln!("floor at ({x}, {z}): {what}'s share {plain:.3} unlearned, {guided:.3} learned");
         assert!(
-            plain > 0.5 && guided < 0.35 * plain,
-            "floor at ({x}, {z}): the hidden lamp's share {plain} under the tree, {guided} learned"
+            plain > 0.5 && guided < ratio * plain,
+            "floor at ({x}, {z}): {what}'s share {plain} unlearned, {guided} learned"
         );
     }
 }
@@ -137,27 +156,29 @@ fn a_lamp_behind_a_wall_gets_few_samples_once_learned() {
 fn learned_selection_keeps_the_estimate_and_lowers_the_noise() {
     let dir = tempfile::tempdir().unwrap();
     let path = room_beside_a_hidden_lamp(dir.path());
+    assert_same_estimate_less_noise(&path, 32, 0.6, "learned against tree");
+}
+
+/// Renders the shot at `path` with `spp` samples and seeds 1 and 2, learned and under the
+/// tree: the means agree, and the learned pair's noise is below `ratio` times the tree's.
+fn assert_same_estimate_less_noise(path: &Path, spp: u32, ratio: f64, what: &str) {
     let images = |selection| {
-        [1, 2].map(|seed| render(&build(&path, selection, seed), &RenderOptions::new(32)).rgb)
+        [1, 2].map(|seed| render(&build(path, selection, seed), &RenderOptions::new(spp)).rgb)
     };
     let (learned, tree) = (
         images(LightSelection::Learned),
         images(LightSelection::Tree),
     );
-    assert_statistically_equal(
-        [&learned[0], &learned[1]],
-        [&tree[0], &tree[1]],
-        "learned against tree",
-    );
+    assert_statistically_equal([&learned[0], &learned[1]], [&tree[0], &tree[1]], what);
     let noise = |pair: &[Vec<Vec3>; 2]| relative_mse(&pair[0], &pair[1]);
     eprintln!(
-        "noise {:e} learned against {:e}",
+        "{what}: noise {:e} learned against {:e}",
         noise(&learned),
         noise(&tree)
     );
     assert!(
-        noise(&learned) < 0.6 * noise(&tree),
-        "noise {:e} learned against {:e}",
+        noise(&learned) < ratio * noise(&tree),
+        "{what}: noise {:e} learned against {:e}",
         noise(&learned),
         noise(&tree)
     );
@@ -241,39 +262,8 @@ fn a_sky_behind_walls_gets_few_samples_once_learned() {
     let sky_share = |scene: &Scene, at: &Receiver| {
         scene.lights.pdf_environment(Vec3::Y, at) * 4.0 * std::f32::consts::PI
     };
-    for (x, z) in [(-1.0, -1.0), (-2.0, -2.0), (0.0, 0.0), (-2.0, 0.5)] {
-        let at = Receiver {
-            p: Vec3::new(x, 0.0, z),
-            n: Some(Vec3::Y),
-            time: 0.0,
-        };
-        let (plain, guided) = (sky_share(&tree, &at), sky_share(&learned, &at));
-        eprintln!(
-            "floor at ({x}, {z}): the sky's share {plain:.3} by estimate, {guided:.3} learned"
-        );
-        assert!(
-            plain > 0.5 && guided < 0.4 * plain,
-            "floor at ({x}, {z}): the sky's share {plain} by estimate, {guided} learned"
-        );
-    }
+    let floor = [(-1.0, -1.0), (-2.0, -2.0), (0.0, 0.0), (-2.0, 0.5)];
+    assert_share_falls(&tree, &learned, floor, sky_share, 0.4, "the sky");
     // The same estimate, with less noise.
-    let images = |selection| {
-        [1, 2].map(|seed| render(&build(&path, selection, seed), &RenderOptions::new(16)).rgb)
-    };
-    let (learned, tree) = (
-        images(LightSelection::Learned),
-        images(LightSelection::Tree),
-    );
-    assert_statistically_equal(
-        [&learned[0], &learned[1]],
-        [&tree[0], &tree[1]],
-        "learned against tree, under a sky",
-    );
-    let noise = |pair: &[Vec<Vec3>; 2]| relative_mse(&pair[0], &pair[1]);
-    eprintln!(
-        "noise {:e} learned against {:e}",
-        noise(&learned),
-        noise(&tree)
-    );
-    assert!(noise(&learned) < 0.5 * noise(&tree));
+    assert_same_estimate_less_noise(&path, 16, 0.5, "learned against tree, under a sky");
 }
