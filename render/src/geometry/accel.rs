@@ -5,7 +5,7 @@
 use super::instance::{MovingInstance, Placement};
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
-use super::wide_bvh::{BoxRay, any_hit, closest_hit, node_bytes, worth_fetching_ahead};
+use super::wide_bvh::{BoxRay, Fixed, any_hit, closest_hit, node_bytes, worth_fetching_ahead};
 use crate::ray::Ray;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
@@ -80,7 +80,8 @@ impl Accel {
         if let Some(top) = &self.top {
             let nearest = best.map_or(ray.t_max, |h| h.t);
             closest_hit(
-                top,
+                &top.nodes,
+                &Fixed,
                 &BoxRay::new(ray.origin, ray.dir),
                 nearest,
                 NOTHING_TO_FETCH,
@@ -113,7 +114,8 @@ impl Accel {
             return false;
         };
         any_hit(
-            top,
+            &top.nodes,
+            &Fixed,
             &BoxRay::new(ray.origin, ray.dir),
             ray.t_max,
             NOTHING_TO_FETCH,

@@ -4,6 +4,7 @@
 pub mod accel;
 pub mod instance;
 pub mod motion;
+pub mod moving_bvh;
 pub mod offset;
 pub mod round_cone;
 pub mod strands;

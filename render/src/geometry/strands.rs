@@ -11,8 +11,11 @@
 //! test; a ring whose opening does not move keeps its frame precomputed.
 
 use super::instance::{box_corners, swept_bounds};
+use super::moving_bvh::refit;
 use super::round_cone::RoundCone;
-use super::wide_bvh::{BoxRay, Indexed, any_hit, closest_hit, node_bytes, worth_fetching_ahead};
+use super::wide_bvh::{
+    BoxRay, Fixed, Lerped, any_hit, closest_hit, node_bytes, worth_fetching_ahead,
+};
 use crate::huge_pages;
 use crate::ray::Ray;
 use glam::{DAffine3, Vec3};
@@ -20,6 +23,7 @@ use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
+use obvhs::cwbvh::node::CwBvhNode;
 use rift_fx::rig::Similarity;
 use rift_fx::ring::RingCurves;
 use rift_fx::ring::curves::moved;
@@ -28,6 +32,11 @@ use rift_fx::ring::curves::moved;
 const FRAME_BOUND_STEPS: usize = 8;
 /// Most time slices a moving ring's segments are bounded over.
 const MAX_TIME_SLICES: usize = 16;
+
+/// How far a slice's boxes may stray from the segments, as a share of their mean length: a
+/// box moves linearly over its slice while a vertex follows its quadratic, which leaves the
+/// straight path by up to |a|·L²/8 over a slice of length L, and the boxes are widened by that.
+const CHORD_SHARE: f32 = 0.125;
 
 /// One segment in its ring's local frame: each end's position at the frame's time, velocity,
 /// acceleration and radius.
@@ -56,6 +65,50 @@ impl Segment {
             radius_a: self.radius[0],
             radius_b: self.radius[1],
         }
+    }
+
+    /// Local bounds at Δ = `delta`, widened on every side by `slack` (a vertex's own chord
+    /// deviation over a slice of that many seconds: see [`CHORD_SHARE`]) and for rounding.
+    fn bounds_at(&self, delta: f32, slice_length: f32, moving: bool) -> Aabb {
+        let at = self.at(delta, moving);
+        let reach = |i: usize, p: Vec3, radius: f32| {
+            let chord = self.a[i].abs() * (slice_length * slice_length / 8.0);
+            (
+                p - chord - Vec3::splat(radius),
+                p + chord + Vec3::splat(radius),
+            )
+        };
+        let (lo_a, hi_a) = reach(0, at.a, at.radius_a);
+        let (lo_b, hi_b) = reach(1, at.b, at.radius_b);
+        let (lo, hi) = (lo_a.min(lo_b), hi_a.max(hi_b));
+        let pad = (lo.abs().max(hi.abs())).max_element() * 4.0 * f32::EPSILON;
+        Aabb::new(
+            (lo - Vec3::splat(pad)).into(),
+            (hi + Vec3::splat(pad)).into(),
+        )
+    }
+
+    /// Where the BVH builder sees the segment over Δ in `window`: its box at the middle, moved
+    /// along the ring's axis (local Z, across the thin ring) by how far it turns around that
+    /// axis over the window. Neighbours that turn at different speeds (counter-rotating
+    /// strands, which cross one another all the time) then stand apart, and a node groups
+    /// segments that stay together over the window, so its boxes at the window's two ends
+    /// stay small.
+    fn grouping_box(&self, window: [f32; 2]) -> Aabb {
+        let middle = 0.5 * (window[0] + window[1]);
+        let at = self.at(middle, true);
+        let turn = |i: usize, p: Vec3| {
+            let v = self.v[i] + self.a[i] * middle;
+            let round = p.truncate().length();
+            if round > 0.0 {
+                p.truncate().perp_dot(v.truncate()) / round
+            } else {
+                0.0
+            }
+        };
+        let lift = Vec3::Z * (0.5 * (turn(0, at.a) + turn(1, at.b)) * (window[1] - window[0]));
+        let (lo, hi) = at.bounds();
+        Aabb::new((lo + lift).into(), (hi + lift).into())
     }
 
     /// Local bounds over Δ in `deltas`: each end's quadratic per axis reaches its extremes at
@@ -180,23 +233,46 @@ pub struct Ring {
     /// Δ at the start of the rays' times, and slices per second of Δ.
     slice_start: f32,
     slices_per_second: f32,
-    /// One BVH per equal slice of the rays' times, each bounding the segments over its slice
-    /// only: a fast strand sweeps many times its own length in a shutter, and one set of
-    /// bounds over all of it would hand every ray hundreds of candidates.
-    slices: Vec<Slice>,
+    /// The segments' BVH (see [`Tree`]).
+    tree: Tree,
     /// Scene-wide index of the ring's first segment; its segments follow it in strand order.
     first: u32,
     /// World bounds over every time a ray can have.
     pub bounds: Aabb,
 }
 
-/// The segments' BVH over one slice of time.
+/// A ring's segments under one BVH for every time a ray can have.
 ///
-/// Its leaves name segments by their index within the ring (the BVH's primitive indices), and
-/// every slice reads the one scene-wide copy of them: a copy per slice in leaf order made a
-/// fast ring of a million segments take over a gigabyte.
-struct Slice {
+/// A moving ring's rays' times are cut into equal slices, and the tree's nodes are kept once
+/// for each slice boundary, refit to where the segments are then: a ray between two
+/// boundaries sees the boxes moved linearly between them (see [`super::moving_bvh`]), about
+/// as tight as a still ring's, where boxes over a whole slice grew by the motion (a fast
+/// strand sweeps many times its own length in a shutter). Every boundary shares the one
+/// layout, so the leaves read one copy of the segments stored in leaf order, with no index to
+/// follow first.
+struct Tree {
+    /// The layout and primitive indices (segment indices within the ring), and the boxes of a
+    /// ring that stands still.
     bvh: CwBvh,
+    /// A moving ring's nodes at each slice boundary, the first at the rays' earliest time.
+    boundaries: Vec<Vec<CwBvhNode>>,
+    /// The segments in leaf order.
+    leaves: Vec<Segment>,
+    /// Per segment of the ring (strand order), its place in `leaves`.
+    slot_of: Vec<u32>,
+}
+
+impl Tree {
+    /// The bytes a query reads at random.
+    fn bytes(&self) -> usize {
+        node_bytes(&self.bvh)
+            + self
+                .boundaries
+                .iter()
+                .map(|nodes| std::mem::size_of_val(nodes.as_slice()))
+                .sum::<usize>()
+            + std::mem::size_of_val(self.leaves.as_slice())
+    }
 }
 
 /// A ray meeting a strand.
@@ -279,39 +355,8 @@ impl Strands {
             1
         };
         let slice_length = (deltas[1] - deltas[0]) / slice_count as f32;
-        let mut all = Aabb::empty();
-        let mut slices = Vec::new();
-        for k in 0..slice_count {
-            let window = [
-                deltas[0] + slice_length * k as f32,
-                if k + 1 == slice_count {
-                    deltas[1]
-                } else {
-                    deltas[0] + slice_length * (k + 1) as f32
-                },
-            ];
-            let boxes: Vec<Aabb> = local
-                .iter()
-                .map(|s| {
-                    let (lo, hi) = s.bounds(window, moving);
-                    Aabb::new(lo.into(), hi.into())
-                })
-                .collect();
-            if boxes.is_empty() {
-                break;
-            }
-            for b in &boxes {
-                all = all.union(b);
-            }
-            let mut bvh = build_cwbvh(
-                &boxes,
-                BvhBuildParams::medium_build(),
-                &mut Default::default(),
-            );
-            bvh.nodes = huge_pages::adopt(bvh.nodes);
-            slices.push(Slice { bvh });
-        }
-        let bounds = if slices.is_empty() {
+        let (tree, all) = build_tree(&local, deltas, slice_count, moving);
+        let bounds = if local.is_empty() {
             Aabb::empty()
         } else {
             let corners = box_corners(all.min.into(), all.max.into());
@@ -337,13 +382,11 @@ impl Strands {
             } else {
                 0.0
             },
-            slices,
+            tree,
             first,
             bounds,
         });
-        let slices = self.rings.iter().flat_map(|r| &r.slices);
-        let nodes: usize = slices.map(|s| node_bytes(&s.bvh)).sum();
-        self.fetch_ahead = worth_fetching_ahead(nodes + std::mem::size_of_val(&self.segments[..]));
+        self.fetch_ahead = worth_fetching_ahead(self.rings.iter().map(|r| r.tree.bytes()).sum());
     }
 
     /// True when there are no segments.
@@ -360,10 +403,8 @@ impl Strands {
             if !admit(index) || !meets(&ring.bounds, ray.origin, ray.dir, limit) {
                 continue;
             }
-            let segments = self.segments_of(ring);
             let ahead = self.fetch_ahead;
-            if let Some(hit) = ring.intersect(segments, ray.origin, ray.dir, limit, ray.time, ahead)
-            {
+            if let Some(hit) = ring.intersect(ray.origin, ray.dir, limit, ray.time, ahead) {
                 best = Some(hit);
             }
         }
@@ -378,7 +419,6 @@ impl Strands {
             admit(index)
                 && meets(&ring.bounds, ray.origin, ray.dir, ray.t_max)
                 && ring.occluded(
-                    self.segments_of(ring),
                     ray.origin,
                     ray.dir,
                     ray.t_max,
@@ -387,16 +427,6 @@ impl Strands {
                     self.fetch_ahead,
                 )
         })
-    }
-
-    /// The segments of `ring`, in strand order.
-    #[inline]
-    fn segments_of(&self, ring: &Ring) -> &[Segment] {
-        let count = ring
-            .slices
-            .first()
-            .map_or(0, |s| s.bvh.primitive_indices.len());
-        &self.segments[ring.first as usize..ring.first as usize + count]
     }
 
     /// Segment `i` in world space at `time`.
@@ -467,11 +497,14 @@ impl Ring {
         (time - self.frame_time) as f32
     }
 
-    /// The time slice holding Δ = `delta`.
+    /// The time slice holding Δ = `delta` (a moving ring's: still ones have none), and how
+    /// far through it Δ lies (0 to 1).
     #[inline]
-    fn slice(&self, delta: f32) -> Option<&Slice> {
-        let k = ((delta - self.slice_start) * self.slices_per_second) as usize;
-        self.slices.get(k.min(self.slices.len().saturating_sub(1)))
+    fn slice(&self, delta: f32) -> (usize, f32) {
+        let slices = (delta - self.slice_start) * self.slices_per_second;
+        let last = self.tree.boundaries.len().saturating_sub(2);
+        let k = (slices as usize).min(last);
+        (k, (slices - k as f32).clamp(0.0, 1.0))
     }
 
     /// The ray in the ring's local frame at `time`; parameters stay in world units.
@@ -486,11 +519,10 @@ impl Ring {
         })
     }
 
-    /// The first of `segments` (the ring's, in strand order) along `origin + t·dir`, t in
-    /// (0, t_max), at `time` (fetching ahead as `fetch_ahead` says).
+    /// The first segment along `origin + t·dir`, t in (0, t_max), at `time` (fetching ahead
+    /// as `fetch_ahead` says).
     fn intersect(
         &self,
-        segments: &[Segment],
         origin: Vec3,
         dir: Vec3,
         t_max: f32,
@@ -498,29 +530,25 @@ impl Ring {
         fetch_ahead: bool,
     ) -> Option<StrandHit> {
         let delta = self.delta(time);
-        let slice = self.slice(delta)?;
         let (o, d, to_local) = self.local_ray(origin, dir, time);
+        let (ray, leaves) = (BoxRay::new(o, d), self.tree.leaves.as_slice());
         let mut found = None;
-        let leaves = &slice.bvh.primitive_indices;
-        closest_hit(
-            &slice.bvh,
-            &BoxRay::new(o, d),
-            t_max,
-            &Indexed {
-                indices: leaves,
-                items: segments,
-            },
-            fetch_ahead,
-            |slot, range| {
-                let i = leaves[slot];
-                let h = segments[i as usize]
-                    .at(delta, self.moving)
-                    .intersect(o, d, 0.0, range)?;
-                found = Some((h, self.first + i));
-                Some(h.t)
-            },
-        );
-        let (h, segment) = found?;
+        let test = |slot: usize, range: f32| {
+            let h = leaves[slot]
+                .at(delta, self.moving)
+                .intersect(o, d, 0.0, range)?;
+            found = Some((h, slot));
+            Some(h.t)
+        };
+        if self.moving {
+            let (k, at) = self.slice(delta);
+            let (nodes, boxes) = self.boundaries_of(k, at)?;
+            closest_hit(nodes, &boxes, &ray, t_max, leaves, fetch_ahead, test);
+        } else {
+            let nodes = &self.tree.bvh.nodes;
+            closest_hit(nodes, &Fixed, &ray, t_max, leaves, fetch_ahead, test);
+        }
+        let (h, slot) = found?;
         // Normals are covectors: under a similarity the inverse's rotation maps them back.
         let normal = to_local
             .inverse()
@@ -529,19 +557,25 @@ impl Ring {
             .as_vec3();
         Some(StrandHit {
             t: h.t,
-            segment,
+            segment: self.first + self.tree.bvh.primitive_indices[slot],
             s: h.s,
             normal,
         })
     }
 
-    /// True when one of `segments` (the ring's) other than `except` (scene-wide index) lies
-    /// along `origin + t·dir`, t in (0, t_max), at `time` (fetching ahead as `fetch_ahead`
-    /// says).
-    #[allow(clippy::too_many_arguments)]
+    /// The nodes at the start of slice `k` and the boxes at fraction `at` through it.
+    #[inline]
+    fn boundaries_of(&self, k: usize, at: f32) -> Option<(&[CwBvhNode], Lerped<'_>)> {
+        let [start, end] = self.tree.boundaries.get(k..k + 2)? else {
+            return None;
+        };
+        Some((start, Lerped { end, at }))
+    }
+
+    /// True when a segment other than `except` (scene-wide index) lies along
+    /// `origin + t·dir`, t in (0, t_max), at `time` (fetching ahead as `fetch_ahead` says).
     fn occluded(
         &self,
-        segments: &[Segment],
         origin: Vec3,
         dir: Vec3,
         t_max: f32,
@@ -550,46 +584,107 @@ impl Ring {
         fetch_ahead: bool,
     ) -> bool {
         let delta = self.delta(time);
-        let Some(slice) = self.slice(delta) else {
-            return false;
-        };
         let (o, d, _) = self.local_ray(origin, dir, time);
-        let leaves = &slice.bvh.primitive_indices;
-        let ray = BoxRay::new(o, d);
-        let data = Indexed {
-            indices: leaves,
-            items: segments,
-        };
-        any_hit(&slice.bvh, &ray, t_max, &data, fetch_ahead, |slot| {
-            let i = leaves[slot];
-            except != Some(self.first + i)
-                && segments[i as usize]
+        let (ray, leaves) = (BoxRay::new(o, d), self.tree.leaves.as_slice());
+        let skip = except
+            .and_then(|e| e.checked_sub(self.first))
+            .and_then(|i| self.tree.slot_of.get(i as usize))
+            .map_or(usize::MAX, |&slot| slot as usize);
+        let test = |slot: usize| {
+            slot != skip
+                && leaves[slot]
                     .at(delta, self.moving)
                     .occludes(o, d, 0.0, t_max)
-        })
+        };
+        if self.moving {
+            let (k, at) = self.slice(delta);
+            let Some((nodes, boxes)) = self.boundaries_of(k, at) else {
+                return false;
+            };
+            any_hit(nodes, &boxes, &ray, t_max, leaves, fetch_ahead, test)
+        } else {
+            let nodes = &self.tree.bvh.nodes;
+            any_hit(nodes, &Fixed, &ray, t_max, leaves, fetch_ahead, test)
+        }
     }
 }
 
-/// Time slices for `segments` moving over Δ in `deltas`: about as many as the farthest vertex
-/// travels mean segment lengths (between 1 and [`MAX_TIME_SLICES`]).
+/// Time slices for `segments` moving over Δ in `deltas`: enough that no vertex strays from the
+/// straight path its boxes take across a slice by more than [`CHORD_SHARE`] of the mean
+/// segment length (between 1 and [`MAX_TIME_SLICES`]).
 fn time_slices(segments: &[Segment], deltas: [f32; 2]) -> usize {
     if segments.is_empty() {
         return 1;
     }
-    let span = deltas[1] - deltas[0];
-    let reach = deltas[0].abs().max(deltas[1].abs());
-    let (mut travel, mut length) = (0.0f32, 0.0f32);
+    let (mut bend, mut length) = (0.0f32, 0.0f32);
     for s in segments {
-        for i in 0..2 {
-            travel = travel.max(s.v[i].length() * span + s.a[i].length() * reach * span);
-        }
+        bend = bend.max(s.a[0].abs().max(s.a[1].abs()).max_element());
         length += s.p[0].distance(s.p[1]);
     }
     let mean = length / segments.len() as f32;
-    if mean.is_nan() || mean <= 0.0 {
+    if !(mean > 0.0 && bend > 0.0) {
         return 1;
     }
-    ((travel / mean).ceil() as usize).clamp(1, MAX_TIME_SLICES)
+    // |a|·L²/8 ≤ CHORD_SHARE · mean.
+    let longest = (8.0 * CHORD_SHARE * mean / bend).sqrt();
+    (((deltas[1] - deltas[0]) / longest).ceil() as usize).clamp(1, MAX_TIME_SLICES)
+}
+
+/// The [`Tree`] of `segments` for Δ in `deltas` cut into `slices` (a moving ring's), and the
+/// bounds of all of them over it. The layout comes from obvhs' build over each segment's
+/// bounds, still, or where the builder sees it moving (see [`Segment::grouping_box`]).
+fn build_tree(segments: &[Segment], deltas: [f32; 2], slices: usize, moving: bool) -> (Tree, Aabb) {
+    let swept: Vec<Aabb> = segments
+        .iter()
+        .map(|s| {
+            let (lo, hi) = s.bounds(deltas, moving);
+            Aabb::new(lo.into(), hi.into())
+        })
+        .collect();
+    let all = swept.iter().fold(Aabb::empty(), |all, b| all.union(b));
+    let grouping = if moving {
+        segments.iter().map(|s| s.grouping_box(deltas)).collect()
+    } else {
+        swept
+    };
+    let mut bvh = build_cwbvh(
+        &grouping,
+        BvhBuildParams::medium_build(),
+        &mut Default::default(),
+    );
+    let boundaries = if moving && !segments.is_empty() {
+        let length = (deltas[1] - deltas[0]) / slices as f32;
+        (0..=slices)
+            .map(|k| {
+                let delta = if k == slices {
+                    deltas[1]
+                } else {
+                    deltas[0] + length * k as f32
+                };
+                let boxes: Vec<Aabb> = segments
+                    .iter()
+                    .map(|s| s.bounds_at(delta, length, true))
+                    .collect();
+                huge_pages::adopt(refit(&bvh, &boxes))
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    bvh.nodes = huge_pages::adopt(bvh.nodes);
+    let mut leaves = huge_pages::with_capacity(bvh.primitive_indices.len());
+    leaves.extend(bvh.primitive_indices.iter().map(|&i| segments[i as usize]));
+    let mut slot_of = vec![0u32; segments.len()];
+    for (slot, &i) in bvh.primitive_indices.iter().enumerate() {
+        slot_of[i as usize] = slot as u32;
+    }
+    let tree = Tree {
+        bvh,
+        boundaries,
+        leaves,
+        slot_of,
+    };
+    (tree, all)
 }
 
 /// True when `origin + t·dir`, t in [0, t_max], meets `bounds`.
@@ -667,12 +762,39 @@ mod tests {
         (origin, (target - origin).normalize(), time)
     }
 
+    /// `ring` with every other strand spinning the other way (velocities turned round; the
+    /// centripetal accelerations stay).
+    fn counter_rotating(mut ring: RingCurves) -> RingCurves {
+        let mut start = 0;
+        for (s, &count) in ring.vertex_counts.iter().enumerate() {
+            let end = start + count as usize;
+            if s % 2 == 1 {
+                ring.velocities[start..end]
+                    .iter_mut()
+                    .for_each(|v| *v = -*v);
+            }
+            start = end;
+        }
+        ring
+    }
+
     #[test]
     fn the_bvh_finds_what_testing_every_segment_at_the_ray_time_finds() {
+        // A ring spinning slowly under a moving frame (two time slices), and strands crossing
+        // one another fast enough to need the most slices.
+        the_bvh_finds_what_testing_every_segment_finds(spinning_ring(6, 64, 2.0), 2);
+        let fast = counter_rotating(spinning_ring(6, 64, 40.0));
+        the_bvh_finds_what_testing_every_segment_finds(fast, MAX_TIME_SLICES);
+    }
+
+    /// Nearest hits and occlusion of rays at many times through `ring` (under the sliding
+    /// frame) agree with testing every segment, its tree cut into `slices` time slices.
+    fn the_bvh_finds_what_testing_every_segment_finds(ring: RingCurves, slices: usize) {
         let times = [-0.1, 0.1];
         let mut strands = Strands::default();
-        strands.add_ring(&spinning_ring(6, 64, 2.0), sliding_frame(), 0.0, times, 1.0);
+        strands.add_ring(&ring, sliding_frame(), 0.0, times, 1.0);
         assert!(strands.rings[0].moving);
+        assert_eq!(strands.rings[0].tree.boundaries.len(), slices + 1);
         let mut hits = 0;
         for k in 0..3000 {
             let (origin, dir, time) = aimed_ray(&strands.rings[0], times, k);

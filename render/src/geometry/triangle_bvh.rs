@@ -103,7 +103,7 @@ impl TriangleBvh {
         };
         let mut t = t_max;
         traverse_with(
-            bvh,
+            &bvh.nodes,
             &BoxRay::new(origin, dir),
             &mut t,
             &self.leaf_triangles,
@@ -137,7 +137,7 @@ impl TriangleBvh {
         };
         let mut range = t_max;
         traverse_with(
-            bvh,
+            &bvh.nodes,
             &BoxRay::new(origin, dir),
             &mut range,
             &self.leaf_triangles,

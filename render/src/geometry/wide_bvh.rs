@@ -104,14 +104,14 @@ pub trait LeafTest {
 /// `fetch_ahead` (see [`worth_fetching_ahead`]).
 #[inline]
 pub fn traverse_with<L: LeafData + ?Sized>(
-    bvh: &CwBvh,
+    nodes: &[CwBvhNode],
     ray: &BoxRay,
     range: &mut f32,
     leaves: &L,
     fetch_ahead: bool,
     test: &mut impl LeafTest,
 ) -> bool {
-    traverse(bvh, ray, range, leaves, fetch_ahead, test)
+    traverse(nodes, &Fixed, ray, range, leaves, fetch_ahead, test)
 }
 
 /// A closest-hit test from a closure: `leaf(slot, t_max)` returns the primitive's distance
@@ -140,11 +140,12 @@ impl<F: FnMut(usize) -> bool> LeafTest for AnyOf<F> {
 
 /// The closest primitive along `ray` for t in [0, `t_max`]: `leaf(slot, t_max)` tests the one
 /// at `slot` and returns its distance when it is hit nearer than `t_max`, which then becomes the
-/// range. Returns the final range: below `t_max` exactly when something was hit. `leaves` and
-/// `fetch_ahead` as in [`traverse_with`].
+/// range. Returns the final range: below `t_max` exactly when something was hit. The child
+/// boxes come from `boxes`; `leaves` and `fetch_ahead` as in [`traverse_with`].
 #[inline]
 pub fn closest_hit<L: LeafData + ?Sized>(
-    bvh: &CwBvh,
+    nodes: &[CwBvhNode],
+    boxes: &impl ChildBoxes,
     ray: &BoxRay,
     t_max: f32,
     leaves: &L,
@@ -153,7 +154,8 @@ pub fn closest_hit<L: LeafData + ?Sized>(
 ) -> f32 {
     let mut range = t_max;
     traverse(
-        bvh,
+        nodes,
+        boxes,
         ray,
         &mut range,
         leaves,
@@ -163,11 +165,12 @@ pub fn closest_hit<L: LeafData + ?Sized>(
     range
 }
 
-/// True when `hit(slot)` holds for some primitive along `ray` for t in [0, `t_max`] (visited and
-/// with `leaves` and `fetch_ahead` as in [`traverse_with`]); stops at the first.
+/// True when `hit(slot)` holds for some primitive along `ray` for t in [0, `t_max`] (visited,
+/// with `boxes`, `leaves` and `fetch_ahead`, as in [`closest_hit`]); stops at the first.
 #[inline]
 pub fn any_hit<L: LeafData + ?Sized>(
-    bvh: &CwBvh,
+    nodes: &[CwBvhNode],
+    boxes: &impl ChildBoxes,
     ray: &BoxRay,
     t_max: f32,
     leaves: &L,
@@ -175,13 +178,22 @@ pub fn any_hit<L: LeafData + ?Sized>(
     hit: impl FnMut(usize) -> bool,
 ) -> bool {
     let mut range = t_max;
-    traverse(bvh, ray, &mut range, leaves, fetch_ahead, &mut AnyOf(hit))
+    traverse(
+        nodes,
+        boxes,
+        ray,
+        &mut range,
+        leaves,
+        fetch_ahead,
+        &mut AnyOf(hit),
+    )
 }
 
 /// The traversal both queries share, compiled twice: for AVX2 and for the baseline.
 #[inline]
-fn traverse<L: LeafData + ?Sized>(
-    bvh: &CwBvh,
+fn traverse<L: LeafData + ?Sized, B: ChildBoxes>(
+    nodes: &[CwBvhNode],
+    boxes: &B,
     ray: &BoxRay,
     range: &mut f32,
     leaves: &L,
@@ -191,9 +203,9 @@ fn traverse<L: LeafData + ?Sized>(
     #[cfg(target_arch = "x86_64")]
     if has_avx2_set() {
         // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
-        return unsafe { traverse_avx2(bvh, ray, range, leaves, fetch_ahead, leaf) };
+        return unsafe { traverse_avx2(nodes, boxes, ray, range, leaves, fetch_ahead, leaf) };
     }
-    traverse_groups::<false, STACK, L>(bvh, ray, range, leaves, fetch_ahead, leaf)
+    traverse_groups::<false, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
 }
 
 /// Whether the processor has AVX2 and the bit instructions that came with it (POPCNT, LZCNT,
@@ -220,15 +232,16 @@ fn has_avx2_set() -> bool {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
-fn traverse_avx2<L: LeafData + ?Sized>(
-    bvh: &CwBvh,
+fn traverse_avx2<L: LeafData + ?Sized, B: ChildBoxes>(
+    nodes: &[CwBvhNode],
+    boxes: &B,
     ray: &BoxRay,
     range: &mut f32,
     leaves: &L,
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
-    traverse_groups::<true, STACK, L>(bvh, ray, range, leaves, fetch_ahead, leaf)
+    traverse_groups::<true, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
 }
 
 /// A node's children still to visit: `base` is the first child node (or first primitive) and
@@ -245,15 +258,21 @@ struct Group {
 /// hit inner children in octant order, the rest of a group waiting on the stack. Returns true
 /// when `leaf` asked to stop.
 #[inline(always)]
-fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L: LeafData + ?Sized>(
-    bvh: &CwBvh,
+fn traverse_groups<
+    const AVX2: bool,
+    const STACK_SLOTS: usize,
+    L: LeafData + ?Sized,
+    B: ChildBoxes,
+>(
+    tree: &[CwBvhNode],
+    boxes: &B,
     ray: &BoxRay,
     range: &mut f32,
     leaves: &L,
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
-    if bvh.nodes.is_empty() {
+    if tree.is_empty() {
         return false;
     }
     // Uninitialised: only slots below `depth` are read, each after it was written (zeroing
@@ -292,10 +311,10 @@ fn traverse_groups<const AVX2: bool, const STACK_SLOTS: usize, L: LeafData + ?Si
                     tests::SPILLS.with(|n| n.set(n.get() + 1));
                 }
             }
-            let node = &bvh.nodes[index as usize];
-            let hits = children_hit::<AVX2>(node, ray, *range);
+            let node = &tree[index as usize];
+            let hits = children_hit::<AVX2, B>(boxes, index as usize, node, ray, *range);
             if fetch_ahead {
-                prefetch_inner_children(bvh, node, hits);
+                prefetch_inner_children(tree, boxes, node, hits);
             }
             nodes = Group {
                 base: node.child_base_idx,
@@ -371,21 +390,109 @@ impl<T> LeafData for Indexed<'_, T> {
 /// Asks the cache for the inner children `hits` names: nodes are visited one at a time and
 /// each first touch of a large tree's node otherwise waits on memory.
 #[inline(never)]
-fn prefetch_inner_children(bvh: &CwBvh, node: &CwBvhNode, hits: u32) {
+fn prefetch_inner_children(
+    nodes: &[CwBvhNode],
+    boxes: &impl ChildBoxes,
+    node: &CwBvhNode,
+    hits: u32,
+) {
     if hits & INNER_BITS == 0 {
         return;
     }
     // Inner children lie together from `child_base_idx`; fetch the lines of them all when
     // any is hit (cheaper than ranking each hit slot, and most are hit when any is).
     let first = node.child_base_idx as usize;
-    let all = (node.imask.count_ones() as usize).min(bvh.nodes.len().saturating_sub(first));
-    prefetch(&bvh.nodes[first..first + all]);
+    let all = (node.imask.count_ones() as usize).min(nodes.len().saturating_sub(first));
+    prefetch(&nodes[first..first + all]);
+    boxes.prefetch(first, all);
 }
 
-/// The children of `node` that `ray` meets within [0, `t_max`], as group bits (see [`Group`]).
+/// Where a traversal finds a node's child boxes: in the nodes ([`Fixed`]), or moving between
+/// the nodes' and a second array's ([`Lerped`]).
+pub trait ChildBoxes {
+    /// One bit per child slot of node `index` (laid out as `node`) whose box `ray` meets
+    /// within [0, `t_max`].
+    fn slab_hits<const AVX2: bool>(
+        &self,
+        index: usize,
+        node: &CwBvhNode,
+        ray: &BoxRay,
+        t_max: f32,
+    ) -> u32;
+
+    /// Asks the cache for what testing nodes `first..first + count` reads besides the nodes.
+    fn prefetch(&self, _first: usize, _count: usize) {}
+}
+
+/// Child boxes as the nodes hold them: a tree that stands still.
+pub struct Fixed;
+
+impl ChildBoxes for Fixed {
+    #[inline(always)]
+    fn slab_hits<const AVX2: bool>(
+        &self,
+        _: usize,
+        node: &CwBvhNode,
+        ray: &BoxRay,
+        t_max: f32,
+    ) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            // SAFETY: `AVX2` is set only by `traverse_avx2`, which runs where the processor has
+            // it.
+            return unsafe { slab_hits_avx2(node, None, ray, t_max) };
+        }
+        slab_hits_portable(node, None, ray, t_max)
+    }
+}
+
+/// Child boxes that move over a time slice: each plane runs linearly from where the nodes hold
+/// it (the slice's start) to where `end`, a second array with the same layout, holds it (its
+/// end); the boxes are taken at fraction `at` of the slice. A tree whose primitives move is
+/// then bounded about as tightly as one that stands still, where boxes over the whole slice
+/// grow by the motion.
+pub struct Lerped<'a> {
+    pub end: &'a [CwBvhNode],
+    pub at: f32,
+}
+
+impl ChildBoxes for Lerped<'_> {
+    #[inline(always)]
+    fn slab_hits<const AVX2: bool>(
+        &self,
+        index: usize,
+        node: &CwBvhNode,
+        ray: &BoxRay,
+        t_max: f32,
+    ) -> u32 {
+        let end = Some((&self.end[index], self.at));
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            // SAFETY: as for `Fixed`.
+            return unsafe { slab_hits_avx2(node, end, ray, t_max) };
+        }
+        slab_hits_portable(node, end, ray, t_max)
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, first: usize, count: usize) {
+        if let Some(nodes) = self.end.get(first..first + count) {
+            prefetch(nodes);
+        }
+    }
+}
+
+/// The children of node `index` (laid out as `node`, boxes from `boxes`) that `ray` meets
+/// within [0, `t_max`], as group bits (see [`Group`]).
 #[inline(always)]
-fn children_hit<const AVX2: bool>(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
-    let lanes = slab_hits::<AVX2>(node, ray, t_max);
+fn children_hit<const AVX2: bool, B: ChildBoxes>(
+    boxes: &B,
+    index: usize,
+    node: &CwBvhNode,
+    ray: &BoxRay,
+    t_max: f32,
+) -> u32 {
+    let lanes = boxes.slab_hits::<AVX2>(index, node, ray, t_max);
     if lanes == 0 {
         return 0;
     }
@@ -409,39 +516,55 @@ fn children_hit<const AVX2: bool>(node: &CwBvhNode, ray: &BoxRay, t_max: f32) ->
     bits
 }
 
-/// One bit per child slot whose box `ray` meets within [0, `t_max`]: the eight slab tests as
-/// one vector computation over the quantized planes.
+/// A node's quantized planes per axis, as (lower, upper) byte rows.
 #[inline(always)]
-fn slab_hits<const AVX2: bool>(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
-    #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        // SAFETY: `AVX2` is set only by `traverse_avx2`, which runs where the processor has it.
-        return unsafe { slab_hits_avx2(node, ray, t_max) };
-    }
-    slab_hits_portable(node, ray, t_max)
-}
-
-/// [`slab_hits`] in plain arrays, for any processor.
-#[inline(always)]
-fn slab_hits_portable(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
-    let grid = |a: usize| f32::from_bits((node.e[a] as u32) << 23);
-    let corner = node.p - ray.origin;
-    let axes = [
+fn plane_rows(node: &CwBvhNode) -> [(&[u8; 8], &[u8; 8]); 3] {
+    [
         (&node.child_min_x, &node.child_max_x),
         (&node.child_min_y, &node.child_max_y),
         (&node.child_min_z, &node.child_max_z),
-    ];
+    ]
+}
+
+/// The ray distances to axis `a`'s lower and upper planes of `node`'s eight children, in plain
+/// arrays.
+#[inline(always)]
+fn plane_times_portable(node: &CwBvhNode, a: usize, ray: &BoxRay) -> [[f32; 8]; 2] {
+    let grid = f32::from_bits((node.e[a] as u32) << 23);
+    let scale = grid * ray.inv_dir[a];
+    let offset = (node.p[a] - ray.origin[a]) * ray.inv_dir[a];
+    let (lo, hi) = plane_rows(node)[a];
+    [lo, hi].map(|row| row.map(|q| q as f32 * scale + offset))
+}
+
+/// The slab tests of [`ChildBoxes::slab_hits`] in plain arrays, for any processor: `node`'s
+/// boxes, or with `end` (its boxes at the slice's end, and the fraction) the boxes between.
+#[inline(always)]
+fn slab_hits_portable(
+    node: &CwBvhNode,
+    end: Option<(&CwBvhNode, f32)>,
+    ray: &BoxRay,
+    t_max: f32,
+) -> u32 {
     let mut near = [0.0f32; 8];
     let mut far = [t_max; 8];
-    for (a, (lo, hi)) in axes.into_iter().enumerate() {
+    for a in 0..3 {
+        let [mut lo, mut hi] = plane_times_portable(node, a, ray);
+        if let Some((end, at)) = end {
+            let [lo_end, hi_end] = plane_times_portable(end, a, ray);
+            for c in 0..8 {
+                lo[c] += at * (lo_end[c] - lo[c]);
+                hi[c] += at * (hi_end[c] - hi[c]);
+            }
+        }
         let (entry, exit) = if ray.down[a] { (hi, lo) } else { (lo, hi) };
-        let scale = grid(a) * ray.inv_dir[a];
-        let offset = corner[a] * ray.inv_dir[a];
         for c in 0..8 {
-            let t_in = entry[c] as f32 * scale + offset;
-            let t_out = exit[c] as f32 * scale + offset;
-            near[c] = if t_in > near[c] { t_in } else { near[c] };
-            far[c] = if t_out < far[c] { t_out } else { far[c] };
+            near[c] = if entry[c] > near[c] {
+                entry[c]
+            } else {
+                near[c]
+            };
+            far[c] = if exit[c] < far[c] { exit[c] } else { far[c] };
         }
     }
     let mut lanes = 0u32;
@@ -451,32 +574,47 @@ fn slab_hits_portable(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
     lanes
 }
 
-/// [`slab_hits`] in AVX2 registers: each axis's eight quantized planes widened to floats at
-/// once, and the eight comparisons gathered by one movemask.
+/// The ray distances to axis `a`'s lower and upper planes of `node`'s eight children, each
+/// row of quantized planes widened to floats at once.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn slab_hits_avx2(node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
+fn plane_times_avx2(node: &CwBvhNode, a: usize, ray: &BoxRay) -> [std::arch::x86_64::__m256; 2] {
     use std::arch::x86_64::*;
-    let planes = |bytes: &[u8; 8]| {
-        // SAFETY: `bytes` is eight readable bytes, which an unaligned 64-bit load reads.
-        let packed = unsafe { _mm_loadl_epi64(bytes.as_ptr().cast()) };
-        _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(packed))
-    };
-    let corner = node.p - ray.origin;
-    let axes = [
-        (&node.child_min_x, &node.child_max_x),
-        (&node.child_min_y, &node.child_max_y),
-        (&node.child_min_z, &node.child_max_z),
-    ];
+    let grid = f32::from_bits((node.e[a] as u32) << 23);
+    let scale = _mm256_set1_ps(grid * ray.inv_dir[a]);
+    let offset = _mm256_set1_ps((node.p[a] - ray.origin[a]) * ray.inv_dir[a]);
+    let (lo, hi) = plane_rows(node)[a];
+    [lo, hi].map(|row| {
+        // SAFETY: `row` is eight readable bytes, which an unaligned 64-bit load reads.
+        let packed = unsafe { _mm_loadl_epi64(row.as_ptr().cast()) };
+        let planes = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(packed));
+        _mm256_add_ps(_mm256_mul_ps(planes, scale), offset)
+    })
+}
+
+/// The slab tests of [`slab_hits_portable`] in AVX2 registers, the eight comparisons gathered
+/// by one movemask.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn slab_hits_avx2(
+    node: &CwBvhNode,
+    end: Option<(&CwBvhNode, f32)>,
+    ray: &BoxRay,
+    t_max: f32,
+) -> u32 {
+    use std::arch::x86_64::*;
     let mut near = _mm256_setzero_ps();
     let mut far = _mm256_set1_ps(t_max);
-    for (a, (lo, hi)) in axes.into_iter().enumerate() {
-        let grid = f32::from_bits((node.e[a] as u32) << 23);
-        let scale = _mm256_set1_ps(grid * ray.inv_dir[a]);
-        let offset = _mm256_set1_ps(corner[a] * ray.inv_dir[a]);
-        let t_lo = _mm256_add_ps(_mm256_mul_ps(planes(lo), scale), offset);
-        let t_hi = _mm256_add_ps(_mm256_mul_ps(planes(hi), scale), offset);
+    for a in 0..3 {
+        let [mut t_lo, mut t_hi] = plane_times_avx2(node, a, ray);
+        if let Some((end, at)) = end {
+            let [lo_end, hi_end] = plane_times_avx2(end, a, ray);
+            let at = _mm256_set1_ps(at);
+            t_lo = _mm256_add_ps(t_lo, _mm256_mul_ps(at, _mm256_sub_ps(lo_end, t_lo)));
+            t_hi = _mm256_add_ps(t_hi, _mm256_mul_ps(at, _mm256_sub_ps(hi_end, t_hi)));
+        }
         // The entry plane is the nearer of the two whichever way the ray runs (the distance
         // is monotonic in the plane): a minimum, not a branch on the ray's direction that
         // each new ray's signs mispredict.
@@ -536,16 +674,24 @@ mod tests {
                 // Fetching ahead (the large trees' path) must change nothing found.
                 for (t_max, ahead) in [(f32::INFINITY, false), (0.5, false), (0.5, true)] {
                     let expected = brute(tris, origin, dir, t_max);
-                    let t = closest_hit(&bvh, &ray, t_max, tris, ahead, |slot, range| {
-                        let tri = &tris[bvh.primitive_indices[slot] as usize];
-                        intersect_watertight(&sheared, tri, range).map(|h| h.0)
-                    });
+                    let t = closest_hit(
+                        &bvh.nodes,
+                        &Fixed,
+                        &ray,
+                        t_max,
+                        tris,
+                        ahead,
+                        |slot, range| {
+                            let tri = &tris[bvh.primitive_indices[slot] as usize];
+                            intersect_watertight(&sheared, tri, range).map(|h| h.0)
+                        },
+                    );
                     assert_eq!(
                         (t < t_max).then_some(t),
                         expected,
                         "closest from {origin} along {dir} to {t_max}"
                     );
-                    let any = any_hit(&bvh, &ray, t_max, tris, ahead, |slot| {
+                    let any = any_hit(&bvh.nodes, &Fixed, &ray, t_max, tris, ahead, |slot| {
                         let tri = &tris[bvh.primitive_indices[slot] as usize];
                         intersect_watertight(&sheared, tri, t_max).is_some()
                     });
@@ -594,8 +740,9 @@ mod tests {
                 .normalize();
             let sheared = ShearedRay::new(origin, dir);
             let mut range = f32::INFINITY;
-            traverse_groups::<false, 1, [Triangle]>(
-                &bvh,
+            traverse_groups::<false, 1, [Triangle], Fixed>(
+                &bvh.nodes,
+                &Fixed,
                 &BoxRay::new(origin, dir),
                 &mut range,
                 &[],

@@ -1,0 +1,214 @@
+//! Child boxes of a wide BVH made again from other primitive boxes, its layout kept: a moving
+//! ring's time slice keeps its tree's nodes twice, refit to where the segments are at the
+//! slice's start and at its end, and a ray at any time between sees boxes moved linearly
+//! between the two (see [`super::wide_bvh::Lerped`]). Boxes over a whole slice grow by the
+//! motion (a fast ring's segment sweeps several times its length), which made a moving ring's
+//! queries test twice as many segments as a still one's.
+
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::node::CwBvhNode;
+
+/// The largest quantized plane: a node's grid has 255 steps across its box.
+const STEPS: f64 = 255.0;
+
+/// The nodes of `bvh` with every child box made from `boxes` (one per primitive, as
+/// `bvh.primitive_indices` names them): a leaf's box holds its primitives' boxes, an inner
+/// child's its node's, each quantized outward on its node's own grid. Nothing else changes, so
+/// the result traverses with `bvh`'s topology and primitive order.
+pub fn refit(bvh: &CwBvh, boxes: &[Aabb]) -> Vec<CwBvhNode> {
+    let mut nodes = bvh.nodes.clone();
+    let mut whole = vec![Aabb::empty(); nodes.len()];
+    // Children come after their parent in the layout, so a backward pass meets every child
+    // before the node that holds it.
+    for index in (0..nodes.len()).rev() {
+        let node = &nodes[index];
+        let children: [Option<Aabb>; 8] =
+            std::array::from_fn(|slot| child_box(bvh, node, slot, boxes, &whole));
+        let all = children
+            .iter()
+            .flatten()
+            .fold(Aabb::empty(), |all, b| all.union(b));
+        quantize(&mut nodes[index], &children, &all);
+        whole[index] = all;
+    }
+    nodes
+}
+
+/// The box of `node`'s child in `slot` (`None` when the slot is empty): its primitives'
+/// boxes for a leaf, its node's (already refit, in `whole`) for an inner child.
+fn child_box(
+    bvh: &CwBvh,
+    node: &CwBvhNode,
+    slot: usize,
+    boxes: &[Aabb],
+    whole: &[Aabb],
+) -> Option<Aabb> {
+    let meta = node.child_meta[slot];
+    if meta == 0 {
+        return None;
+    }
+    if node.imask & (1 << slot) != 0 {
+        let below = (node.imask as u32 & ((1 << slot) - 1)).count_ones();
+        return whole.get((node.child_base_idx + below) as usize).copied();
+    }
+    // A leaf: its first primitive's offset in the low five bits, its count in unary above.
+    let first = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
+    let count = (meta >> 5).count_ones() as usize;
+    let leaf = bvh.primitive_indices.get(first..first + count)?;
+    Some(
+        leaf.iter()
+            .fold(Aabb::empty(), |all, &i| all.union(&boxes[i as usize])),
+    )
+}
+
+/// Sets `node`'s origin, grid and child planes for the boxes `children` (held by `all`). The
+/// planes are rounded outward in double precision, where the grid's steps are exact, so a
+/// decoded box always holds its child.
+fn quantize(node: &mut CwBvhNode, children: &[Option<Aabb>; 8], all: &Aabb) {
+    if children.iter().all(Option::is_none) {
+        return;
+    }
+    let origin = all.min;
+    node.p = glam::Vec3::from(origin);
+    for axis in 0..3 {
+        let low = origin[axis] as f64;
+        let extent = all.max[axis] as f64 - low;
+        let exponent = grid_exponent(extent);
+        node.e[axis] = (exponent + 127) as u8;
+        let step = (exponent as f64).exp2();
+        let rows = [
+            (&mut node.child_min_x, &mut node.child_max_x),
+            (&mut node.child_min_y, &mut node.child_max_y),
+            (&mut node.child_min_z, &mut node.child_max_z),
+        ];
+        let (mins, maxs) = rows.into_iter().nth(axis).expect("three axes");
+        for (slot, child) in children.iter().enumerate() {
+            let (lo, hi) = child.map_or((0.0, 0.0), |b| {
+                let lo = ((b.min[axis] as f64 - low) / step).floor();
+                let hi = ((b.max[axis] as f64 - low) / step).ceil();
+                (lo.clamp(0.0, STEPS), hi.clamp(0.0, STEPS))
+            });
+            mins[slot] = lo as u8;
+            maxs[slot] = hi as u8;
+        }
+    }
+}
+
+/// The power of two (as its exponent) of the finest grid whose 255 steps span `extent`,
+/// kept among normal single-precision numbers.
+fn grid_exponent(extent: f64) -> i32 {
+    let mut exponent = (extent.max(1e-30) / STEPS).log2().ceil() as i32;
+    while (exponent as f64).exp2() * STEPS < extent {
+        exponent += 1;
+    }
+    exponent.clamp(-126, 127)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::wide_bvh::{BoxRay, ChildBoxes, Fixed, Lerped};
+    use glam::Vec3;
+    use obvhs::BvhBuildParams;
+    use obvhs::cwbvh::builder::build_cwbvh;
+
+    /// Small boxes scattered through a cube, and the same boxes moved by `shift` each.
+    fn scattered(shift: impl Fn(usize) -> Vec3) -> (Vec<Aabb>, Vec<Aabb>) {
+        (0..500)
+            .map(|i| {
+                let f = i as f32;
+                let c = Vec3::new((f * 0.37).sin(), (f * 0.71).cos(), (f * 0.13).sin()) * 3.0;
+                let r = Vec3::splat(0.01 + 0.02 * (f * 0.5).cos().abs());
+                let at = |c: Vec3| Aabb::new((c - r).into(), (c + r).into());
+                (at(c), at(c + shift(i)))
+            })
+            .unzip()
+    }
+
+    /// The box of child `slot` of node `index` as a ray test sees it: the slab test of a ray
+    /// through each of the box's corners, nudged inside, hits the slot.
+    fn holds_box(boxes: &impl ChildBoxes, node: &CwBvhNode, index: usize, slot: usize, b: &Aabb) {
+        let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+        for corner in 0..8 {
+            let pick = |bit: usize, a: f32, z: f32| if corner >> bit & 1 == 0 { a } else { z };
+            let p = Vec3::new(
+                pick(0, lo.x, hi.x),
+                pick(1, lo.y, hi.y),
+                pick(2, lo.z, hi.z),
+            );
+            let from = p + Vec3::new(0.3, 0.2, 1.0) * 100.0;
+            let ray = BoxRay::new(from, (p - from).normalize());
+            let hits = boxes.slab_hits::<false>(index, node, &ray, f32::INFINITY);
+            assert!(
+                hits & (1 << slot) != 0,
+                "node {index} slot {slot} misses corner {p}"
+            );
+        }
+    }
+
+    /// Every child box, at the start, the end and between, holds what it must: its leaf's
+    /// primitives moved linearly, or its node's children.
+    #[test]
+    fn refit_boxes_hold_their_primitives_at_both_ends_and_between() {
+        let (start, end) = scattered(|i| Vec3::new(0.5, -0.2, (i % 7) as f32 * 0.1));
+        let bvh = build_cwbvh(
+            &start,
+            BvhBuildParams::medium_build(),
+            &mut Default::default(),
+        );
+        let (first, last) = (refit(&bvh, &start), refit(&bvh, &end));
+        for at in [0.0f32, 0.3, 1.0] {
+            let lerped = Lerped { end: &last, at };
+            let primitive = |i: u32| {
+                let (a, b) = (&start[i as usize], &end[i as usize]);
+                let mix = |x: Vec3, y: Vec3| x + (y - x) * at;
+                let shrink = |v: Vec3, toward: Vec3| v + (toward - v) * 1e-3;
+                let (lo, hi) = (
+                    mix(a.min.into(), b.min.into()),
+                    mix(a.max.into(), b.max.into()),
+                );
+                Aabb::new(shrink(lo, hi).into(), shrink(hi, lo).into())
+            };
+            for (index, node) in first.iter().enumerate() {
+                for slot in 0..8 {
+                    let meta = node.child_meta[slot];
+                    if meta == 0 || node.imask & (1 << slot) != 0 {
+                        continue;
+                    }
+                    let base = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
+                    for j in 0..(meta >> 5).count_ones() as usize {
+                        let b = primitive(bvh.primitive_indices[base + j]);
+                        holds_box(&lerped, node, index, slot, &b);
+                    }
+                }
+            }
+        }
+        // With no motion the refit tree's boxes hold each primitive as the built one's do.
+        let still = refit(&bvh, &start);
+        for (index, node) in still.iter().enumerate() {
+            let primitive = |i: u32| start[i as usize];
+            for slot in 0..8 {
+                let meta = node.child_meta[slot];
+                if meta != 0 && node.imask & (1 << slot) == 0 {
+                    let base = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
+                    let b = primitive(bvh.primitive_indices[base]);
+                    holds_box(&Fixed, node, index, slot, &b);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn grids_are_the_finest_power_of_two_that_spans_the_box() {
+        for extent in [1e-9, 0.1, 1.0, 255.0, 256.0, 3.7e5] {
+            let e = grid_exponent(extent);
+            let step = (e as f64).exp2();
+            assert!(step * STEPS >= extent, "{extent}: step {step} too fine");
+            assert!(
+                step * 0.5 * STEPS < extent,
+                "{extent}: step {step} too coarse"
+            );
+        }
+    }
+}
