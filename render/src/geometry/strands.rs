@@ -5,8 +5,9 @@
 //! time), which carries the curved blur of the spinning strands; the whole ring follows the
 //! opening's here frame P_H(t). A ray is taken into the ring's local frame at its own time
 //! (one similarity, direction not renormalised so ray parameters stay in world units) and meets
-//! the segments as they are at that time. Segment bounds cover every time a ray can have, found
-//! in closed form from each vertex's quadratic. A ring whose vertices do not move (no velocity
+//! the segments as they are at that time. A moving ring's tree bounds them at the boundaries of
+//! a few time slices and moves its boxes linearly between (see [`Tree`]); bounds over every
+//! time a ray can have come in closed form from each vertex's quadratic. A ring whose vertices do not move (no velocity
 //! and acceleration, or an instant of time) stores positions only and evaluates nothing per
 //! test; a ring whose opening does not move keeps its frame precomputed.
 

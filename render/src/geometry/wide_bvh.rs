@@ -369,24 +369,6 @@ impl<T> LeafData for [T] {
     }
 }
 
-/// Items read through the tree's primitive indices (shared by several trees, so not in any
-/// one tree's order): the items the slots' indices name.
-pub struct Indexed<'a, T> {
-    pub indices: &'a [u32],
-    pub items: &'a [T],
-}
-
-impl<T> LeafData for Indexed<'_, T> {
-    #[inline(always)]
-    fn prefetch(&self, slots: RangeInclusive<usize>) {
-        for &i in self.indices.get(slots).unwrap_or_default() {
-            if let Some(item) = self.items.get(i as usize) {
-                prefetch(std::slice::from_ref(item));
-            }
-        }
-    }
-}
-
 /// Asks the cache for the inner children `hits` names: nodes are visited one at a time and
 /// each first touch of a large tree's node otherwise waits on memory.
 #[inline(never)]
