@@ -108,7 +108,7 @@ fn grid_exponent(extent: f64) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::wide_bvh::{BoxRay, ChildBoxes, Fixed, Lerped};
+    use crate::geometry::wide_bvh::{BoxRay, ChildBoxes, Fixed, Lerped, any_hit};
     use glam::Vec3;
     use obvhs::BvhBuildParams;
     use obvhs::cwbvh::builder::build_cwbvh;
@@ -126,9 +126,15 @@ mod tests {
             .unzip()
     }
 
-    /// The box of child `slot` of node `index` as a ray test sees it: the slab test of a ray
-    /// through each of the box's corners, nudged inside, hits the slot.
-    fn holds_box(boxes: &impl ChildBoxes, node: &CwBvhNode, index: usize, slot: usize, b: &Aabb) {
+    /// The box of child `slot` of node `index` of `nodes` as a ray test sees it holds `b`: rays
+    /// through each of its corners hit the slot.
+    fn holds_box(
+        boxes: &impl ChildBoxes,
+        nodes: &[CwBvhNode],
+        index: usize,
+        slot: usize,
+        b: &Aabb,
+    ) {
         let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
         for corner in 0..8 {
             let pick = |bit: usize, a: f32, z: f32| if corner >> bit & 1 == 0 { a } else { z };
@@ -139,7 +145,7 @@ mod tests {
             );
             let from = p + Vec3::new(0.3, 0.2, 1.0) * 100.0;
             let ray = BoxRay::new(from, (p - from).normalize());
-            let hits = boxes.slab_hits::<false>(index, node, &ray, f32::INFINITY);
+            let hits = boxes.slab_hits::<false>(index, &nodes[index], &ray, f32::INFINITY);
             assert!(
                 hits & (1 << slot) != 0,
                 "node {index} slot {slot} misses corner {p}"
@@ -147,8 +153,47 @@ mod tests {
         }
     }
 
-    /// Every child box, at the start, the end and between, holds what it must: its leaf's
-    /// primitives moved linearly, or its node's children.
+    /// Checks `nodes` (of `bvh`'s layout) with `boxes` against the boxes `inside(i)` that lie
+    /// within primitive i's: every leaf's box holds its primitives', and a ray at each
+    /// primitive's centre finds it through every box above.
+    fn check(
+        bvh: &CwBvh,
+        nodes: &[CwBvhNode],
+        boxes: &impl ChildBoxes,
+        inside: impl Fn(u32) -> Aabb,
+    ) {
+        for (index, node) in nodes.iter().enumerate() {
+            for slot in 0..8 {
+                let meta = node.child_meta[slot];
+                if meta == 0 || node.imask & (1 << slot) != 0 {
+                    continue;
+                }
+                let base = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
+                for j in 0..(meta >> 5).count_ones() as usize {
+                    let b = inside(bvh.primitive_indices[base + j]);
+                    holds_box(boxes, nodes, index, slot, &b);
+                }
+            }
+        }
+        for i in 0..bvh.primitive_indices.len() as u32 {
+            let b = inside(i);
+            let centre = Vec3::from(b.center());
+            let from = centre + Vec3::new(-0.4, 1.0, 0.2) * 50.0;
+            let ray = BoxRay::new(from, (centre - from).normalize());
+            let none: &[Aabb] = &[];
+            let found = any_hit(nodes, boxes, &ray, f32::INFINITY, none, false, |slot| {
+                bvh.primitive_indices[slot] == i
+            });
+            assert!(
+                found,
+                "primitive {i} is not found through the boxes above it"
+            );
+        }
+    }
+
+    /// Every child box, at a slice's start, its end and between, holds its primitives moved
+    /// linearly, and every box above holds those; refit to where the primitives stand, the
+    /// tree holds them as built.
     #[test]
     fn refit_boxes_hold_their_primitives_at_both_ends_and_between() {
         let (start, end) = scattered(|i| Vec3::new(0.5, -0.2, (i % 7) as f32 * 0.1));
@@ -158,45 +203,21 @@ mod tests {
             &mut Default::default(),
         );
         let (first, last) = (refit(&bvh, &start), refit(&bvh, &end));
+        // A box a thousandth smaller than the primitive's at fraction `at`.
+        let inside = |i: u32, at: f32| {
+            let (a, b) = (&start[i as usize], &end[i as usize]);
+            let mix = |x: Vec3, y: Vec3| x + (y - x) * at;
+            let (lo, hi) = (
+                mix(a.min.into(), b.min.into()),
+                mix(a.max.into(), b.max.into()),
+            );
+            let shrink = |v: Vec3, toward: Vec3| v + (toward - v) * 1e-3;
+            Aabb::new(shrink(lo, hi).into(), shrink(hi, lo).into())
+        };
         for at in [0.0f32, 0.3, 1.0] {
-            let lerped = Lerped { end: &last, at };
-            let primitive = |i: u32| {
-                let (a, b) = (&start[i as usize], &end[i as usize]);
-                let mix = |x: Vec3, y: Vec3| x + (y - x) * at;
-                let shrink = |v: Vec3, toward: Vec3| v + (toward - v) * 1e-3;
-                let (lo, hi) = (
-                    mix(a.min.into(), b.min.into()),
-                    mix(a.max.into(), b.max.into()),
-                );
-                Aabb::new(shrink(lo, hi).into(), shrink(hi, lo).into())
-            };
-            for (index, node) in first.iter().enumerate() {
-                for slot in 0..8 {
-                    let meta = node.child_meta[slot];
-                    if meta == 0 || node.imask & (1 << slot) != 0 {
-                        continue;
-                    }
-                    let base = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
-                    for j in 0..(meta >> 5).count_ones() as usize {
-                        let b = primitive(bvh.primitive_indices[base + j]);
-                        holds_box(&lerped, node, index, slot, &b);
-                    }
-                }
-            }
+            check(&bvh, &first, &Lerped { end: &last, at }, |i| inside(i, at));
         }
-        // With no motion the refit tree's boxes hold each primitive as the built one's do.
-        let still = refit(&bvh, &start);
-        for (index, node) in still.iter().enumerate() {
-            let primitive = |i: u32| start[i as usize];
-            for slot in 0..8 {
-                let meta = node.child_meta[slot];
-                if meta != 0 && node.imask & (1 << slot) == 0 {
-                    let base = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
-                    let b = primitive(bvh.primitive_indices[base]);
-                    holds_box(&Fixed, node, index, slot, &b);
-                }
-            }
-        }
+        check(&bvh, &first, &Fixed, |i| inside(i, 0.0));
     }
 
     #[test]
