@@ -47,9 +47,11 @@ fn exposure_within(strands: &Strands, time: f64, budget: usize) -> Vec<f32> {
     }
     let rays = (budget / count).clamp(1, MOST_RAYS as usize) as u32;
     let neighbours = (POOLED_RAYS / rays - 1).div_ceil(2) as usize;
-    let escaped: Vec<u32> = (0..count as u32)
-        .into_par_iter()
-        .map(|segment| escaped_rays(strands, segment, time, rays))
+    // Neighbours along a strand pool their rays: everything below runs in strand order.
+    let order: Vec<u32> = strands.strand_order().collect();
+    let escaped: Vec<u32> = order
+        .par_iter()
+        .map(|&segment| escaped_rays(strands, segment, time, rays))
         .collect();
     // Escaped rays before each segment, so a window's sum is one difference.
     let mut before = Vec::with_capacity(count + 1);
@@ -57,19 +59,17 @@ fn exposure_within(strands: &Strands, time: f64, budget: usize) -> Vec<f32> {
     for &e in &escaped {
         before.push(before.last().unwrap() + e as u64);
     }
-    strand_runs(strands)
-        .into_iter()
-        .enumerate()
-        .map(|(i, (first, last))| {
-            let (lo, hi) = (
-                i.saturating_sub(neighbours).max(first),
-                (i + neighbours).min(last),
-            );
-            let pooled = (before[hi + 1] - before[lo]) as f32;
-            let traced = (rays as usize * (hi - lo + 1)) as f32;
-            (pooled + PRIOR) / (traced + PRIOR)
-        })
-        .collect()
+    let mut exposure = vec![0.0; count];
+    for (i, (first, last)) in strand_runs(strands, &order).into_iter().enumerate() {
+        let (lo, hi) = (
+            i.saturating_sub(neighbours).max(first),
+            (i + neighbours).min(last),
+        );
+        let pooled = (before[hi + 1] - before[lo]) as f32;
+        let traced = (rays as usize * (hi - lo + 1)) as f32;
+        exposure[order[i] as usize] = (pooled + PRIOR) / (traced + PRIOR);
+    }
+    exposure
 }
 
 /// How many of `rays` cosine-weighted rays from points on `segment` (uniform along it and
@@ -96,13 +96,15 @@ fn escaped_rays(strands: &Strands, segment: u32, time: f64, rays: u32) -> u32 {
         .count() as u32
 }
 
-/// For each segment, the first and last segment of its run along its strand: a strand's
-/// segments are stored in a row, each starting where the one before it ends.
-fn strand_runs(strands: &Strands) -> Vec<(usize, usize)> {
-    let count = strands.segments.len();
+/// For each place in `order` (the segments along their strands, [`Strands::strand_order`]),
+/// the first and last place of its run along its strand: each segment of a strand starts where
+/// the one before it ends.
+fn strand_runs(strands: &Strands, order: &[u32]) -> Vec<(usize, usize)> {
+    let count = order.len();
     let joined = |k: usize| {
-        let (a, b) = (&strands.segments[k], &strands.segments[k + 1]);
-        a.p[1] == b.p[0] && strands.segment_ring[k] == strands.segment_ring[k + 1]
+        let (i, j) = (order[k] as usize, order[k + 1] as usize);
+        let (a, b) = (&strands.segments[i], &strands.segments[j]);
+        a.p[1] == b.p[0] && strands.segment_ring[i] == strands.segment_ring[j]
     };
     let mut runs = vec![(0, 0); count];
     let mut first = 0;
@@ -155,10 +157,12 @@ mod tests {
         strands
     }
 
-    /// The mean exposure of strand `k`'s segments.
-    fn strand_mean(exposure: &[f32], k: usize) -> f32 {
-        exposure[k * SEGMENTS..(k + 1) * SEGMENTS]
+    /// The mean exposure of the segments of strand `k` of `strands`.
+    fn strand_mean(strands: &Strands, exposure: &[f32], k: usize) -> f32 {
+        let order: Vec<u32> = strands.strand_order().collect();
+        order[k * SEGMENTS..(k + 1) * SEGMENTS]
             .iter()
+            .map(|&i| exposure[i as usize])
             .sum::<f32>()
             / SEGMENTS as f32
     }
@@ -169,11 +173,8 @@ mod tests {
         let exposure = exposure(&strands, 0.5);
         assert_eq!(exposure.len(), SEGMENTS);
         // Only rays towards the loop's far side, two metres off, can meet it again.
-        assert!(
-            strand_mean(&exposure, 0) > 0.95,
-            "{}",
-            strand_mean(&exposure, 0)
-        );
+        let mean = strand_mean(&strands, &exposure, 0);
+        assert!(mean > 0.95, "{mean}");
     }
 
     /// Five by five strands 0.025 apart: radius 0.01, so 0.005 between neighbours' surfaces.
@@ -182,9 +183,9 @@ mod tests {
         let exposure = exposure_within(&strands, 0.5, budget);
         assert_eq!(exposure.len(), 25 * SEGMENTS);
         assert!(exposure.iter().all(|&e| e > 0.0 && e <= 1.0));
-        let centre = strand_mean(&exposure, 2 * 5 + 2);
-        let corner = strand_mean(&exposure, 0);
-        let edge = strand_mean(&exposure, 2);
+        let centre = strand_mean(&strands, &exposure, 2 * 5 + 2);
+        let corner = strand_mean(&strands, &exposure, 0);
+        let edge = strand_mean(&strands, &exposure, 2);
         // A corner strand sees out over three quarters of its surroundings, a strand in the
         // middle of an edge over half; the centre is walled in by eight neighbours, with gaps
         // of a quarter of their spacing between them. (Converged: about 0.62, 0.35 and 0.02;
@@ -212,7 +213,8 @@ mod tests {
     #[test]
     fn runs_end_where_strands_do() {
         let strands = bundle(2, 0.5);
-        let runs = strand_runs(&strands);
+        let order: Vec<u32> = strands.strand_order().collect();
+        let runs = strand_runs(&strands, &order);
         assert_eq!(runs.len(), 4 * SEGMENTS);
         // Each loop's last segment closes back on its first vertex; the next strand's first
         // segment does not start where it ends.

@@ -250,7 +250,7 @@ fn strands(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
     let strands = &scene.strands;
     let rings = scene.id_names.len() - scene.object_count as usize;
     let mut segments: Vec<Vec<u32>> = vec![Vec::new(); rings];
-    for i in 0..strands.segments.len() as u32 {
+    for i in strands.strand_order() {
         segments[strands.segment_ring[i as usize] as usize].push(i);
     }
     (0..rings)

@@ -236,7 +236,8 @@ pub struct Ring {
     slices_per_second: f32,
     /// The segments' BVH (see [`Tree`]).
     tree: Tree,
-    /// Scene-wide index of the ring's first segment; its segments follow it in strand order.
+    /// Scene-wide index of the ring's first segment; its segments follow it in its tree's leaf
+    /// order.
     first: u32,
     /// World bounds over every time a ray can have.
     pub bounds: Aabb,
@@ -249,30 +250,28 @@ pub struct Ring {
 /// boundaries sees the boxes moved linearly between them (see [`super::moving_bvh`]), about
 /// as tight as a still ring's, where boxes over a whole slice grew by the motion (a fast
 /// strand sweeps many times its own length in a shutter). Every boundary shares the one
-/// layout, so the leaves read one copy of the segments stored in leaf order, with no index to
-/// follow first.
+/// layout, so the scene keeps the ring's segments in leaf order and the leaves read them
+/// with no index to follow first (a hit's slot is its segment).
 struct Tree {
     /// The layout and primitive indices (segment indices within the ring), and the boxes of a
     /// ring that stands still.
     bvh: CwBvh,
     /// A moving ring's nodes at each slice boundary, the first at the rays' earliest time.
     boundaries: Vec<Vec<CwBvhNode>>,
-    /// The segments in leaf order.
-    leaves: Vec<Segment>,
-    /// Per segment of the ring (strand order), its place in `leaves`.
+    /// Per segment of the ring in strand order, its place among the ring's segments (which
+    /// follow the leaves).
     slot_of: Vec<u32>,
 }
 
 impl Tree {
-    /// The bytes a query reads at random.
-    fn bytes(&self) -> usize {
+    /// The bytes of nodes a query reads at random (the leaves' segments besides).
+    fn node_bytes(&self) -> usize {
         node_bytes(&self.bvh)
             + self
                 .boundaries
                 .iter()
                 .map(|nodes| std::mem::size_of_val(nodes.as_slice()))
                 .sum::<usize>()
-            + std::mem::size_of_val(self.leaves.as_slice())
     }
 }
 
@@ -293,7 +292,8 @@ pub struct StrandHit {
 #[derive(Default)]
 pub struct Strands {
     pub rings: Vec<Ring>,
-    /// Every segment, scene-wide order (ring after ring).
+    /// Every segment, ring after ring, each ring's in its tree's leaf order
+    /// ([`Self::strand_order`] gives them along their strands).
     pub segments: Vec<Segment>,
     /// The ring of each segment.
     pub segment_ring: Vec<u32>,
@@ -329,7 +329,7 @@ impl Strands {
                 .any(|v| *v != Vec3::ZERO);
         let first = self.segments.len() as u32;
         let ring_index = self.rings.len() as u32;
-        let mut local = Vec::new();
+        let (mut local, mut radiance) = (Vec::new(), Vec::new());
         for (i, j) in curves.segments() {
             let mut segment = Segment {
                 p: [curves.points[i], curves.points[j]],
@@ -346,9 +346,8 @@ impl Strands {
                 continue;
             }
             local.push(segment);
-            let radiance = |i: usize| curves.colors[i] * (curves.intensities[i] * intensity);
-            self.radiance.push([radiance(i), radiance(j)]);
-            self.segment_ring.push(ring_index);
+            let emitted = |i: usize| curves.colors[i] * (curves.intensities[i] * intensity);
+            radiance.push([emitted(i), emitted(j)]);
         }
         let slice_count = if moving {
             time_slices(&local, deltas)
@@ -369,10 +368,16 @@ impl Strands {
                 FRAME_BOUND_STEPS,
             )
         };
+        // Scene-wide, the ring's segments follow its tree's leaf order.
+        let leaf_order = &tree.bvh.primitive_indices;
         let mut segments = huge_pages::with_capacity(self.segments.len() + local.len());
         segments.append(&mut self.segments);
-        segments.append(&mut local);
+        segments.extend(leaf_order.iter().map(|&i| local[i as usize]));
         self.segments = segments;
+        self.radiance
+            .extend(leaf_order.iter().map(|&i| radiance[i as usize]));
+        self.segment_ring
+            .extend(std::iter::repeat_n(ring_index, leaf_order.len()));
         self.rings.push(Ring {
             frame,
             frame_time,
@@ -387,7 +392,8 @@ impl Strands {
             first,
             bounds,
         });
-        self.fetch_ahead = worth_fetching_ahead(self.rings.iter().map(|r| r.tree.bytes()).sum());
+        let nodes: usize = self.rings.iter().map(|r| r.tree.node_bytes()).sum();
+        self.fetch_ahead = worth_fetching_ahead(nodes + std::mem::size_of_val(&self.segments[..]));
     }
 
     /// True when there are no segments.
@@ -404,8 +410,8 @@ impl Strands {
             if !admit(index) || !meets(&ring.bounds, ray.origin, ray.dir, limit) {
                 continue;
             }
-            let ahead = self.fetch_ahead;
-            if let Some(hit) = ring.intersect(ray.origin, ray.dir, limit, ray.time, ahead) {
+            let (leaves, ahead) = (self.segments_of(ring), self.fetch_ahead);
+            if let Some(hit) = ring.intersect(leaves, ray.origin, ray.dir, limit, ray.time, ahead) {
                 best = Some(hit);
             }
         }
@@ -420,6 +426,7 @@ impl Strands {
             admit(index)
                 && meets(&ring.bounds, ray.origin, ray.dir, ray.t_max)
                 && ring.occluded(
+                    self.segments_of(ring),
                     ray.origin,
                     ray.dir,
                     ray.t_max,
@@ -428,6 +435,21 @@ impl Strands {
                     self.fetch_ahead,
                 )
         })
+    }
+
+    /// The segments of `ring`, in its tree's leaf order.
+    #[inline]
+    fn segments_of(&self, ring: &Ring) -> &[Segment] {
+        let first = ring.first as usize;
+        &self.segments[first..first + ring.tree.slot_of.len()]
+    }
+
+    /// Every segment's scene-wide index, ring after ring, each ring's in strand order (each
+    /// segment starting where the one before ends, within a strand).
+    pub fn strand_order(&self) -> impl Iterator<Item = u32> + '_ {
+        self.rings
+            .iter()
+            .flat_map(|ring| ring.tree.slot_of.iter().map(move |&slot| ring.first + slot))
     }
 
     /// Segment `i` in world space at `time`.
@@ -520,10 +542,11 @@ impl Ring {
         })
     }
 
-    /// The first segment along `origin + t·dir`, t in (0, t_max), at `time` (fetching ahead
-    /// as `fetch_ahead` says).
+    /// The first of `leaves` (the ring's segments) along `origin + t·dir`, t in (0, t_max), at
+    /// `time` (fetching ahead as `fetch_ahead` says).
     fn intersect(
         &self,
+        leaves: &[Segment],
         origin: Vec3,
         dir: Vec3,
         t_max: f32,
@@ -532,7 +555,7 @@ impl Ring {
     ) -> Option<StrandHit> {
         let delta = self.delta(time);
         let (o, d, to_local) = self.local_ray(origin, dir, time);
-        let (ray, leaves) = (BoxRay::new(o, d), self.tree.leaves.as_slice());
+        let ray = BoxRay::new(o, d);
         let mut found = None;
         let test = |slot: usize, range: f32| {
             let h = leaves[slot]
@@ -558,7 +581,7 @@ impl Ring {
             .as_vec3();
         Some(StrandHit {
             t: h.t,
-            segment: self.first + self.tree.bvh.primitive_indices[slot],
+            segment: self.first + slot as u32,
             s: h.s,
             normal,
         })
@@ -573,10 +596,13 @@ impl Ring {
         Some((start, Lerped { end, at }))
     }
 
-    /// True when a segment other than `except` (scene-wide index) lies along
-    /// `origin + t·dir`, t in (0, t_max), at `time` (fetching ahead as `fetch_ahead` says).
+    /// True when one of `leaves` (the ring's segments) other than `except` (scene-wide index)
+    /// lies along `origin + t·dir`, t in (0, t_max), at `time` (fetching ahead as
+    /// `fetch_ahead` says).
+    #[allow(clippy::too_many_arguments)]
     fn occluded(
         &self,
+        leaves: &[Segment],
         origin: Vec3,
         dir: Vec3,
         t_max: f32,
@@ -586,11 +612,10 @@ impl Ring {
     ) -> bool {
         let delta = self.delta(time);
         let (o, d, _) = self.local_ray(origin, dir, time);
-        let (ray, leaves) = (BoxRay::new(o, d), self.tree.leaves.as_slice());
+        let ray = BoxRay::new(o, d);
         let skip = except
             .and_then(|e| e.checked_sub(self.first))
-            .and_then(|i| self.tree.slot_of.get(i as usize))
-            .map_or(usize::MAX, |&slot| slot as usize);
+            .map_or(usize::MAX, |slot| slot as usize);
         let test = |slot: usize| {
             slot != skip
                 && leaves[slot]
@@ -673,8 +698,6 @@ fn build_tree(segments: &[Segment], deltas: [f32; 2], slices: usize, moving: boo
         Vec::new()
     };
     bvh.nodes = huge_pages::adopt(bvh.nodes);
-    let mut leaves = huge_pages::with_capacity(bvh.primitive_indices.len());
-    leaves.extend(bvh.primitive_indices.iter().map(|&i| segments[i as usize]));
     let mut slot_of = vec![0u32; segments.len()];
     for (slot, &i) in bvh.primitive_indices.iter().enumerate() {
         slot_of[i as usize] = slot as u32;
@@ -682,7 +705,6 @@ fn build_tree(segments: &[Segment], deltas: [f32; 2], slices: usize, moving: boo
     let tree = Tree {
         bvh,
         boundaries,
-        leaves,
         slot_of,
     };
     (tree, all)
@@ -914,12 +936,15 @@ mod tests {
         assert!(!strands.rings[1].moving);
         let mut spinning = Strands::default();
         spinning.add_ring(&curves, frame(), 0.0, [-0.1, 0.1], 1.0);
+        // Segment by segment along the strands (each ring's tree orders its own).
         let first = strands.rings[1].first;
-        for i in 0..spinning.segments.len() as u32 {
-            let a = strands.world_segment(first + i, 0.05);
-            let b = spinning.world_segment(i, 0.05);
+        let still = strands.strand_order().filter(|&i| i >= first);
+        for (i, j) in still.zip(spinning.strand_order()) {
+            let a = strands.world_segment(i, 0.05);
+            let b = spinning.world_segment(j, 0.05);
             assert!(a.a.distance(b.a) < 1e-6 && a.b.distance(b.b) < 1e-6);
         }
+        assert_eq!(spinning.strand_order().count(), spinning.segments.len());
         // Emission is Cd · intensity · scale, interpolated along the segment.
         assert_eq!(strands.radiance(0, 0.5), Vec3::new(2.0, 1.0, 0.5));
     }
