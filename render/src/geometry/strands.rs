@@ -7,22 +7,20 @@
 //! (one similarity, direction not renormalised so ray parameters stay in world units) and meets
 //! the segments as they are at that time. A moving ring's tree bounds them at the boundaries of
 //! a few time slices and moves its boxes linearly between (see [`Tree`]); bounds over every
-//! time a ray can have come in closed form from each vertex's quadratic. A ring whose vertices do not move (no velocity
-//! and acceleration, or an instant of time) stores positions only and evaluates nothing per
-//! test; a ring whose opening does not move keeps its frame precomputed.
+//! time a ray can have come in closed form from each vertex's quadratic. A ring whose vertices
+//! do not move (no velocity and acceleration, or an instant of time) stores positions only and
+//! evaluates nothing per test; a ring whose opening does not move keeps its frame
+//! precomputed.
 
 use super::instance::{box_corners, swept_bounds};
 use super::moving_bvh::refit;
 use super::round_cone::RoundCone;
-use super::wide_bvh::{
-    BoxRay, Fixed, Lerped, any_hit, closest_hit, node_bytes, worth_fetching_ahead,
-};
+use super::wide_bvh::{BoxRay, Fixed, Lerped, any_hit, closest_hit, worth_fetching_ahead};
 use crate::huge_pages;
 use crate::ray::Ray;
 use glam::{DAffine3, Vec3};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::cwbvh::node::CwBvhNode;
 use rift_fx::rig::Similarity;
@@ -68,8 +66,8 @@ impl Segment {
         }
     }
 
-    /// Local bounds at Δ = `delta`, widened on every side by `slack` (a vertex's own chord
-    /// deviation over a slice of that many seconds: see [`CHORD_SHARE`]) and for rounding.
+    /// Local bounds at Δ = `delta`, widened on every side by each vertex's chord deviation
+    /// over a slice of `slice_length` seconds (see [`CHORD_SHARE`]) and for rounding.
     fn bounds_at(&self, delta: f32, slice_length: f32, moving: bool) -> Aabb {
         let at = self.at(delta, moving);
         let reach = |i: usize, p: Vec3, radius: f32| {
@@ -253,9 +251,8 @@ pub struct Ring {
 /// layout, so the scene keeps the ring's segments in leaf order and the leaves read them
 /// with no index to follow first (a hit's slot is its segment).
 struct Tree {
-    /// The layout and primitive indices (segment indices within the ring), and the boxes of a
-    /// ring that stands still.
-    bvh: CwBvh,
+    /// A still ring's nodes (none for a moving one).
+    nodes: Vec<CwBvhNode>,
     /// A moving ring's nodes at each slice boundary, the first at the rays' earliest time.
     boundaries: Vec<Vec<CwBvhNode>>,
     /// Per segment of the ring in strand order, its place among the ring's segments (which
@@ -266,7 +263,7 @@ struct Tree {
 impl Tree {
     /// The bytes of nodes a query reads at random (the leaves' segments besides).
     fn node_bytes(&self) -> usize {
-        node_bytes(&self.bvh)
+        std::mem::size_of_val(self.nodes.as_slice())
             + self
                 .boundaries
                 .iter()
@@ -355,7 +352,7 @@ impl Strands {
             1
         };
         let slice_length = (deltas[1] - deltas[0]) / slice_count as f32;
-        let (tree, all) = build_tree(&local, deltas, slice_count, moving);
+        let (tree, leaf_order, all) = build_tree(&local, deltas, slice_count, moving);
         let bounds = if local.is_empty() {
             Aabb::empty()
         } else {
@@ -369,7 +366,6 @@ impl Strands {
             )
         };
         // Scene-wide, the ring's segments follow its tree's leaf order.
-        let leaf_order = &tree.bvh.primitive_indices;
         let mut segments = huge_pages::with_capacity(self.segments.len() + local.len());
         segments.append(&mut self.segments);
         segments.extend(leaf_order.iter().map(|&i| local[i as usize]));
@@ -569,7 +565,7 @@ impl Ring {
             let (nodes, boxes) = self.boundaries_of(k, at)?;
             closest_hit(nodes, &boxes, &ray, t_max, leaves, fetch_ahead, test);
         } else {
-            let nodes = &self.tree.bvh.nodes;
+            let nodes = &self.tree.nodes;
             closest_hit(nodes, &Fixed, &ray, t_max, leaves, fetch_ahead, test);
         }
         let (h, slot) = found?;
@@ -629,7 +625,7 @@ impl Ring {
             };
             any_hit(nodes, &boxes, &ray, t_max, leaves, fetch_ahead, test)
         } else {
-            let nodes = &self.tree.bvh.nodes;
+            let nodes = &self.tree.nodes;
             any_hit(nodes, &Fixed, &ray, t_max, leaves, fetch_ahead, test)
         }
     }
@@ -656,10 +652,16 @@ fn time_slices(segments: &[Segment], deltas: [f32; 2]) -> usize {
     (((deltas[1] - deltas[0]) / longest).ceil() as usize).clamp(1, MAX_TIME_SLICES)
 }
 
-/// The [`Tree`] of `segments` for Δ in `deltas` cut into `slices` (a moving ring's), and the
-/// bounds of all of them over it. The layout comes from obvhs' build over each segment's
-/// bounds, still, or where the builder sees it moving (see [`Segment::grouping_box`]).
-fn build_tree(segments: &[Segment], deltas: [f32; 2], slices: usize, moving: bool) -> (Tree, Aabb) {
+/// The [`Tree`] of `segments` for Δ in `deltas` cut into `slices` (a moving ring's), the order
+/// its leaves take them in (indices into `segments`), and the bounds of all of them over it.
+/// The layout comes from obvhs' build over each segment's bounds, still, or where the builder
+/// sees it moving (see [`Segment::grouping_box`]).
+fn build_tree(
+    segments: &[Segment],
+    deltas: [f32; 2],
+    slices: usize,
+    moving: bool,
+) -> (Tree, Vec<u32>, Aabb) {
     let swept: Vec<Aabb> = segments
         .iter()
         .map(|s| {
@@ -673,7 +675,7 @@ fn build_tree(segments: &[Segment], deltas: [f32; 2], slices: usize, moving: boo
     } else {
         swept
     };
-    let mut bvh = build_cwbvh(
+    let bvh = build_cwbvh(
         &grouping,
         BvhBuildParams::medium_build(),
         &mut Default::default(),
@@ -697,17 +699,22 @@ fn build_tree(segments: &[Segment], deltas: [f32; 2], slices: usize, moving: boo
     } else {
         Vec::new()
     };
-    bvh.nodes = huge_pages::adopt(bvh.nodes);
+    let nodes = if moving {
+        Vec::new()
+    } else {
+        huge_pages::adopt(bvh.nodes)
+    };
+    let leaf_order = bvh.primitive_indices;
     let mut slot_of = vec![0u32; segments.len()];
-    for (slot, &i) in bvh.primitive_indices.iter().enumerate() {
+    for (slot, &i) in leaf_order.iter().enumerate() {
         slot_of[i as usize] = slot as u32;
     }
     let tree = Tree {
-        bvh,
+        nodes,
         boundaries,
         slot_of,
     };
-    (tree, all)
+    (tree, leaf_order, all)
 }
 
 /// True when `origin + t·dir`, t in [0, t_max], meets `bounds`.
