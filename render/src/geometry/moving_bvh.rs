@@ -1,7 +1,7 @@
 //! Child boxes of a wide BVH made again from other primitive boxes, its layout kept: a moving
-//! ring's time slice keeps its tree's nodes twice, refit to where the segments are at the
-//! slice's start and at its end, and a ray at any time between sees boxes moved linearly
-//! between the two (see [`super::wide_bvh::Lerped`]). Boxes over a whole slice grow by the
+//! ring keeps its tree's nodes once for each time-slice boundary, refit to where the segments
+//! are then, and a ray at any time in a slice sees boxes moved linearly between the slice's
+//! two boundaries (see [`super::wide_bvh::Lerped`]). Boxes over a whole slice grow by the
 //! motion (a fast ring's segment sweeps several times its length), which made a moving ring's
 //! queries test twice as many segments as a still one's.
 

@@ -79,12 +79,8 @@ impl Segment {
         };
         let (lo_a, hi_a) = reach(0, at.a, at.radius_a);
         let (lo_b, hi_b) = reach(1, at.b, at.radius_b);
-        let (lo, hi) = (lo_a.min(lo_b), hi_a.max(hi_b));
-        let pad = (lo.abs().max(hi.abs())).max_element() * 4.0 * f32::EPSILON;
-        Aabb::new(
-            (lo - Vec3::splat(pad)).into(),
-            (hi + Vec3::splat(pad)).into(),
-        )
+        let (lo, hi) = widened_for_rounding(lo_a.min(lo_b), hi_a.max(hi_b));
+        Aabb::new(lo.into(), hi.into())
     }
 
     /// Where the BVH builder sees the segment over Δ in `window`: its box at the middle, moved
@@ -141,10 +137,15 @@ impl Segment {
                 }
             }
         }
-        // Rounding in the evaluation at ray time must stay inside.
-        let pad = (lo.abs().max(hi.abs())).max_element() * 4.0 * f32::EPSILON;
-        (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
+        widened_for_rounding(lo, hi)
     }
+}
+
+/// The box `lo`..`hi` widened by a few ulps of its largest coordinate, so the rounding of a
+/// segment's evaluation at a ray's time stays inside it.
+fn widened_for_rounding(lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
+    let pad = Vec3::splat((lo.abs().max(hi.abs())).max_element() * 4.0 * f32::EPSILON);
+    (lo - pad, hi + pad)
 }
 
 /// Where a ring sits: its opening's here frame, fixed or evaluated at each ray's time.
