@@ -1,10 +1,13 @@
 //! Child boxes of a wide BVH made again from other primitive boxes, its layout kept: a moving
-//! ring keeps its tree's nodes once for each time-slice boundary, refit to where the segments
-//! are then, and a ray at any time in a slice sees boxes moved linearly between the slice's
-//! two boundaries (see [`super::wide_bvh::Lerped`]). Boxes over a whole slice grow by the
-//! motion (a fast ring's segment sweeps several times its length), which made a moving ring's
-//! queries test twice as many segments as a still one's.
+//! ring keeps its tree's nodes once for each time slice, refit to where the segments are at
+//! the slice's start and at its end, both on one grid per node, and a ray at any time in the
+//! slice sees boxes moved linearly between the two (see [`super::wide_bvh::Swept`]). Boxes
+//! over a whole slice grow by the motion (a fast ring's segment sweeps several times its
+//! length), which made a moving ring's queries test twice as many segments as a still one's.
+//! The two plane sets share the node's layout and grid, so a visit reads one node of two
+//! cache lines.
 
+use super::wide_bvh::SweptNode;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
@@ -12,37 +15,54 @@ use obvhs::cwbvh::node::CwBvhNode;
 /// The largest quantized plane: a node's grid has 255 steps across its box.
 const STEPS: f64 = 255.0;
 
-/// The nodes of `bvh` with every child box made from `boxes` (one per primitive, as
-/// `bvh.primitive_indices` names them): a leaf's box holds its primitives' boxes, an inner
-/// child's its node's, each quantized outward on its node's own grid. Nothing else changes, so
-/// the result traverses with `bvh`'s topology and primitive order.
-pub fn refit(bvh: &CwBvh, boxes: &[Aabb]) -> Vec<CwBvhNode> {
-    let mut nodes = bvh.nodes.clone();
-    let mut whole = vec![Aabb::empty(); nodes.len()];
+/// The nodes of `bvh` for a slice whose primitives have the boxes `start` at its start and
+/// `end` at its end (one per primitive, as `bvh.primitive_indices` names them): a leaf's boxes
+/// hold its primitives' boxes, an inner child's its node's, each quantized outward on a grid
+/// spanning the node at both ends. Nothing else changes, so the result traverses with
+/// `bvh`'s topology and primitive order.
+pub fn refit_slice(bvh: &CwBvh, start: &[Aabb], end: &[Aabb]) -> Vec<SweptNode> {
+    let mut nodes: Vec<SweptNode> = bvh
+        .nodes
+        .iter()
+        .map(|&node| SweptNode {
+            start: node,
+            end: [[0; 8]; 6],
+        })
+        .collect();
+    let mut whole = vec![[Aabb::empty(); 2]; nodes.len()];
     // Children come after their parent in the layout, so a backward pass meets every child
     // before the node that holds it.
     for index in (0..nodes.len()).rev() {
-        let node = &nodes[index];
-        let children: [Option<Aabb>; 8] =
-            std::array::from_fn(|slot| child_box(bvh, node, slot, boxes, &whole));
-        let all = children
-            .iter()
-            .flatten()
-            .fold(Aabb::empty(), |all, b| all.union(b));
-        quantize(&mut nodes[index], &children, &all);
-        whole[index] = all;
+        let layout = &bvh.nodes[index];
+        let children = [(start, 0), (end, 1)].map(|(boxes, side)| {
+            std::array::from_fn(|slot| child_box(bvh, layout, slot, boxes, &whole, side))
+        });
+        let [at_start, at_end] = children.map(|c: [Option<Aabb>; 8]| {
+            c.iter()
+                .flatten()
+                .fold(Aabb::empty(), |all, b| all.union(b))
+        });
+        let node = &mut nodes[index];
+        if let Some(grid) = Grid::spanning(&at_start.union(&at_end)) {
+            grid.place(&mut node.start);
+            grid.quantize(&children[0], plane_rows_mut(&mut node.start));
+            grid.quantize(&children[1], node.end.each_mut());
+        }
+        whole[index] = [at_start, at_end];
     }
     nodes
 }
 
-/// The box of `node`'s child in `slot` (`None` when the slot is empty): its primitives'
-/// boxes for a leaf, its node's (already refit, in `whole`) for an inner child.
+/// The box of `node`'s child in `slot` (`None` when the slot is empty) at one end of the
+/// slice (`side` 0 the start, 1 the end): its primitives' `boxes` for a leaf, its node's
+/// (already refit, in `whole`) for an inner child.
 fn child_box(
     bvh: &CwBvh,
     node: &CwBvhNode,
     slot: usize,
     boxes: &[Aabb],
-    whole: &[Aabb],
+    whole: &[[Aabb; 2]],
+    side: usize,
 ) -> Option<Aabb> {
     let meta = node.child_meta[slot];
     if meta == 0 {
@@ -50,7 +70,9 @@ fn child_box(
     }
     if node.imask & (1 << slot) != 0 {
         let below = (node.imask as u32 & ((1 << slot) - 1)).count_ones();
-        return whole.get((node.child_base_idx + below) as usize).copied();
+        return whole
+            .get((node.child_base_idx + below) as usize)
+            .map(|b| b[side]);
     }
     // A leaf: its first primitive's offset in the low five bits, its count in unary above.
     let first = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
@@ -62,37 +84,63 @@ fn child_box(
     )
 }
 
-/// Sets `node`'s origin, grid and child planes for the boxes `children` (held by `all`). The
-/// planes are rounded outward in double precision, where the grid's steps are exact, so a
-/// decoded box always holds its child.
-fn quantize(node: &mut CwBvhNode, children: &[Option<Aabb>; 8], all: &Aabb) {
-    if children.iter().all(Option::is_none) {
-        return;
+/// A node's origin and, per axis, the power-of-two step of its 255-step grid.
+struct Grid {
+    origin: glam::Vec3,
+    exponents: [i32; 3],
+}
+
+impl Grid {
+    /// The finest grid from `all`'s lower corner that spans it; `None` for an empty box.
+    fn spanning(all: &Aabb) -> Option<Self> {
+        let (lo, hi) = (glam::Vec3::from(all.min), glam::Vec3::from(all.max));
+        if !lo.cmple(hi).all() {
+            return None;
+        }
+        Some(Self {
+            origin: lo,
+            exponents: std::array::from_fn(|a| grid_exponent(hi[a] as f64 - lo[a] as f64)),
+        })
     }
-    let origin = all.min;
-    node.p = glam::Vec3::from(origin);
-    for axis in 0..3 {
-        let low = origin[axis] as f64;
-        let extent = all.max[axis] as f64 - low;
-        let exponent = grid_exponent(extent);
-        node.e[axis] = (exponent + 127) as u8;
-        let step = (exponent as f64).exp2();
-        let rows = [
-            (&mut node.child_min_x, &mut node.child_max_x),
-            (&mut node.child_min_y, &mut node.child_max_y),
-            (&mut node.child_min_z, &mut node.child_max_z),
-        ];
-        let (mins, maxs) = rows.into_iter().nth(axis).expect("three axes");
-        for (slot, child) in children.iter().enumerate() {
-            let (lo, hi) = child.map_or((0.0, 0.0), |b| {
-                let lo = ((b.min[axis] as f64 - low) / step).floor();
-                let hi = ((b.max[axis] as f64 - low) / step).ceil();
-                (lo.clamp(0.0, STEPS), hi.clamp(0.0, STEPS))
-            });
-            mins[slot] = lo as u8;
-            maxs[slot] = hi as u8;
+
+    /// Writes the grid into `node`'s origin and exponents.
+    fn place(&self, node: &mut CwBvhNode) {
+        node.p = self.origin;
+        node.e = self.exponents.map(|e| (e + 127) as u8);
+    }
+
+    /// Writes the planes of the boxes `children` into `rows` (lower x, upper x, lower y, ...),
+    /// rounded outward in double precision, where the grid's steps are exact, so a decoded box
+    /// always holds its child.
+    fn quantize(&self, children: &[Option<Aabb>; 8], rows: [&mut [u8; 8]; 6]) {
+        for (r, row) in rows.into_iter().enumerate() {
+            let (axis, upper) = (r / 2, r % 2 == 1);
+            let low = self.origin[axis] as f64;
+            let step = (self.exponents[axis] as f64).exp2();
+            for (slot, child) in children.iter().enumerate() {
+                row[slot] = child.map_or(0, |b| {
+                    let steps = if upper {
+                        ((b.max[axis] as f64 - low) / step).ceil()
+                    } else {
+                        ((b.min[axis] as f64 - low) / step).floor()
+                    };
+                    steps.clamp(0.0, STEPS) as u8
+                });
+            }
         }
     }
+}
+
+/// `node`'s plane rows, writable, in [`Grid::quantize`]'s order.
+fn plane_rows_mut(node: &mut CwBvhNode) -> [&mut [u8; 8]; 6] {
+    [
+        &mut node.child_min_x,
+        &mut node.child_max_x,
+        &mut node.child_min_y,
+        &mut node.child_max_y,
+        &mut node.child_min_z,
+        &mut node.child_max_z,
+    ]
 }
 
 /// The power of two (as its exponent) of the finest grid whose 255 steps span `extent`,
@@ -108,7 +156,7 @@ fn grid_exponent(extent: f64) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::wide_bvh::{BoxRay, ChildBoxes, Fixed, Lerped, any_hit};
+    use crate::geometry::wide_bvh::{BoxRay, ChildBoxes, Fixed, Swept, WideNode, any_hit};
     use glam::Vec3;
     use obvhs::BvhBuildParams;
     use obvhs::cwbvh::builder::build_cwbvh;
@@ -128,13 +176,7 @@ mod tests {
 
     /// The box of child `slot` of node `index` of `nodes` as a ray test sees it holds `b`: rays
     /// through each of its corners hit the slot.
-    fn holds_box(
-        boxes: &impl ChildBoxes,
-        nodes: &[CwBvhNode],
-        index: usize,
-        slot: usize,
-        b: &Aabb,
-    ) {
+    fn holds_box<B: ChildBoxes>(boxes: &B, nodes: &[B::Node], index: usize, slot: usize, b: &Aabb) {
         let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
         for corner in 0..8 {
             let pick = |bit: usize, a: f32, z: f32| if corner >> bit & 1 == 0 { a } else { z };
@@ -145,7 +187,7 @@ mod tests {
             );
             let from = p + Vec3::new(0.3, 0.2, 1.0) * 100.0;
             let ray = BoxRay::new(from, (p - from).normalize());
-            let hits = boxes.slab_hits::<false>(index, &nodes[index], &ray, f32::INFINITY);
+            let hits = boxes.slab_hits::<false>(&nodes[index], &ray, f32::INFINITY);
             assert!(
                 hits & (1 << slot) != 0,
                 "node {index} slot {slot} misses corner {p}"
@@ -156,13 +198,14 @@ mod tests {
     /// Checks `nodes` (of `bvh`'s layout) with `boxes` against the boxes `inside(i)` that lie
     /// within primitive i's: every leaf's box holds its primitives', and a ray at each
     /// primitive's centre finds it through every box above.
-    fn check(
+    fn check<B: ChildBoxes>(
         bvh: &CwBvh,
-        nodes: &[CwBvhNode],
-        boxes: &impl ChildBoxes,
+        nodes: &[B::Node],
+        boxes: &B,
         inside: impl Fn(u32) -> Aabb,
     ) {
         for (index, node) in nodes.iter().enumerate() {
+            let node = node.layout();
             for slot in 0..8 {
                 let meta = node.child_meta[slot];
                 if meta == 0 || node.imask & (1 << slot) != 0 {
@@ -202,7 +245,7 @@ mod tests {
             BvhBuildParams::medium_build(),
             &mut Default::default(),
         );
-        let (first, last) = (refit(&bvh, &start), refit(&bvh, &end));
+        let slice = refit_slice(&bvh, &start, &end);
         // A box a thousandth smaller than the primitive's at fraction `at`.
         let inside = |i: u32, at: f32| {
             let (a, b) = (&start[i as usize], &end[i as usize]);
@@ -215,9 +258,14 @@ mod tests {
             Aabb::new(shrink(lo, hi).into(), shrink(hi, lo).into())
         };
         for at in [0.0f32, 0.3, 1.0] {
-            check(&bvh, &first, &Lerped { end: &last, at }, |i| inside(i, at));
+            check(&bvh, &slice, &Swept { at }, |i| inside(i, at));
         }
-        check(&bvh, &first, &Fixed, |i| inside(i, 0.0));
+        // A slice that stands still: its start planes alone are a tree of fixed boxes.
+        let still: Vec<CwBvhNode> = refit_slice(&bvh, &start, &start)
+            .iter()
+            .map(|node| node.start)
+            .collect();
+        check(&bvh, &still, &Fixed, |i| inside(i, 0.0));
     }
 
     #[test]

@@ -13,9 +13,11 @@
 //! precomputed.
 
 use super::instance::{box_corners, swept_bounds};
-use super::moving_bvh::refit;
+use super::moving_bvh::refit_slice;
 use super::round_cone::RoundCone;
-use super::wide_bvh::{BoxRay, Fixed, Lerped, any_hit, closest_hit, worth_fetching_ahead};
+use super::wide_bvh::{
+    BoxRay, Fixed, Swept, SweptNode, any_hit, closest_hit, worth_fetching_ahead,
+};
 use crate::huge_pages;
 use crate::ray::Ray;
 use glam::{DAffine3, Vec3};
@@ -245,17 +247,17 @@ pub struct Ring {
 /// A ring's segments under one BVH for every time a ray can have.
 ///
 /// A moving ring's rays' times are cut into equal slices, and the tree's nodes are kept once
-/// for each slice boundary, refit to where the segments are then: a ray between two
-/// boundaries sees the boxes moved linearly between them (see [`super::moving_bvh`]), about
-/// as tight as a still ring's, where boxes over a whole slice grew by the motion (a fast
-/// strand sweeps many times its own length in a shutter). Every boundary shares the one
-/// layout, so the scene keeps the ring's segments in leaf order and the leaves read them
-/// with no index to follow first (a hit's slot is its segment).
+/// for each slice, refit to where the segments are at its start and at its end: a ray in the
+/// slice sees the boxes moved linearly between the two (see [`super::moving_bvh`]), about as
+/// tight as a still ring's, where boxes over a whole slice grew by the motion (a fast strand
+/// sweeps many times its own length in a shutter). Every slice shares the one layout, so the
+/// scene keeps the ring's segments in leaf order and the leaves read them with no index to
+/// follow first (a hit's slot is its segment).
 struct Tree {
     /// A still ring's nodes (none for a moving one).
     nodes: Vec<CwBvhNode>,
-    /// A moving ring's nodes at each slice boundary, the first at the rays' earliest time.
-    boundaries: Vec<Vec<CwBvhNode>>,
+    /// A moving ring's nodes for each time slice, the first from the rays' earliest time.
+    slices: Vec<Vec<SweptNode>>,
     /// Per segment of the ring in strand order, its place among the ring's segments (which
     /// follow the leaves).
     slot_of: Vec<u32>,
@@ -266,7 +268,7 @@ impl Tree {
     fn node_bytes(&self) -> usize {
         std::mem::size_of_val(self.nodes.as_slice())
             + self
-                .boundaries
+                .slices
                 .iter()
                 .map(|nodes| std::mem::size_of_val(nodes.as_slice()))
                 .sum::<usize>()
@@ -522,7 +524,7 @@ impl Ring {
     #[inline]
     fn slice(&self, delta: f32) -> (usize, f32) {
         let slices = (delta - self.slice_start) * self.slices_per_second;
-        let last = self.tree.boundaries.len().saturating_sub(2);
+        let last = self.tree.slices.len().saturating_sub(1);
         let k = (slices as usize).min(last);
         (k, (slices - k as f32).clamp(0.0, 1.0))
     }
@@ -563,8 +565,8 @@ impl Ring {
         };
         if self.moving {
             let (k, at) = self.slice(delta);
-            let (nodes, boxes) = self.boundaries_of(k, at)?;
-            closest_hit(nodes, &boxes, &ray, t_max, leaves, fetch_ahead, test);
+            let nodes = self.tree.slices.get(k)?;
+            closest_hit(nodes, &Swept { at }, &ray, t_max, leaves, fetch_ahead, test);
         } else {
             let nodes = &self.tree.nodes;
             closest_hit(nodes, &Fixed, &ray, t_max, leaves, fetch_ahead, test);
@@ -582,15 +584,6 @@ impl Ring {
             s: h.s,
             normal,
         })
-    }
-
-    /// The nodes at the start of slice `k` and the boxes at fraction `at` through it.
-    #[inline]
-    fn boundaries_of(&self, k: usize, at: f32) -> Option<(&[CwBvhNode], Lerped<'_>)> {
-        let [start, end] = self.tree.boundaries.get(k..k + 2)? else {
-            return None;
-        };
-        Some((start, Lerped { end, at }))
     }
 
     /// True when one of `leaves` (the ring's segments) other than `except` (scene-wide index)
@@ -621,10 +614,10 @@ impl Ring {
         };
         if self.moving {
             let (k, at) = self.slice(delta);
-            let Some((nodes, boxes)) = self.boundaries_of(k, at) else {
+            let Some(nodes) = self.tree.slices.get(k) else {
                 return false;
             };
-            any_hit(nodes, &boxes, &ray, t_max, leaves, fetch_ahead, test)
+            any_hit(nodes, &Swept { at }, &ray, t_max, leaves, fetch_ahead, test)
         } else {
             let nodes = &self.tree.nodes;
             any_hit(nodes, &Fixed, &ray, t_max, leaves, fetch_ahead, test)
@@ -681,21 +674,24 @@ fn build_tree(
         BvhBuildParams::medium_build(),
         &mut Default::default(),
     );
-    let boundaries = if moving && !segments.is_empty() {
+    let slices = if moving && !segments.is_empty() {
         let length = (deltas[1] - deltas[0]) / slices as f32;
-        (0..=slices)
+        let boundaries: Vec<Vec<Aabb>> = (0..=slices)
             .map(|k| {
                 let delta = if k == slices {
                     deltas[1]
                 } else {
                     deltas[0] + length * k as f32
                 };
-                let boxes: Vec<Aabb> = segments
+                segments
                     .iter()
                     .map(|s| s.bounds_at(delta, length, true))
-                    .collect();
-                huge_pages::adopt(refit(&bvh, &boxes))
+                    .collect()
             })
+            .collect();
+        boundaries
+            .windows(2)
+            .map(|ends| huge_pages::adopt(refit_slice(&bvh, &ends[0], &ends[1])))
             .collect()
     } else {
         Vec::new()
@@ -712,7 +708,7 @@ fn build_tree(
     }
     let tree = Tree {
         nodes,
-        boundaries,
+        slices,
         slot_of,
     };
     (tree, leaf_order, all)
@@ -825,7 +821,7 @@ mod tests {
         let mut strands = Strands::default();
         strands.add_ring(&ring, sliding_frame(), 0.0, times, 1.0);
         assert!(strands.rings[0].moving);
-        assert_eq!(strands.rings[0].tree.boundaries.len(), slices + 1);
+        assert_eq!(strands.rings[0].tree.slices.len(), slices);
         let mut hits = 0;
         for k in 0..3000 {
             let (origin, dir, time) = aimed_ray(&strands.rings[0], times, k);

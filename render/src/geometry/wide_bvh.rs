@@ -143,9 +143,9 @@ impl<F: FnMut(usize) -> bool> LeafTest for AnyOf<F> {
 /// range. Returns the final range: below `t_max` exactly when something was hit. The child
 /// boxes come from `boxes`; `leaves` and `fetch_ahead` as in [`traverse_with`].
 #[inline]
-pub fn closest_hit<L: LeafData + ?Sized>(
-    nodes: &[CwBvhNode],
-    boxes: &impl ChildBoxes,
+pub fn closest_hit<L: LeafData + ?Sized, B: ChildBoxes>(
+    nodes: &[B::Node],
+    boxes: &B,
     ray: &BoxRay,
     t_max: f32,
     leaves: &L,
@@ -168,9 +168,9 @@ pub fn closest_hit<L: LeafData + ?Sized>(
 /// True when `hit(slot)` holds for some primitive along `ray` for t in [0, `t_max`] (visited,
 /// with `boxes`, `leaves` and `fetch_ahead`, as in [`closest_hit`]); stops at the first.
 #[inline]
-pub fn any_hit<L: LeafData + ?Sized>(
-    nodes: &[CwBvhNode],
-    boxes: &impl ChildBoxes,
+pub fn any_hit<L: LeafData + ?Sized, B: ChildBoxes>(
+    nodes: &[B::Node],
+    boxes: &B,
     ray: &BoxRay,
     t_max: f32,
     leaves: &L,
@@ -192,7 +192,7 @@ pub fn any_hit<L: LeafData + ?Sized>(
 /// The traversal both queries share, compiled twice: for AVX2 and for the baseline.
 #[inline]
 fn traverse<L: LeafData + ?Sized, B: ChildBoxes>(
-    nodes: &[CwBvhNode],
+    nodes: &[B::Node],
     boxes: &B,
     ray: &BoxRay,
     range: &mut f32,
@@ -233,7 +233,7 @@ fn has_avx2_set() -> bool {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
 fn traverse_avx2<L: LeafData + ?Sized, B: ChildBoxes>(
-    nodes: &[CwBvhNode],
+    nodes: &[B::Node],
     boxes: &B,
     ray: &BoxRay,
     range: &mut f32,
@@ -264,7 +264,7 @@ fn traverse_groups<
     L: LeafData + ?Sized,
     B: ChildBoxes,
 >(
-    tree: &[CwBvhNode],
+    tree: &[B::Node],
     boxes: &B,
     ray: &BoxRay,
     range: &mut f32,
@@ -312,9 +312,10 @@ fn traverse_groups<
                 }
             }
             let node = &tree[index as usize];
-            let hits = children_hit::<AVX2, B>(boxes, index as usize, node, ray, *range);
+            let hits = children_hit::<AVX2, B>(boxes, node, ray, *range);
+            let node = node.layout();
             if fetch_ahead {
-                prefetch_inner_children(tree, boxes, node, hits);
+                prefetch_inner_children(tree, node, hits);
             }
             nodes = Group {
                 base: node.child_base_idx,
@@ -372,12 +373,7 @@ impl<T> LeafData for [T] {
 /// Asks the cache for the inner children `hits` names: nodes are visited one at a time and
 /// each first touch of a large tree's node otherwise waits on memory.
 #[inline(never)]
-fn prefetch_inner_children(
-    nodes: &[CwBvhNode],
-    boxes: &impl ChildBoxes,
-    node: &CwBvhNode,
-    hits: u32,
-) {
+fn prefetch_inner_children<N>(nodes: &[N], node: &CwBvhNode, hits: u32) {
     if hits & INNER_BITS == 0 {
         return;
     }
@@ -386,38 +382,38 @@ fn prefetch_inner_children(
     let first = node.child_base_idx as usize;
     let all = (node.imask.count_ones() as usize).min(nodes.len().saturating_sub(first));
     prefetch(&nodes[first..first + all]);
-    boxes.prefetch(first, all);
 }
 
-/// Where a traversal finds a node's child boxes: in the nodes ([`Fixed`]), or moving between
-/// the nodes' and a second array's ([`Lerped`]).
+/// A node as a traversal reads it: its layout (children, primitives and their meta bytes) is
+/// obvhs' node, with whatever else its boxes need around it.
+pub trait WideNode {
+    fn layout(&self) -> &CwBvhNode;
+}
+
+impl WideNode for CwBvhNode {
+    #[inline(always)]
+    fn layout(&self) -> &CwBvhNode {
+        self
+    }
+}
+
+/// How a traversal reads a node's child boxes: as the nodes hold them ([`Fixed`]), or moving
+/// over a time slice ([`Swept`]).
 pub trait ChildBoxes {
-    /// One bit per child slot of node `index` (laid out as `node`) whose box `ray` meets
-    /// within [0, `t_max`].
-    fn slab_hits<const AVX2: bool>(
-        &self,
-        index: usize,
-        node: &CwBvhNode,
-        ray: &BoxRay,
-        t_max: f32,
-    ) -> u32;
+    type Node: WideNode;
 
-    /// Asks the cache for what testing nodes `first..first + count` reads besides the nodes.
-    fn prefetch(&self, _first: usize, _count: usize) {}
+    /// One bit per child slot of `node` whose box `ray` meets within [0, `t_max`].
+    fn slab_hits<const AVX2: bool>(&self, node: &Self::Node, ray: &BoxRay, t_max: f32) -> u32;
 }
 
-/// Child boxes as the nodes hold them: a tree that stands still.
+/// Child boxes as obvhs' nodes hold them: a tree that stands still.
 pub struct Fixed;
 
 impl ChildBoxes for Fixed {
+    type Node = CwBvhNode;
+
     #[inline(always)]
-    fn slab_hits<const AVX2: bool>(
-        &self,
-        _: usize,
-        node: &CwBvhNode,
-        ray: &BoxRay,
-        t_max: f32,
-    ) -> u32 {
+    fn slab_hits<const AVX2: bool>(&self, node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
         #[cfg(target_arch = "x86_64")]
         if AVX2 {
             // SAFETY: `AVX2` is set only by `traverse_avx2`, which runs where the processor has
@@ -428,57 +424,63 @@ impl ChildBoxes for Fixed {
     }
 }
 
-/// Child boxes that move over a time slice: each plane runs linearly from where the nodes hold
-/// it (the slice's start) to where `end`, a second array with the same layout, holds it (its
-/// end); the boxes are taken at fraction `at` of the slice. A tree whose primitives move is
-/// then bounded about as tightly as one that stands still, where boxes over the whole slice
-/// grow by the motion.
-pub struct Lerped<'a> {
-    pub end: &'a [CwBvhNode],
+/// A node of a tree whose primitives move, for one time slice: the layout, one grid, and each
+/// child's planes at the slice's start and at its end on that grid, in two cache lines (see
+/// [`super::moving_bvh`]).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub struct SweptNode {
+    /// The layout, the grid both plane sets share, and the planes at the slice's start.
+    pub start: CwBvhNode,
+    /// The planes at the slice's end, rows as [`plane_rows`] lists them (lower x, upper x,
+    /// lower y, ...).
+    pub end: [[u8; 8]; 6],
+}
+
+impl WideNode for SweptNode {
+    #[inline(always)]
+    fn layout(&self) -> &CwBvhNode {
+        &self.start
+    }
+}
+
+/// Child boxes that move over a time slice, taken at fraction `at` through it: each plane runs
+/// linearly from its place at the slice's start to its place at the end. A tree whose
+/// primitives move is then bounded about as tightly as one that stands still, where boxes over
+/// the whole slice grow by the motion.
+pub struct Swept {
     pub at: f32,
 }
 
-impl ChildBoxes for Lerped<'_> {
+impl ChildBoxes for Swept {
+    type Node = SweptNode;
+
     #[inline(always)]
-    fn slab_hits<const AVX2: bool>(
-        &self,
-        index: usize,
-        node: &CwBvhNode,
-        ray: &BoxRay,
-        t_max: f32,
-    ) -> u32 {
-        let end = Some((&self.end[index], self.at));
+    fn slab_hits<const AVX2: bool>(&self, node: &SweptNode, ray: &BoxRay, t_max: f32) -> u32 {
+        let end = Some((&node.end, self.at));
         #[cfg(target_arch = "x86_64")]
         if AVX2 {
             // SAFETY: as for `Fixed`.
-            return unsafe { slab_hits_avx2(node, end, ray, t_max) };
+            return unsafe { slab_hits_avx2(&node.start, end, ray, t_max) };
         }
-        slab_hits_portable(node, end, ray, t_max)
-    }
-
-    #[inline(always)]
-    fn prefetch(&self, first: usize, count: usize) {
-        if let Some(nodes) = self.end.get(first..first + count) {
-            prefetch(nodes);
-        }
+        slab_hits_portable(&node.start, end, ray, t_max)
     }
 }
 
-/// The children of node `index` (laid out as `node`, boxes from `boxes`) that `ray` meets
-/// within [0, `t_max`], as group bits (see [`Group`]).
+/// The children of `node` (boxes read by `boxes`) that `ray` meets within [0, `t_max`], as
+/// group bits (see [`Group`]).
 #[inline(always)]
 fn children_hit<const AVX2: bool, B: ChildBoxes>(
     boxes: &B,
-    index: usize,
-    node: &CwBvhNode,
+    node: &B::Node,
     ray: &BoxRay,
     t_max: f32,
 ) -> u32 {
-    let lanes = boxes.slab_hits::<AVX2>(index, node, ray, t_max);
+    let lanes = boxes.slab_hits::<AVX2>(node, ray, t_max);
     if lanes == 0 {
         return 0;
     }
-    let meta = u64::from_le_bytes(node.child_meta);
+    let meta = u64::from_le_bytes(node.layout().child_meta);
     let order = ray.octant_order as u64 * 0x0101_0101_0101_0101;
     // An inner child's meta byte is 24 + its slot (bits 3 and 4 both set, which a leaf's
     // primitive offset below 24 never has); it is visited at priority 24 + (slot ^ order).
@@ -508,37 +510,39 @@ fn plane_rows(node: &CwBvhNode) -> [(&[u8; 8], &[u8; 8]); 3] {
     ]
 }
 
-/// The ray distances to axis `a`'s lower and upper planes of `node`'s eight children, in plain
-/// arrays.
+/// The planes of a [`SweptNode`] at the end of its slice, and how far through the slice a
+/// query looks.
+type EndPlanes<'a> = Option<(&'a [[u8; 8]; 6], f32)>;
+
+/// Axis `a`'s grid of `node` over the ray: (scale, offset) taking a quantized plane to its
+/// ray distance.
 #[inline(always)]
-fn plane_times_portable(node: &CwBvhNode, a: usize, ray: &BoxRay) -> [[f32; 8]; 2] {
+fn grid_over_ray(node: &CwBvhNode, a: usize, ray: &BoxRay) -> (f32, f32) {
     let grid = f32::from_bits((node.e[a] as u32) << 23);
-    let scale = grid * ray.inv_dir[a];
-    let offset = (node.p[a] - ray.origin[a]) * ray.inv_dir[a];
-    let (lo, hi) = plane_rows(node)[a];
-    [lo, hi].map(|row| row.map(|q| q as f32 * scale + offset))
+    (
+        grid * ray.inv_dir[a],
+        (node.p[a] - ray.origin[a]) * ray.inv_dir[a],
+    )
 }
 
 /// The slab tests of [`ChildBoxes::slab_hits`] in plain arrays, for any processor: `node`'s
-/// boxes, or with `end` (its boxes at the slice's end, and the fraction) the boxes between.
+/// boxes, or with `end` the boxes that far between them and the end planes.
 #[inline(always)]
-fn slab_hits_portable(
-    node: &CwBvhNode,
-    end: Option<(&CwBvhNode, f32)>,
-    ray: &BoxRay,
-    t_max: f32,
-) -> u32 {
+fn slab_hits_portable(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32) -> u32 {
     let mut near = [0.0f32; 8];
     let mut far = [t_max; 8];
-    for a in 0..3 {
-        let [mut lo, mut hi] = plane_times_portable(node, a, ray);
-        if let Some((end, at)) = end {
-            let [lo_end, hi_end] = plane_times_portable(end, a, ray);
-            for c in 0..8 {
-                lo[c] += at * (lo_end[c] - lo[c]);
-                hi[c] += at * (hi_end[c] - hi[c]);
-            }
-        }
+    for (a, rows) in plane_rows(node).into_iter().enumerate() {
+        let (scale, offset) = grid_over_ray(node, a, ray);
+        let [lo, hi] = [0, 1].map(|side| {
+            let row = if side == 0 { rows.0 } else { rows.1 };
+            std::array::from_fn::<f32, 8, _>(|c| {
+                let mut q = row[c] as f32;
+                if let Some((end, at)) = end {
+                    q += at * (end[2 * a + side][c] as f32 - q);
+                }
+                q * scale + offset
+            })
+        });
         let (entry, exit) = if ray.down[a] { (hi, lo) } else { (lo, hi) };
         for c in 0..8 {
             near[c] = if entry[c] > near[c] {
@@ -556,47 +560,39 @@ fn slab_hits_portable(
     lanes
 }
 
-/// The ray distances to axis `a`'s lower and upper planes of `node`'s eight children, each
-/// row of quantized planes widened to floats at once.
+/// Eight quantized planes widened to floats at once.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn plane_times_avx2(node: &CwBvhNode, a: usize, ray: &BoxRay) -> [std::arch::x86_64::__m256; 2] {
+fn widen_avx2(row: &[u8; 8]) -> std::arch::x86_64::__m256 {
     use std::arch::x86_64::*;
-    let grid = f32::from_bits((node.e[a] as u32) << 23);
-    let scale = _mm256_set1_ps(grid * ray.inv_dir[a]);
-    let offset = _mm256_set1_ps((node.p[a] - ray.origin[a]) * ray.inv_dir[a]);
-    let (lo, hi) = plane_rows(node)[a];
-    [lo, hi].map(|row| {
-        // SAFETY: `row` is eight readable bytes, which an unaligned 64-bit load reads.
-        let packed = unsafe { _mm_loadl_epi64(row.as_ptr().cast()) };
-        let planes = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(packed));
-        _mm256_add_ps(_mm256_mul_ps(planes, scale), offset)
-    })
+    // SAFETY: `row` is eight readable bytes, which an unaligned 64-bit load reads.
+    let packed = unsafe { _mm_loadl_epi64(row.as_ptr().cast()) };
+    _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(packed))
 }
 
 /// The slab tests of [`slab_hits_portable`] in AVX2 registers, the eight comparisons gathered
-/// by one movemask.
+/// by one movemask. A swept node's two plane sets share its grid, so they mix before the one
+/// scaling to ray distances.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn slab_hits_avx2(
-    node: &CwBvhNode,
-    end: Option<(&CwBvhNode, f32)>,
-    ray: &BoxRay,
-    t_max: f32,
-) -> u32 {
+fn slab_hits_avx2(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32) -> u32 {
     use std::arch::x86_64::*;
     let mut near = _mm256_setzero_ps();
     let mut far = _mm256_set1_ps(t_max);
-    for a in 0..3 {
-        let [mut t_lo, mut t_hi] = plane_times_avx2(node, a, ray);
+    for (a, (lo, hi)) in plane_rows(node).into_iter().enumerate() {
+        let (scale, offset) = grid_over_ray(node, a, ray);
+        let (scale, offset) = (_mm256_set1_ps(scale), _mm256_set1_ps(offset));
+        let mut planes = [widen_avx2(lo), widen_avx2(hi)];
         if let Some((end, at)) = end {
-            let [lo_end, hi_end] = plane_times_avx2(end, a, ray);
             let at = _mm256_set1_ps(at);
-            t_lo = _mm256_add_ps(t_lo, _mm256_mul_ps(at, _mm256_sub_ps(lo_end, t_lo)));
-            t_hi = _mm256_add_ps(t_hi, _mm256_mul_ps(at, _mm256_sub_ps(hi_end, t_hi)));
+            for (side, q) in planes.iter_mut().enumerate() {
+                let toward = _mm256_sub_ps(widen_avx2(&end[2 * a + side]), *q);
+                *q = _mm256_add_ps(*q, _mm256_mul_ps(at, toward));
+            }
         }
+        let [t_lo, t_hi] = planes.map(|q| _mm256_add_ps(_mm256_mul_ps(q, scale), offset));
         // The entry plane is the nearer of the two whichever way the ray runs (the distance
         // is monotonic in the plane): a minimum, not a branch on the ray's direction that
         // each new ray's signs mispredict.
