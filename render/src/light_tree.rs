@@ -290,27 +290,36 @@ enum Members<'a> {
 /// Up to four children's bounds side by side, one lane each (per axis, a [`Vec4`] across the
 /// lanes), so one pass of vector instructions computes all four importances. A descent then
 /// reads one node per level and half as many levels as a binary tree would need.
+///
+/// Each row of fields below fills one cache line, and the cone's axis and sine come last: a
+/// node of lanes that all emit every way (round strands) never reads that line, so a descent
+/// into a ring waits on five lines a level rather than six.
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
 struct Node {
     min: [Vec4; 3],
+    power: Vec4,
     max: [Vec4; 3],
+    radius: Vec4,
     /// The sphere centre's [`Path`]: start + τ·(velocity + τ·acceleration).
     start: [Vec4; 3],
-    velocity: [Vec4; 3],
-    acceleration: [Vec4; 3],
-    radius: Vec4,
-    power: Vec4,
-    axis: [Vec4; 3],
-    cos_spread: Vec4,
-    /// The sine of the same half-angle, so the descent takes no square root for it.
-    sin_spread: Vec4,
     /// The squared distance beyond which a lane is far ([`FAR_RADII`]); infinite for lanes
     /// that never are.
     far2: Vec4,
+    velocity: [Vec4; 3],
+    cos_spread: Vec4,
+    acceleration: [Vec4; 3],
     /// Per lane: a node's index, or a bucket (see [`BUCKET_SIZE_SHIFT`]) with [`LEAF`] set.
     /// Unused lanes have no power.
     child: [u32; WIDTH],
+    axis: [Vec4; 3],
+    /// The sine of the cone's half-angle, so the descent takes no square root for it.
+    sin_spread: Vec4,
 }
+
+// Six cache lines, the cone's alone in the last.
+const _: () = assert!(std::mem::size_of::<Node>() == 6 * 64);
+const _: () = assert!(std::mem::offset_of!(Node, axis) == 5 * 64);
 
 impl Node {
     /// Puts `c` in lane `k`, pointing at `child`.
