@@ -188,10 +188,11 @@ enum Approach {
 /// Squared distance between the ray piece `q + t·d`, t in [lo, hi] (q relative to the
 /// segment's start), and the segment from 0 to `e`. The squared distance is convex in (t, s):
 /// the free line's nearest point to the clamped segment is the answer when its t lies in
-/// range; otherwise the minimum lies on the edge t = lo or t = hi. Either way it is measured
-/// between a point of the piece and one of the segment, so rounding in choosing them only
-/// lengthens it. NaN when the two are too nearly parallel to choose (every comparison then
-/// fails, so it neither rules the segment out nor in).
+/// range; otherwise the minimum lies on the edge of the range that t passed (t = lo below it,
+/// t = hi above). Either way it is measured between a point of the piece and one of the
+/// segment, so rounding in choosing them only lengthens it. NaN when the two are too nearly
+/// parallel to choose (every comparison then fails, so it neither rules the segment out nor
+/// in).
 #[inline]
 fn ray_segment_distance_squared(q: Vec3, d: Vec3, e: Vec3, lo: f32, hi: f32) -> f32 {
     let (dd, de, ee) = (d.dot(d), d.dot(e), e.dot(e));
@@ -205,27 +206,22 @@ fn ray_segment_distance_squared(q: Vec3, d: Vec3, e: Vec3, lo: f32, hi: f32) -> 
     if t >= lo && t <= hi {
         return (q + d * t - e * s).length_squared();
     }
-    // The segment's nearest point to one end of the ray piece.
-    let to_point = |t: f32| {
-        let p = q + d * t;
-        let s = if ee > 0.0 {
-            (p.dot(e) / ee).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        (p - e * s).length_squared()
-    };
-    let at_lo = if lo.is_finite() {
-        to_point(lo)
+    // The segment's nearest point to the end of the ray piece that t passed (finite: t lies
+    // beyond it; a NaN t, from NaN input, decides nothing).
+    let edge = if t > hi {
+        hi
+    } else if t < lo {
+        lo
     } else {
-        f32::INFINITY
+        return f32::NAN;
     };
-    let at_hi = if hi.is_finite() {
-        to_point(hi)
+    let p = q + d * edge;
+    let s = if ee > 0.0 {
+        (p.dot(e) / ee).clamp(0.0, 1.0)
     } else {
-        f32::INFINITY
+        0.0
     };
-    at_lo.min(at_hi)
+    (p - e * s).length_squared()
 }
 
 /// The roots of |q + t·d|² = r².
