@@ -9,8 +9,10 @@
 //! - it widens the quantized planes to floats one lane at a time. Here all eight children are
 //!   tested as one vector operation (AVX2 when the processor has it, chosen once per query).
 //!
-//! Children are visited in the order of the ray's octant, as the layout intends; a closest-hit
-//! query shrinks its range as hits are found, an any-hit query stops at the first.
+//! Any-hit queries, and closest-hit queries of triangle trees, visit children in the order of
+//! the ray's octant, as the layout intends; [`closest_hit`] (strands, instances) visits them
+//! nearest entry first. A closest-hit query shrinks its range as hits are found, an any-hit
+//! query stops at the first.
 
 use crate::prefetch::prefetch;
 use glam::Vec3;
@@ -111,7 +113,7 @@ pub fn traverse_with<L: LeafData + ?Sized>(
     fetch_ahead: bool,
     test: &mut impl LeafTest,
 ) -> bool {
-    traverse(nodes, &Fixed, ray, range, leaves, fetch_ahead, test)
+    traverse::<false, L, Fixed>(nodes, &Fixed, ray, range, leaves, fetch_ahead, test)
 }
 
 /// A closest-hit test from a closure: `leaf(slot, t_max)` returns the primitive's distance
@@ -141,7 +143,8 @@ impl<F: FnMut(usize) -> bool> LeafTest for AnyOf<F> {
 /// The closest primitive along `ray` for t in [0, `t_max`]: `leaf(slot, t_max)` tests the one
 /// at `slot` and returns its distance when it is hit nearer than `t_max`, which then becomes the
 /// range. Returns the final range: below `t_max` exactly when something was hit. The child
-/// boxes come from `boxes`; `leaves` and `fetch_ahead` as in [`traverse_with`].
+/// boxes come from `boxes`, visited nearest first ([`nearest_first`]); `leaves` and
+/// `fetch_ahead` as in [`traverse_with`].
 #[inline]
 pub fn closest_hit<L: LeafData + ?Sized, B: ChildBoxes>(
     nodes: &[B::Node],
@@ -153,7 +156,7 @@ pub fn closest_hit<L: LeafData + ?Sized, B: ChildBoxes>(
     leaf: impl FnMut(usize, f32) -> Option<f32>,
 ) -> f32 {
     let mut range = t_max;
-    traverse(
+    traverse::<true, L, B>(
         nodes,
         boxes,
         ray,
@@ -178,7 +181,7 @@ pub fn any_hit<L: LeafData + ?Sized, B: ChildBoxes>(
     hit: impl FnMut(usize) -> bool,
 ) -> bool {
     let mut range = t_max;
-    traverse(
+    traverse::<false, L, B>(
         nodes,
         boxes,
         ray,
@@ -189,9 +192,11 @@ pub fn any_hit<L: LeafData + ?Sized, B: ChildBoxes>(
     )
 }
 
-/// The traversal both queries share, compiled twice: for AVX2 and for the baseline.
+/// The traversal the queries share, compiled twice: for AVX2 and for the baseline. `NEAREST`
+/// visits children nearest first ([`nearest_first`]), otherwise in the layout's octant order
+/// ([`traverse_groups`]).
 #[inline]
-fn traverse<L: LeafData + ?Sized, B: ChildBoxes>(
+fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
     nodes: &[B::Node],
     boxes: &B,
     ray: &BoxRay,
@@ -203,9 +208,23 @@ fn traverse<L: LeafData + ?Sized, B: ChildBoxes>(
     #[cfg(target_arch = "x86_64")]
     if has_avx2_set() {
         // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
-        return unsafe { traverse_avx2(nodes, boxes, ray, range, leaves, fetch_ahead, leaf) };
+        return unsafe {
+            traverse_avx2::<NEAREST, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
+        };
     }
-    traverse_groups::<false, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
+    if NEAREST {
+        nearest_first::<false, WAITING_SLOTS, L, B>(
+            nodes,
+            boxes,
+            ray,
+            range,
+            leaves,
+            fetch_ahead,
+            leaf,
+        )
+    } else {
+        traverse_groups::<false, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
+    }
 }
 
 /// Whether the processor has AVX2 and the bit instructions that came with it (POPCNT, LZCNT,
@@ -232,7 +251,7 @@ fn has_avx2_set() -> bool {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
-fn traverse_avx2<L: LeafData + ?Sized, B: ChildBoxes>(
+fn traverse_avx2<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
     nodes: &[B::Node],
     boxes: &B,
     ray: &BoxRay,
@@ -241,7 +260,19 @@ fn traverse_avx2<L: LeafData + ?Sized, B: ChildBoxes>(
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
-    traverse_groups::<true, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
+    if NEAREST {
+        nearest_first::<true, WAITING_SLOTS, L, B>(
+            nodes,
+            boxes,
+            ray,
+            range,
+            leaves,
+            fetch_ahead,
+            leaf,
+        )
+    } else {
+        traverse_groups::<true, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
+    }
 }
 
 /// A node's children still to visit: `base` is the first child node (or first primitive) and
@@ -314,8 +345,8 @@ fn traverse_groups<
             let node = &tree[index as usize];
             let hits = children_hit::<AVX2, B>(boxes, node, ray, *range);
             let node = node.layout();
-            if fetch_ahead {
-                prefetch_inner_children(tree, node, hits);
+            if fetch_ahead && hits & INNER_BITS != 0 {
+                prefetch_inner_children(tree, node);
             }
             nodes = Group {
                 base: node.child_base_idx,
@@ -354,6 +385,161 @@ fn prefetch_leaves<L: LeafData + ?Sized>(leaves: &L, group: Group) {
     }
 }
 
+/// A node a nearest-first traversal has still to visit, and where the ray enters its box.
+#[derive(Clone, Copy)]
+struct Waiting {
+    index: u32,
+    entry: f32,
+}
+
+/// Waiting nodes that fit on [`nearest_first`]'s fixed stack: up to seven a level.
+const WAITING_SLOTS: usize = 7 * STACK;
+
+/// A closest-hit traversal that visits each node's children nearest entry first and keeps
+/// every waiting node's entry distance, so a node the range has shrunk past since it was met
+/// is dropped without reading it. Where the octant order of [`traverse_groups`] is only a
+/// guess, this finds the nearest hit before the boxes behind it (a ray through a dense band of
+/// strands meets many overlapping boxes). A node's leaves are tested before its inner
+/// children, nearest first, and stop at the first beyond the range. Returns true when `leaf`
+/// asked to stop.
+#[inline(always)]
+fn nearest_first<
+    const AVX2: bool,
+    const STACK_SLOTS: usize,
+    L: LeafData + ?Sized,
+    B: ChildBoxes,
+>(
+    tree: &[B::Node],
+    boxes: &B,
+    ray: &BoxRay,
+    range: &mut f32,
+    leaves: &L,
+    fetch_ahead: bool,
+    leaf: &mut impl LeafTest,
+) -> bool {
+    if tree.is_empty() {
+        return false;
+    }
+    // Uninitialised, as in `traverse_groups`: only slots below `depth` are read.
+    let mut stack = [const { MaybeUninit::<Waiting>::uninit() }; STACK_SLOTS];
+    let mut depth = 0;
+    let mut spilled: Option<Vec<Waiting>> = None;
+    let mut next = Waiting {
+        index: 0,
+        entry: 0.0,
+    };
+    loop {
+        if next.entry <= *range {
+            let node = &tree[next.index as usize];
+            let (lanes, entries) = boxes.slab_entries::<AVX2>(node, ray, *range);
+            let node = node.layout();
+            let inner = lanes & node.imask as u32;
+            if fetch_ahead {
+                if inner != 0 {
+                    prefetch_inner_children(tree, node);
+                }
+                if lanes != inner {
+                    prefetch_leaf_lanes(leaves, node, lanes & !inner);
+                }
+            }
+            let (order, count) = nearest_lanes(lanes, &entries);
+            for &(entry, slot) in &order[..count] {
+                if inner & (1 << slot) != 0 {
+                    continue;
+                }
+                if entry > *range {
+                    break;
+                }
+                let meta = node.child_meta[slot as usize];
+                let first = node.primitive_base_idx + (meta & 0x1f) as u32;
+                for k in 0..(meta >> 5).count_ones() {
+                    if leaf.test((first + k) as usize, range) {
+                        return true;
+                    }
+                }
+            }
+            // Inner children farthest first onto the stack; the nearest is visited next.
+            let mut nearest = None;
+            for &(entry, slot) in order[..count].iter().rev() {
+                if inner & (1 << slot) == 0 || entry > *range {
+                    continue;
+                }
+                let below = (node.imask as u32 & ((1 << slot) - 1)).count_ones();
+                let child = Waiting {
+                    index: node.child_base_idx + below,
+                    entry,
+                };
+                if let Some(farther) = nearest.replace(child) {
+                    if depth < STACK_SLOTS {
+                        stack[depth].write(farther);
+                        depth += 1;
+                    } else {
+                        spilled.get_or_insert_with(Vec::new).push(farther);
+                        #[cfg(test)]
+                        tests::SPILLS.with(|n| n.set(n.get() + 1));
+                    }
+                }
+            }
+            if let Some(child) = nearest {
+                next = child;
+                continue;
+            }
+        }
+        next = if let Some(waiting) = spilled.as_mut().and_then(Vec::pop) {
+            waiting
+        } else if depth > 0 {
+            depth -= 1;
+            // SAFETY: slot `depth` was written when `depth` last passed it going up.
+            unsafe { stack[depth].assume_init_read() }
+        } else {
+            return false;
+        };
+    }
+}
+
+/// The slots of `lanes` with their entry distances, nearest first (by insertion: a node has at
+/// most eight), and how many there are.
+#[inline(always)]
+fn nearest_lanes(lanes: u32, entries: &[f32; 8]) -> ([(f32, u32); 8], usize) {
+    let mut order = [(0.0f32, 0u32); 8];
+    let mut count = 0;
+    let mut bits = lanes;
+    while bits != 0 {
+        let slot = bits.trailing_zeros();
+        bits &= bits - 1;
+        let entry = entries[slot as usize];
+        let mut at = count;
+        while at > 0 && order[at - 1].0 > entry {
+            order[at] = order[at - 1];
+            at -= 1;
+        }
+        order[at] = (entry, slot);
+        count += 1;
+    }
+    (order, count)
+}
+
+/// Asks the cache for the leaf data of `node`'s leaf children in `leaf_lanes` (their
+/// primitives lie together from the node's first).
+#[inline(never)]
+fn prefetch_leaf_lanes<L: LeafData + ?Sized>(leaves: &L, node: &CwBvhNode, leaf_lanes: u32) {
+    let (mut first, mut last) = (u32::MAX, 0);
+    let mut bits = leaf_lanes;
+    while bits != 0 {
+        let meta = node.child_meta[bits.trailing_zeros() as usize] as u32;
+        bits &= bits - 1;
+        let (offset, count) = (meta & 0x1f, (meta >> 5).count_ones());
+        if count > 0 {
+            first = first.min(offset);
+            last = last.max(offset + count - 1);
+        }
+    }
+    if first <= last {
+        let base = node.primitive_base_idx as usize;
+        leaves.prefetch(base + first as usize..=base + last as usize);
+    }
+}
+
 /// What a leaf test reads for the primitives at a run of slots, which a traversal of a large
 /// tree asks the cache for as soon as it knows the slots.
 pub trait LeafData {
@@ -370,13 +556,10 @@ impl<T> LeafData for [T] {
     }
 }
 
-/// Asks the cache for the inner children `hits` names: nodes are visited one at a time and
-/// each first touch of a large tree's node otherwise waits on memory.
+/// Asks the cache for `node`'s inner children, some of which a ray meets: nodes are visited
+/// one at a time and each first touch of a large tree's node otherwise waits on memory.
 #[inline(never)]
-fn prefetch_inner_children<N>(nodes: &[N], node: &CwBvhNode, hits: u32) {
-    if hits & INNER_BITS == 0 {
-        return;
-    }
+fn prefetch_inner_children<N>(nodes: &[N], node: &CwBvhNode) {
     // Inner children lie together from `child_base_idx`; fetch the lines of them all when
     // any is hit (cheaper than ranking each hit slot, and most are hit when any is).
     let first = node.child_base_idx as usize;
@@ -402,8 +585,20 @@ impl WideNode for CwBvhNode {
 pub trait ChildBoxes {
     type Node: WideNode;
 
-    /// One bit per child slot of `node` whose box `ray` meets within [0, `t_max`].
-    fn slab_hits<const AVX2: bool>(&self, node: &Self::Node, ray: &BoxRay, t_max: f32) -> u32;
+    /// One bit per child slot of `node` whose box `ray` meets within [0, `t_max`], and per
+    /// slot where the ray enters its box (meaningful for the slots whose bit is set).
+    fn slab_entries<const AVX2: bool>(
+        &self,
+        node: &Self::Node,
+        ray: &BoxRay,
+        t_max: f32,
+    ) -> (u32, [f32; 8]);
+
+    /// The bits of [`Self::slab_entries`] alone.
+    #[inline(always)]
+    fn slab_hits<const AVX2: bool>(&self, node: &Self::Node, ray: &BoxRay, t_max: f32) -> u32 {
+        self.slab_entries::<AVX2>(node, ray, t_max).0
+    }
 }
 
 /// Child boxes as obvhs' nodes hold them: a tree that stands still.
@@ -413,7 +608,12 @@ impl ChildBoxes for Fixed {
     type Node = CwBvhNode;
 
     #[inline(always)]
-    fn slab_hits<const AVX2: bool>(&self, node: &CwBvhNode, ray: &BoxRay, t_max: f32) -> u32 {
+    fn slab_entries<const AVX2: bool>(
+        &self,
+        node: &CwBvhNode,
+        ray: &BoxRay,
+        t_max: f32,
+    ) -> (u32, [f32; 8]) {
         #[cfg(target_arch = "x86_64")]
         if AVX2 {
             // SAFETY: `AVX2` is set only by `traverse_avx2`, which runs where the processor has
@@ -456,7 +656,12 @@ impl ChildBoxes for Swept {
     type Node = SweptNode;
 
     #[inline(always)]
-    fn slab_hits<const AVX2: bool>(&self, node: &SweptNode, ray: &BoxRay, t_max: f32) -> u32 {
+    fn slab_entries<const AVX2: bool>(
+        &self,
+        node: &SweptNode,
+        ray: &BoxRay,
+        t_max: f32,
+    ) -> (u32, [f32; 8]) {
         let end = Some((&node.end, self.at));
         #[cfg(target_arch = "x86_64")]
         if AVX2 {
@@ -528,7 +733,12 @@ fn grid_over_ray(node: &CwBvhNode, a: usize, ray: &BoxRay) -> (f32, f32) {
 /// The slab tests of [`ChildBoxes::slab_hits`] in plain arrays, for any processor: `node`'s
 /// boxes, or with `end` the boxes that far between them and the end planes.
 #[inline(always)]
-fn slab_hits_portable(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32) -> u32 {
+fn slab_hits_portable(
+    node: &CwBvhNode,
+    end: EndPlanes,
+    ray: &BoxRay,
+    t_max: f32,
+) -> (u32, [f32; 8]) {
     let mut near = [0.0f32; 8];
     let mut far = [t_max; 8];
     for (a, rows) in plane_rows(node).into_iter().enumerate() {
@@ -557,7 +767,7 @@ fn slab_hits_portable(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32
     for c in 0..8 {
         lanes |= ((near[c] <= far[c]) as u32) << c;
     }
-    lanes
+    (lanes, near)
 }
 
 /// Eight quantized planes widened to floats at once.
@@ -577,7 +787,7 @@ fn widen_avx2(row: &[u8; 8]) -> std::arch::x86_64::__m256 {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn slab_hits_avx2(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32) -> u32 {
+fn slab_hits_avx2(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32) -> (u32, [f32; 8]) {
     use std::arch::x86_64::*;
     let mut near = _mm256_setzero_ps();
     let mut far = _mm256_set1_ps(t_max);
@@ -599,7 +809,11 @@ fn slab_hits_avx2(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32) ->
         near = _mm256_max_ps(near, _mm256_min_ps(t_lo, t_hi));
         far = _mm256_min_ps(far, _mm256_max_ps(t_lo, t_hi));
     }
-    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
+    let mut entries = [0.0f32; 8];
+    // SAFETY: `entries` is eight writable floats, which an unaligned store writes.
+    unsafe { _mm256_storeu_ps(entries.as_mut_ptr(), near) };
+    let lanes = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+    (lanes, entries)
 }
 
 #[cfg(test)]
@@ -707,33 +921,53 @@ mod tests {
     }
 
     #[test]
-    fn groups_beyond_the_fixed_stack_spill_and_are_still_visited() {
-        // A one-slot stack: the second group waiting goes to the heap.
+    fn both_traversals_spill_beyond_a_fixed_stack_and_still_visit_everything() {
+        // A one-slot stack: the second group (or node) waiting goes to the heap.
         let tris = cloud();
         let bvh = build_cwbvh(&tris);
         SPILLS.with(|n| n.set(0));
+        let mut nearest_spills = 0;
         for k in 0..500 {
             let origin = Vec3::new((k as f32 * 0.3).sin(), (k as f32 * 0.7).cos(), 0.0) * 3.0;
             let dir = (Vec3::new((k as f32 * 1.1).cos(), (k as f32 * 0.9).sin(), 0.4) - origin)
                 .normalize();
             let sheared = ShearedRay::new(origin, dir);
             let mut range = f32::INFINITY;
+            let mut nearest = Nearest(|slot: usize, r: f32| {
+                let tri = &tris[bvh.primitive_indices[slot] as usize];
+                intersect_watertight(&sheared, tri, r).map(|h| h.0)
+            });
+            let ray = BoxRay::new(origin, dir);
+            let expected = brute(&tris, origin, dir, f32::INFINITY);
             traverse_groups::<false, 1, [Triangle], Fixed>(
                 &bvh.nodes,
                 &Fixed,
-                &BoxRay::new(origin, dir),
+                &ray,
                 &mut range,
                 &[],
                 false,
-                &mut Nearest(|slot: usize, r: f32| {
-                    let tri = &tris[bvh.primitive_indices[slot] as usize];
-                    intersect_watertight(&sheared, tri, r).map(|h| h.0)
-                }),
+                &mut nearest,
             );
-            let expected = brute(&tris, origin, dir, f32::INFINITY);
             assert_eq!(range.is_finite().then_some(range), expected, "ray {k}");
+            let spilled = SPILLS.with(Cell::get);
+            range = f32::INFINITY;
+            nearest_first::<false, 1, [Triangle], Fixed>(
+                &bvh.nodes,
+                &Fixed,
+                &ray,
+                &mut range,
+                &[],
+                false,
+                &mut nearest,
+            );
+            assert_eq!(range.is_finite().then_some(range), expected, "ray {k}");
+            nearest_spills += SPILLS.with(Cell::get) - spilled;
         }
-        assert!(SPILLS.with(Cell::get) > 0, "no traversal spilled");
+        assert!(
+            SPILLS.with(Cell::get) > nearest_spills,
+            "no group traversal spilled"
+        );
+        assert!(nearest_spills > 0, "no nearest-first traversal spilled");
     }
 
     #[test]
