@@ -89,7 +89,7 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
         args.timing.repeats
     );
     println!(
-        "{:<28} {:>9} {:>8} {:>10} {:>10}",
+        "{:<28} {:>9} {:>8} {:>11} {:>11}",
         "strands", "build s", "hit %", "closest", "occlusion"
     );
     for (name, times) in [
@@ -135,7 +135,7 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
         }
         let rate = |v: Vec<f64>| args.rays as f64 / median(v) / 1e6;
         println!(
-            "{name:<28} {build:>9.3} {:>8.1} {:>7.2} Mr/s {:>5.2} Mr/s",
+            "{name:<28} {build:>9.3} {:>8.1} {:>6.3} Mr/s {:>6.3} Mr/s",
             100.0 * hits as f64 / args.rays as f64,
             rate(closest),
             rate(occlusion)
