@@ -285,6 +285,53 @@ struct Group {
     bits: u32,
 }
 
+/// What a traversal has still to visit: a fixed array on the thread's stack, spilling onto the
+/// heap past `N` (a lopsided tree). Uninitialised: only slots below `depth` are read, each
+/// after it was written (zeroing the array, and making an empty spill vector, cost every query
+/// stores of its own).
+struct SpillingStack<T, const N: usize> {
+    slots: [MaybeUninit<T>; N],
+    depth: usize,
+    spilled: Option<Vec<T>>,
+}
+
+impl<T: Copy, const N: usize> SpillingStack<T, N> {
+    #[inline(always)]
+    fn new() -> Self {
+        Self {
+            slots: [const { MaybeUninit::uninit() }; N],
+            depth: 0,
+            spilled: None,
+        }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, item: T) {
+        if self.depth < N {
+            self.slots[self.depth].write(item);
+            self.depth += 1;
+        } else {
+            self.spilled.get_or_insert_with(Vec::new).push(item);
+            #[cfg(test)]
+            tests::SPILLS.with(|n| n.set(n.get() + 1));
+        }
+    }
+
+    /// The item pushed last (spilled ones first: they were pushed after the array filled).
+    #[inline(always)]
+    fn pop(&mut self) -> Option<T> {
+        if let Some(item) = self.spilled.as_mut().and_then(Vec::pop) {
+            return Some(item);
+        }
+        if self.depth == 0 {
+            return None;
+        }
+        self.depth -= 1;
+        // SAFETY: slot `depth` was written when `depth` last passed it going up.
+        Some(unsafe { self.slots[self.depth].assume_init_read() })
+    }
+}
+
 /// Ylitie et al.'s stack of node groups: a node's hit primitives are tested first, then its
 /// hit inner children in octant order, the rest of a group waiting on the stack. Returns true
 /// when `leaf` asked to stop.
@@ -306,11 +353,7 @@ fn traverse_groups<
     if tree.is_empty() {
         return false;
     }
-    // Uninitialised: only slots below `depth` are read, each after it was written (zeroing
-    // the stack, and making an empty spill vector, cost every query stores of its own).
-    let mut stack = [const { MaybeUninit::<Group>::uninit() }; STACK_SLOTS];
-    let mut depth = 0;
-    let mut spilled: Option<Vec<Group>> = None;
+    let mut stack = SpillingStack::<Group, STACK_SLOTS>::new();
     // The root is the one inner child of an imaginary parent, in the top slot.
     let mut nodes = Group {
         base: 0,
@@ -333,14 +376,7 @@ fn traverse_groups<
             // Inner children are stored in slot order: count those in lower slots.
             let index = nodes.base + (inner_mask & ((1 << slot) - 1)).count_ones();
             if nodes.bits & INNER_BITS != 0 {
-                if depth < STACK_SLOTS {
-                    stack[depth].write(nodes);
-                    depth += 1;
-                } else {
-                    spilled.get_or_insert_with(Vec::new).push(nodes);
-                    #[cfg(test)]
-                    tests::SPILLS.with(|n| n.set(n.get() + 1));
-                }
+                stack.push(nodes);
             }
             let node = &tree[index as usize];
             let hits = children_hit::<AVX2, B>(boxes, node, ray, *range);
@@ -360,14 +396,9 @@ fn traverse_groups<
                 prefetch_leaves(leaves, primitives);
             }
         } else if primitives.bits == 0 {
-            if let Some(group) = spilled.as_mut().and_then(Vec::pop) {
-                nodes = group;
-            } else if depth > 0 {
-                depth -= 1;
-                // SAFETY: slot `depth` was written when `depth` last passed it going up.
-                nodes = unsafe { stack[depth].assume_init_read() };
-            } else {
-                return false;
+            match stack.pop() {
+                Some(group) => nodes = group,
+                None => return false,
             }
         }
     }
@@ -420,10 +451,7 @@ fn nearest_first<
     if tree.is_empty() {
         return false;
     }
-    // Uninitialised, as in `traverse_groups`: only slots below `depth` are read.
-    let mut stack = [const { MaybeUninit::<Waiting>::uninit() }; STACK_SLOTS];
-    let mut depth = 0;
-    let mut spilled: Option<Vec<Waiting>> = None;
+    let mut stack = SpillingStack::<Waiting, STACK_SLOTS>::new();
     let mut next = Waiting {
         index: 0,
         entry: 0.0,
@@ -470,14 +498,7 @@ fn nearest_first<
                     entry,
                 };
                 if let Some(farther) = nearest.replace(child) {
-                    if depth < STACK_SLOTS {
-                        stack[depth].write(farther);
-                        depth += 1;
-                    } else {
-                        spilled.get_or_insert_with(Vec::new).push(farther);
-                        #[cfg(test)]
-                        tests::SPILLS.with(|n| n.set(n.get() + 1));
-                    }
+                    stack.push(farther);
                 }
             }
             if let Some(child) = nearest {
@@ -485,15 +506,10 @@ fn nearest_first<
                 continue;
             }
         }
-        next = if let Some(waiting) = spilled.as_mut().and_then(Vec::pop) {
-            waiting
-        } else if depth > 0 {
-            depth -= 1;
-            // SAFETY: slot `depth` was written when `depth` last passed it going up.
-            unsafe { stack[depth].assume_init_read() }
-        } else {
-            return false;
-        };
+        match stack.pop() {
+            Some(waiting) => next = waiting,
+            None => return false,
+        }
     }
 }
 
