@@ -674,7 +674,7 @@ fn build_tree(
         BvhBuildParams::medium_build(),
         &mut Default::default(),
     );
-    let slices = if moving && !segments.is_empty() {
+    let slice_nodes = if moving && !segments.is_empty() {
         let length = (deltas[1] - deltas[0]) / slices as f32;
         let boundaries: Vec<Vec<Aabb>> = (0..=slices)
             .map(|k| {
@@ -708,7 +708,7 @@ fn build_tree(
     }
     let tree = Tree {
         nodes,
-        slices,
+        slices: slice_nodes,
         slot_of,
     };
     (tree, leaf_order, all)
