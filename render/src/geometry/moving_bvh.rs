@@ -7,7 +7,7 @@
 //! The two plane sets share the node's layout and grid, so a visit reads one node of two
 //! cache lines.
 
-use super::wide_bvh::SweptNode;
+use super::wide_bvh::{SweptNode, inner_child, leaf_slots};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
@@ -69,15 +69,12 @@ fn child_box(
         return None;
     }
     if node.imask & (1 << slot) != 0 {
-        let below = (node.imask as u32 & ((1 << slot) - 1)).count_ones();
-        return whole
-            .get((node.child_base_idx + below) as usize)
-            .map(|b| b[side]);
+        return whole.get(inner_child(node, slot) as usize).map(|b| b[side]);
     }
-    // A leaf: its first primitive's offset in the low five bits, its count in unary above.
-    let first = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
-    let count = (meta >> 5).count_ones() as usize;
-    let leaf = bvh.primitive_indices.get(first..first + count)?;
+    let run = leaf_slots(node, slot);
+    let leaf = bvh
+        .primitive_indices
+        .get(run.start as usize..run.end as usize)?;
     Some(
         leaf.iter()
             .fold(Aabb::empty(), |all, &i| all.union(&boxes[i as usize])),
@@ -211,9 +208,8 @@ mod tests {
                 if meta == 0 || node.imask & (1 << slot) != 0 {
                     continue;
                 }
-                let base = node.primitive_base_idx as usize + (meta & 0x1f) as usize;
-                for j in 0..(meta >> 5).count_ones() as usize {
-                    let b = inside(bvh.primitive_indices[base + j]);
+                for primitive in leaf_slots(node, slot) {
+                    let b = inside(bvh.primitive_indices[primitive as usize]);
                     holds_box(boxes, nodes, index, slot, &b);
                 }
             }

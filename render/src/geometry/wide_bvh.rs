@@ -212,8 +212,22 @@ fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
             traverse_avx2::<NEAREST, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
         };
     }
+    traverse_in_order::<false, NEAREST, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
+}
+
+/// [`nearest_first`] when `NEAREST`, otherwise [`traverse_groups`], each with its own stack.
+#[inline(always)]
+fn traverse_in_order<const AVX2: bool, const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
+    nodes: &[B::Node],
+    boxes: &B,
+    ray: &BoxRay,
+    range: &mut f32,
+    leaves: &L,
+    fetch_ahead: bool,
+    leaf: &mut impl LeafTest,
+) -> bool {
     if NEAREST {
-        nearest_first::<false, WAITING_SLOTS, L, B>(
+        nearest_first::<AVX2, WAITING_SLOTS, L, B>(
             nodes,
             boxes,
             ray,
@@ -223,7 +237,7 @@ fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
             leaf,
         )
     } else {
-        traverse_groups::<false, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
+        traverse_groups::<AVX2, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
     }
 }
 
@@ -260,19 +274,7 @@ fn traverse_avx2<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
-    if NEAREST {
-        nearest_first::<true, WAITING_SLOTS, L, B>(
-            nodes,
-            boxes,
-            ray,
-            range,
-            leaves,
-            fetch_ahead,
-            leaf,
-        )
-    } else {
-        traverse_groups::<true, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
-    }
+    traverse_in_order::<true, NEAREST, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
 }
 
 /// A node's children still to visit: `base` is the first child node (or first primitive) and
@@ -478,10 +480,8 @@ fn nearest_first<
                 if entry > *range {
                     break;
                 }
-                let meta = node.child_meta[slot as usize];
-                let first = node.primitive_base_idx + (meta & 0x1f) as u32;
-                for k in 0..(meta >> 5).count_ones() {
-                    if leaf.test((first + k) as usize, range) {
+                for primitive in leaf_slots(node, slot as usize) {
+                    if leaf.test(primitive as usize, range) {
                         return true;
                     }
                 }
@@ -492,9 +492,8 @@ fn nearest_first<
                 if inner & (1 << slot) == 0 || entry > *range {
                     continue;
                 }
-                let below = (node.imask as u32 & ((1 << slot) - 1)).count_ones();
                 let child = Waiting {
-                    index: node.child_base_idx + below,
+                    index: inner_child(node, slot as usize),
                     entry,
                 };
                 if let Some(farther) = nearest.replace(child) {
@@ -542,18 +541,33 @@ fn prefetch_leaf_lanes<L: LeafData + ?Sized>(leaves: &L, node: &CwBvhNode, leaf_
     let (mut first, mut last) = (u32::MAX, 0);
     let mut bits = leaf_lanes;
     while bits != 0 {
-        let meta = node.child_meta[bits.trailing_zeros() as usize] as u32;
+        let run = leaf_slots(node, bits.trailing_zeros() as usize);
         bits &= bits - 1;
-        let (offset, count) = (meta & 0x1f, (meta >> 5).count_ones());
-        if count > 0 {
-            first = first.min(offset);
-            last = last.max(offset + count - 1);
+        if !run.is_empty() {
+            first = first.min(run.start);
+            last = last.max(run.end - 1);
         }
     }
     if first <= last {
-        let base = node.primitive_base_idx as usize;
-        leaves.prefetch(base + first as usize..=base + last as usize);
+        leaves.prefetch(first as usize..=last as usize);
     }
+}
+
+/// The primitives (slots) of `node`'s leaf child in `slot`: the meta byte keeps the first's
+/// offset from the node's first primitive in its low five bits and the count in unary above
+/// (none for an empty slot).
+#[inline(always)]
+pub(super) fn leaf_slots(node: &CwBvhNode, slot: usize) -> std::ops::Range<u32> {
+    let meta = node.child_meta[slot];
+    let first = node.primitive_base_idx + (meta & 0x1f) as u32;
+    first..first + (meta >> 5).count_ones()
+}
+
+/// The node index of `node`'s inner child in `slot`: inner children lie together from
+/// `child_base_idx` in slot order.
+#[inline(always)]
+pub(super) fn inner_child(node: &CwBvhNode, slot: usize) -> u32 {
+    node.child_base_idx + (node.imask as u32 & ((1 << slot) - 1)).count_ones()
 }
 
 /// What a leaf test reads for the primitives at a run of slots, which a traversal of a large
