@@ -653,8 +653,11 @@ fn scatter_at(
     path.prev_pdf = bs.pdf;
     path.prev_delta = bs.delta;
     path.prev_receiver = receiver;
-    let dir = frame.to_world(bs.wi).normalize();
-    let origin = offset_origin(p, if dir.dot(ng) > 0.0 { ng } else { -ng });
+    // The side comes from the direction before its normalisation, which has the same sign,
+    // so the new origin does not wait on the square root.
+    let towards = frame.to_world(bs.wi);
+    let origin = offset_origin(p, if towards.dot(ng) > 0.0 { ng } else { -ng });
+    let dir = towards.normalize();
     path.ray = Ray::new(origin, dir, f32::INFINITY, time);
     path.chain = Chain::default();
     path.coins = 1.0;

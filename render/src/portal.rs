@@ -107,17 +107,34 @@ struct Frames {
 }
 
 impl Frames {
-    /// True when the line of `ray` passes outside the bound (or the bound lies wholly outside
-    /// the ray's range), so the opening cannot be hit.
+    /// True when the line of `ray` (whose direction's `scale` is formed) passes outside the
+    /// bound (or the bound lies wholly outside the ray's range), so the opening cannot be hit.
     #[inline]
-    fn misses_bound(&self, ray: &Ray) -> bool {
+    fn misses_bound(&self, ray: &Ray, scale: &DirectionScale) -> bool {
         let (centre, radius) = self.bound;
         let to_centre = centre - ray.origin;
-        let d2 = ray.dir.length_squared();
-        let along = to_centre.dot(ray.dir) / d2;
+        let along = to_centre.dot(ray.dir) * scale.inverse_square;
         let away = (to_centre - ray.dir * along).length_squared();
-        let reach = radius / d2.sqrt();
+        let reach = radius * scale.inverse;
         away > radius * radius || along + reach < ray.t_min || along - reach > ray.t_max
+    }
+}
+
+/// 1/|d|² and 1/|d| of a ray's direction d, which the bounding-sphere test of every opening
+/// needs: formed once a ray rather than once an opening (their divisions and square root were
+/// most of a missed opening's test, tens of times a path on the showcase).
+struct DirectionScale {
+    inverse_square: f32,
+    inverse: f32,
+}
+
+impl DirectionScale {
+    fn of(ray: &Ray) -> Self {
+        let d2 = ray.dir.length_squared();
+        Self {
+            inverse_square: 1.0 / d2,
+            inverse: 1.0 / d2.sqrt(),
+        }
     }
 }
 
@@ -273,9 +290,10 @@ impl Portals {
     /// The nearest opening whose front `ray` meets inside its teleport region.
     pub fn intersect(&self, ray: &Ray) -> Option<PortalHit> {
         let mut best: Option<PortalHit> = None;
+        let scale = DirectionScale::of(ray);
         for i in 0..self.len() {
             let limit = best.map_or(ray.t_max, |b| b.t);
-            if let Some(hit) = self.intersect_one(i, &ray.between(ray.t_min, limit)) {
+            if let Some(hit) = self.meets(i, &ray.between(ray.t_min, limit), &scale) {
                 best = Some(hit);
             }
         }
@@ -284,8 +302,14 @@ impl Portals {
 
     /// Where `ray` meets the front of opening `i` inside its teleport region, if it does.
     pub fn intersect_one(&self, i: usize, ray: &Ray) -> Option<PortalHit> {
+        self.meets(i, ray, &DirectionScale::of(ray))
+    }
+
+    /// [`Self::intersect_one`] with the ray's direction scale formed.
+    #[inline]
+    fn meets(&self, i: usize, ray: &Ray, scale: &DirectionScale) -> Option<PortalHit> {
         if let Some(frames) = &self.fixed[i]
-            && frames.misses_bound(ray)
+            && frames.misses_bound(ray, scale)
         {
             return None;
         }
@@ -325,8 +349,9 @@ impl Portals {
     /// opacity.
     pub fn transmittance(&self, ray: &Ray) -> f32 {
         let mut through = 1.0;
+        let scale = DirectionScale::of(ray);
         for i in 0..self.len() {
-            if self.intersect_one(i, ray).is_some() {
+            if self.meets(i, ray, &scale).is_some() {
                 through *= 1.0 - self.looks[i].opacity;
                 if through == 0.0 {
                     break;

@@ -3,7 +3,7 @@
 
 use crate::sobol::SobolSample;
 use glam::{Vec2, Vec3};
-use std::f32::consts::{FRAC_PI_4, PI};
+use std::f32::consts::FRAC_PI_4;
 
 /// An orthonormal frame around a unit normal.
 #[derive(Clone, Copy, Debug)]
@@ -49,12 +49,29 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, FRAC_PI_4 * (o.y / o.x))
+    // The angle is π/4 times a ratio in [−1, 1] from the nearer axis, so both branches need
+    // the sine and cosine of an angle within π/4 of zero only (cos(π/2 − x) = sin x).
+    if o.x.abs() > o.y.abs() {
+        let (sin, cos) = sin_cos_within_quarter(FRAC_PI_4 * (o.y / o.x));
+        Vec2::new(o.x * cos, o.x * sin)
     } else {
-        (o.y, 0.5 * PI - FRAC_PI_4 * (o.x / o.y))
-    };
-    Vec2::new(r * theta.cos(), r * theta.sin())
+        let (sin, cos) = sin_cos_within_quarter(FRAC_PI_4 * (o.x / o.y));
+        Vec2::new(o.y * sin, o.y * cos)
+    }
+}
+
+/// sin x and cos x for |x| ≤ π/4 by their Taylor series, to x⁹ and x¹⁰: the first term left
+/// out is below 2·10⁻⁹ there, under half an ulp of the results. A library call took 2% of the
+/// Cornell box's time, every diffuse bounce drawing one.
+#[inline]
+fn sin_cos_within_quarter(x: f32) -> (f32, f32) {
+    let x2 = x * x;
+    let sin =
+        x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 / 362_880.0))));
+    let cos = 1.0
+        + x2 * (-0.5
+            + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 - x2 / 3_628_800.0))));
+    (sin, cos)
 }
 
 /// Uniform barycentrics (b1, b2) on a triangle.
@@ -234,6 +251,33 @@ mod tests {
                 (*c as f64 / n as f64 - w / 10.0).abs() < 0.002,
                 "{counts:?}"
             );
+        }
+    }
+
+    #[test]
+    fn quarter_sines_and_cosines_match_the_library() {
+        for k in -1000..=1000 {
+            let x = FRAC_PI_4 * k as f32 / 1000.0;
+            let (sin, cos) = sin_cos_within_quarter(x);
+            assert!(
+                (sin - x.sin()).abs() <= 1.5 * f32::EPSILON * x.sin().abs().max(0.5),
+                "{x}"
+            );
+            assert!((cos - x.cos()).abs() <= 1.5 * f32::EPSILON, "{x}");
+        }
+    }
+
+    #[test]
+    fn the_concentric_map_keeps_to_the_disk_and_its_edge() {
+        for i in 0..=64 {
+            for j in 0..=64 {
+                let u = Vec2::new(i as f32 / 64.0, j as f32 / 64.0);
+                let d = concentric_disk(u);
+                let o = 2.0 * u - Vec2::ONE;
+                // The map sends the square's ring of half-width r to the circle of radius r.
+                let r = o.x.abs().max(o.y.abs());
+                assert!((d.length() - r).abs() <= 4.0 * f32::EPSILON, "{u}: {d}");
+            }
         }
     }
 
