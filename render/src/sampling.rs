@@ -268,15 +268,27 @@ mod tests {
     }
 
     #[test]
-    fn the_concentric_map_keeps_to_the_disk_and_its_edge() {
+    fn the_concentric_map_is_shirley_and_chius() {
+        // Their map as written: radius from the nearer axis, angle π/4 times the ratio.
+        let reference = |u: Vec2| {
+            let o = 2.0 * u - Vec2::ONE;
+            let (r, theta) = if o == Vec2::ZERO {
+                (0.0, 0.0)
+            } else if o.x.abs() > o.y.abs() {
+                (o.x, FRAC_PI_4 * (o.y / o.x))
+            } else {
+                (o.y, 2.0 * FRAC_PI_4 - FRAC_PI_4 * (o.x / o.y))
+            };
+            Vec2::new(r * theta.cos(), r * theta.sin())
+        };
         for i in 0..=64 {
             for j in 0..=64 {
-                let u = Vec2::new(i as f32 / 64.0, j as f32 / 64.0);
-                let d = concentric_disk(u);
-                let o = 2.0 * u - Vec2::ONE;
-                // The map sends the square's ring of half-width r to the circle of radius r.
-                let r = o.x.abs().max(o.y.abs());
-                assert!((d.length() - r).abs() <= 4.0 * f32::EPSILON, "{u}: {d}");
+                let u = Vec2::new(i as f32 / 64.0, j as f32 / 64.0).min(Vec2::splat(0.999));
+                let (got, want) = (concentric_disk(u), reference(u));
+                assert!(
+                    got.distance(want) <= 4.0 * f32::EPSILON,
+                    "{u}: {got} against {want}"
+                );
             }
         }
     }
