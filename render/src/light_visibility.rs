@@ -64,9 +64,10 @@ impl LightVisibility {
         if self.share.is_empty() {
             return 1.0;
         }
+        // The cast truncates, which is the floor at or above zero, and saturates below zero
+        // (and NaN) to cell 0: the same cells as flooring and clamping, without the three
+        // library floors a build for plain SSE2 calls (0.4% of the showcase).
         let index = ((p - self.lower) / self.cell)
-            .floor()
-            .max(Vec3::ZERO)
             .as_uvec3()
             .min(self.dims - UVec3::ONE);
         self.share[(index.x + self.dims.x * (index.y + self.dims.y * index.z)) as usize]
@@ -119,6 +120,25 @@ fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn points_take_their_cell_or_the_nearest_one_outside() {
+        // A 2×3×2 grid of unit cells from (−1, −1, −1), each share its index.
+        let grid = LightVisibility {
+            lower: Vec3::splat(-1.0),
+            cell: Vec3::ONE,
+            dims: UVec3::new(2, 3, 2),
+            share: (0..12).map(|i| i as f32).collect(),
+        };
+        let cell = |x: u32, y: u32, z: u32| (x + 2 * (y + 3 * z)) as f32;
+        assert_eq!(grid.at(Vec3::new(-0.5, 0.5, 0.5)), cell(0, 1, 1));
+        assert_eq!(grid.at(Vec3::new(0.0, 1.999, -1.0)), cell(1, 2, 0));
+        // Just below the lower corner, far below, far above, and no number at all.
+        assert_eq!(grid.at(Vec3::new(-1.001, -0.2, 0.3)), cell(0, 0, 1));
+        assert_eq!(grid.at(Vec3::new(-1e30, 5.0, -7.0)), cell(0, 2, 0));
+        assert_eq!(grid.at(Vec3::new(1e30, 1e30, 1e30)), cell(1, 2, 1));
+        assert_eq!(grid.at(Vec3::new(f32::NAN, 0.5, 0.5)), cell(0, 1, 1));
+    }
 
     #[test]
     fn grids_stay_near_the_cell_budget_whatever_the_box() {
