@@ -487,6 +487,53 @@ mod tests {
     }
 
     #[test]
+    fn openings_are_met_whatever_the_length_of_the_direction() {
+        // A unit disk at the origin facing +Z, and the same rays with directions of several
+        // lengths: the bounding-sphere test must scale its distances with them.
+        let pair = facing_pair(4.0, 0.0, 1.0, DVec3::ZERO);
+        let portals = Portals::new(
+            pair.rig.clone(),
+            vec![Mask::Disk { radius: 1.0 }; 2],
+            vec![OpeningLook::default(); 2],
+            [0.0, 0.0],
+            &[false; 2],
+        );
+        for length in [0.05f32, 0.25, 1.0, 7.0, 300.0] {
+            for (x, inside) in [(0.0, true), (0.98, true), (1.02, false), (1.5, false)] {
+                let (origin, dir) = (Vec3::new(x, 0.0, 2.0), Vec3::new(0.0, 0.0, -length));
+                // The plane lies at t = 2 / length.
+                let plane = 2.0 / length;
+                let reaching = Ray::new(origin, dir, plane * 1.01, 0.0);
+                let short = Ray::new(origin, dir, plane * 0.99, 0.0);
+                let hit = portals.intersect(&reaching);
+                assert_eq!(hit.is_some(), inside, "length {length}, x {x}");
+                if let Some(hit) = hit {
+                    assert!((hit.t - plane).abs() <= 1e-5 * plane, "length {length}");
+                }
+                assert!(
+                    portals.intersect(&short).is_none(),
+                    "length {length}, x {x}"
+                );
+                assert_eq!(portals.transmittance(&reaching) == 0.0, inside);
+                assert_eq!(portals.transmittance(&short), 1.0);
+                assert_eq!(portals.intersect_one(0, &reaching).is_some(), inside);
+            }
+            // Slanting in over the far rim to meet the disk near the rim on this side: the
+            // sphere's centre lies well past the hit, so only a reach scaled with the
+            // direction keeps the sphere within a range that ends just past the hit.
+            let origin = Vec3::new(3.0, 0.0, 0.5);
+            let towards = Vec3::new(0.9, 0.0, 0.0) - origin;
+            let dir = towards.normalize() * length;
+            let at = towards.length() / length;
+            let hit = portals.intersect(&Ray::new(origin, dir, at * 1.01, 0.0));
+            assert!(
+                hit.is_some_and(|h| (h.t - at).abs() <= 1e-5 * at),
+                "length {length}"
+            );
+        }
+    }
+
+    #[test]
     fn teleport_leaves_the_there_front_and_keeps_the_point() {
         let portals = facing_pair(4.0, 0.0, 2.0, DVec3::ZERO);
         let hit = portals
