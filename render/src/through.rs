@@ -28,7 +28,9 @@
 //!
 //! Openings behind the point, facing away, below its surface or hidden behind the previous
 //! opening get no strategy at all, and a scene without openings has only the ordinary one: it
-//! pays nothing. Openings with an index of refraction other than 1 bend light in a way that has
+//! pays nothing. Nor do points where the strategies would save little over BSDF sampling
+//! (openings that bring little light, or fill much of the view): a grid measured with the
+//! scene tells where ([`crate::light_visibility`]). Openings with an index of refraction other than 1 bend light in a way that has
 //! no closed-form inverse, so no chain passes them: light through them is found by BSDF
 //! sampling alone, with full weight, as before.
 //!
@@ -177,19 +179,24 @@ pub struct Strategies {
 struct Kept {
     chain: Chain,
     aperture: f32,
+    /// The smallest projected solid angle of its openings seen from the point.
+    solid_angle: f32,
 }
 
 impl Strategies {
     /// Sets `slot` to the strategies at `at` (world space, at its time); `None` when there is
     /// only ordinary light sampling: the scene turns light through openings off, has no
-    /// opening or no light, allows no teleport, or no opening can bring light to the point.
+    /// opening or no light, allows no teleport, light sampling through the openings is worth
+    /// too little around the point to search them
+    /// ([`crate::light_visibility::LightVisibility::worth_searching`]), or no opening can
+    /// bring light to the point.
     ///
     /// It fills the caller's slot rather than returning the table because the compiler copies
     /// a returned table even when it is `None` (when the table held whole spaces, half a
     /// kilobyte, that was 10% of the Cornell box's render time).
     #[inline]
     pub fn update(slot: &mut Option<Self>, scene: &Scene, at: &Receiver) {
-        if scene.light_through_openings_possible() {
+        if scene.light_through_openings_possible() && scene.light_visibility.worth_searching(at.p) {
             Self::search(slot, scene, at, scene.settings.max_portal_depth);
         } else {
             *slot = None;
@@ -238,7 +245,14 @@ impl Strategies {
                 chain.push(i);
                 let smallest = from.solid_angle.min(solid_angle);
                 let aperture = aperture_share(sky_share, smallest);
-                self.keep(Kept { chain, aperture }, estimate);
+                self.keep(
+                    Kept {
+                        chain,
+                        aperture,
+                        solid_angle: smallest,
+                    },
+                    estimate,
+                );
             }
             if deeper {
                 let exit_time = portals.exit_time(i, from.time);
@@ -289,6 +303,18 @@ impl Strategies {
     /// The probability of ordinary light sampling.
     pub fn direct(&self) -> f32 {
         self.direct
+    }
+
+    /// What the chains' strategies save over finding their light by BSDF sampling alone, in
+    /// units of the point's light squared: per chain, its share q squared times the relative
+    /// variance with which cosine sampling finds an opening of projected solid angle Ω
+    /// (π / Ω − 1). Small where the openings bring little or fill much of the view.
+    pub fn worth(&self) -> f32 {
+        self.kept
+            .iter()
+            .flatten()
+            .map(|(kept, q)| q * q * (std::f32::consts::PI / kept.solid_angle - 1.0).max(0.0))
+            .sum()
     }
 
     /// The chains light sampling may take, with their probabilities, the most promising first.

@@ -413,6 +413,8 @@ impl Scene {
             scene.light_visibility = LightVisibility::new(&scene, bounds, times);
             let exits = crate::exit_light::measure(&scene);
             scene.apertures.set_exits(exits);
+            let worth = LightVisibility::measure_worth(&scene, times);
+            scene.light_visibility.set_worth(worth);
         }
         if light_selection == LightSelection::Learned {
             let started = std::time::Instant::now();
