@@ -30,9 +30,11 @@
 //! opening get no strategy at all, and a scene without openings has only the ordinary one: it
 //! pays nothing. Nor do points where the strategies would save little over BSDF sampling
 //! (openings that bring little light, or fill much of the view): a grid measured with the
-//! scene tells where ([`crate::light_visibility`]). Openings with an index of refraction other than 1 bend light in a way that has
-//! no closed-form inverse, so no chain passes them: light through them is found by BSDF
-//! sampling alone, with full weight, as before.
+//! scene tells where ([`crate::light_visibility`]).
+//!
+//! Openings with an index of refraction other than 1 bend light in a way that has no
+//! closed-form inverse, so no chain passes them: light through them is found by BSDF sampling
+//! alone, with full weight, as before.
 //!
 //! A chain's strategy draws most of its samples for the sky beyond on its first opening
 //! ([`crate::aperture`]) rather than on the sky, when the sky brings much of the light there:
