@@ -67,10 +67,7 @@ impl LightVisibility {
         let count = dims.element_product();
         let share = (0..count)
             .into_par_iter()
-            .map(|i| {
-                let index = UVec3::new(i % dims.x, (i / dims.x) % dims.y, i / (dims.x * dims.y));
-                probe(scene, lower + index.as_vec3() * cell, cell, times, i)
-            })
+            .map(|i| probe(scene, cell_corner(lower, cell, dims, i), cell, times, i))
             .collect();
         Self {
             lower,
@@ -118,19 +115,12 @@ impl LightVisibility {
     /// The mean [`Strategies::worth`] at [`PROBES`] points of cell `i` (no surface: every
     /// opening in front of a point counts).
     fn cell_worth(&self, scene: &Scene, i: u32, times: [f64; 2]) -> f32 {
-        let dims = self.dims;
-        let index = UVec3::new(i % dims.x, (i / dims.x) % dims.y, i / (dims.x * dims.y));
-        let corner = self.lower + index.as_vec3() * self.cell;
+        let corner = cell_corner(self.lower, self.cell, self.dims, i);
         let mut stream = SampleStream::new(i, 0x0be5_ea7c);
         let mut strategies = None;
         let mut sum = 0.0f32;
         for _ in 0..PROBES {
-            let [x, y, z, t] = stream.uniform_4d();
-            let receiver = Receiver {
-                p: corner + self.cell * Vec3::new(x, y, z),
-                n: None,
-                time: times[0] + (times[1] - times[0]) * t as f64,
-            };
+            let receiver = random_point(&mut stream, corner, self.cell, times);
             Strategies::update(&mut strategies, scene, &receiver);
             sum += strategies.as_ref().map_or(0.0, Strategies::worth);
         }
@@ -173,13 +163,8 @@ fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) ->
     let mut stream = SampleStream::new(cell, 0x7153_11b5);
     let (mut all, mut unblocked) = (0.0f64, 0.0f64);
     for _ in 0..PROBES {
-        let [x, y, z, t] = stream.uniform_4d();
+        let receiver = random_point(&mut stream, corner, size, times);
         let [u, v, _, _] = stream.uniform_4d();
-        let receiver = Receiver {
-            p: corner + size * Vec3::new(x, y, z),
-            n: None,
-            time: times[0] + (times[1] - times[0]) * t as f64,
-        };
         // Ordinary light sampling, as next-event estimation draws it, and its shadow ray.
         if let Some(probe) = probe_light(scene, &receiver, Vec2::new(u, v)) {
             all += probe.weight;
@@ -190,6 +175,24 @@ fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) ->
         ((unblocked / all) as f32).max(FLOOR)
     } else {
         1.0
+    }
+}
+
+/// The lower corner of cell `i` (numbered x fastest) of the grid from `lower` with `dims`
+/// cells of sides `size`.
+fn cell_corner(lower: Vec3, size: Vec3, dims: UVec3, i: u32) -> Vec3 {
+    let index = UVec3::new(i % dims.x, (i / dims.x) % dims.y, i / (dims.x * dims.y));
+    lower + index.as_vec3() * size
+}
+
+/// A probe point drawn from `stream`: uniform in the cell at `corner` with sides `size`, at a
+/// uniform time in `times`, with no surface.
+fn random_point(stream: &mut SampleStream, corner: Vec3, size: Vec3, times: [f64; 2]) -> Receiver {
+    let [x, y, z, t] = stream.uniform_4d();
+    Receiver {
+        p: corner + size * Vec3::new(x, y, z),
+        n: None,
+        time: times[0] + (times[1] - times[0]) * t as f64,
     }
 }
 
