@@ -7,6 +7,7 @@
 pub mod aperture;
 pub mod camera;
 pub mod checkpoint;
+pub mod cpu;
 pub mod cryptomatte;
 pub mod environment;
 pub mod error;

@@ -206,7 +206,7 @@ fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
     leaf: &mut impl LeafTest,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    if has_avx2_set() {
+    if crate::cpu::has_avx2_set() {
         // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
         return unsafe {
             traverse_avx2::<NEAREST, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
@@ -238,28 +238,6 @@ fn traverse_in_order<const AVX2: bool, const NEAREST: bool, L: LeafData + ?Sized
         )
     } else {
         traverse_groups::<AVX2, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
-    }
-}
-
-/// Whether the processor has AVX2 and the bit instructions that came with it (POPCNT, LZCNT,
-/// BMI1), which the traversal's bookkeeping uses in place of multiply-and-shift emulations.
-/// Every processor with AVX2 has them; checked all the same, once.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn has_avx2_set() -> bool {
-    use std::sync::atomic::{AtomicU8, Ordering};
-    // 0: not checked yet, 1: no, 2: yes.
-    static FOUND: AtomicU8 = AtomicU8::new(0);
-    match FOUND.load(Ordering::Relaxed) {
-        0 => {
-            let found = std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("popcnt")
-                && std::arch::is_x86_feature_detected!("lzcnt")
-                && std::arch::is_x86_feature_detected!("bmi1");
-            FOUND.store(1 + found as u8, Ordering::Relaxed);
-            found
-        }
-        state => state == 2,
     }
 }
 
