@@ -3,7 +3,7 @@
 //! closest-hit and occlusion queries using the watertight triangle test.
 
 use super::triangle::{PackedTriangles, ShearedRay, Triangle};
-use super::wide_bvh::{BoxRay, LeafTest, node_bytes, traverse_with, worth_fetching_ahead};
+use super::wide_bvh::{BoxRay, LeafTest, node_bytes, traverse_compiled, worth_fetching_ahead};
 use glam::Vec3;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
@@ -92,6 +92,40 @@ impl TriangleBvh {
         t_max: f32,
         accept: &impl Fn(u32, f32) -> bool,
     ) -> Option<TriangleHit> {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::has_avx2_set() {
+            // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
+            return unsafe { self.intersect_avx2(origin, dir, t_max, accept) };
+        }
+        // SAFETY: the baseline compilation.
+        unsafe { self.intersect_compiled::<false>(origin, dir, t_max, accept) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
+    fn intersect_avx2(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> Option<TriangleHit> {
+        // SAFETY: compiled for AVX2 and the bit instructions.
+        unsafe { self.intersect_compiled::<true>(origin, dir, t_max, accept) }
+    }
+
+    /// [`Self::intersect`], compiled as its caller is.
+    ///
+    /// # Safety
+    /// As for [`traverse_compiled`].
+    #[inline(always)]
+    unsafe fn intersect_compiled<const AVX2: bool>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> Option<TriangleHit> {
         let bvh = self.bvh.as_ref()?;
         let fetch_ahead = worth_fetching_ahead(node_bytes(bvh));
         let mut test = NearestTriangle {
@@ -102,14 +136,17 @@ impl TriangleBvh {
             nearest: None,
         };
         let mut t = t_max;
-        traverse_with(
-            &bvh.nodes,
-            &BoxRay::new(origin, dir),
-            &mut t,
-            &self.leaf_triangles,
-            fetch_ahead,
-            &mut test,
-        );
+        // SAFETY: passed on from the caller.
+        unsafe {
+            traverse_compiled::<AVX2, _>(
+                &bvh.nodes,
+                &BoxRay::new(origin, dir),
+                &mut t,
+                &self.leaf_triangles,
+                fetch_ahead,
+                &mut test,
+            );
+        }
         test.nearest.map(|(slot, b1, b2)| TriangleHit {
             t,
             triangle: self.leaf_ids[slot],
@@ -126,6 +163,40 @@ impl TriangleBvh {
         t_max: f32,
         accept: &impl Fn(u32, f32) -> bool,
     ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::has_avx2_set() {
+            // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
+            return unsafe { self.occluded_avx2(origin, dir, t_max, accept) };
+        }
+        // SAFETY: the baseline compilation.
+        unsafe { self.occluded_compiled::<false>(origin, dir, t_max, accept) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
+    fn occluded_avx2(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> bool {
+        // SAFETY: compiled for AVX2 and the bit instructions.
+        unsafe { self.occluded_compiled::<true>(origin, dir, t_max, accept) }
+    }
+
+    /// [`Self::occluded`], compiled as its caller is.
+    ///
+    /// # Safety
+    /// As for [`traverse_compiled`].
+    #[inline(always)]
+    unsafe fn occluded_compiled<const AVX2: bool>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> bool {
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
@@ -136,14 +207,17 @@ impl TriangleBvh {
             t_max,
         };
         let mut range = t_max;
-        traverse_with(
-            &bvh.nodes,
-            &BoxRay::new(origin, dir),
-            &mut range,
-            &self.leaf_triangles,
-            worth_fetching_ahead(node_bytes(bvh)),
-            &mut test,
-        )
+        // SAFETY: passed on from the caller.
+        unsafe {
+            traverse_compiled::<AVX2, _>(
+                &bvh.nodes,
+                &BoxRay::new(origin, dir),
+                &mut range,
+                &self.leaf_triangles,
+                worth_fetching_ahead(node_bytes(bvh)),
+                &mut test,
+            )
+        }
     }
 }
 

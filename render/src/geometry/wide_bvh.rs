@@ -100,12 +100,21 @@ pub trait LeafTest {
     fn test(&mut self, slot: usize, range: &mut f32) -> bool;
 }
 
-/// Runs `test` on the primitives of `bvh` along `ray` for t in [0, `range`], in an order that
-/// finds near ones early, until it asks to stop (true) or none is left (false). `leaves` is
-/// what the test reads, by slot (empty if nothing such), fetched ahead with the nodes when
+/// Runs `test` on the primitives of `bvh` along `ray` for t in [0, `range`], in the layout's
+/// octant order, until it asks to stop (true) or none is left (false). `leaves` is what the
+/// test reads, by slot (empty if nothing such), fetched ahead with the nodes when
 /// `fetch_ahead` (see [`worth_fetching_ahead`]).
-#[inline]
-pub fn traverse_with<L: LeafData + ?Sized>(
+///
+/// It is compiled as its caller is: for AVX2 when `AVX2`, else for the baseline. A caller
+/// compiled twice (see [`crate::cpu`]) takes its ray set-up and leaf tests into the same
+/// compilation; a call from baseline code into the AVX2 traversal cannot be inlined, and
+/// crossing cost about 75 instructions a query on a Cornell box.
+///
+/// # Safety
+/// `AVX2` only in code compiled for AVX2, POPCNT, LZCNT and BMI1 (so on a processor that has
+/// them: [`crate::cpu::has_avx2_set`]).
+#[inline(always)]
+pub unsafe fn traverse_compiled<const AVX2: bool, L: LeafData + ?Sized>(
     nodes: &[CwBvhNode],
     ray: &BoxRay,
     range: &mut f32,
@@ -113,7 +122,7 @@ pub fn traverse_with<L: LeafData + ?Sized>(
     fetch_ahead: bool,
     test: &mut impl LeafTest,
 ) -> bool {
-    traverse::<false, L, Fixed>(nodes, &Fixed, ray, range, leaves, fetch_ahead, test)
+    traverse_in_order::<AVX2, false, L, Fixed>(nodes, &Fixed, ray, range, leaves, fetch_ahead, test)
 }
 
 /// A closest-hit test from a closure: `leaf(slot, t_max)` returns the primitive's distance
@@ -144,7 +153,7 @@ impl<F: FnMut(usize) -> bool> LeafTest for AnyOf<F> {
 /// at `slot` and returns its distance when it is hit nearer than `t_max`, which then becomes the
 /// range. Returns the final range: below `t_max` exactly when something was hit. The child
 /// boxes come from `boxes`, visited nearest first ([`nearest_first`]); `leaves` and
-/// `fetch_ahead` as in [`traverse_with`].
+/// `fetch_ahead` as in [`traverse_compiled`].
 #[inline]
 pub fn closest_hit<L: LeafData + ?Sized, B: ChildBoxes>(
     nodes: &[B::Node],
