@@ -1,6 +1,11 @@
 //! Which vector instructions the processor has, checked once: the hot loops that gain most
 //! from AVX2 (BVH traversal, Sobol points) are compiled twice and pick at run time, so the
 //! binary still runs on any x86-64.
+//!
+//! [`run`] picks for work written once as a [`TwoWays`]: its body is compiled for AVX2 and
+//! for the baseline, and everything it inlines goes with it. A call from baseline code into
+//! AVX2 code cannot be inlined, so the boundary belongs at the top of a whole query (a
+//! triangle query's ray set-up crossed it at about 75 instructions a query).
 
 /// Whether the processor has AVX2 and the bit instructions that came with it (POPCNT, LZCNT,
 /// BMI1), which the traversal's bookkeeping uses in place of multiply-and-shift emulations.
@@ -22,4 +27,35 @@ pub fn has_avx2_set() -> bool {
         }
         state => state == 2,
     }
+}
+
+/// Work compiled twice, for AVX2 with the bit instructions and for the baseline: [`run`] picks.
+pub trait TwoWays {
+    type Output;
+
+    /// Does the work, in the compilation `AVX2` names (inline it into [`run`]).
+    ///
+    /// # Safety
+    /// `AVX2` only in code compiled for AVX2, POPCNT, LZCNT and BMI1, which [`run`] ensures.
+    unsafe fn run<const AVX2: bool>(self) -> Self::Output;
+}
+
+/// Runs `work` in its AVX2 compilation where the processor has AVX2 and the bit instructions
+/// ([`has_avx2_set`]), else in its baseline one.
+#[inline(always)]
+pub fn run<W: TwoWays>(work: W) -> W::Output {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2_set() {
+        // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
+        return unsafe { run_avx2(work) };
+    }
+    // SAFETY: the baseline compilation.
+    unsafe { work.run::<false>() }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
+fn run_avx2<W: TwoWays>(work: W) -> W::Output {
+    // SAFETY: compiled for AVX2 and the bit instructions.
+    unsafe { work.run::<true>() }
 }

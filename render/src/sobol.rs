@@ -69,25 +69,14 @@ impl SobolSample {
         }
     }
 
-    /// Dimensions 4·set … 4·set + 3, for `set` below [`TABLE_SETS`].
-    /// Dimensions 4·`set` to 4·`set` + 3 of the sample, in [0, 1). The library's arithmetic
+    /// Dimensions 4·`set` to 4·`set` + 3 of the sample, in [0, 1), for `set` below
+    /// [`TABLE_SETS`]. The library's arithmetic
     /// on four lanes, compiled for AVX2 where the processor has it: the baseline instruction
     /// set has no 32-bit vector multiply or byte shuffle, so the five multiplies of the
     /// scramble and the two bit reversals took twice the instructions there.
     #[inline]
     pub fn dimensions_4d(&self, set: usize) -> [f32; 4] {
-        #[cfg(target_arch = "x86_64")]
-        if crate::cpu::has_avx2_set() {
-            // SAFETY: the processor has AVX2, checked just above.
-            return unsafe { self.points_avx2(set) };
-        }
-        self.points(set)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn points_avx2(&self, set: usize) -> [f32; 4] {
-        self.points(set)
+        crate::cpu::run(Points { sample: self, set })
     }
 
     /// [`Self::dimensions_4d`], lane by lane (loops the compiler turns into vector code).
@@ -107,6 +96,21 @@ impl SobolSample {
             out[lane] = f32::from_bits((scrambled >> 9) | 0x3f80_0000) - 1.0;
         }
         out
+    }
+}
+
+/// [`SobolSample::dimensions_4d`] in either compilation ([`crate::cpu::run`]).
+struct Points<'a> {
+    sample: &'a SobolSample,
+    set: usize,
+}
+
+impl crate::cpu::TwoWays for Points<'_> {
+    type Output = [f32; 4];
+
+    #[inline(always)]
+    unsafe fn run<const AVX2: bool>(self) -> [f32; 4] {
+        self.sample.points(self.set)
     }
 }
 

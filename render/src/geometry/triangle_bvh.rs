@@ -92,67 +92,14 @@ impl TriangleBvh {
         t_max: f32,
         accept: &impl Fn(u32, f32) -> bool,
     ) -> Option<TriangleHit> {
-        #[cfg(target_arch = "x86_64")]
-        if crate::cpu::has_avx2_set() {
-            // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
-            return unsafe { self.intersect_avx2(origin, dir, t_max, accept) };
-        }
-        // SAFETY: the baseline compilation.
-        unsafe { self.intersect_compiled::<false>(origin, dir, t_max, accept) }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
-    fn intersect_avx2(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        accept: &impl Fn(u32, f32) -> bool,
-    ) -> Option<TriangleHit> {
-        // SAFETY: compiled for AVX2 and the bit instructions.
-        unsafe { self.intersect_compiled::<true>(origin, dir, t_max, accept) }
-    }
-
-    /// [`Self::intersect`], compiled as its caller is.
-    ///
-    /// # Safety
-    /// As for [`traverse_compiled`].
-    #[inline(always)]
-    unsafe fn intersect_compiled<const AVX2: bool>(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        accept: &impl Fn(u32, f32) -> bool,
-    ) -> Option<TriangleHit> {
-        let bvh = self.bvh.as_ref()?;
-        let fetch_ahead = worth_fetching_ahead(node_bytes(bvh));
-        let mut test = NearestTriangle {
-            sheared: ShearedRay::new(origin, dir),
+        crate::cpu::run(Query::<_, true> {
             bvh: self,
+            origin,
+            dir,
+            t_max,
             accept,
-            fetch_ahead,
-            nearest: None,
-        };
-        let mut t = t_max;
-        // SAFETY: passed on from the caller.
-        unsafe {
-            traverse_compiled::<AVX2, _>(
-                &bvh.nodes,
-                &BoxRay::new(origin, dir),
-                &mut t,
-                &self.leaf_triangles,
-                fetch_ahead,
-                &mut test,
-            );
-        }
-        test.nearest.map(|(slot, b1, b2)| TriangleHit {
-            t,
-            triangle: self.leaf_ids[slot],
-            b1,
-            b2,
         })
+        .nearest
     }
 
     /// True when an admitted triangle lies along `origin + t·dir` for t in (0, t_max).
@@ -163,61 +110,101 @@ impl TriangleBvh {
         t_max: f32,
         accept: &impl Fn(u32, f32) -> bool,
     ) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if crate::cpu::has_avx2_set() {
-            // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
-            return unsafe { self.occluded_avx2(origin, dir, t_max, accept) };
-        }
-        // SAFETY: the baseline compilation.
-        unsafe { self.occluded_compiled::<false>(origin, dir, t_max, accept) }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
-    fn occluded_avx2(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        accept: &impl Fn(u32, f32) -> bool,
-    ) -> bool {
-        // SAFETY: compiled for AVX2 and the bit instructions.
-        unsafe { self.occluded_compiled::<true>(origin, dir, t_max, accept) }
-    }
-
-    /// [`Self::occluded`], compiled as its caller is.
-    ///
-    /// # Safety
-    /// As for [`traverse_compiled`].
-    #[inline(always)]
-    unsafe fn occluded_compiled<const AVX2: bool>(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        t_max: f32,
-        accept: &impl Fn(u32, f32) -> bool,
-    ) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else {
-            return false;
-        };
-        let mut test = AnyTriangle {
-            sheared: ShearedRay::new(origin, dir),
+        crate::cpu::run(Query::<_, false> {
             bvh: self,
-            accept,
+            origin,
+            dir,
             t_max,
+            accept,
+        })
+        .blocked
+    }
+}
+
+/// A query of one tree along `origin + t·dir`, t in (0, t_max), for the nearest admitted hit
+/// (`NEAREST`) or any: the ray set-up, traversal and leaf tests in one compilation
+/// ([`crate::cpu::run`]).
+struct Query<'a, A, const NEAREST: bool> {
+    bvh: &'a TriangleBvh,
+    origin: Vec3,
+    dir: Vec3,
+    t_max: f32,
+    accept: &'a A,
+}
+
+/// What a [`Query`] found.
+struct Found {
+    nearest: Option<TriangleHit>,
+    blocked: bool,
+}
+
+impl<A: Fn(u32, f32) -> bool, const NEAREST: bool> crate::cpu::TwoWays for Query<'_, A, NEAREST> {
+    type Output = Found;
+
+    #[inline(always)]
+    unsafe fn run<const AVX2: bool>(self) -> Found {
+        let Query {
+            bvh: this,
+            origin,
+            dir,
+            t_max,
+            accept,
+        } = self;
+        let mut found = Found {
+            nearest: None,
+            blocked: false,
         };
+        let Some(bvh) = this.bvh.as_ref() else {
+            return found;
+        };
+        let (ray, sheared) = (BoxRay::new(origin, dir), ShearedRay::new(origin, dir));
+        let fetch_ahead = worth_fetching_ahead(node_bytes(bvh));
+        let (nodes, leaves) = (&bvh.nodes, &this.leaf_triangles);
         let mut range = t_max;
-        // SAFETY: passed on from the caller.
-        unsafe {
-            traverse_compiled::<AVX2, _>(
-                &bvh.nodes,
-                &BoxRay::new(origin, dir),
-                &mut range,
-                &self.leaf_triangles,
-                worth_fetching_ahead(node_bytes(bvh)),
-                &mut test,
-            )
+        // SAFETY (both): `AVX2` comes from `crate::cpu::run`.
+        if NEAREST {
+            let mut test = NearestTriangle {
+                sheared,
+                bvh: this,
+                accept,
+                fetch_ahead,
+                nearest: None,
+            };
+            unsafe {
+                traverse_compiled::<AVX2, _>(
+                    nodes,
+                    &ray,
+                    &mut range,
+                    leaves,
+                    fetch_ahead,
+                    &mut test,
+                );
+            }
+            found.nearest = test.nearest.map(|(slot, b1, b2)| TriangleHit {
+                t: range,
+                triangle: this.leaf_ids[slot],
+                b1,
+                b2,
+            });
+        } else {
+            let mut test = AnyTriangle {
+                sheared,
+                bvh: this,
+                accept,
+                t_max,
+            };
+            found.blocked = unsafe {
+                traverse_compiled::<AVX2, _>(
+                    nodes,
+                    &ray,
+                    &mut range,
+                    leaves,
+                    fetch_ahead,
+                    &mut test,
+                )
+            };
         }
+        found
     }
 }
 
