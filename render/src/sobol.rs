@@ -70,10 +70,10 @@ impl SobolSample {
     }
 
     /// Dimensions 4·`set` to 4·`set` + 3 of the sample, in [0, 1), for `set` below
-    /// [`TABLE_SETS`]. The library's arithmetic
-    /// on four lanes, compiled for AVX2 where the processor has it: the baseline instruction
-    /// set has no 32-bit vector multiply or byte shuffle, so the five multiplies of the
-    /// scramble and the two bit reversals took twice the instructions there.
+    /// [`TABLE_SETS`]. The library's arithmetic on four lanes, compiled for AVX2 where the
+    /// processor has it: the baseline instruction set has no 32-bit vector multiply or byte
+    /// shuffle, so the five multiplies of the scramble and the two bit reversals took twice
+    /// the instructions there.
     #[inline]
     pub fn dimensions_4d(&self, set: usize) -> [f32; 4] {
         crate::cpu::run(Points { sample: self, set })
