@@ -345,6 +345,56 @@ mod tests {
         );
     }
 
+    /// The baseline compilation (what a processor without AVX2 runs: the portable slab tests
+    /// and bookkeeping) finds what the one `crate::cpu::run` picks here finds, to the bit.
+    #[test]
+    fn both_compilations_find_the_same_hits() {
+        let tris = grid(12);
+        let accel = TriangleBvh::build(&tris, 0);
+        let skip_some = |tri: u32, _: f32| tri % 5 != 2;
+        let (mut hits, mut blocked) = (0, 0);
+        for k in 0..2000 {
+            let origin = Vec3::new(
+                6.0 + (k as f32 * 0.7).sin() * 7.0,
+                6.0 + (k as f32 * 1.3).cos() * 7.0,
+                (k as f32 * 0.11).sin() * 3.0,
+            );
+            let dir = Vec3::new((k as f32 * 0.37).sin(), (k as f32 * 0.53).cos(), -0.6);
+            for t_max in [f32::INFINITY, 2.5] {
+                let nearest = Query::<_, true> {
+                    bvh: &accel,
+                    origin,
+                    dir,
+                    t_max,
+                    accept: &skip_some,
+                };
+                // SAFETY: the baseline compilation runs anywhere.
+                let baseline = unsafe { crate::cpu::TwoWays::run::<false>(nearest) };
+                let picked = accel.intersect(origin, dir, t_max, &skip_some);
+                let bits = |h: Option<TriangleHit>| {
+                    h.map(|h| (h.triangle, [h.t, h.b1, h.b2].map(f32::to_bits)))
+                };
+                assert_eq!(bits(baseline.nearest), bits(picked), "ray {k} to {t_max}");
+                let any = Query::<_, false> {
+                    bvh: &accel,
+                    origin,
+                    dir,
+                    t_max,
+                    accept: &skip_some,
+                };
+                // SAFETY: as above.
+                let baseline_any = unsafe { crate::cpu::TwoWays::run::<false>(any) }.blocked;
+                assert_eq!(baseline_any, accel.occluded(origin, dir, t_max, &skip_some));
+                hits += picked.is_some() as u32;
+                blocked += baseline_any as u32;
+            }
+        }
+        assert!(
+            hits > 200 && blocked > 200,
+            "{hits} hits, {blocked} blocked"
+        );
+    }
+
     #[test]
     fn near_triangles_and_axis_aligned_rays_are_hit() {
         // The BVH library's own traversal dropped child boxes nearer than t = 1e-4 and missed flat
