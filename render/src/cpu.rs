@@ -13,6 +13,10 @@
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub fn has_avx2_set() -> bool {
+    #[cfg(test)]
+    if BASELINE_ONLY.get() {
+        return false;
+    }
     use std::sync::atomic::{AtomicU8, Ordering};
     // 0: not checked yet, 1: no, 2: yes.
     static FOUND: AtomicU8 = AtomicU8::new(0);
@@ -58,4 +62,25 @@ pub fn run<W: TwoWays>(work: W) -> W::Output {
 fn run_avx2<W: TwoWays>(work: W) -> W::Output {
     // SAFETY: compiled for AVX2 and the bit instructions.
     unsafe { work.run::<true>() }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Set by [`with_baseline`]: this thread's queries take the baseline compilation.
+    static BASELINE_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` on this thread with every choice of compilation taking the baseline one, so tests
+/// check what a processor without AVX2 runs.
+#[cfg(test)]
+pub fn with_baseline<R>(f: impl FnOnce() -> R) -> R {
+    struct Restore;
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            BASELINE_ONLY.set(false);
+        }
+    }
+    BASELINE_ONLY.set(true);
+    let _restore = Restore;
+    f()
 }

@@ -811,7 +811,11 @@ mod tests {
         // one another fast enough to need the most slices.
         the_bvh_finds_what_testing_every_segment_finds(spinning_ring(6, 64, 2.0), 2);
         let fast = counter_rotating(spinning_ring(6, 64, 40.0));
-        the_bvh_finds_what_testing_every_segment_finds(fast, MAX_TIME_SLICES);
+        the_bvh_finds_what_testing_every_segment_finds(fast.clone(), MAX_TIME_SLICES);
+        // And as a processor without AVX2 runs them (the swept nodes' portable slab tests).
+        crate::cpu::with_baseline(|| {
+            the_bvh_finds_what_testing_every_segment_finds(fast, MAX_TIME_SLICES)
+        });
     }
 
     /// Nearest hits and occlusion of rays at many times through `ring` (under the sliding

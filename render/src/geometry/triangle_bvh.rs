@@ -352,6 +352,8 @@ mod tests {
         let tris = grid(12);
         let accel = TriangleBvh::build(&tris, 0);
         let skip_some = |tri: u32, _: f32| tri % 5 != 2;
+        let bits =
+            |h: Option<TriangleHit>| h.map(|h| (h.triangle, [h.t, h.b1, h.b2].map(f32::to_bits)));
         let (mut hits, mut blocked) = (0, 0);
         for k in 0..2000 {
             let origin = Vec3::new(
@@ -361,32 +363,15 @@ mod tests {
             );
             let dir = Vec3::new((k as f32 * 0.37).sin(), (k as f32 * 0.53).cos(), -0.6);
             for t_max in [f32::INFINITY, 2.5] {
-                let nearest = Query::<_, true> {
-                    bvh: &accel,
-                    origin,
-                    dir,
-                    t_max,
-                    accept: &skip_some,
-                };
-                // SAFETY: the baseline compilation runs anywhere.
-                let baseline = unsafe { crate::cpu::TwoWays::run::<false>(nearest) };
-                let picked = accel.intersect(origin, dir, t_max, &skip_some);
-                let bits = |h: Option<TriangleHit>| {
-                    h.map(|h| (h.triangle, [h.t, h.b1, h.b2].map(f32::to_bits)))
-                };
-                assert_eq!(bits(baseline.nearest), bits(picked), "ray {k} to {t_max}");
-                let any = Query::<_, false> {
-                    bvh: &accel,
-                    origin,
-                    dir,
-                    t_max,
-                    accept: &skip_some,
-                };
-                // SAFETY: as above.
-                let baseline_any = unsafe { crate::cpu::TwoWays::run::<false>(any) }.blocked;
-                assert_eq!(baseline_any, accel.occluded(origin, dir, t_max, &skip_some));
+                let nearest = |bvh: &TriangleBvh| bvh.intersect(origin, dir, t_max, &skip_some);
+                let any = |bvh: &TriangleBvh| bvh.occluded(origin, dir, t_max, &skip_some);
+                let picked = nearest(&accel);
+                let baseline = crate::cpu::with_baseline(|| nearest(&accel));
+                assert_eq!(bits(baseline), bits(picked), "ray {k} to {t_max}");
+                let picked_any = any(&accel);
+                assert_eq!(crate::cpu::with_baseline(|| any(&accel)), picked_any);
                 hits += picked.is_some() as u32;
-                blocked += baseline_any as u32;
+                blocked += picked_any as u32;
             }
         }
         assert!(
