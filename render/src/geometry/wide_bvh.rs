@@ -201,9 +201,9 @@ pub fn any_hit<L: LeafData + ?Sized, B: ChildBoxes>(
     )
 }
 
-/// The traversal the queries share, compiled twice: for AVX2 and for the baseline. `NEAREST`
-/// visits children nearest first ([`nearest_first`]), otherwise in the layout's octant order
-/// ([`traverse_groups`]).
+/// The traversal the queries share, compiled twice: for AVX2 and for the baseline
+/// ([`crate::cpu::run`]). `NEAREST` visits children nearest first ([`nearest_first`]),
+/// otherwise in the layout's octant order ([`traverse_groups`]).
 #[inline]
 fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
     nodes: &[B::Node],
@@ -214,14 +214,46 @@ fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
-    #[cfg(target_arch = "x86_64")]
-    if crate::cpu::has_avx2_set() {
-        // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
-        return unsafe {
-            traverse_avx2::<NEAREST, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
-        };
+    crate::cpu::run(Traversal::<NEAREST, _, _, _> {
+        nodes,
+        boxes,
+        ray,
+        range,
+        leaves,
+        fetch_ahead,
+        leaf,
+    })
+}
+
+/// The arguments of [`traverse`], as work for [`crate::cpu::run`].
+struct Traversal<'a, const NEAREST: bool, L: ?Sized, B: ChildBoxes, T> {
+    nodes: &'a [B::Node],
+    boxes: &'a B,
+    ray: &'a BoxRay,
+    range: &'a mut f32,
+    leaves: &'a L,
+    fetch_ahead: bool,
+    leaf: &'a mut T,
+}
+
+impl<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes, T: LeafTest> crate::cpu::TwoWays
+    for Traversal<'_, NEAREST, L, B, T>
+{
+    type Output = bool;
+
+    #[inline(always)]
+    unsafe fn run<const AVX2: bool>(self) -> bool {
+        let t = self;
+        traverse_in_order::<AVX2, NEAREST, L, B>(
+            t.nodes,
+            t.boxes,
+            t.ray,
+            t.range,
+            t.leaves,
+            t.fetch_ahead,
+            t.leaf,
+        )
     }
-    traverse_in_order::<false, NEAREST, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
 }
 
 /// [`nearest_first`] when `NEAREST`, otherwise [`traverse_groups`], each with its own stack.
@@ -248,20 +280,6 @@ fn traverse_in_order<const AVX2: bool, const NEAREST: bool, L: LeafData + ?Sized
     } else {
         traverse_groups::<AVX2, STACK, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
     }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
-fn traverse_avx2<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
-    nodes: &[B::Node],
-    boxes: &B,
-    ray: &BoxRay,
-    range: &mut f32,
-    leaves: &L,
-    fetch_ahead: bool,
-    leaf: &mut impl LeafTest,
-) -> bool {
-    traverse_in_order::<true, NEAREST, L, B>(nodes, boxes, ray, range, leaves, fetch_ahead, leaf)
 }
 
 /// A node's children still to visit: `base` is the first child node (or first primitive) and
@@ -633,8 +651,8 @@ impl ChildBoxes for Fixed {
     ) -> (u32, [f32; 8]) {
         #[cfg(target_arch = "x86_64")]
         if AVX2 {
-            // SAFETY: `AVX2` is set only by `traverse_avx2`, which runs where the processor has
-            // it.
+            // SAFETY: `AVX2` is set only in the AVX2 compilation that `crate::cpu::run` picks
+            // where the processor has it.
             return unsafe { slab_hits_avx2(node, None, ray, t_max) };
         }
         slab_hits_portable(node, None, ray, t_max)
