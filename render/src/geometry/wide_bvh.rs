@@ -872,7 +872,9 @@ mod tests {
     }
 
     /// Both queries against brute force on `tris` for rays from `origins` in many directions,
-    /// including ones exactly along the axes (with −0.0 components) and ones from inside boxes.
+    /// including ones exactly along the axes (with −0.0 components), ones from inside boxes,
+    /// and one at each triangle's centroid, so every subtree holds a hit some ray must find (a
+    /// slab test that drops one child slot fails here).
     fn agree_with_brute_force(tris: &[Triangle], origins: &[Vec3]) {
         let bvh = build_cwbvh(tris);
         let mut directions: Vec<Vec3> = (0..200)
@@ -894,8 +896,12 @@ mod tests {
                 axis,
             ));
         }
+        let mut aimed_hits = 0;
         for &origin in origins {
-            for &dir in &directions {
+            let aimed = tris
+                .iter()
+                .map(|t| ((t.v[0] + t.v[1] + t.v[2]) / 3.0 - origin).normalize());
+            for dir in directions.iter().copied().chain(aimed) {
                 let sheared = ShearedRay::new(origin, dir);
                 let ray = BoxRay::new(origin, dir);
                 // Fetching ahead (the large trees' path) must change nothing found.
@@ -923,9 +929,15 @@ mod tests {
                         intersect_watertight(&sheared, tri, t_max).is_some()
                     });
                     assert_eq!(any, expected.is_some(), "any from {origin} along {dir}");
+                    aimed_hits += (t_max == f32::INFINITY && expected.is_some()) as usize;
                 }
             }
         }
+        // Every ray aimed at a centroid hits something.
+        assert!(
+            aimed_hits >= origins.len() * tris.len(),
+            "{aimed_hits} hits"
+        );
     }
 
     /// 400 small triangles scattered through a 4 m cube.
