@@ -1,6 +1,6 @@
 //! A short coverage-guided run of every fuzz target, where the nightly toolchain is installed
 //! (cargo-fuzz needs it; it is installed here when missing). Long campaigns are run by hand:
-//! `cd fuzz && cargo +nightly fuzz run -O TARGET`. Anything it finds is a failure; the input
+//! `cd fuzz && cargo +nightly fuzz run -O -a TARGET`. Anything it finds is a failure; the input
 //! that found it goes into `fuzz/regressions/TARGET/` once fixed.
 
 mod common;
@@ -36,7 +36,7 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
     // the targets' code itself is built and tested on stable by the other tests.
     let build = Command::new("cargo")
         .current_dir(&fuzz)
-        .args(["+nightly", "fuzz", "build", "-O"])
+        .args(["+nightly", "fuzz", "build", "-O", "-a"])
         .output()
         .unwrap();
     if !build.status.success() {
@@ -56,11 +56,16 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
         // Findings are kept (fuzz/artifacts is not committed) to be reproduced and fixed.
         let artifacts = fuzz.join("artifacts").join(target);
         std::fs::create_dir_all(&artifacts).unwrap();
+        // Optimised, with debug assertions and overflow checks (`-a`), which the stable replay
+        // of the corpora (`fuzz_corpora.rs`, a release build) does not have; the inputs that
+        // once crashed a target run there too.
+        let regressions = Some(fuzz.join("regressions").join(target)).filter(|d| d.is_dir());
         let out = Command::new("cargo")
             .current_dir(&fuzz)
-            .args(["+nightly", "fuzz", "run", "-O", target])
+            .args(["+nightly", "fuzz", "run", "-O", "-a", target])
             .arg(&scratch)
             .arg(fuzz.join("corpus").join(target))
+            .args(regressions)
             .arg("--")
             .args([
                 format!("-max_total_time={SECONDS}"),

@@ -269,8 +269,10 @@ fn coord(c: &mut Cursor) -> Result<IVec3, String> {
 /// A node's origin must be a multiple of its size (and far enough from the integer limits
 /// that its voxels' coordinates do not overflow).
 fn aligned(origin: IVec3, side: i32) -> Result<(), String> {
-    let limit = i32::MAX / 2;
-    if origin.abs().max_element() > limit || (origin % side) != IVec3::ZERO {
+    // Compared as a range: `abs` of i32::MIN overflows.
+    let limit = IVec3::splat(i32::MAX / 2);
+    let outside = origin.cmpgt(limit) | origin.cmplt(-limit);
+    if outside.any() || (origin % side) != IVec3::ZERO {
         return Err(format!(
             "a node at {origin} is not on the {side}-voxel lattice"
         ));
@@ -306,3 +308,24 @@ fn offset(i: usize, log2: u32) -> IVec3 {
 }
 
 const _: () = assert!(ROOT_CHILD == BRICK << 9);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn node_origins_near_the_integer_limits_are_refused() {
+        let side = ROOT_CHILD;
+        assert!(aligned(IVec3::new(-side, 0, 2 * side), side).is_ok());
+        assert!(aligned(IVec3::new(side, 1, 0), side).is_err());
+        // i32::MIN is on every power-of-two lattice, and its `abs` overflows.
+        for origin in [
+            IVec3::new(i32::MIN, 0, 0),
+            IVec3::new(0, 0, i32::MIN),
+            IVec3::new(0, i32::MAX / 2 + side, 0),
+            IVec3::new(-(i32::MAX / 2) - side, 0, 0),
+        ] {
+            assert!(aligned(origin, side).is_err(), "{origin}");
+        }
+    }
+}
