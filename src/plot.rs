@@ -39,7 +39,9 @@ pub fn convergence_png(path: &Path, title: &str, rows: &[(u32, f64)]) -> anyhow:
             measured: true,
         },
     ];
-    log_log(path, title, ("samples per pixel", "relMSE"), &lines)
+    // The error falls from the upper left: the legend goes in the corner it leaves free.
+    let legend = SeriesLabelPosition::UpperRight;
+    log_log(path, title, ("samples per pixel", "relMSE"), &lines, legend)
 }
 
 /// Writes the scaling plot of `series` (axis name, (size, cost relative to the smallest)) to
@@ -57,16 +59,42 @@ pub fn scaling_png(path: &Path, series: &[(&str, Vec<(f64, f64)>)]) -> anyhow::R
             measured: true,
         })
         .collect();
+    // Costs rise to the right, the largest sizes' points there: the legend goes in the upper
+    // left, where in the upper right it hid the 10⁷-triangle point.
     log_log(
         path,
         "cost against scene size (relative to the smallest)",
         ("size", "relative cost"),
         &lines,
+        SeriesLabelPosition::UpperLeft,
     )
 }
 
-/// Draws `lines` on log-log axes titled `title` with axis labels `axes` into `path`.
-fn log_log(path: &Path, title: &str, axes: (&str, &str), lines: &[Line]) -> anyhow::Result<()> {
+/// The values 1, 2 and 5 times a power of ten from `lo` to `hi`: the y axis's lines and labels
+/// (the library's own choice for a log axis drew two lines at 10 and a band of faint ones
+/// between them).
+fn one_two_five(lo: f64, hi: f64) -> Vec<f64> {
+    // A range touching zero (a relMSE of exactly 0) gets none, rather than 2³¹ decades.
+    if !(lo > 0.0 && lo < hi && hi.is_finite()) {
+        return Vec::new();
+    }
+    let first = lo.log10().floor() as i32;
+    let last = hi.log10().ceil() as i32;
+    (first..=last)
+        .flat_map(|e| [1.0, 2.0, 5.0].map(|m| m * 10f64.powi(e)))
+        .filter(|v| (lo..=hi).contains(v))
+        .collect()
+}
+
+/// Draws `lines` on log-log axes titled `title` with axis labels `axes` into `path`, the
+/// legend at `legend`.
+fn log_log(
+    path: &Path,
+    title: &str,
+    axes: (&str, &str),
+    lines: &[Line],
+    legend: SeriesLabelPosition,
+) -> anyhow::Result<()> {
     // Registering twice is harmless; plotters keeps the first.
     let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     let points = lines.iter().flat_map(|l| l.points.iter());
@@ -86,7 +114,9 @@ fn log_log(path: &Path, title: &str, axes: (&str, &str), lines: &[Line]) -> anyh
             .y_label_area_size(80)
             .build_cartesian_2d(
                 (x_lo / 1.5..x_hi * 1.5).log_scale(),
-                (y_lo / 2.0..y_hi * 2.0).log_scale(),
+                (y_lo / 2.0..y_hi * 2.0)
+                    .log_scale()
+                    .with_key_points(one_two_five(y_lo / 2.0, y_hi * 2.0)),
             )
             .map_err(draw_error)?;
         chart
@@ -122,6 +152,7 @@ fn log_log(path: &Path, title: &str, axes: (&str, &str), lines: &[Line]) -> anyh
         }
         chart
             .configure_series_labels()
+            .position(legend)
             .border_style(BLACK)
             .background_style(WHITE)
             .draw()
@@ -141,4 +172,35 @@ fn log_log(path: &Path, title: &str, axes: (&str, &str), lines: &[Line]) -> anyh
 
 fn draw_error<E: std::fmt::Display>(e: E) -> anyhow::Error {
     anyhow::anyhow!("drawing the plot: {e}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_y_axis_gets_one_two_five_steps_within_its_range() {
+        let close = |got: Vec<f64>, want: &[f64]| {
+            assert_eq!(got.len(), want.len(), "{got:?}");
+            for (g, w) in got.iter().zip(want) {
+                assert!((g / w - 1.0).abs() < 1e-12, "{got:?}");
+            }
+        };
+        close(one_two_five(0.45, 29.4), &[0.5, 1.0, 2.0, 5.0, 10.0, 20.0]);
+        close(
+            one_two_five(5e-5, 2e-2),
+            &[5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2],
+        );
+        assert!(one_two_five(0.0, 1.0).is_empty());
+    }
+
+    #[test]
+    fn the_scaling_plot_is_written_as_a_png() {
+        // (The convergence plot is checked through `rift bench convergence`: tests/cornell.rs.)
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scaling.png");
+        let rising = vec![(1e3, 1.0), (1e5, 1.8), (1e7, 3.6)];
+        scaling_png(&path, &[("triangles", rising)]).unwrap();
+        assert!(std::fs::read(&path).unwrap().starts_with(b"\x89PNG"));
+    }
 }
