@@ -185,20 +185,17 @@ impl<'a> RingGenerator<'a> {
             .fold(direct, f64::min)
     }
 
-    /// True when the strand profile (radius, height) may be taken as linear in time across the
-    /// shutter of the frame at `time`. The profile moves through noise evolution and through the
-    /// level of detail, which follows the camera; its departure from a straight line is estimated
-    /// as 3·amplitude·(evolution·shutter)² plus 2·amplitude·(the level of detail's own departure
-    /// from linearity at the fit nodes), and must stay below 2e-5 of the ring radius. Rotation,
-    /// the fast part of the motion, is always exact at the fit nodes.
-    fn profile_is_linear(&self, model: &RingModel, time: f64) -> bool {
+    /// True when the strand profile (radius, height) may be taken as linear in time across a
+    /// frame's shutter. Within a shutter the profile moves through noise evolution only (the
+    /// level of detail is the frame's: [`RingModel::instant`]); its departure from a straight
+    /// line is estimated as 3·amplitude·(evolution·shutter)², and must stay below 2e-5 of the
+    /// ring radius. Rotation, the fast part of the motion, is always exact at the fit nodes.
+    fn profile_is_linear(&self, model: &RingModel) -> bool {
         let noise = &model.look.noise;
         let [d0, d1] = self.nodes;
         let reach = noise.amplitude * (1.0 + noise.depth);
         let span = noise.evolution * (d1 - d0).abs();
-        let lod = |d: f64| model.timing.lod(time + d);
-        let lod_bend = (lod(d0) - (lod(0.0) + (lod(d1) - lod(0.0)) * d0 / d1)).abs();
-        3.0 * reach * span * span + 2.0 * reach * lod_bend < 2e-5 * model.look.radius
+        3.0 * reach * span * span < 2e-5 * model.look.radius
     }
 
     fn bake(&self, opening: usize, model: &RingModel, time: f64) -> RingCurves {
@@ -232,11 +229,11 @@ impl<'a> RingGenerator<'a> {
             })
             .collect();
         let fit = QuadraticFit::new(self.nodes);
-        let linear_profile = self.profile_is_linear(model, time);
+        let linear_profile = self.profile_is_linear(model);
         for strand in &model.strands {
-            let now = model.instant(strand, time);
-            let before = model.instant(strand, time + self.nodes[0]);
-            let after = model.instant(strand, time + self.nodes[1]);
+            let now = model.instant(strand, time, time);
+            let before = model.instant(strand, time + self.nodes[0], time);
+            let after = model.instant(strand, time + self.nodes[1], time);
             let flicker = model.flicker(strand, time);
             for &(c, s) in &angles {
                 let f0 = model.profile(strand, &now, c, s);
@@ -288,7 +285,7 @@ impl<'a> RingGenerator<'a> {
                 let n = range.len();
                 let instants: Vec<_> = times
                     .iter()
-                    .map(|&d| (d, model.instant(strand, baked.time + d)))
+                    .map(|&d| (d, model.instant(strand, baked.time + d, baked.time)))
                     .collect();
                 for (k, vi) in range.enumerate() {
                     let u = TAU * k as f64 / n as f64;
@@ -412,7 +409,7 @@ mod tessellation_tests {
             let nearest = (distance(&here, t) - reach).max(0.05 * reach);
             let px_per_local = shot.camera.projection.focal_pixels() / nearest * here.scale;
             for strand in &model.strands {
-                let at = model.instant(strand, t);
+                let at = model.instant(strand, t, t);
                 let point = |u: f64| model.position(strand, &at, u.cos(), u.sin());
                 for k in 0..n {
                     let (u0, u1) = (TAU * k as f64 / n as f64, TAU * (k + 1) as f64 / n as f64);

@@ -126,8 +126,11 @@ impl RingModel {
         }
     }
 
-    /// The per-instant state of strand `s` at time `t`.
-    pub fn instant(&self, s: &Strand, t: f64) -> StrandInstant {
+    /// The per-instant state of strand `s` at time `t` within the shutter of the frame at
+    /// `frame_time`. The noise's level of detail is the frame's: it follows the camera from
+    /// frame to frame, but motion blur shows the ring's own motion only. (Taken at `t`, a fast
+    /// dolly bent the motion across one shutter more than a quadratic can follow.)
+    pub fn instant(&self, s: &Strand, t: f64, frame_time: f64) -> StrandInstant {
         let angle = s.phase + s.direction * s.speed * self.timing.angle(t);
         let (drift, flare_tau) = match &self.look.instability {
             Some(i) => (
@@ -140,7 +143,7 @@ impl RingModel {
             cos_angle: angle.cos(),
             sin_angle: angle.sin(),
             tau: self.look.noise.evolution * t,
-            octaves: self.field.octaves(self.timing.lod(t)),
+            octaves: self.field.octaves(self.timing.lod(frame_time)),
             drift,
             flare_tau,
         }

@@ -28,7 +28,9 @@
 //! The noise level of detail follows apparent size the same way:
 //! `L(t) = noise.size_compensation · log2(S_eff / reference_size)`, clamped to ±4 octaves; the
 //! noise field cross-fades octaves continuously in L (see [`super::noise_field`]), so detail
-//! appears and fades without popping.
+//! appears and fades without popping. A frame holds its own L across its shutter
+//! ([`super::strand::RingModel::instant`]): motion blur shows how the ring moves, not how the
+//! camera's approach changes its detail.
 
 use crate::rig::keyframes::hermite;
 use crate::rig::{Camera, Rig};
