@@ -25,6 +25,7 @@
 
 use crate::geometry::offset_origin;
 pub use crate::mask::Mask;
+use crate::opening_tree::{OpeningTree, disk_box};
 use crate::ray::Ray;
 use glam::{DAffine3, DVec2, DVec3, Vec3};
 use noise::{NoiseFn, Perlin};
@@ -104,9 +105,19 @@ struct Frames {
     /// A world-space sphere (centre, radius) holding the teleport region: rays that miss it
     /// skip the exact test in double precision.
     bound: (Vec3, f32),
+    /// The here frame's unit normal in world space.
+    facing: Vec3,
 }
 
 impl Frames {
+    /// A box holding the teleport region: the bound's disk in the opening's plane, as thick
+    /// as the bound's slack for rounding.
+    fn bounding_box(&self) -> obvhs::aabb::Aabb {
+        let (centre, radius) = self.bound;
+        let slack = 1e-5 * (1.0 + centre.abs().max_element());
+        disk_box(centre, self.facing, radius, slack)
+    }
+
     /// True when the line of `ray` (whose direction's `scale` is formed) passes outside the
     /// bound (or the bound lies wholly outside the ray's range), so the opening cannot be hit.
     #[inline]
@@ -169,6 +180,8 @@ pub struct Portals {
     fixed: Vec<Option<Frames>>,
     /// The times rays can have: the shutter, widened by the time offsets.
     times: [f64; 2],
+    /// How a ray's tests visit the openings.
+    tree: OpeningTree,
 }
 
 impl Portals {
@@ -195,6 +208,7 @@ impl Portals {
                         + 1e-5 * (1.0 + centre.abs().max_element());
                     let here_inverse = here.inverse();
                     Frames {
+                        facing: (here.rotation * DVec3::Z).as_vec3(),
                         here,
                         here_inverse,
                         here_inverse_affine: here_inverse.to_affine(),
@@ -203,6 +217,10 @@ impl Portals {
                     }
                 })
             })
+            .collect::<Vec<_>>();
+        let bounds: Vec<_> = fixed
+            .iter()
+            .map(|f| f.as_ref().map(Frames::bounding_box))
             .collect();
         Self {
             rig,
@@ -210,6 +228,7 @@ impl Portals {
             looks,
             fixed,
             times,
+            tree: OpeningTree::new(&bounds),
         }
     }
 
@@ -289,15 +308,11 @@ impl Portals {
 
     /// The nearest opening whose front `ray` meets inside its teleport region.
     pub fn intersect(&self, ray: &Ray) -> Option<PortalHit> {
-        let mut best: Option<PortalHit> = None;
         let scale = DirectionScale::of(ray);
-        for i in 0..self.len() {
-            let limit = best.map_or(ray.t_max, |b| b.t);
-            if let Some(hit) = self.meets(i, &ray.between(ray.t_min, limit), &scale) {
-                best = Some(hit);
-            }
-        }
-        best
+        self.tree.nearest(self.len(), ray, |i, limit| {
+            let hit = self.meets(i, &ray.between(ray.t_min, limit), &scale)?;
+            Some((hit.t, hit))
+        })
     }
 
     /// Where `ray` meets the front of opening `i` inside its teleport region, if it does.
@@ -350,14 +365,12 @@ impl Portals {
     pub fn transmittance(&self, ray: &Ray) -> f32 {
         let mut through = 1.0;
         let scale = DirectionScale::of(ray);
-        for i in 0..self.len() {
+        self.tree.each(self.len(), ray, |i| {
             if self.meets(i, ray, &scale).is_some() {
                 through *= 1.0 - self.looks[i].opacity;
-                if through == 0.0 {
-                    break;
-                }
             }
-        }
+            through == 0.0
+        });
         through
     }
 
@@ -411,6 +424,7 @@ fn refract(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
 mod tests {
     use super::*;
     use glam::DQuat;
+    use rift_fx::rig::AnimatedTransform;
 
     /// Two openings facing each other across `gap` meters: A at the origin facing +Z, B at
     /// z = `gap` facing −Z, tilted by `tilt` radians about X and scaled by `scale`.
@@ -464,6 +478,104 @@ mod tests {
             d = teleport.transform_direction(d);
         }
         unreachable!()
+    }
+
+    /// A number in [0, 1) from a counter.
+    fn hashed(i: u32) -> f64 {
+        crate::sampling::hash32(i) as f64 / 4_294_967_296.0
+    }
+
+    /// `count` openings scattered through a 10 m box, turned every way, disks and rectangles,
+    /// with every fifth one moving across the shutter [0, 1], and opacities below one.
+    fn scattered(count: usize) -> Portals {
+        let frame = |k: u32| {
+            let h = |j: u32| hashed(97 * k + j);
+            Similarity::new(
+                DQuat::from_euler(glam::EulerRot::XYZ, 7.0 * h(0), 7.0 * h(1), 7.0 * h(2)),
+                DVec3::new(h(3), h(4), h(5)) * 10.0 - 5.0,
+                0.5 + 1.5 * h(6),
+            )
+        };
+        let mut moving = Vec::new();
+        let openings = (0..count as u32)
+            .map(|k| {
+                let moves = k % 5 == 3;
+                moving.push(moves);
+                let here = if moves {
+                    let key = |time, value| rift_fx::rig::TransformKey { time, value };
+                    AnimatedTransform::new(
+                        vec![key(0.0, frame(k)), key(1.0, frame(k + 1000))],
+                        rift_fx::rig::Interpolation::Linear,
+                    )
+                } else {
+                    AnimatedTransform::constant(frame(k))
+                };
+                rift_fx::rig::Opening {
+                    name: format!("o{k}"),
+                    here,
+                    there: rift_fx::rig::ThereFrame::Explicit(AnimatedTransform::constant(frame(
+                        k + 2000,
+                    ))),
+                }
+            })
+            .collect();
+        let masks = (0..count as u32)
+            .map(|k| match k % 2 {
+                0 => Mask::Disk {
+                    radius: 0.3 + 0.7 * hashed(5000 + k),
+                },
+                _ => Mask::Rectangle {
+                    half: DVec2::new(0.2 + hashed(6000 + k), 0.2 + hashed(7000 + k)),
+                },
+            })
+            .collect();
+        let looks = (0..count as u32)
+            .map(|k| OpeningLook {
+                opacity: 0.3 + 0.6 * hashed(8000 + k) as f32,
+                ..OpeningLook::default()
+            })
+            .collect();
+        Portals::new(Rig { openings }, masks, looks, [0.0, 1.0], &moving)
+    }
+
+    #[test]
+    fn the_opening_tree_finds_what_testing_every_opening_finds() {
+        let portals = scattered(40);
+        assert!(matches!(portals.tree, OpeningTree::Tree { .. }));
+        let (mut hits, mut shadowed) = (0, 0);
+        for r in 0..4000u32 {
+            let h = |j: u32| hashed(1_000_000 + 7 * r + j) as f32;
+            let origin = Vec3::new(h(0), h(1), h(2)) * 12.0 - 6.0;
+            let dir = Vec3::new(h(3), h(4), h(5)) * 2.0 - 1.0;
+            let t_max = if r % 3 == 0 { 4.0 } else { f32::INFINITY };
+            let ray = Ray::new(origin, dir, t_max, hashed(r))
+                .between(if r % 4 == 0 { 1.0 } else { 0.0 }, t_max);
+            let every = (0..portals.len())
+                .filter_map(|i| portals.intersect_one(i, &ray))
+                .collect::<Vec<_>>();
+            let nearest = every.iter().min_by(|a, b| a.t.total_cmp(&b.t));
+            let found = portals.intersect(&ray);
+            assert_eq!(
+                found.map(|h| (h.opening, h.t.to_bits())),
+                nearest.map(|h| (h.opening, h.t.to_bits())),
+                "ray {r}"
+            );
+            let through: f32 = every
+                .iter()
+                .map(|h| 1.0 - portals.look(h.opening).opacity)
+                .product();
+            let measured = portals.transmittance(&ray);
+            assert!(
+                (measured - through).abs() <= 1e-6,
+                "ray {r}: {measured} against {through}"
+            );
+            hits += found.is_some() as u32;
+            shadowed += (every.len() > 1) as u32;
+        }
+        assert!(
+            hits > 200 && shadowed > 20,
+            "{hits} hits, {shadowed} through two or more"
+        );
     }
 
     #[test]
