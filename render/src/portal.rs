@@ -114,8 +114,7 @@ impl Frames {
     /// as the bound's slack for rounding.
     fn bounding_box(&self) -> obvhs::aabb::Aabb {
         let (centre, radius) = self.bound;
-        let slack = 1e-5 * (1.0 + centre.abs().max_element());
-        disk_box(centre, self.facing, radius, slack)
+        disk_box(centre, self.facing, radius, rounding_slack(centre))
     }
 
     /// True when the line of `ray` (whose direction's `scale` is formed) passes outside the
@@ -129,6 +128,12 @@ impl Frames {
         let reach = radius * scale.inverse;
         away > radius * radius || along + reach < ray.t_min || along - reach > ray.t_max
     }
+}
+
+/// How far an opening's bounds reach beyond its region: enough for single-precision rounding
+/// at the magnitude of its centre.
+fn rounding_slack(centre: Vec3) -> f32 {
+    1e-5 * (1.0 + centre.abs().max_element())
 }
 
 /// 1/|d|² and 1/|d| of a ray's direction d, which the bounding-sphere test of every opening
@@ -203,9 +208,8 @@ impl Portals {
                     let here = rig.here_at(i, fixed_time);
                     let there = rig.there_at(i, fixed_time);
                     let centre = here.translation.as_vec3();
-                    // Wide enough for single-precision rounding at the centre's magnitude.
                     let radius = (masks[i].bounding_radius() * here.scale) as f32 * (1.0 + 1e-3)
-                        + 1e-5 * (1.0 + centre.abs().max_element());
+                        + rounding_slack(centre);
                     let here_inverse = here.inverse();
                     Frames {
                         facing: (here.rotation * DVec3::Z).as_vec3(),
