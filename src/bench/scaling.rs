@@ -58,9 +58,9 @@ pub fn run(args: ScalingArgs) -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let mut points = Vec::new();
     println!(
-        "rift bench scaling: renders of {0}x{0} at {1} spp (cost per camera path), strand \
-         queries (cost per ray); median of {2}",
-        args.res, args.spp, args.timing.repeats
+        "rift bench scaling: renders of {0}x{0} at {1} spp (cost per camera path; each timed \
+         sample renders for at least {3} s), strand queries (cost per ray); median of {2}",
+        args.res, args.spp, args.timing.repeats, LEAST_SAMPLE_SECONDS
     );
     println!(
         "(peak MiB: the process's high-water mark over each build and render; memory the \
@@ -117,8 +117,14 @@ pub fn run(args: ScalingArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Builds `shot` and renders it `repeats` times: build seconds, median µs per camera path,
-/// and the peak memory of the whole.
+/// A timed sample of a render point renders again until this many seconds have passed: a
+/// small scene at 96×96 and 4 spp renders in a few milliseconds, where one render at a time
+/// measured the scheduler more than the scene (a point of the openings axis came out twice
+/// its neighbours, and not in the next run).
+const LEAST_SAMPLE_SECONDS: f64 = 0.25;
+
+/// Builds `shot` and times `repeats` samples of its renders: build seconds, median µs per
+/// camera path, and the peak memory of the whole.
 fn measure_render(
     axis: &'static str,
     size: usize,
@@ -134,10 +140,14 @@ fn measure_render(
     let mut times = Vec::new();
     for _ in 0..args.timing.repeats {
         let t = Instant::now();
-        crate::with_threads(args.timing.threads, || {
-            render(&scene, &RenderOptions::new(args.spp))
-        })?;
-        times.push(t.elapsed().as_secs_f64());
+        let mut renders = 0;
+        while renders == 0 || t.elapsed().as_secs_f64() < LEAST_SAMPLE_SECONDS {
+            crate::with_threads(args.timing.threads, || {
+                render(&scene, &RenderOptions::new(args.spp))
+            })?;
+            renders += 1;
+        }
+        times.push(t.elapsed().as_secs_f64() / renders as f64);
     }
     Ok(Point {
         axis,
