@@ -67,8 +67,13 @@ impl OpeningTree {
         mut meets: impl FnMut(usize, f32) -> Option<(f32, H)>,
     ) -> Option<H> {
         let mut best: Option<(f32, H)> = None;
-        let listed: &[u32] = match self {
-            Self::List => &[],
+        let in_turn: &[u32] = match self {
+            Self::List => {
+                for i in 0..count {
+                    nearer(&mut meets, &mut best, i, ray.t_max);
+                }
+                return best.map(|b| b.1);
+            }
             Self::Tree { bvh, still, moving } => {
                 closest_hit(
                     &bvh.nodes,
@@ -87,15 +92,8 @@ impl OpeningTree {
                 moving
             }
         };
-        let mut visit = |i: usize| {
-            let limit = best.map_or(ray.t_max, |b| b.0);
-            if let Some(hit) = meets(i, limit) {
-                best = Some(hit);
-            }
-        };
-        match self {
-            Self::List => (0..count).for_each(&mut visit),
-            Self::Tree { .. } => listed.iter().for_each(|&i| visit(i as usize)),
+        for &i in in_turn {
+            nearer(&mut meets, &mut best, i as usize, ray.t_max);
         }
         best.map(|b| b.1)
     }
@@ -118,6 +116,21 @@ impl OpeningTree {
                 ) || moving.iter().any(|&i| met(i as usize))
             }
         }
+    }
+}
+
+/// Tests opening `i` with `meets` within the nearest meeting so far (`best`, else `t_max`),
+/// keeping it when it is nearer.
+#[inline(always)]
+fn nearer<H>(
+    meets: &mut impl FnMut(usize, f32) -> Option<(f32, H)>,
+    best: &mut Option<(f32, H)>,
+    i: usize,
+    t_max: f32,
+) {
+    let limit = best.as_ref().map_or(t_max, |b| b.0);
+    if let Some(hit) = meets(i, limit) {
+        *best = Some(hit);
     }
 }
 
