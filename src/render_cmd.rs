@@ -62,8 +62,8 @@ pub struct RenderArgs {
     /// keeps the full frame as its display window.
     #[arg(long, value_name = "X0,X1,Y0,Y1")]
     crop: Option<String>,
-    /// Stop sampling each pixel once its estimated relative error falls below this (adaptive
-    /// sampling; --spp is then the most a pixel takes).
+    /// Stop sampling each pixel once the estimated relative error of its 3×3 neighbourhood falls
+    /// below this (adaptive sampling; --spp is then the most a pixel takes).
     #[arg(long, value_name = "E")]
     target_error: Option<f32>,
     /// Wall-clock seconds per frame, after which no new samples start (every pixel still gets

@@ -316,7 +316,9 @@ fn aovs_and_metadata() {
 
 #[test]
 fn adaptive_sampling_spends_samples_where_the_error_is() {
-    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [32, 32]"));
+    // 128 pixels across, so the lamp has pixels whose whole neighbourhood lies on it.
+    let size = 128;
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [128, 128]"));
     for threads in ["1", "2"] {
         run_ok(
             &dir,
@@ -346,20 +348,63 @@ fn adaptive_sampling_spends_samples_where_the_error_is() {
         .fold((f32::MAX, 0.0f32), |(l, h), &n| (l.min(n), h.max(n)));
     assert!(lo >= 16.0 && hi <= 256.0, "spp from {lo} to {hi}");
     assert!(lo < hi, "some pixels stop before others");
-    // Pixels wholly on the lamp see a constant radiance: no error, so they stop at the first
-    // check (those touching its edge may not).
-    let lamp: Vec<f32> = spp
-        .iter()
-        .zip(&a.channels["R"])
-        .filter(|(_, r)| **r > 18.0)
-        .map(|(n, _)| *n)
+    // A pixel stops when its 3×3 neighbourhood has converged. Pixels whose neighbourhood lies
+    // wholly on the lamp see a constant radiance there: no error, so they stop at the first
+    // check.
+    let on_lamp = |x: usize, y: usize| a.channels["R"][y * size + x] > 18.0;
+    let lamp: Vec<f32> = (1..size - 1)
+        .flat_map(|y| (1..size - 1).map(move |x| (x, y)))
+        .filter(|&(x, y)| (0..9).all(|k| on_lamp(x + k % 3 - 1, y + k / 3 - 1)))
+        .map(|(x, y)| spp[y * size + x])
         .collect();
-    let at_first_check = lamp.iter().filter(|&&n| n == 16.0).count();
-    assert!(at_first_check * 2 > lamp.len(), "{lamp:?}");
+    assert!(lamp.len() >= 10, "{} pixels inside the lamp", lamp.len());
+    assert!(lamp.iter().all(|&n| n == 16.0), "{lamp:?}");
     let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
     assert!(
         mean(spp) > 2.0 * mean(&lamp),
         "the walls take more samples than the lamp"
+    );
+}
+
+/// Stopping a pixel by its own error estimate biases it: a pixel whose samples have not yet met
+/// a rare bright path also has a small variance, so it stops low. The Cornell box rendered
+/// adaptively (target 0.05) came out 0.9% darker than at fixed samples; deciding by the
+/// neighbourhood it is within 0.1%.
+#[test]
+fn adaptive_sampling_keeps_the_image_mean() {
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [64, 64]"));
+    let render = |name: &str, extra: &[&str]| {
+        let mut args = vec!["render", "shot.toml", "-o", name];
+        args.extend_from_slice(extra);
+        run_ok(&dir, &args);
+        let exr = rift_render::film::read_exr_layer(&dir.path().join(name)).unwrap();
+        let luminance: f64 = (0..exr.channels["R"].len())
+            .map(|i| {
+                let c = |k: &str| exr.channels[k][i] as f64;
+                0.2126 * c("R") + 0.7152 * c("G") + 0.0722 * c("B")
+            })
+            .sum();
+        (
+            luminance,
+            exr.channels["spp"].iter().map(|&n| n as f64).sum::<f64>(),
+        )
+    };
+    let (fixed, _) = render("fixed.exr", &["--spp", "512"]);
+    let (adaptive, samples) = render(
+        "adaptive.exr",
+        &["--spp", "1024", "--target-error", "0.05", "--seed", "7"],
+    );
+    let pixels = 64.0 * 64.0;
+    assert!(
+        samples / pixels < 512.0,
+        "{} samples a pixel",
+        samples / pixels
+    );
+    let bias = adaptive / fixed - 1.0;
+    assert!(
+        bias.abs() < 3e-3,
+        "adaptive mean off by {:.3}%",
+        100.0 * bias
     );
 }
 
