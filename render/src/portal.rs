@@ -105,8 +105,6 @@ struct Frames {
     /// A world-space sphere (centre, radius) holding the teleport region: rays that miss it
     /// skip the exact test in double precision.
     bound: (Vec3, f32),
-    /// The here frame's unit normal in world space.
-    facing: Vec3,
 }
 
 impl Frames {
@@ -114,7 +112,8 @@ impl Frames {
     /// as the bound's slack for rounding.
     fn bounding_box(&self) -> obvhs::aabb::Aabb {
         let (centre, radius) = self.bound;
-        disk_box(centre, self.facing, radius, rounding_slack(centre))
+        let facing = (self.here.rotation * DVec3::Z).as_vec3();
+        disk_box(centre, facing, radius, rounding_slack(centre))
     }
 
     /// True when the line of `ray` (whose direction's `scale` is formed) passes outside the
@@ -212,7 +211,6 @@ impl Portals {
                         + rounding_slack(centre);
                     let here_inverse = here.inverse();
                     Frames {
-                        facing: (here.rotation * DVec3::Z).as_vec3(),
                         here,
                         here_inverse,
                         here_inverse_affine: here_inverse.to_affine(),

@@ -294,8 +294,7 @@ fn rows(tiles: &[Mutex<Tile>], window: Window, groups: usize, ids: bool) -> Sums
         let tile = tile.lock().unwrap_or_else(|e| e.into_inner());
         let w = tile.window;
         for (k, px) in tile.pixels.iter().enumerate() {
-            let (x, y) = (w.x0 + k % w.width(), w.y0 + k / w.width());
-            let i = (y - window.y0) * window.width() + (x - window.x0);
+            let i = row_index(window, w, k);
             sums.pixels[i] = *px;
             sums.groups[i * groups..][..groups]
                 .copy_from_slice(&tile.groups[k * groups..][..groups]);
@@ -434,10 +433,15 @@ fn for_each_pixel(tiles: &[Mutex<Tile>], window: Window, mut f: impl FnMut(usize
         let mut tile = tile.lock().unwrap_or_else(|e| e.into_inner());
         let w = tile.window;
         for (k, px) in tile.pixels.iter_mut().enumerate() {
-            let (x, y) = (w.x0 + k % w.width(), w.y0 + k / w.width());
-            f((y - window.y0) * window.width() + (x - window.x0), px);
+            f(row_index(window, w, k), px);
         }
     }
+}
+
+/// The index in rows over `window` of pixel `k` (row-major) of the tile over `tile`.
+fn row_index(window: Window, tile: Window, k: usize) -> usize {
+    let (x, y) = (tile.x0 + k % tile.width(), tile.y0 + k / tile.width());
+    (y - window.y0) * window.width() + (x - window.x0)
 }
 
 /// What every sample of the frame shares: the camera, the window and the seeds.
