@@ -5,6 +5,7 @@
 //! sampling. render depends on fx, never the reverse.
 
 pub mod aperture;
+pub mod aperture_tree;
 pub mod camera;
 pub mod checkpoint;
 pub mod cpu;

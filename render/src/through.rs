@@ -48,6 +48,7 @@
 //! still counted once.
 
 use crate::aperture;
+use crate::aperture_tree::{ApertureTree, Bounds, Placed, Visitor};
 use crate::exit_light::ExitLight;
 use crate::lights::{Receiver, luminance};
 use crate::portal::Portals;
@@ -68,6 +69,12 @@ const MAX_SPACES: usize = 6;
 /// first openings' light dominates they change nothing: on the showcase, searching every
 /// second opening took 7% of the render time and left the noise as it was.
 const DEEPER_SHARE: f32 = 0.05;
+
+/// A chain is kept only where it may bring at least this share of what ordinary light
+/// sampling finds at the point: less is not worth its samples, and without that bar a lit room
+/// searched every opening in sight for the few chains it keeps (a lamp room seeing a wall of 64
+/// windows 46 m away through its own walls).
+const KEEP_SHARE: f32 = 0.01;
 
 /// The openings a path teleported through since its last scattering event, in order.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -222,51 +229,43 @@ impl Strategies {
 
     /// Keeps the chains that extend `from` by one opening, and by up to `depth` − 1 more
     /// where they may bring enough beside the point's `direct` estimate ([`DEEPER_SHARE`]).
+    /// The openings come through [`ApertureTree`], which skips those whose bounds show they
+    /// could not change what is kept. The longer chains are searched once this level's are
+    /// kept, the most promising first, so that their searches skip what cannot beat those.
     fn extend(&mut self, scene: &Scene, from: &Reach, depth: usize, direct: f32) {
-        let (portals, apertures) = (&scene.portals, &scene.apertures);
         // What the last exit lets the point see, once for every opening tested beyond it.
         let cone = from
             .exit
             .as_ref()
             .map(|exit| ExitCone::new(exit, from.point));
-        for i in 0..portals.len() {
-            let aperture = apertures.get(portals, i, from.time);
-            let Some(solid_angle) = from.sees(&aperture, cone.as_ref()) else {
+        let mut search = Search {
+            table: self,
+            scene,
+            from,
+            cone: cone.as_ref(),
+            depth,
+            direct,
+            deeper: [None; MAX_SPACES],
+        };
+        scene.apertures.tree.visit(&mut search);
+        let deeper = search.deeper;
+        for (bound, i, solid_angle) in deeper.into_iter().flatten() {
+            if !self.would_keep(bound, direct) {
                 continue;
-            };
-            // What the chain would bring per unit of its exit's light.
-            let reach_factor = from.factor * aperture.factor * from.solid_angle.min(solid_angle)
-                / std::f32::consts::PI;
-            let estimate = reach_factor * apertures.exits[i].light;
-            let kept = estimate > 0.0 && estimate.is_finite() && self.would_keep(estimate);
-            let deeper = depth > 1
-                && reach_factor * apertures.brightest_exit >= DEEPER_SHARE * (direct + estimate);
-            let sky_share = apertures.exits[i].sky_share;
-            if kept {
-                let mut chain = from.chain;
-                chain.push(i);
-                let smallest = from.solid_angle.min(solid_angle);
-                let aperture = aperture_share(sky_share, smallest);
-                self.keep(
-                    Kept {
-                        chain,
-                        aperture,
-                        solid_angle: smallest,
-                    },
-                    estimate,
-                );
             }
-            if deeper {
-                let exit_time = portals.exit_time(i, from.time);
-                let reach = from.beyond(&aperture, i, exit_time, solid_angle);
-                self.extend(scene, &reach, depth - 1, direct);
-            }
+            let (portals, apertures) = (&scene.portals, &scene.apertures);
+            let aperture = apertures.get(portals, i as usize, from.time);
+            let exit_time = portals.exit_time(i as usize, from.time);
+            let reach = from.beyond(&aperture, i as usize, exit_time, solid_angle);
+            self.extend(scene, &reach, depth - 1, direct);
         }
     }
 
-    /// True when a chain with `estimate` would be among the [`MAX_SPACES`] kept.
-    fn would_keep(&self, estimate: f32) -> bool {
-        self.kept[MAX_SPACES - 1].is_none_or(|(_, kept)| kept < estimate)
+    /// True when a chain with `estimate` would be among the [`MAX_SPACES`] kept, at a point
+    /// whose ordinary light sampling's estimate is `direct` ([`KEEP_SHARE`]).
+    fn would_keep(&self, estimate: f32, direct: f32) -> bool {
+        estimate >= KEEP_SHARE * direct
+            && self.kept[MAX_SPACES - 1].is_none_or(|(_, kept)| kept < estimate)
     }
 
     /// Keeps `chain` if it is among the [`MAX_SPACES`] most promising so far, in order of
@@ -377,6 +376,130 @@ impl Strategies {
                 n: reach.normal.map(DVec3::as_vec3),
                 time: reach.time,
             },
+        }
+    }
+}
+
+/// One level of the strategy search: the chains that extend `from` by one opening, taken
+/// from the [`ApertureTree`] into `table`.
+struct Search<'a> {
+    table: &'a mut Strategies,
+    scene: &'a Scene,
+    from: &'a Reach,
+    cone: Option<&'a ExitCone>,
+    depth: usize,
+    direct: f32,
+    /// The openings to search beyond once this level is done, the most promising first:
+    /// the bound on what longer chains through each could bring, the opening, and its solid
+    /// angle from the point.
+    deeper: [Option<(f32, u16, f32)>; MAX_SPACES],
+}
+
+impl Search<'_> {
+    /// Notes that the chains beyond opening `i` could bring up to `bound`; the most
+    /// promising [`MAX_SPACES`] are searched.
+    fn search_beyond(&mut self, bound: f32, i: usize, solid_angle: f32) {
+        let deeper = &mut self.deeper;
+        let Some(at) = deeper
+            .iter()
+            .position(|d| d.is_none_or(|(other, ..)| other < bound))
+        else {
+            return;
+        };
+        for k in (at + 1..MAX_SPACES).rev() {
+            deeper[k] = deeper[k - 1];
+        }
+        deeper[at] = Some((bound, i as u16, solid_angle));
+    }
+}
+
+/// Bounds are computed in another order than the estimates they bound; this much above them
+/// covers the rounding.
+const BOUND_SLACK: f32 = 1.001;
+
+impl Visitor for Search<'_> {
+    /// The most a chain through the node's openings, or any chain longer than that, could
+    /// bring (the estimates of [`Search::opening`] with each factor at the node's largest and
+    /// the solid angle of its largest opening at its nearest point); `None` where its
+    /// openings lie wholly below the point's surface or outside what the last exit shows, or
+    /// where nothing they could bring would be kept.
+    fn priority(&self, bounds: &Bounds) -> Option<f32> {
+        let from = self.from;
+        let (centre, radius) = (bounds.centre, bounds.radius);
+        let to = centre - from.point;
+        if from.normal.is_some_and(|n| to.dot(n) + radius <= 0.0) {
+            return None;
+        }
+        if let Some(cone) = self.cone
+            && !cone.shows(centre, to, to.length(), radius)
+        {
+            return None;
+        }
+        let d2 = bounds.distance_squared(from.point);
+        let largest_view = if d2 > 0.0 {
+            (bounds.largest_area / d2).min(2.0 * PI)
+        } else {
+            2.0 * PI
+        };
+        let solid_angle = from.solid_angle.min(largest_view as f32);
+        let pi = std::f32::consts::PI;
+        let estimate = from.factor * bounds.brightest * solid_angle / pi;
+        let deeper = from.factor * bounds.brightest_beyond * solid_angle / pi;
+        let deeper = if self.depth > 1 && deeper >= DEEPER_SHARE * self.direct {
+            deeper
+        } else {
+            0.0
+        };
+        let priority = estimate.max(deeper) * BOUND_SLACK;
+        (priority > 0.0 && self.table.would_keep(priority, self.direct)).then_some(priority)
+    }
+
+    fn still_matters(&self, priority: f32) -> bool {
+        self.table.would_keep(priority, self.direct)
+    }
+
+    /// Keeps the chain through opening `i` if it is among the most promising, and searches
+    /// beyond it where longer chains could bring enough and be kept.
+    fn opening(&mut self, i: usize) {
+        let Self {
+            scene,
+            from,
+            cone,
+            depth,
+            direct,
+            ..
+        } = *self;
+        let (portals, apertures) = (&scene.portals, &scene.apertures);
+        let aperture = apertures.get(portals, i, from.time);
+        let Some(solid_angle) = from.sees(&aperture, cone) else {
+            return;
+        };
+        // What the chain would bring per unit of its exit's light.
+        let reach_factor = from.factor * aperture.factor * from.solid_angle.min(solid_angle)
+            / std::f32::consts::PI;
+        let estimate = reach_factor * apertures.exits[i].light;
+        let table = &mut *self.table;
+        if estimate > 0.0 && estimate.is_finite() && table.would_keep(estimate, direct) {
+            let mut chain = from.chain;
+            chain.push(i);
+            let smallest = from.solid_angle.min(solid_angle);
+            let aperture = aperture_share(apertures.exits[i].sky_share, smallest);
+            table.keep(
+                Kept {
+                    chain,
+                    aperture,
+                    solid_angle: smallest,
+                },
+                estimate,
+            );
+        }
+        // Longer chains bring at most `reach_factor` times the brightest exit beyond.
+        let deeper = reach_factor * apertures.beyond[i] * BOUND_SLACK;
+        if depth > 1
+            && deeper >= DEEPER_SHARE * (direct + estimate)
+            && table.would_keep(deeper, direct)
+        {
+            self.search_beyond(deeper, i, solid_angle);
         }
     }
 }
@@ -532,17 +655,37 @@ pub struct Apertures {
     /// Each opening's opacity × luminance of tint (0 where light sampling does not look
     /// through it).
     factors: Vec<f32>,
-    /// The most any exit passes on, times its opening's factor: what bounds the chains that
-    /// one more opening would add.
-    brightest_exit: f32,
+    /// Per opening, the most light (times their factor) that the exit of any opening a ray
+    /// can meet beyond it passes on: what bounds the chains that one more opening would add
+    /// ([`brightest_beyond`]).
+    beyond: Vec<f32>,
+    /// The usable openings as the search visits them.
+    tree: ApertureTree,
 }
 
 impl Apertures {
     pub fn new(portals: &Portals) -> Self {
         let times = portals.times();
-        let still = (0..portals.len())
+        let still: Vec<Option<Aperture>> = (0..portals.len())
             .map(|i| (!portals.opening_moves(i)).then(|| Aperture::new(portals, i, times[0])))
             .collect();
+        let factors: Vec<f32> = (0..portals.len())
+            .map(|i| light_factor(portals, i))
+            .collect();
+        let usable = (0..portals.len()).filter(|&i| factors[i] > 0.0);
+        let (placed, moving) =
+            usable.fold((Vec::new(), Vec::new()), |(mut placed, mut moving), i| {
+                match &still[i] {
+                    Some(a) => placed.push(Placed {
+                        opening: i as u32,
+                        centre: a.centre,
+                        radius: a.radius,
+                        area: a.area,
+                    }),
+                    None => moving.push(i as u32),
+                }
+                (placed, moving)
+            });
         let nothing = ExitLight {
             light: 0.0,
             sky_share: 0.0,
@@ -550,10 +693,9 @@ impl Apertures {
         Self {
             still,
             exits: vec![nothing; portals.len()],
-            factors: (0..portals.len())
-                .map(|i| light_factor(portals, i))
-                .collect(),
-            brightest_exit: 0.0,
+            factors,
+            beyond: vec![0.0; portals.len()],
+            tree: ApertureTree::new(placed, moving),
         }
     }
 
@@ -565,9 +707,12 @@ impl Apertures {
     /// Takes each opening's exit as measured ([`crate::exit_light::measure`]).
     pub fn set_exits(&mut self, exits: Vec<ExitLight>) {
         debug_assert_eq!(exits.len(), self.exits.len());
-        self.brightest_exit = (exits.iter().zip(&self.factors))
-            .map(|(exit, factor)| exit.light * factor)
-            .fold(0.0, f32::max);
+        let light: Vec<f32> = (0..exits.len())
+            .map(|i| exits[i].light * self.factors[i])
+            .collect();
+        self.beyond = brightest_beyond(&self.still, &light);
+        self.tree
+            .set_light(|i| (light[i], self.factors[i] * self.beyond[i]));
         self.exits = exits;
     }
 
@@ -581,6 +726,39 @@ impl Apertures {
         }
     }
 }
+
+/// Per opening, the most of `light` (each opening's factor × what its exit passes on) among
+/// the openings a ray leaving its exit could meet: those whose disk reaches in front of the
+/// exit. An opening in the exit's own wall cannot be met (rays leave that plane), so a room's
+/// windows do not promise each other's light. Openings that move promise theirs to all, and
+/// past [`BEYOND_PAIRS`] pairs every opening promises the brightest exit.
+fn brightest_beyond(still: &[Option<Aperture>], light: &[f32]) -> Vec<f32> {
+    let brightest = light.iter().copied().fold(0.0, f32::max);
+    if still.len() * still.len() > BEYOND_PAIRS {
+        return vec![brightest; still.len()];
+    }
+    let reachable = |from: &Aperture, to: &Option<Aperture>| {
+        let Some(to) = to else {
+            return true;
+        };
+        let exit = &from.exit;
+        let tilt = (1.0 - to.front.dot(exit.leaving).powi(2)).max(0.0).sqrt();
+        let offset = to.centre - exit.centre;
+        // Openings in the exit's plane up to rounding count as in it.
+        offset.dot(exit.leaving) + to.radius * tilt > 1e-9 * (offset.length() + to.radius)
+    };
+    (still.iter())
+        .map(|from| match from {
+            None => brightest,
+            Some(from) => (still.iter().zip(light))
+                .filter(|(to, _)| reachable(from, to))
+                .fold(0.0f32, |most, (_, &l)| most.max(l)),
+        })
+        .collect()
+}
+
+/// The most pairs of openings [`brightest_beyond`] tests.
+const BEYOND_PAIRS: usize = 1 << 24;
 
 /// One opening at one time: what deciding whether light can come through it needs.
 #[derive(Clone)]
