@@ -134,6 +134,20 @@ impl ApertureTree {
         tree
     }
 
+    /// The same openings as one leaf, which the search walks without bounds: what the tree's
+    /// bounds must not change (for tests).
+    pub fn flattened(&self) -> Self {
+        let mut flat = self.clone();
+        if let Some(root) = self.nodes.first() {
+            flat.nodes = vec![Node {
+                bounds: root.bounds,
+                first: 0,
+                count: self.order.len() as u32,
+            }];
+        }
+        flat
+    }
+
     /// Adds the node over `placed` and, below it, its children (median splits along the
     /// longest axis of the centres); returns its index.
     fn split(&mut self, placed: &mut [Placed]) -> usize {

@@ -76,8 +76,9 @@ const DEEPER_SHARE: f32 = 0.05;
 /// windows 46 m away through its own walls).
 const KEEP_SHARE: f32 = 0.01;
 
-/// The openings a path teleported through since its last scattering event, in order.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// The openings a path teleported through since its last scattering event, in order. Chains
+/// order by their openings, which breaks ties between equal estimates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Chain {
     /// The first [`CHAIN_DEPTH`] openings (no strategy samples a longer chain).
     openings: [u16; CHAIN_DEPTH],
@@ -265,18 +266,20 @@ impl Strategies {
     /// whose ordinary light sampling's estimate is `direct` ([`KEEP_SHARE`]).
     fn would_keep(&self, estimate: f32, direct: f32) -> bool {
         estimate >= KEEP_SHARE * direct
-            && self.kept[MAX_SPACES - 1].is_none_or(|(_, kept)| kept < estimate)
+            && self.kept[MAX_SPACES - 1].is_none_or(|(_, kept)| kept <= estimate)
     }
 
     /// Keeps `chain` if it is among the [`MAX_SPACES`] most promising so far, in order of
-    /// estimate; ties keep the enumeration order (depth first), so the choice is the same
-    /// wherever it is made.
+    /// estimate; ties go to the lesser chain, so what is kept does not depend on the order in
+    /// which the search meets the chains.
     fn keep(&mut self, chain: Kept, estimate: f32) {
         let kept = &mut self.kept;
-        let Some(at) = kept
-            .iter()
-            .position(|s| s.is_none_or(|(_, other)| other < estimate))
-        else {
+        let Some(at) = kept.iter().position(|s| {
+            s.is_none_or(|(other, other_estimate)| {
+                other_estimate < estimate
+                    || (other_estimate == estimate && chain.chain < other.chain)
+            })
+        }) else {
             return;
         };
         // Shift the rest down one place, the last dropping out: a plain loop over at most
@@ -397,13 +400,12 @@ struct Search<'a> {
 
 impl Search<'_> {
     /// Notes that the chains beyond opening `i` could bring up to `bound`; the most
-    /// promising [`MAX_SPACES`] are searched.
+    /// promising [`MAX_SPACES`] are searched (of equal bounds, the lesser openings).
     fn search_beyond(&mut self, bound: f32, i: usize, solid_angle: f32) {
         let deeper = &mut self.deeper;
-        let Some(at) = deeper
-            .iter()
-            .position(|d| d.is_none_or(|(other, ..)| other < bound))
-        else {
+        let Some(at) = deeper.iter().position(|d| {
+            d.is_none_or(|(other, j, _)| other < bound || (other == bound && (i as u16) < j))
+        }) else {
             return;
         };
         for k in (at + 1..MAX_SPACES).rev() {
@@ -697,6 +699,13 @@ impl Apertures {
             beyond: vec![0.0; portals.len()],
             tree: ApertureTree::new(placed, moving),
         }
+    }
+
+    /// Makes the strategy search walk every opening, without the tree's bounds: what the
+    /// bounds must not change (for tests).
+    #[doc(hidden)]
+    pub fn search_every_opening(&mut self) {
+        self.tree = self.tree.flattened();
     }
 
     /// What each opening's exit passes on, as the strategy search weighs it.

@@ -677,3 +677,88 @@ fn each_exit_is_measured_as_what_it_passes_on() {
     // look through it.
     assert!(exits[1].light < 1e-3 * window.light, "{:?}", exits[1]);
 }
+
+/// `extra` sections for [`two_rooms`]: a grid of `rows` × `columns` windows in the dark
+/// room's +Z wall, each leading into the far room through its +Z wall.
+fn wall_of_windows(rows: usize, columns: usize) -> String {
+    let mut text = String::new();
+    for k in 0..rows * columns {
+        let x = -1.6 + 3.2 * ((k % columns) as f64 + 0.5) / columns as f64;
+        let y = 0.3 + 2.4 * ((k / columns) as f64 + 0.5) / rows as f64;
+        let (w, h) = (2.0 / columns as f64, 1.6 / rows as f64);
+        for (name, pair, centre) in [("w", "t", x), ("t", "w", 30.0 + x)] {
+            text += &format!(
+                "[[portal]]\nname = \"{name}{k}\"\n\
+                 here = {{ position = [{centre}, {y}, 1.98], rotation_degrees = [0.0, 180.0, 0.0] }}\n\
+                 pair = \"{pair}{k}\"\n[portal.surface]\nrectangle = [{w}, {h}]\n"
+            );
+        }
+    }
+    text
+}
+
+#[test]
+fn the_tree_over_openings_keeps_the_strategies_that_searching_every_opening_keeps() {
+    let dir = tempfile::tempdir().unwrap();
+    // A wall of 30 windows into the far room, the window of [`two_rooms`], the door on to the
+    // third room, and an opening that moves; lit from the far room, or only from the third
+    // room (two openings away).
+    let moving = r#"
+[[portal]]
+name = "moving"
+here = { keys = [
+  { frame = 0, position = [1.98, 1.0, 0.0], rotation_degrees = [0.0, -90.0, 0.0] },
+  { frame = 2, position = [1.98, 1.6, 0.5], rotation_degrees = [0.0, -90.0, 0.0] },
+] }
+pair = "moving_there"
+[portal.surface]
+radius = 0.4
+[[portal]]
+name = "moving_there"
+here = { position = [28.02, 1.4, 0.5], rotation_degrees = [0.0, 90.0, 0.0] }
+pair = "moving"
+[portal.surface]
+radius = 0.4
+"#;
+    let extra = wall_of_windows(5, 6) + &third_room_lamp() + moving;
+    let far_lamp = LAMP.replace("\"lamp\"\nmesh", "\"far_lamp\"\nmesh");
+    for light in [far_lamp.as_str(), ""] {
+        let text = two_rooms(dir.path(), RECTANGLE, RECTANGLE, light, &extra);
+        let path = dir.path().join("windows.toml");
+        std::fs::write(&path, &text).unwrap();
+        let tree = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
+        let mut every = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
+        every.apertures.search_every_opening();
+        let [start, end] = tree.portals.times();
+        let (mut searched, mut chains_of_two) = (0, 0);
+        for k in 0..3000u32 {
+            let h = |i: u32| rift_render::sampling::hash32(k * 8 + i) as f32 / u32::MAX as f32;
+            // Points through the dark room and the far room, on surfaces facing any way or
+            // in the air (no normal).
+            let room = if h(0) < 0.7 { 0.0 } else { 30.0 };
+            let p = Vec3::new(room - 1.95 + 3.9 * h(1), 0.05 + 2.9 * h(2), -1.95 + 3.9 * h(3));
+            let n = Vec3::new(h(4) - 0.5, h(5) - 0.5, h(6) - 0.5).normalize();
+            let at = Receiver {
+                p,
+                n: (k % 5 != 0).then_some(n),
+                time: start + (end - start) * h(7) as f64,
+            };
+            let strategies = |scene: &Scene| {
+                let mut slot = None;
+                Strategies::update(&mut slot, scene, &at);
+                slot.map(|s| (s.direct(), s.chains().collect::<Vec<_>>()))
+            };
+            let (with_tree, with_every) = (strategies(&tree), strategies(&every));
+            assert_eq!(with_tree, with_every, "at {at:?}");
+            if let Some((_, chains)) = with_tree {
+                searched += 1;
+                chains_of_two += chains.iter().filter(|(c, _)| c.teleports() == 2).count();
+            }
+        }
+        // The comparison saw both levels of the search.
+        assert!(
+            searched > 500 && chains_of_two > 50,
+            "{searched} points searched, {chains_of_two} chains of two"
+        );
+    }
+}
