@@ -736,7 +736,11 @@ radius = 0.4
             // Points through the dark room and the far room, on surfaces facing any way or
             // in the air (no normal).
             let room = if h(0) < 0.7 { 0.0 } else { 30.0 };
-            let p = Vec3::new(room - 1.95 + 3.9 * h(1), 0.05 + 2.9 * h(2), -1.95 + 3.9 * h(3));
+            let p = Vec3::new(
+                room - 1.95 + 3.9 * h(1),
+                0.05 + 2.9 * h(2),
+                -1.95 + 3.9 * h(3),
+            );
             let n = Vec3::new(h(4) - 0.5, h(5) - 0.5, h(6) - 0.5).normalize();
             let at = Receiver {
                 p,

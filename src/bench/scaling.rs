@@ -1,9 +1,10 @@
-//! `rift bench scaling`: how the cost of rendering grows with the size of a scene, along four
+//! `rift bench scaling`: how the cost of rendering grows with the size of a scene, along five
 //! axes, each from generated scenes: triangles (a height field, 10³ to 10⁷), strand segments
-//! (small spinning loops side by side, 10² to 10⁶), openings (a wall of them, 1 to 64) and emitters (small lamps
-//! over a floor, 1 to 10⁵). Triangles, openings and emitters are whole renders (time per path,
-//! the scene's build timed apart, peak memory of the build and render); strands are closest-hit
-//! queries on their BVH, the part of a render they change. Printed as a table (and CSV) and
+//! (small spinning loops side by side, 10² to 10⁶), openings (a wall of them, 1 to 64), windows
+//! (a room lit only through 1 to 64 of them, so light sampling searches them at every point)
+//! and emitters (small lamps over a floor, 1 to 10⁵). All but strands are whole renders (time
+//! per path, the scene's build timed apart, peak memory of the build and render); strands are
+//! closest-hit queries on their BVH, the part of a render they change. Printed as a table (and CSV) and
 //! drawn as a log-log plot of the cost relative to each axis's smallest scene.
 
 use super::{Timing, median};
@@ -94,12 +95,17 @@ pub fn run(args: ScalingArgs) -> anyhow::Result<()> {
         let shot = openings_shot(dir.path(), n, args.res)?;
         report(measure_render("openings", n, &shot, &args)?);
     }
+    for n in [1, 2, 4, 8, 16, 32, 64] {
+        let shot = windows_shot(dir.path(), n, args.res)?;
+        report(measure_render("windows", n, &shot, &args)?);
+    }
     for n in [1, 10, 100, 1_000, 10_000, 100_000] {
         let shot = emitters_shot(dir.path(), n, args.res)?;
         report(measure_render("emitters", n, &shot, &args)?);
     }
     write_csv(&args.csv, &points)?;
-    let series: Vec<(&str, Vec<(f64, f64)>)> = ["triangles", "strands", "openings", "emitters"]
+    let axes = ["triangles", "strands", "openings", "windows", "emitters"];
+    let series: Vec<(&str, Vec<(f64, f64)>)> = axes
         .into_iter()
         .map(|axis| {
             let pts: Vec<&Point> = points.iter().filter(|p| p.axis == axis).collect();
@@ -337,6 +343,60 @@ fn openings_shot(dir: &Path, openings: usize, res: u32) -> anyhow::Result<PathBu
         );
     }
     write_shot(dir, "openings", &text)
+}
+
+/// A shot of a closed room lit only through `windows` windows in a grid on one wall, which
+/// lead into a lamp room 40 m away: every shading point in the room searches the openings for
+/// light (one of them and its partner per window).
+fn windows_shot(dir: &Path, windows: usize, res: u32) -> anyhow::Result<PathBuf> {
+    std::fs::write(
+        dir.join("room.obj"),
+        box_obj([-3.0, 0.0, -3.0], [3.0, 3.0, 3.0]),
+    )?;
+    std::fs::write(
+        dir.join("lamp.obj"),
+        box_obj([-0.2, -0.2, -0.2], [0.2, 0.2, 0.2]),
+    )?;
+    let mut text = shot_head(res, [2.4, 1.5, 2.3], [-2.0, 1.1, -0.6])
+        + "[[material]]\nname = \"lamp\"\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n\
+           emission = [60.0, 52.0, 40.0]\ntwo_sided_emission = true\n\
+           [[object]]\nname = \"room\"\nmesh = \"room.obj\"\nmaterial = \"grey\"\n\
+           [[object]]\nname = \"lamp_room\"\nmesh = \"room.obj\"\nmaterial = \"grey\"\n\
+           transform = { position = [40.0, 0.0, 0.0] }\n\
+           [[object]]\nname = \"lamp\"\nmesh = \"lamp.obj\"\nmaterial = \"lamp\"\n\
+           transform = { position = [40.6, 1.7, 0.2] }\n";
+    let per_row = (windows as f64).sqrt().ceil() as usize;
+    let (rows, columns) = (windows.div_ceil(per_row), per_row);
+    let (height, width) = (2.2 / rows as f32, 5.2 / columns as f32);
+    for k in 0..windows {
+        let y = 0.4 + ((k / columns) as f32 + 0.5) * height;
+        let z = -2.6 + ((k % columns) as f32 + 0.5) * width;
+        let rectangle = [0.6 * width, 0.6 * height];
+        for (name, pair, x, turn) in [("w", "t", -2.97, 90.0), ("t", "w", 42.97, -90.0)] {
+            text += &format!(
+                "[[portal]]\nname = \"{name}{k}\"\npair = \"{pair}{k}\"\n\
+                 here = {{ position = [{x}, {y}, {z}], rotation_degrees = [0.0, {turn}, 0.0] }}\n\
+                 [portal.surface]\nrectangle = {rectangle:?}\n"
+            );
+        }
+    }
+    write_shot(dir, "windows", &text)
+}
+
+/// An OBJ of the closed box from `lo` to `hi`.
+fn box_obj(lo: [f32; 3], hi: [f32; 3]) -> String {
+    let corner = |k: usize| {
+        let pick = |axis: usize| {
+            if k >> axis & 1 == 1 {
+                hi[axis]
+            } else {
+                lo[axis]
+            }
+        };
+        format!("v {} {} {}\n", pick(0), pick(1), pick(2))
+    };
+    let faces = "f 1 2 4 3\nf 5 7 8 6\nf 1 5 6 2\nf 3 4 8 7\nf 1 3 7 5\nf 2 6 8 4\n";
+    (0..8).map(corner).collect::<String>() + faces
 }
 
 /// A shot of a floor lit by `lamps` small lamps scattered under a ceiling (together as
