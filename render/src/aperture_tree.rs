@@ -24,8 +24,6 @@ const STACK: usize = 64;
 pub struct Placed {
     pub opening: u32,
     pub centre: DVec3,
-    /// Unit normal of its front.
-    pub front: DVec3,
     /// Bounding radius and area of its teleport region, world units.
     pub radius: f64,
     pub area: f64,
@@ -40,11 +38,6 @@ pub struct Bounds {
     /// The sphere around the box.
     pub centre: DVec3,
     pub radius: f64,
-    /// The fronts lie within the cone around `axis` whose half angle has this cosine and
-    /// sine (−1 and 0 when they face every way).
-    pub axis: DVec3,
-    pub cos_spread: f64,
-    pub sin_spread: f64,
     pub largest_area: f64,
     /// The largest of each opening's opacity × tint times the light its exit passes on, and
     /// times the brightest exit a further opening beyond it may lead to.
@@ -65,9 +58,6 @@ impl Bounds {
             hi: DVec3::NEG_INFINITY,
             centre: DVec3::ZERO,
             radius: 0.0,
-            axis: DVec3::Z,
-            cos_spread: -1.0,
-            sin_spread: 0.0,
             largest_area: 0.0,
             brightest: 0.0,
             brightest_beyond: 0.0,
@@ -80,9 +70,6 @@ impl Bounds {
             hi: self.hi.max(other.hi),
             centre: DVec3::ZERO,
             radius: 0.0,
-            axis: DVec3::Z,
-            cos_spread: -1.0,
-            sin_spread: 0.0,
             largest_area: self.largest_area.max(other.largest_area),
             brightest: self.brightest.max(other.brightest),
             brightest_beyond: self.brightest_beyond.max(other.brightest_beyond),
@@ -96,9 +83,6 @@ impl Bounds {
             hi: placed.centre + r,
             centre: placed.centre,
             radius: placed.radius,
-            axis: placed.front,
-            cos_spread: 1.0,
-            sin_spread: 0.0,
             largest_area: placed.area,
             brightest: 0.0,
             brightest_beyond: 0.0,
@@ -173,16 +157,6 @@ impl ApertureTree {
             .fold(Bounds::empty(), |b, p| b.join(&Bounds::of(p)));
         bounds.centre = 0.5 * (bounds.lo + bounds.hi);
         bounds.radius = 0.5 * (bounds.hi - bounds.lo).length();
-        let fronts = placed.iter().fold(DVec3::ZERO, |sum, p| sum + p.front);
-        if let Some(axis) = fronts.try_normalize() {
-            // Rounded outward, so the cone holds every front.
-            let cos = placed.iter().map(|p| p.front.dot(axis)).fold(1.0, f64::min) - 1e-9;
-            if cos > -1.0 {
-                bounds.axis = axis;
-                bounds.cos_spread = cos;
-                bounds.sin_spread = (1.0 - cos * cos).sqrt();
-            }
-        }
         self.nodes.push(Node {
             bounds,
             first: self.order.len() as u32,
@@ -332,7 +306,6 @@ mod tests {
             .map(|i| Placed {
                 opening: i,
                 centre: DVec3::new((i % 10) as f64, (i / 10) as f64, 0.0),
-                front: DVec3::Z,
                 radius: 0.25,
                 area: 0.2,
             })

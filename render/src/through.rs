@@ -415,24 +415,6 @@ impl Search<'_> {
     }
 }
 
-/// The largest cosine between the front of an opening of `bounds` and the direction from it
-/// to a point that sees the node's sphere in direction −`towards_point` under an angle whose
-/// sine is `sin_within`: the cosine of the angle between the fronts' axis and that direction,
-/// less the fronts' spread and the sphere's angle (1 where those cover it).
-fn most_facing(bounds: &Bounds, towards_point: DVec3, sin_within: f64) -> f64 {
-    let cos_within = (1.0 - sin_within * sin_within).sqrt();
-    let (cos_s, sin_s) = (bounds.cos_spread, bounds.sin_spread);
-    // The spread and the sphere's angle together: cos and sin of their sum.
-    let cos_both = cos_s * cos_within - sin_s * sin_within;
-    let sin_both = sin_s * cos_within + cos_s * sin_within;
-    let cos_axis = bounds.axis.dot(towards_point);
-    if sin_both < 0.0 || cos_axis >= cos_both {
-        return 1.0;
-    }
-    let sin_axis = (1.0 - cos_axis * cos_axis).max(0.0).sqrt();
-    cos_axis * cos_both + sin_axis * sin_both
-}
-
 /// Bounds are computed in another order than the estimates they bound; this much above them
 /// covers the rounding.
 const BOUND_SLACK: f32 = 1.001;
@@ -450,28 +432,14 @@ impl Visitor for Search<'_> {
         if from.normal.is_some_and(|n| to.dot(n) + radius <= 0.0) {
             return None;
         }
-        let distance = to.length();
         if let Some(cone) = self.cone
-            && !cone.shows(centre, to, distance, radius)
+            && !cone.shows(centre, to, to.length(), radius)
         {
             return None;
         }
-        let (facing, above) = if distance > radius {
-            (
-                most_facing(bounds, -to / distance, radius / distance),
-                from.normal.map_or(1.0, |n| {
-                    ((to.dot(n) + radius) / (distance - radius)).min(1.0)
-                }),
-            )
-        } else {
-            (1.0, 1.0)
-        };
-        if facing <= 0.0 {
-            return None; // every opening faces away
-        }
         let d2 = bounds.distance_squared(from.point);
         let largest_view = if d2 > 0.0 {
-            (bounds.largest_area * facing / d2).min(2.0 * PI) * above
+            (bounds.largest_area / d2).min(2.0 * PI)
         } else {
             2.0 * PI
         };
@@ -713,7 +681,6 @@ impl Apertures {
                     Some(a) => placed.push(Placed {
                         opening: i as u32,
                         centre: a.centre,
-                        front: a.front,
                         radius: a.radius,
                         area: a.area,
                     }),
