@@ -22,9 +22,13 @@
 //!   along the way (capped at 2π) and E_exit what the last exit passes on, measured once per
 //!   scene with ordinary light samples and their shadow rays ([`crate::exit_light`]).
 //!
-//! A chain grows by a further opening only where the longer chains could bring a noticeable
-//! share of the light (`DEEPER_SHARE`, bounded with the brightest exit): a room lit through
-//! two openings in a row searches them, a room with its own light does not pay for them.
+//! The six most promising chains are kept, each bringing at least `KEEP_SHARE` of the ordinary
+//! estimate. A chain grows by a further opening only where the longer chains could bring a
+//! noticeable share of the light (`DEEPER_SHARE`, bounded with the brightest exit an opening
+//! beyond it leads to): a room lit through two openings in a row searches them, a room with
+//! its own light does not pay for them. The openings come through a tree whose nodes bound
+//! what their chains could bring ([`crate::aperture_tree`]), so a wall of windows costs the
+//! windows that may be kept, not all of them.
 //!
 //! Openings behind the point, facing away, below its surface or hidden behind the previous
 //! opening get no strategy at all, and a scene without openings has only the ordinary one: it
