@@ -354,6 +354,23 @@ fn pairing_with_an_unknown_opening() {
 }
 
 #[test]
+fn too_many_openings() {
+    let mut text = small_shot();
+    for k in 0..4097 {
+        text += &format!(
+            "[[portal]]\nname = \"extra{k}\"\nhere = {{ position = [{k}.0, 0.0, 50.0] }}\n\
+             there = {{ position = [{k}.0, 0.0, 60.0] }}\n"
+        );
+    }
+    expect_failure(
+        "bad.toml",
+        Some(&text),
+        &[],
+        &["bad.toml: portal[4096]", "at most 4096 openings"],
+    );
+}
+
+#[test]
 fn unwritable_output_directory() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("shot.toml"), small_shot()).unwrap();

@@ -334,7 +334,21 @@ fn fx_settings(f: &schema::FxSection) -> Result<FxSettings, Invalid> {
     })
 }
 
+/// The most openings a shot may hold: far beyond any shot, and what keeps the name checks
+/// (each against all before it), the renderer's per-pair measurements and its 16-bit opening
+/// indices within bounds on hostile input.
+pub const MAX_OPENINGS: usize = 4096;
+
 fn rig(portals: &[PortalSection], fps: f64) -> Result<(Rig, Vec<Option<RingLook>>), Invalid> {
+    if portals.len() > MAX_OPENINGS {
+        return Err(Invalid::new(
+            format!("portal[{MAX_OPENINGS}]"),
+            format!(
+                "a shot holds at most {MAX_OPENINGS} openings, this one {}",
+                portals.len()
+            ),
+        ));
+    }
     let mut names: Vec<String> = Vec::with_capacity(portals.len());
     for (i, p) in portals.iter().enumerate() {
         let n = check::name(&format!("portal[{i}].name"), &p.name)?;
