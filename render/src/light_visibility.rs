@@ -11,7 +11,8 @@
 //! wherever the probes saw nothing.
 //!
 //! The search for light through openings costs about a thousand instructions at every shading
-//! point. Where the openings bring a small share of the light, or fill much of the view, BSDF
+//! point with a few openings, several times that where many windows compete (it visits the
+//! ones that could be kept, [`crate::aperture_tree`]). Where the openings bring a small share of the light, or fill much of the view, BSDF
 //! sampling finds their light nearly as well, and the search costs more time than it saves
 //! noise: on the showcase, whose room is lit by its own rings and lamp through openings as
 //! wide as a door, searching everywhere took 8% of the render time for 2% of the variance.
