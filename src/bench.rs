@@ -84,6 +84,38 @@ pub(crate) fn hashed(i: usize, count: u32, k: u32) -> f32 {
         / u32::MAX as f32
 }
 
+/// A closed box from `lo` to `hi` as OBJ, its faces towards the inside (counter-clockwise seen
+/// from inside) or, with `outward`, towards the outside.
+pub(crate) fn box_obj(lo: [f32; 3], hi: [f32; 3], outward: bool) -> String {
+    let mut text = String::new();
+    for c in 0..8 {
+        let coordinate = |axis: usize| {
+            if c >> axis & 1 == 0 {
+                lo[axis]
+            } else {
+                hi[axis]
+            }
+        };
+        text += &format!("v {} {} {}\n", coordinate(0), coordinate(1), coordinate(2));
+    }
+    for face in [
+        [1, 2, 4, 3],
+        [5, 7, 8, 6],
+        [1, 5, 6, 2],
+        [3, 4, 8, 7],
+        [1, 3, 7, 5],
+        [2, 6, 8, 4],
+    ] {
+        let [a, b, c, d] = if outward {
+            [face[3], face[2], face[1], face[0]]
+        } else {
+            face
+        };
+        text += &format!("f {a} {b} {c} {d}\n");
+    }
+    text
+}
+
 pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]

@@ -351,11 +351,11 @@ fn openings_shot(dir: &Path, openings: usize, res: u32) -> anyhow::Result<PathBu
 fn windows_shot(dir: &Path, windows: usize, res: u32) -> anyhow::Result<PathBuf> {
     std::fs::write(
         dir.join("room.obj"),
-        box_obj([-3.0, 0.0, -3.0], [3.0, 3.0, 3.0]),
+        super::box_obj([-3.0, 0.0, -3.0], [3.0, 3.0, 3.0], false),
     )?;
     std::fs::write(
         dir.join("lamp.obj"),
-        box_obj([-0.2, -0.2, -0.2], [0.2, 0.2, 0.2]),
+        super::box_obj([-0.2, -0.2, -0.2], [0.2, 0.2, 0.2], false),
     )?;
     let mut text = shot_head(res, [2.4, 1.5, 2.3], [-2.0, 1.1, -0.6])
         + "[[material]]\nname = \"lamp\"\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n\
@@ -381,22 +381,6 @@ fn windows_shot(dir: &Path, windows: usize, res: u32) -> anyhow::Result<PathBuf>
         }
     }
     write_shot(dir, "windows", &text)
-}
-
-/// An OBJ of the closed box from `lo` to `hi`.
-fn box_obj(lo: [f32; 3], hi: [f32; 3]) -> String {
-    let corner = |k: usize| {
-        let pick = |axis: usize| {
-            if k >> axis & 1 == 1 {
-                hi[axis]
-            } else {
-                lo[axis]
-            }
-        };
-        format!("v {} {} {}\n", pick(0), pick(1), pick(2))
-    };
-    let faces = "f 1 2 4 3\nf 5 7 8 6\nf 1 5 6 2\nf 3 4 8 7\nf 1 3 7 5\nf 2 6 8 4\n";
-    (0..8).map(corner).collect::<String>() + faces
 }
 
 /// A shot of a floor lit by `lamps` small lamps scattered under a ceiling (together as

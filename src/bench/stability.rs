@@ -182,37 +182,12 @@ fn render_text(dir: &Path, name: &str, text: &str, spp: u32) -> anyhow::Result<I
 
 /// A closed cube from −1 to 1, as OBJ, its faces towards the inside.
 fn unit_box_obj() -> String {
-    cube_obj(false)
+    super::box_obj([-1.0; 3], [1.0; 3], false)
 }
 
 /// The same cube with its faces towards the outside.
 fn outward_box_obj() -> String {
-    cube_obj(true)
-}
-
-fn cube_obj(outward: bool) -> String {
-    let mut text = String::new();
-    for c in 0..8 {
-        let coordinate = |bit: usize| if c & bit == 0 { -1 } else { 1 };
-        text += &format!("v {} {} {}\n", coordinate(1), coordinate(2), coordinate(4));
-    }
-    // Counter-clockwise seen from inside.
-    for face in [
-        [1, 2, 4, 3],
-        [5, 7, 8, 6],
-        [1, 5, 6, 2],
-        [3, 4, 8, 7],
-        [1, 3, 7, 5],
-        [2, 6, 8, 4],
-    ] {
-        let [a, b, c, d] = if outward {
-            [face[3], face[2], face[1], face[0]]
-        } else {
-            face
-        };
-        text += &format!("f {a} {b} {c} {d}\n");
-    }
-    text
+    super::box_obj([-1.0; 3], [1.0; 3], true)
 }
 
 const HALF_ALBEDO: &str = "type = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]";
