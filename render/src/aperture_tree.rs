@@ -53,6 +53,7 @@ impl Bounds {
         outside.length_squared()
     }
 
+    /// Nothing: the seed of a fold of [`Self::join`]s.
     fn empty() -> Self {
         Self {
             lo: DVec3::INFINITY,
@@ -65,12 +66,14 @@ impl Bounds {
         }
     }
 
+    /// Both bounded together, the sphere around their joint box.
     fn join(&self, other: &Self) -> Self {
+        let (lo, hi) = (self.lo.min(other.lo), self.hi.max(other.hi));
         Self {
-            lo: self.lo.min(other.lo),
-            hi: self.hi.max(other.hi),
-            centre: DVec3::ZERO,
-            radius: 0.0,
+            lo,
+            hi,
+            centre: 0.5 * (lo + hi),
+            radius: 0.5 * (hi - lo).length(),
             largest_area: self.largest_area.max(other.largest_area),
             brightest: self.brightest.max(other.brightest),
             brightest_beyond: self.brightest_beyond.max(other.brightest_beyond),
@@ -153,11 +156,9 @@ impl ApertureTree {
     /// longest axis of the centres); returns its index.
     fn split(&mut self, placed: &mut [Placed]) -> usize {
         let at = self.nodes.len();
-        let mut bounds = placed
+        let bounds = placed
             .iter()
             .fold(Bounds::empty(), |b, p| b.join(&Bounds::of(p)));
-        bounds.centre = 0.5 * (bounds.lo + bounds.hi);
-        bounds.radius = 0.5 * (bounds.hi - bounds.lo).length();
         self.nodes.push(Node {
             bounds,
             first: self.order.len() as u32,
