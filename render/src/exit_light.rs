@@ -56,11 +56,11 @@ fn tree_estimate(scene: &Scene, i: usize) -> f32 {
     let times = scene.portals.times();
     let middle = 0.5 * (times[0] + times[1]);
     let there = scene.portals.there(i, middle);
-    scene.lights.importance(&Receiver::new(
-        there.translation.as_vec3(),
-        Some(there.transform_direction(-DVec3::Z).as_vec3()),
-        middle,
-    ))
+    scene.lights.importance(&Receiver {
+        p: there.translation.as_vec3(),
+        n: Some(there.transform_direction(-DVec3::Z).as_vec3()),
+        time: middle,
+    })
 }
 
 /// Ordinary light samples from [`PROBES`] points over opening `i`'s bounding disk at random ray
@@ -86,11 +86,11 @@ fn probe(scene: &Scene, i: usize) -> ExitLight {
         let leaving = there.transform_direction(-DVec3::Z).normalize();
         // Just off the exit, on the side rays leave into (an opening may lie on a wall).
         let on_exit = there.transform_point(local.extend(0.0)).as_vec3();
-        let receiver = Receiver::new(
-            offset_origin(on_exit, leaving.as_vec3()),
-            Some(leaving.as_vec3()),
-            exit_time,
-        );
+        let receiver = Receiver {
+            p: offset_origin(on_exit, leaving.as_vec3()),
+            n: Some(leaving.as_vec3()),
+            time: exit_time,
+        };
         let Some(probe) = probe_light(scene, &receiver, Vec2::new(u, v)) else {
             continue;
         };

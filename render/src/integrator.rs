@@ -139,7 +139,11 @@ impl PathState {
             eta_scale: 1.0,
             prev_pdf: 0.0,
             prev_delta: true,
-            prev_receiver: Receiver::new(ray.origin, None, ray.time),
+            prev_receiver: Receiver {
+                p: ray.origin,
+                n: None,
+                time: ray.time,
+            },
             chain: Chain::default(),
             coins: 1.0,
             opening_t: None,
@@ -618,7 +622,11 @@ fn scatter_at(
     };
     let frame = Frame::new(n);
     let wo = frame.to_local(-dir);
-    let receiver = Receiver::new(p, (!bsdf.transmits()).then_some(n), time);
+    let receiver = Receiver {
+        p,
+        n: (!bsdf.transmits()).then_some(n),
+        time,
+    };
 
     if bsdf.is_delta() {
         *strategies = None;

@@ -190,11 +190,11 @@ fn cell_corner(lower: Vec3, size: Vec3, dims: UVec3, i: u32) -> Vec3 {
 /// uniform time in `times`, with no surface.
 fn random_point(stream: &mut SampleStream, corner: Vec3, size: Vec3, times: [f64; 2]) -> Receiver {
     let [x, y, z, t] = stream.uniform_4d();
-    Receiver::new(
-        corner + size * Vec3::new(x, y, z),
-        None,
-        times[0] + (times[1] - times[0]) * t as f64,
-    )
+    Receiver {
+        p: corner + size * Vec3::new(x, y, z),
+        n: None,
+        time: times[0] + (times[1] - times[0]) * t as f64,
+    }
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@
 use crate::environment::Environment;
 use crate::geometry::{MovingInstance, RoundCone, STATIC, Strands, Triangle};
 use crate::light_guide::LightGuide;
-use crate::light_tree::{Cone, LightBounds, LightTree, Path, PerLane, Query};
+use crate::light_tree::{LightBounds, LightTree, Path, PerLane};
 use crate::sampling::{AliasTable, uniform_triangle};
 use crate::strand_exposure;
 use glam::{Vec2, Vec3};
@@ -63,23 +63,8 @@ pub struct Receiver {
     pub p: Vec3,
     /// Unit normal on the side light can arrive from, when the surface only reflects.
     pub n: Option<Vec3>,
-    /// The only directions light can arrive from, when an opening narrows them: the point is
-    /// a shading point's image beyond a chain of openings, lit through the last exit.
-    pub cone: Option<Cone>,
     /// The path's time (seconds).
     pub time: f64,
-}
-
-impl Receiver {
-    /// A point open to light from every direction above its surface (normal `n`).
-    pub fn new(p: Vec3, n: Option<Vec3>, time: f64) -> Self {
-        Self {
-            p,
-            n,
-            cone: None,
-            time,
-        }
-    }
 }
 
 /// An emitter that a ray found (BSDF sampling), as the light-sampling pdf of the same light
@@ -493,7 +478,7 @@ impl Lights {
 
     /// The unguided tree's shares at the top two levels at `at`.
     pub fn lane_shares(&self, at: &Receiver) -> Option<PerLane> {
-        self.tree.lane_shares(&self.query(at))
+        self.tree.lane_shares(at.p, at.n, self.tau(at.time))
     }
 
     /// The lanes emitter `i`'s path takes at the tree's top two levels.
@@ -527,7 +512,7 @@ impl Lights {
             EnvironmentSplit::Fixed(p) => p,
             EnvironmentSplit::ByEstimate => {
                 let sky = self.sky_importance();
-                let emitters = self.tree.importance(&self.query(at));
+                let emitters = self.tree.importance(at.p, at.n, self.tau(at.time));
                 if emitters > 0.0 {
                     (sky / (sky + emitters)).clamp(LEAST_SPLIT_SHARE, 1.0 - LEAST_SPLIT_SHARE)
                 } else {
@@ -558,28 +543,11 @@ impl Lights {
         }
     }
 
-    /// `at` as the light tree sees it.
-    #[inline(always)]
-    fn query(&self, at: &Receiver) -> Query {
-        Query {
-            p: at.p,
-            n: at.n,
-            cone: at.cone,
-            tau: self.tau(at.time),
-        }
-    }
-
     /// An unoccluded estimate of the light every emitter and the environment can send to `at`
     /// (about π times its irradiance; under the tree, strands count by the root of their
     /// exposure), for weighing light-sampling strategies.
     pub fn importance(&self, at: &Receiver) -> f32 {
-        self.tree.importance(&self.query(at)) + self.sky_importance()
-    }
-
-    /// About what share of the emitters' light at `at` comes from within `cone`
-    /// ([`LightTree::share_within`]).
-    pub fn share_within(&self, at: &Receiver, cone: &Cone) -> f32 {
-        self.tree.share_within(at.p, self.tau(at.time), cone)
+        self.tree.importance(at.p, at.n, self.tau(at.time)) + self.sky_importance()
     }
 
     /// The environment's part of [`Self::importance`]: π times its mean radiance, what it
@@ -591,13 +559,18 @@ impl Lights {
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
     pub fn pick(&self, u: f32, at: &Receiver, strands: &Strands) -> Option<(usize, f32, f32)> {
         match &self.picker {
-            Picker::Tree if self.fetch_ahead => {
+            Picker::Tree if self.fetch_ahead => self.tree.sample_fetching(
+                u,
+                at.p,
+                at.n,
+                self.tau(at.time),
+                self.lane_factors(at),
+                |i| self.fetch(i, strands),
+            ),
+            Picker::Tree => {
                 self.tree
-                    .sample_fetching(u, &self.query(at), self.lane_factors(at), |i| {
-                        self.fetch(i, strands)
-                    })
+                    .sample(u, at.p, at.n, self.tau(at.time), self.lane_factors(at))
             }
-            Picker::Tree => self.tree.sample(u, &self.query(at), self.lane_factors(at)),
             Picker::Power(table) if table.is_empty() => None,
             Picker::Power(table) => {
                 let (i, rest) = table.sample(u.clamp(0.0, 1.0 - f32::EPSILON));
@@ -618,7 +591,9 @@ impl Lights {
     /// Probability that [`Self::pick`] chooses emitter `i` for `at`.
     pub fn pick_pmf(&self, i: usize, at: &Receiver) -> f32 {
         match &self.picker {
-            Picker::Tree => self.tree.pmf(i, &self.query(at), self.lane_factors(at)),
+            Picker::Tree => self
+                .tree
+                .pmf(i, at.p, at.n, self.tau(at.time), self.lane_factors(at)),
             Picker::Power(table) => table.pmf(i),
         }
     }
@@ -1006,7 +981,11 @@ mod tests {
                 selection,
             );
             let time = 0.5;
-            let at = Receiver::new(Vec3::new(0.3, 0.8, 4.0), None, time);
+            let at = Receiver {
+                p: Vec3::new(0.3, 0.8, 4.0),
+                n: None,
+                time,
+            };
             let placement = instances[0].placement(time);
             let world = |e: &Emitter| Triangle {
                 v: e.vertices.v.map(|v| placement.to_world.transform_point3(v)),
@@ -1102,7 +1081,11 @@ mod tests {
             })
             .collect::<Vec<_>>()
         };
-        let at = Receiver::new(Vec3::new(0.0, 0.0, 7.0), Some(-Vec3::Z), 0.5);
+        let at = Receiver {
+            p: Vec3::new(0.0, 0.0, 7.0),
+            n: Some(-Vec3::Z),
+            time: 0.5,
+        };
         for two_sided in [false, true] {
             let lights = Lights::new(
                 lamp(two_sided),
@@ -1155,8 +1138,16 @@ mod tests {
             )
         };
         let lights = build(LightSelection::Tree);
-        let under = Receiver::new(Vec3::new(0.5, 1.9, 0.5), Some(Vec3::Y), 0.0);
-        let far = Receiver::new(Vec3::new(200.0, 0.0, 0.0), Some(Vec3::Y), 0.0);
+        let under = Receiver {
+            p: Vec3::new(0.5, 1.9, 0.5),
+            n: Some(Vec3::Y),
+            time: 0.0,
+        };
+        let far = Receiver {
+            p: Vec3::new(200.0, 0.0, 0.0),
+            n: Some(Vec3::Y),
+            time: 0.0,
+        };
         let share = |at: &Receiver| lights.environment_probability(at);
         assert!(
             share(&under) < 0.1,
@@ -1225,7 +1216,11 @@ mod tests {
             )
         };
         let one = build(quad(0.0).to_vec());
-        let under_first = |x: f32| Receiver::new(Vec3::new(x, 0.0, 0.1), Some(Vec3::Y), 0.0);
+        let under_first = |x: f32| Receiver {
+            p: Vec3::new(x, 0.0, 0.1),
+            n: Some(Vec3::Y),
+            time: 0.0,
+        };
         for x in [0.1, 1.9, -5.0] {
             let at = under_first(x);
             assert_eq!(

@@ -54,7 +54,6 @@
 use crate::aperture;
 use crate::aperture_tree::{ApertureTree, Bounds, Placed, Visitor};
 use crate::exit_light::ExitLight;
-use crate::light_tree::Cone;
 use crate::lights::{Receiver, luminance};
 use crate::portal::Portals;
 use crate::scene::Scene;
@@ -375,10 +374,6 @@ impl Strategies {
             let exit_time = portals.exit_time(i, reach.time);
             reach = reach.beyond(&aperture, i, exit_time, f32::INFINITY);
         }
-        let cone = reach
-            .exit
-            .as_ref()
-            .and_then(|exit| ExitCone::new(exit, reach.point).cone);
         Space {
             aperture: kept.aperture,
             chain: kept.chain,
@@ -386,7 +381,6 @@ impl Strategies {
             receiver: Receiver {
                 p: reach.point.as_vec3(),
                 n: reach.normal.map(DVec3::as_vec3),
-                cone: cone.map(|(axis, sin, _)| light_cone(axis, sin)),
                 time: reach.time,
             },
         }
@@ -489,11 +483,7 @@ impl Visitor for Search<'_> {
         // What the chain would bring per unit of its exit's light.
         let reach_factor = from.factor * aperture.factor * from.solid_angle.min(solid_angle)
             / std::f32::consts::PI;
-        let exit = &apertures.exits[i];
-        let mut estimate = reach_factor * exit.light;
-        if apertures.compete {
-            estimate *= lined_up(scene, from, &aperture, i, exit);
-        }
+        let estimate = reach_factor * apertures.exits[i].light;
         let table = &mut *self.table;
         if estimate > 0.0 && estimate.is_finite() && table.would_keep(estimate, direct) {
             let mut chain = from.chain;
@@ -518,22 +508,6 @@ impl Visitor for Search<'_> {
             self.search_beyond(deeper, i, solid_angle);
         }
     }
-}
-
-/// The share of what the exit of opening `i` (seen as `a` from `from`) passes on, `exit`, that
-/// its light samples can bring: the sky's, and of the emitters' the part that lies in the cone
-/// from the point's image beyond through the exit, as the light tree's top level estimates it
-/// with and without that cone. A small lamp is seen through few of a wall of windows from any
-/// one point; the others' strategies would draw samples that miss their window.
-fn lined_up(scene: &Scene, from: &Reach, a: &Aperture, i: usize, exit: &ExitLight) -> f32 {
-    let image = a.teleport.transform_point(from.point);
-    let Some((axis, sin, _)) = ExitCone::new(&a.exit, image).cone else {
-        return 1.0;
-    };
-    let time = scene.portals.exit_time(i, from.time);
-    let image = Receiver::new(image.as_vec3(), None, time);
-    let within = scene.lights.share_within(&image, &light_cone(axis, sin));
-    exit.sky_share + (1.0 - exit.sky_share) * within
 }
 
 /// The share of a chain's samples drawn on its first opening ([`Space::aperture`]), where the
@@ -677,19 +651,6 @@ impl ExitCone {
     }
 }
 
-/// The directions around `axis` within the angle of sine `sin`, as light selection takes
-/// them, a little wider than rounding to single precision could make them: light selection
-/// skips emitters wholly outside, which cannot send light through the exit.
-fn light_cone(axis: DVec3, sin: f64) -> Cone {
-    const WIDER: f64 = 1e-4;
-    let sin = (sin + WIDER).min(1.0);
-    Cone {
-        axis: axis.as_vec3(),
-        cos: (1.0 - sin * sin).sqrt() as f32,
-        sin: sin as f32,
-    }
-}
-
 /// The openings as the strategy search sees them, built once per scene.
 pub struct Apertures {
     /// Per opening that stands still (a moving one's is built at each ray's time).
@@ -706,12 +667,6 @@ pub struct Apertures {
     beyond: Vec<f32>,
     /// The usable openings as the search visits them.
     tree: ApertureTree,
-    /// More openings are usable than a point keeps chains ([`MAX_SPACES`]): then chains are
-    /// weighed by how they line up with the light beyond ([`lined_up`]), so the few windows
-    /// a lamp is seen through from a point take its places. With fewer, every chain is kept
-    /// anyway, and the weighing, measured for every chain met, made the showcase's search
-    /// half as costly again (2.5% of its instructions) for no less noise.
-    compete: bool,
 }
 
 impl Apertures {
@@ -746,7 +701,6 @@ impl Apertures {
             exits: vec![nothing; portals.len()],
             factors,
             beyond: vec![0.0; portals.len()],
-            compete: placed.len() + moving.len() > MAX_SPACES,
             tree: ApertureTree::new(placed, moving),
         }
     }

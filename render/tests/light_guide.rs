@@ -138,7 +138,11 @@ fn assert_share_falls(
     what: &str,
 ) {
     for (x, z) in floor {
-        let at = Receiver::new(Vec3::new(x, 0.0, z), Some(Vec3::Y), 0.0);
+        let at = Receiver {
+            p: Vec3::new(x, 0.0, z),
+            n: Some(Vec3::Y),
+            time: 0.0,
+        };
         let (plain, guided) = (share(tree, &at), share(learned, &at));
         eprintln!("floor at ({x}, {z}): {what}'s share {plain:.3} unlearned, {guided:.3} learned");
         assert!(

@@ -161,7 +161,14 @@ fn light_tree_cost(
         let h = |k: u32| super::hashed(i, 4, k);
         let p = glam::Vec3::new(3.0 * h(0) - 1.5, 3.0 * h(1) - 1.5, -0.1);
         let time = times[0] + (times[1] - times[0]) * h(2) as f64;
-        (Receiver::new(p, Some(glam::Vec3::Z), time), h(3))
+        (
+            Receiver {
+                p,
+                n: Some(glam::Vec3::Z),
+                time,
+            },
+            h(3),
+        )
     };
     let segments = set.segments.len().max(1);
     let (mut pick, mut pmf) = (Vec::new(), Vec::new());
