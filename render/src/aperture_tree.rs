@@ -262,9 +262,27 @@ impl ApertureTree {
                 }
             }
         }
+        self.visit_moving(visitor);
+    }
+
+    /// Takes the still openings `listed` (a shading point's candidates,
+    /// [`crate::opening_candidates`]) without bounds, then the moving ones.
+    pub fn visit_listed(&self, listed: &[u16], visitor: &mut impl Visitor) {
+        for &i in listed {
+            visitor.opening(i as usize);
+        }
+        self.visit_moving(visitor);
+    }
+
+    fn visit_moving(&self, visitor: &mut impl Visitor) {
         for &i in &self.moving {
             visitor.opening(i as usize);
         }
+    }
+
+    /// How many still openings the tree holds.
+    pub fn still_count(&self) -> usize {
+        self.order.len()
     }
 }
 

@@ -27,6 +27,7 @@ pub mod material;
 pub mod medium;
 pub mod microfacet;
 pub mod multiscatter;
+pub mod opening_candidates;
 pub mod opening_tree;
 pub mod portal;
 pub mod prefetch;

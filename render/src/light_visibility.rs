@@ -42,14 +42,65 @@ const FLOOR: f32 = 0.01;
 /// and 0.3 raised it by a fifth; on the showcase, a tenth and above took 8% off the time.
 pub const SEARCH_WORTH: f32 = 0.1;
 
+/// A grid of boxes over the scene: the cells this module measures, which
+/// [`crate::opening_candidates`] shares.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Cells {
+    lower: Vec3,
+    /// Cell size along each axis.
+    size: Vec3,
+    dims: UVec3,
+}
+
+impl Cells {
+    /// About [`CELLS`] cells over `bounds` (lower and upper corner); `None` for an infinite
+    /// box.
+    fn new(bounds: [Vec3; 2]) -> Option<Self> {
+        let [lower, upper] = bounds;
+        let extent = (upper - lower).max(Vec3::splat(1e-3));
+        let dims = grid_shape(extent)?;
+        Some(Self {
+            lower,
+            size: extent / dims.as_vec3(),
+            dims,
+        })
+    }
+
+    /// How many cells there are.
+    pub fn count(&self) -> usize {
+        self.dims.element_product() as usize
+    }
+
+    /// Cell size along each axis.
+    pub fn size(&self) -> Vec3 {
+        self.size
+    }
+
+    /// The lower corner of cell `i` (numbered x fastest).
+    pub fn corner(&self, i: u32) -> Vec3 {
+        let dims = self.dims;
+        let index = UVec3::new(i % dims.x, (i / dims.x) % dims.y, i / (dims.x * dims.y));
+        self.lower + index.as_vec3() * self.size
+    }
+
+    /// The index of the cell holding `p`; points outside the grid take the nearest cell.
+    #[inline]
+    pub fn of(&self, p: Vec3) -> usize {
+        // The cast truncates, which is the floor at or above zero, and saturates below zero
+        // (and NaN) to cell 0: the same cells as flooring and clamping, without the three
+        // library floors a build for plain SSE2 calls (0.4% of the showcase).
+        let index = ((p - self.lower) / self.size)
+            .as_uvec3()
+            .min(self.dims - UVec3::ONE);
+        (index.x + self.dims.x * (index.y + self.dims.y * index.z)) as usize
+    }
+}
+
 /// The unblocked share of ordinary light sampling per cell, and what light sampling through
 /// the openings is worth there.
 #[derive(Clone, Debug, Default)]
 pub struct LightVisibility {
-    lower: Vec3,
-    /// Cell size along each axis.
-    cell: Vec3,
-    dims: UVec3,
+    cells: Cells,
     share: Vec<f32>,
     /// Per cell, the mean [`Strategies::worth`] at its probe points; empty until measured
     /// ([`Self::measure_worth`]).
@@ -59,24 +110,24 @@ pub struct LightVisibility {
 impl LightVisibility {
     /// Probes `scene` over `bounds` (lower and upper corner), at times in `times`.
     pub fn new(scene: &Scene, bounds: [Vec3; 2], times: [f64; 2]) -> Self {
-        let [lower, upper] = bounds;
-        let extent = (upper - lower).max(Vec3::splat(1e-3));
-        let Some(dims) = grid_shape(extent) else {
+        let Some(cells) = Cells::new(bounds) else {
             return Self::default();
         };
-        let cell = extent / dims.as_vec3();
-        let count = dims.element_product();
-        let share = (0..count)
+        let share = (0..cells.count() as u32)
             .into_par_iter()
-            .map(|i| probe(scene, cell_corner(lower, cell, dims, i), cell, times, i))
+            .map(|i| probe(scene, cells.corner(i), cells.size, times, i))
             .collect();
         Self {
-            lower,
-            cell,
-            dims,
+            cells,
             share,
             worth: Vec::new(),
         }
+    }
+
+    /// The grid's cells; `None` where there is no grid (an empty or infinite scene, or one
+    /// where openings bring no light).
+    pub fn cells(&self) -> Option<&Cells> {
+        (!self.share.is_empty()).then_some(&self.cells)
     }
 
     /// The share at `p` (its cell's; points outside the grid take the nearest cell's); 1 for
@@ -85,14 +136,14 @@ impl LightVisibility {
         if self.share.is_empty() {
             return 1.0;
         }
-        self.share[self.cell_of(p)]
+        self.share[self.cells.of(p)]
     }
 
     /// True when shading points at `p` should search the openings for light: it is worth
     /// [`SEARCH_WORTH`] in its cell, or that is not measured.
     #[inline]
     pub fn worth_searching(&self, p: Vec3) -> bool {
-        self.worth.is_empty() || self.worth[self.cell_of(p)] >= SEARCH_WORTH
+        self.worth.is_empty() || self.worth[self.cells.of(p)] >= SEARCH_WORTH
     }
 
     /// Measures, per cell, the mean [`Strategies::worth`] at its probe points in `scene`
@@ -116,28 +167,16 @@ impl LightVisibility {
     /// The mean [`Strategies::worth`] at [`PROBES`] points of cell `i` (no surface: every
     /// opening in front of a point counts).
     fn cell_worth(&self, scene: &Scene, i: u32, times: [f64; 2]) -> f32 {
-        let corner = cell_corner(self.lower, self.cell, self.dims, i);
+        let corner = self.cells.corner(i);
         let mut stream = SampleStream::new(i, 0x0be5_ea7c);
         let mut strategies = None;
         let mut sum = 0.0f32;
         for _ in 0..PROBES {
-            let receiver = random_point(&mut stream, corner, self.cell, times);
+            let receiver = random_point(&mut stream, corner, self.cells.size, times);
             Strategies::update(&mut strategies, scene, &receiver);
             sum += strategies.as_ref().map_or(0.0, Strategies::worth);
         }
         sum / PROBES as f32
-    }
-
-    /// The index of the cell holding `p`; points outside the grid take the nearest cell.
-    #[inline]
-    fn cell_of(&self, p: Vec3) -> usize {
-        // The cast truncates, which is the floor at or above zero, and saturates below zero
-        // (and NaN) to cell 0: the same cells as flooring and clamping, without the three
-        // library floors a build for plain SSE2 calls (0.4% of the showcase).
-        let index = ((p - self.lower) / self.cell)
-            .as_uvec3()
-            .min(self.dims - UVec3::ONE);
-        (index.x + self.dims.x * (index.y + self.dims.y * index.z)) as usize
     }
 }
 
@@ -179,13 +218,6 @@ fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) ->
     }
 }
 
-/// The lower corner of cell `i` (numbered x fastest) of the grid from `lower` with `dims`
-/// cells of sides `size`.
-fn cell_corner(lower: Vec3, size: Vec3, dims: UVec3, i: u32) -> Vec3 {
-    let index = UVec3::new(i % dims.x, (i / dims.x) % dims.y, i / (dims.x * dims.y));
-    lower + index.as_vec3() * size
-}
-
 /// A probe point drawn from `stream`: uniform in the cell at `corner` with sides `size`, at a
 /// uniform time in `times`, with no surface.
 fn random_point(stream: &mut SampleStream, corner: Vec3, size: Vec3, times: [f64; 2]) -> Receiver {
@@ -205,9 +237,11 @@ mod tests {
     fn points_take_their_cell_or_the_nearest_one_outside() {
         // A 2×3×2 grid of unit cells from (−1, −1, −1), each share its index.
         let grid = LightVisibility {
-            lower: Vec3::splat(-1.0),
-            cell: Vec3::ONE,
-            dims: UVec3::new(2, 3, 2),
+            cells: Cells {
+                lower: Vec3::splat(-1.0),
+                size: Vec3::ONE,
+                dims: UVec3::new(2, 3, 2),
+            },
             share: (0..12).map(|i| i as f32).collect(),
             worth: Vec::new(),
         };
@@ -224,9 +258,11 @@ mod tests {
     #[test]
     fn points_search_where_their_cell_is_worth_it_or_nothing_was_measured() {
         let mut grid = LightVisibility {
-            lower: Vec3::ZERO,
-            cell: Vec3::ONE,
-            dims: UVec3::new(2, 1, 1),
+            cells: Cells {
+                lower: Vec3::ZERO,
+                size: Vec3::ONE,
+                dims: UVec3::new(2, 1, 1),
+            },
             share: vec![1.0; 2],
             worth: Vec::new(),
         };

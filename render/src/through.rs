@@ -28,7 +28,9 @@
 //! beyond it leads to): a room lit through two openings in a row searches them, a room with
 //! its own light does not pay for them. The openings come through a tree whose nodes bound
 //! what their chains could bring ([`crate::aperture_tree`]), so a wall of windows costs the
-//! windows that may be kept, not all of them.
+//! windows that may be kept, not all of them; where more openings compete than that tree can
+//! rule out, a point tries only its cell's candidates for the first opening
+//! ([`crate::opening_candidates`]).
 //!
 //! Openings behind the point, facing away, below its surface or hidden behind the previous
 //! opening get no strategy at all, and a scene without openings has only the ordinary one: it
@@ -203,7 +205,8 @@ impl Strategies {
     /// opening or no light, allows no teleport, light sampling through the openings is worth
     /// too little around the point to search them
     /// ([`crate::light_visibility::LightVisibility::worth_searching`]), or no opening can
-    /// bring light to the point.
+    /// bring light to the point. Where many openings compete, the first opening of a chain
+    /// is one of the point's candidates ([`crate::opening_candidates`]).
     ///
     /// It fills the caller's slot rather than returning the table because the compiler copies
     /// a returned table even when it is `None` (when the table held whole spaces, half a
@@ -211,14 +214,22 @@ impl Strategies {
     #[inline]
     pub fn update(slot: &mut Option<Self>, scene: &Scene, at: &Receiver) {
         if scene.light_through_openings_possible() && scene.light_visibility.worth_searching(at.p) {
-            Self::search(slot, scene, at, scene.settings.max_portal_depth);
+            let listed = scene.opening_candidates.as_ref().map(|c| c.at(scene, at));
+            Self::search(slot, scene, at, scene.settings.max_portal_depth, listed);
         } else {
             *slot = None;
         }
     }
 
-    /// Fills `slot` with the strategies at `at` in a scene where openings may bring light.
-    fn search(slot: &mut Option<Self>, scene: &Scene, at: &Receiver, max_depth: u32) {
+    /// Fills `slot` with the strategies at `at` in a scene where openings may bring light,
+    /// the chains' first openings among `listed` (and the moving ones) when given, else all.
+    pub(crate) fn search(
+        slot: &mut Option<Self>,
+        scene: &Scene,
+        at: &Receiver,
+        max_depth: u32,
+        listed: Option<&[u16]>,
+    ) {
         let table = slot.insert(Self {
             direct: 0.0,
             at: *at,
@@ -226,7 +237,7 @@ impl Strategies {
         });
         let depth = CHAIN_DEPTH.min(max_depth as usize);
         let direct = scene.lights.importance(at) * scene.light_visibility.at(at.p);
-        table.extend(scene, &Reach::start(at), depth, direct);
+        table.extend(scene, &Reach::start(at), depth, direct, listed);
         if !table.normalise(direct) {
             *slot = None;
         }
@@ -237,7 +248,15 @@ impl Strategies {
     /// The openings come through [`ApertureTree`], which skips those whose bounds show they
     /// could not change what is kept. The longer chains are searched once this level's are
     /// kept, the most promising first, so that their searches skip what cannot beat those.
-    fn extend(&mut self, scene: &Scene, from: &Reach, depth: usize, direct: f32) {
+    /// With `listed`, this level takes those still openings rather than the tree's.
+    fn extend(
+        &mut self,
+        scene: &Scene,
+        from: &Reach,
+        depth: usize,
+        direct: f32,
+        listed: Option<&[u16]>,
+    ) {
         // What the last exit lets the point see, once for every opening tested beyond it.
         let cone = from
             .exit
@@ -252,7 +271,10 @@ impl Strategies {
             direct,
             deeper: [None; MAX_SPACES],
         };
-        scene.apertures.tree.visit(&mut search);
+        match listed {
+            Some(listed) => scene.apertures.tree.visit_listed(listed, &mut search),
+            None => scene.apertures.tree.visit(&mut search),
+        }
         let deeper = search.deeper;
         for (bound, i, solid_angle) in deeper.into_iter().flatten() {
             if !self.would_keep(bound, direct) {
@@ -262,7 +284,7 @@ impl Strategies {
             let aperture = apertures.get(portals, i as usize, from.time);
             let exit_time = portals.exit_time(i as usize, from.time);
             let reach = from.beyond(&aperture, i as usize, exit_time, solid_angle);
-            self.extend(scene, &reach, depth - 1, direct);
+            self.extend(scene, &reach, depth - 1, direct, None);
         }
     }
 
@@ -710,6 +732,16 @@ impl Apertures {
     #[doc(hidden)]
     pub fn search_every_opening(&mut self) {
         self.tree = self.tree.flattened();
+    }
+
+    /// True when opening `i` stands still.
+    pub fn stands_still(&self, i: usize) -> bool {
+        self.still.get(i).is_some_and(Option::is_some)
+    }
+
+    /// How many openings stand still and can be sampled through.
+    pub fn still_count(&self) -> usize {
+        self.tree.still_count()
     }
 
     /// What each opening's exit passes on, as the strategy search weighs it.

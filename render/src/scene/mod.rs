@@ -175,6 +175,8 @@ pub struct Scene {
     /// How much of ordinary light sampling is unblocked where (empty unless openings may
     /// bring light).
     pub light_visibility: crate::light_visibility::LightVisibility,
+    /// Where many openings compete, the ones a shading point's search tries.
+    pub opening_candidates: Option<crate::opening_candidates::OpeningCandidates>,
     /// Per-object visibility flags and cull volumes.
     pub visibility: Visibility,
     /// The participating media and where they are.
@@ -382,6 +384,7 @@ impl Scene {
         let mut scene = Self {
             apertures,
             light_visibility: Default::default(),
+            opening_candidates: None,
             triangles: g.triangles,
             static_triangles,
             normals,
@@ -415,6 +418,7 @@ impl Scene {
             scene.apertures.set_exits(exits);
             let worth = LightVisibility::measure_worth(&scene, times);
             scene.light_visibility.set_worth(worth);
+            scene.opening_candidates = crate::opening_candidates::OpeningCandidates::new(&scene);
         }
         if light_selection == LightSelection::Learned {
             let started = std::time::Instant::now();
