@@ -14,6 +14,7 @@
 use crate::geometry::offset_origin;
 use crate::integrator::probe_light;
 use crate::lights::Receiver;
+use crate::ray::Ray;
 use crate::sampling::SampleStream;
 use crate::scene::Scene;
 use glam::{DVec2, DVec3, Vec2};
@@ -25,6 +26,10 @@ const PROBES: u32 = 4096;
 /// The measured estimate never falls below this share of the tree's: a few probes that all
 /// missed a small bright light leave its opening some samples.
 const FLOOR: f32 = 1e-3;
+
+/// Rays traced between an exit and an opening in front of it before walls are taken to stand
+/// between them.
+const WALL_RAYS: u32 = 16;
 
 /// One opening's exit, measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,6 +53,49 @@ pub fn measure(scene: &Scene) -> Vec<ExitLight> {
             }
         })
         .collect()
+}
+
+/// The pairs (from, to) of `pairs` ([`crate::through::Apertures::facing_pairs`]) that no
+/// ray from `from`'s exit to `to`'s bounding disk passes, at the middle of the ray times: the
+/// walls of the rooms between. Light sampling then does not search chains through `from` for
+/// `to` beyond it; a pair a few rays missed costs noise, never bias (BSDF sampling still finds
+/// its light).
+pub fn walled_off(scene: &Scene, pairs: &[(u32, u32)]) -> Vec<(u32, u32)> {
+    pairs
+        .par_iter()
+        .copied()
+        .filter(|&(from, to)| !some_ray_passes(scene, from as usize, to as usize))
+        .collect()
+}
+
+/// True when one of [`WALL_RAYS`] rays from points just off opening `from`'s exit to points of
+/// opening `to`'s bounding disk meets no surface on the way.
+fn some_ray_passes(scene: &Scene, from: usize, to: usize) -> bool {
+    let portals = &scene.portals;
+    let times = portals.times();
+    let time = 0.5 * (times[0] + times[1]);
+    let exit_time = portals.exit_time(from, time);
+    let there = portals.there(from, exit_time);
+    let here = portals.here(to, exit_time);
+    let leaving = there.transform_direction(-DVec3::Z).normalize().as_vec3();
+    let radii = [from, to].map(|i| portals.mask(i).bounding_radius());
+    let mut stream = SampleStream::new(
+        (from * rift_fx::shot::MAX_OPENINGS + to) as u32,
+        0x3a11_0ff5,
+    );
+    (0..WALL_RAYS).any(|_| {
+        let [a, b, c, d] = stream.uniform_4d();
+        let start = there.transform_point((uniform_disk(a, b) * radii[0]).extend(0.0));
+        let origin = offset_origin(start.as_vec3(), leaving);
+        let end = here.transform_point((uniform_disk(c, d) * radii[1]).extend(0.0));
+        let way = end.as_vec3() - origin;
+        let length = way.length();
+        length > 0.0
+            && !scene.occluded(
+                &Ray::new(origin, way / length, length * (1.0 - 1e-4), exit_time),
+                None,
+            )
+    })
 }
 
 /// The light tree's unoccluded estimate for opening `i`'s exit: at its centre, facing the way

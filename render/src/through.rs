@@ -739,6 +739,12 @@ impl Apertures {
         self.still.get(i).is_some_and(Option::is_some)
     }
 
+    /// Per opening, what [`brightest_beyond`] found (for tests).
+    #[doc(hidden)]
+    pub fn beyond(&self) -> &[f32] {
+        &self.beyond
+    }
+
     /// How many openings stand still and can be sampled through.
     pub fn still_count(&self) -> usize {
         self.tree.still_count()
@@ -749,13 +755,37 @@ impl Apertures {
         &self.exits
     }
 
-    /// Takes each opening's exit as measured ([`crate::exit_light::measure`]).
-    pub fn set_exits(&mut self, exits: Vec<ExitLight>) {
+    /// The pairs of usable still openings (from, to) placed so that a ray leaving `from`'s
+    /// exit could meet `to` (see [`brightest_beyond`]), for rays to test whether walls stand
+    /// between ([`crate::exit_light::walled_off`]); none past [`WALL_TEST_PAIRS`] pairs.
+    pub fn facing_pairs(&self) -> Vec<(u32, u32)> {
+        let n = self.still.len();
+        if n * n > WALL_TEST_PAIRS {
+            return Vec::new();
+        }
+        let usable = |i: usize| self.factors[i] > 0.0;
+        let mut pairs = Vec::new();
+        for (i, from) in self.still.iter().enumerate().filter(|&(i, _)| usable(i)) {
+            let Some(from) = from else {
+                continue;
+            };
+            for (j, to) in self.still.iter().enumerate().filter(|&(j, _)| usable(j)) {
+                if to.as_ref().is_some_and(|to| can_meet(from, to)) {
+                    pairs.push((i as u32, j as u32));
+                }
+            }
+        }
+        pairs
+    }
+
+    /// Takes each opening's exit as measured ([`crate::exit_light::measure`]), and the pairs
+    /// of [`Self::facing_pairs`] that rays found walled off.
+    pub fn set_exits(&mut self, exits: Vec<ExitLight>, walled_off: &[(u32, u32)]) {
         debug_assert_eq!(exits.len(), self.exits.len());
         let light: Vec<f32> = (0..exits.len())
             .map(|i| exits[i].light * self.factors[i])
             .collect();
-        self.beyond = brightest_beyond(&self.still, &light);
+        self.beyond = brightest_beyond(&self.still, &light, walled_off);
         self.tree
             .set_light(|i| (light[i], self.factors[i] * self.beyond[i]));
         self.exits = exits;
@@ -774,33 +804,47 @@ impl Apertures {
 
 /// Per opening, the most of `light` (each opening's factor × what its exit passes on) among
 /// the openings a ray leaving its exit could meet: those whose disk reaches in front of the
-/// exit. An opening in the exit's own wall cannot be met (rays leave that plane), so a room's
-/// windows do not promise each other's light. Openings that move promise theirs to all, and
-/// past [`BEYOND_PAIRS`] pairs every opening promises the brightest exit.
-fn brightest_beyond(still: &[Option<Aperture>], light: &[f32]) -> Vec<f32> {
+/// exit ([`can_meet`]) and that rays did not find `walled_off` from it. An opening in the
+/// exit's own wall cannot be met (rays leave that plane), so a room's windows do not promise
+/// each other's light, nor the windows of a room beyond walls. Openings that move promise
+/// theirs to all, and past [`BEYOND_PAIRS`] pairs every opening promises the brightest exit.
+fn brightest_beyond(
+    still: &[Option<Aperture>],
+    light: &[f32],
+    walled_off: &[(u32, u32)],
+) -> Vec<f32> {
     let brightest = light.iter().copied().fold(0.0, f32::max);
     if still.len() * still.len() > BEYOND_PAIRS {
         return vec![brightest; still.len()];
     }
-    let reachable = |from: &Aperture, to: &Option<Aperture>| {
-        let Some(to) = to else {
-            return true;
-        };
-        let exit = &from.exit;
-        let tilt = (1.0 - to.front.dot(exit.leaving).powi(2)).max(0.0).sqrt();
-        let offset = to.centre - exit.centre;
-        // Openings in the exit's plane up to rounding count as in it.
-        offset.dot(exit.leaving) + to.radius * tilt > 1e-9 * (offset.length() + to.radius)
+    let walled_off: std::collections::HashSet<(u32, u32)> = walled_off.iter().copied().collect();
+    let reachable = |i: usize, from: &Aperture, j: usize, to: &Option<Aperture>| match to {
+        None => true,
+        Some(to) => can_meet(from, to) && !walled_off.contains(&(i as u32, j as u32)),
     };
-    (still.iter())
-        .map(|from| match from {
+    (still.iter().enumerate())
+        .map(|(i, from)| match from {
             None => brightest,
-            Some(from) => (still.iter().zip(light))
-                .filter(|(to, _)| reachable(from, to))
-                .fold(0.0f32, |most, (_, &l)| most.max(l)),
+            Some(from) => (still.iter().zip(light).enumerate())
+                .filter(|(j, (to, _))| reachable(i, from, *j, to))
+                .fold(0.0f32, |most, (_, (_, &l))| most.max(l)),
         })
         .collect()
 }
+
+/// True when `to`'s disk reaches in front of `from`'s exit, where a ray leaving the exit
+/// could meet it.
+fn can_meet(from: &Aperture, to: &Aperture) -> bool {
+    let exit = &from.exit;
+    let tilt = (1.0 - to.front.dot(exit.leaving).powi(2)).max(0.0).sqrt();
+    let offset = to.centre - exit.centre;
+    // Openings in the exit's plane up to rounding count as in it.
+    offset.dot(exit.leaving) + to.radius * tilt > 1e-9 * (offset.length() + to.radius)
+}
+
+/// The most pairs of openings tested with rays for walls between them
+/// ([`Apertures::facing_pairs`]): 256 openings.
+const WALL_TEST_PAIRS: usize = 1 << 16;
 
 /// The most pairs of openings [`brightest_beyond`] tests.
 const BEYOND_PAIRS: usize = 1 << 24;

@@ -828,3 +828,49 @@ fn each_cells_candidates_keep_what_searching_every_opening_keeps_nearly_everywhe
     // less noisy at four times the samples).
     same_estimate(dir.path(), "wall of windows", &text, 256, false, beauty);
 }
+
+#[test]
+fn rays_find_the_walls_between_an_exit_and_the_openings_it_faces() {
+    let dir = tempfile::tempdir().unwrap();
+    // Six windows from the dark room into the far room, the window of [`two_rooms`], and the
+    // door from the dark room on to the third room.
+    let extra = wall_of_windows(2, 3) + &third_room_lamp();
+    let text = two_rooms(dir.path(), RECTANGLE, RECTANGLE, "", &extra);
+    let path = dir.path().join("rooms.toml");
+    std::fs::write(&path, &text).unwrap();
+    let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
+    let pairs = scene.apertures.facing_pairs();
+    let walled = rift_render::exit_light::walled_off(&scene, &pairs);
+    let [start, end] = scene.portals.times();
+    let room = |i: u32, exit: bool| {
+        let frame = if exit {
+            scene.portals.there(i as usize, start)
+        } else {
+            scene.portals.here(i as usize, end)
+        };
+        (frame.translation.x / 10.0).round() as i32
+    };
+    let (mut across, mut within) = (0, 0);
+    for &(from, to) in &pairs {
+        let (exit_room, opening_room) = (room(from, true), room(to, false));
+        if exit_room != opening_room {
+            // An exit in one room facing an opening in another: walls stand between.
+            across += 1;
+            assert!(
+                walled.contains(&(from, to)),
+                "{from} -> {to} is not walled off"
+            );
+        } else {
+            // In one room: rays pass.
+            within += 1;
+            assert!(
+                !walled.contains(&(from, to)),
+                "{from} -> {to} is walled off"
+            );
+        }
+    }
+    assert!(
+        across > 10 && within > 3,
+        "{across} pairs across walls, {within} within rooms"
+    );
+}

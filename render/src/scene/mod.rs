@@ -415,7 +415,9 @@ impl Scene {
         if scene.light_through_openings_possible() {
             scene.light_visibility = LightVisibility::new(&scene, bounds, times);
             let exits = crate::exit_light::measure(&scene);
-            scene.apertures.set_exits(exits);
+            let pairs = scene.apertures.facing_pairs();
+            let walled_off = crate::exit_light::walled_off(&scene, &pairs);
+            scene.apertures.set_exits(exits, &walled_off);
             let worth = LightVisibility::measure_worth(&scene, times);
             scene.light_visibility.set_worth(worth);
             scene.opening_candidates = crate::opening_candidates::OpeningCandidates::new(&scene);
