@@ -78,13 +78,13 @@ impl OpeningCandidates {
         let mut best: Vec<(u16, f32)> = Vec::new();
         let mut strategies = None;
         let normals = facing_normals(facing);
+        let depth = scene.settings.max_portal_depth;
         for (place, normal) in corners.flat_map(|c| normals.iter().map(move |&n| (c, n))) {
             let receiver = Receiver {
                 p: corner + size * place,
                 n: normal,
                 time: self.time,
             };
-            let depth = scene.settings.max_portal_depth;
             Strategies::search(&mut strategies, scene, &receiver, depth, None);
             for (chain, share) in strategies.iter().flat_map(Strategies::chains) {
                 let Some(first) = chain.openings().next() else {

@@ -739,12 +739,6 @@ impl Apertures {
         self.still.get(i).is_some_and(Option::is_some)
     }
 
-    /// Per opening, what [`brightest_beyond`] found (for tests).
-    #[doc(hidden)]
-    pub fn beyond(&self) -> &[f32] {
-        &self.beyond
-    }
-
     /// How many openings stand still and can be sampled through.
     pub fn still_count(&self) -> usize {
         self.tree.still_count()
