@@ -81,6 +81,59 @@ fn child_box(
     )
 }
 
+/// What a ray query through `nodes` (one time slice's) is expected to cost, by the surface
+/// area heuristic: each child box's area, the mean of the slice's two ends, over `reference`'s
+/// area (so a random ray through `reference` meets it that often), times what meeting it costs:
+/// a node visit for an inner child, a test for each of a leaf's primitives.
+pub fn expected_cost(nodes: &[SweptNode], reference: &Aabb) -> f64 {
+    let whole = reference.half_area() as f64;
+    if nodes.is_empty() || whole.is_nan() || whole <= 0.0 {
+        return 0.0;
+    }
+    let mut cost = 1.0;
+    for node in nodes {
+        let layout = &node.start;
+        let step = layout.e.map(|e| ((e as i32 - 127) as f64).exp2());
+        let rows = [plane_rows(layout), node.end.each_ref()];
+        for slot in 0..8 {
+            let meta = layout.child_meta[slot];
+            if meta == 0 {
+                continue;
+            }
+            let area: f64 = rows
+                .iter()
+                .map(|rows| {
+                    let extent = |a: usize| {
+                        (rows[2 * a + 1][slot] as f64 - rows[2 * a][slot] as f64) * step[a]
+                    };
+                    let (x, y, z) = (extent(0), extent(1), extent(2));
+                    x * y + y * z + z * x
+                })
+                .sum::<f64>()
+                * 0.5;
+            let meets = if layout.imask & (1 << slot) != 0 {
+                1.0
+            } else {
+                (meta >> 5).count_ones() as f64
+            };
+            cost += meets * area / whole;
+        }
+    }
+    cost
+}
+
+/// `node`'s plane rows, in [`Grid::quantize`]'s order.
+fn plane_rows(node: &CwBvhNode) -> [&[u8; 8]; 6] {
+    [
+        &node.child_min_x,
+        &node.child_max_x,
+        &node.child_min_y,
+        &node.child_max_y,
+        &node.child_min_z,
+        &node.child_max_z,
+    ]
+}
+
 /// A node's origin and, per axis, the power-of-two step of its 255-step grid.
 struct Grid {
     origin: glam::Vec3,
@@ -262,6 +315,78 @@ mod tests {
             .map(|node| node.start)
             .collect();
         check(&bvh, &still, &Fixed, |i| inside(i, 0.0));
+    }
+
+    /// By Cauchy's formula, a uniformly random line through a convex body meets a convex part
+    /// of it with the ratio of their surface areas as probability: lines through the box of
+    /// everything, counted through each child box at the slice's two ends (each leaf once per
+    /// primitive), meet on average what [`expected_cost`] expects.
+    #[test]
+    fn expected_cost_is_what_random_lines_through_the_tree_meet() {
+        let (start, end) = scattered(|i| Vec3::new(0.4, 0.0, (i % 5) as f32 * 0.2));
+        let bvh = build_cwbvh(
+            &start,
+            BvhBuildParams::medium_build(),
+            &mut Default::default(),
+        );
+        let nodes = refit_slice(&bvh, &start, &end);
+        let reference = start
+            .iter()
+            .chain(&end)
+            .fold(Aabb::empty(), |all, b| all.union(b));
+        let expected = expected_cost(&nodes, &reference);
+        let (lo, hi) = (Vec3::from(reference.min), Vec3::from(reference.max));
+        let (centre, radius) = ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut met, mut lines) = (0.0f64, 0u32);
+        while lines < 20_000 {
+            // A uniformly random line meeting the sphere around the box: a direction on the
+            // sphere and a point of the disk across it, kept when it meets the box.
+            let z = 2.0 * uniform() - 1.0;
+            let phi = std::f32::consts::TAU * uniform();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let (u, v) = dir.any_orthonormal_pair();
+            let (rho, theta) = (radius * uniform().sqrt(), std::f32::consts::TAU * uniform());
+            let through = centre + (u * theta.cos() + v * theta.sin()) * rho;
+            let ray = BoxRay::new(through - dir * (4.0 * radius), dir);
+            if ray.enters(lo, hi, f32::INFINITY).is_none() {
+                continue;
+            }
+            lines += 1;
+            met += 1.0;
+            for at in [0.0, 1.0] {
+                for node in &nodes {
+                    let mut hits = Swept { at }.slab_hits::<false>(node, &ray, f32::INFINITY);
+                    while hits != 0 {
+                        let slot = hits.trailing_zeros() as usize;
+                        hits &= hits - 1;
+                        let layout = node.layout();
+                        met += 0.5
+                            * if layout.imask & (1 << slot) != 0 {
+                                1.0
+                            } else {
+                                leaf_slots(layout, slot).len() as f64
+                            };
+                    }
+                }
+            }
+        }
+        let measured = met / lines as f64;
+        assert!(
+            (measured / expected - 1.0).abs() < 0.03,
+            "random lines meet {measured:.3} boxes, the heuristic expects {expected:.3}"
+        );
+        assert!(
+            expected > 3.0,
+            "a tree of 500 boxes expects more than its root"
+        );
     }
 
     #[test]
