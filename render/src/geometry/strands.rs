@@ -41,12 +41,12 @@ const MAX_TIME_SLICES: usize = 16;
 /// straight path by up to |a|·L²/8 over a slice of length L, and the boxes are widened by that.
 const CHORD_SHARE: f32 = 0.125;
 
-/// How far a moving ring's tree is built with each segment lifted along the ring's axis by its
-/// turn over the rays' times (see [`Segment::grouping_box`]): each is tried, and the layout
-/// whose slices the surface area heuristic expects cheapest is kept. Too little lift groups
-/// strands that drift apart; too much splits a band by speed into layers a ray crosses one by
-/// one. The bench's spinning ring (100k segments) visits 74, 70, 31, 36 and 39 nodes a
-/// closest-hit ray at these scales, and the heuristic ranks them alike.
+/// The shares of each segment's turn over the rays' times by which a moving ring's layout is
+/// built with the segment lifted along the ring's axis (see [`Segment::grouping_box`]): each
+/// is tried, and the layout whose slices the surface area heuristic expects cheapest is kept.
+/// Too little lift groups strands that drift apart; too much splits a band by speed into layers
+/// a ray crosses one by one. The bench's spinning ring (100k segments) visits 70, 31, 36 and 39
+/// nodes a closest-hit ray at these shares, and the heuristic ranks them alike.
 const LIFT_SCALES: [f32; 4] = [0.125, 0.25, 0.5, 1.0];
 
 /// One segment in its ring's local frame: each end's position at the frame's time, velocity,
@@ -115,8 +115,8 @@ impl Segment {
         };
         let turned = 0.5 * (turn(0, at.a) + turn(1, at.b)) * (window[1] - window[0]);
         let (lo, hi) = at.bounds();
-        let lift = Vec3::Z * (lift * turned);
-        Aabb::new((lo + lift).into(), (hi + lift).into())
+        let shift = Vec3::Z * (lift * turned);
+        Aabb::new((lo + shift).into(), (hi + shift).into())
     }
 
     /// Local bounds over Δ in `deltas`: each end's quadratic per axis reaches its extremes at
@@ -706,7 +706,8 @@ fn build_tree(
 /// A moving ring's layout and its nodes for each of `slices` time slices over Δ in `deltas`:
 /// built over the segments' grouping boxes with each of [`LIFT_SCALES`] (in parallel), each
 /// refit to every slice, and the one [`expected_cost`] finds cheapest over `all` (the bounds
-/// of every segment over the slices) kept; the first of equals.
+/// of every segment over the slices) kept; the first of equals. Candidates are compared as
+/// they finish, so no more than a few are held at once.
 fn build_moving(
     segments: &[Segment],
     deltas: [f32; 2],
@@ -727,7 +728,7 @@ fn build_moving(
                 .collect()
         })
         .collect();
-    let built: Vec<(f64, CwBvh, Vec<Vec<SweptNode>>)> = LIFT_SCALES
+    let (_, bvh, nodes) = LIFT_SCALES
         .par_iter()
         .map(|&lift| {
             let grouping: Vec<Aabb> = segments
@@ -743,13 +744,10 @@ fn build_moving(
                 .windows(2)
                 .map(|ends| refit_slice(&bvh, &ends[0], &ends[1]))
                 .collect();
-            let cost = nodes.iter().map(|n| expected_cost(n, all)).sum();
+            let cost: f64 = nodes.iter().map(|n| expected_cost(n, all)).sum();
             (cost, bvh, nodes)
         })
-        .collect();
-    let (_, bvh, nodes) = built
-        .into_iter()
-        .reduce(|best, next| if next.0 < best.0 { next } else { best })
+        .reduce_with(|first, second| if second.0 < first.0 { second } else { first })
         .expect("LIFT_SCALES is not empty");
     (bvh, nodes.into_iter().map(huge_pages::adopt).collect())
 }
