@@ -5,6 +5,8 @@
 # changing hot code (traversal, integrator, light selection, strands); functions changed since
 # the last training simply go without profile data until then. Workspace crates rebuild on
 # their own when the profile changes; `cargo clean --release` rebuilds the dependencies too.
+# To compare two versions of the code fairly, build both without the profile
+# (`RUSTC_WRAPPER= cargo build --release`, each in its own CARGO_TARGET_DIR) or train for each.
 #
 #   rustup component add llvm-tools   # once: llvm-profdata matching rustc's LLVM
 #   tools/pgo_profile.sh
