@@ -46,5 +46,9 @@ quietly "$rift" fx examples/shots/showcase.toml --frames 12 -o "$work/fx"
 quietly "$rift" bench rays --cells 512 --rays 500000 --repeats 1
 quietly "$rift" bench strands --strands 50 --segments 500 --rays 300000 --repeats 1
 
-"$profdata" merge --sparse -o pgo/rift.profdata "$work"/train/*.profraw
+# Merged into a file beside it and renamed into place whole: a profile cut short by a failed or
+# interrupted merge would stop every optimised build.
+trap 'rm -rf "$work" pgo/rift.profdata.tmp' EXIT
+"$profdata" merge --sparse -o pgo/rift.profdata.tmp "$work"/train/*.profraw
+mv pgo/rift.profdata.tmp pgo/rift.profdata
 echo "wrote pgo/rift.profdata ($(du -h pgo/rift.profdata | cut -f1))"
