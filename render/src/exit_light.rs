@@ -21,8 +21,9 @@ use glam::{DVec2, DVec3, Vec2};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-/// Light samples traced from each exit.
-const PROBES: u32 = 4096;
+/// Light samples traced from each exit; fewer in fuzz builds, as for
+/// [`crate::light_visibility`]'s grid.
+const PROBES: u32 = if cfg!(fuzzing) { 256 } else { 4096 };
 /// The measured estimate never falls below this share of the tree's: a few probes that all
 /// missed a small bright light leave its opening some samples.
 const FLOOR: f32 = 1e-3;

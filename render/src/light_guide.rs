@@ -43,8 +43,9 @@ use rayon::prelude::*;
 use std::cell::RefCell;
 use std::ops::Range;
 
-/// Training paths: the camera's frame at about this many pixels across (at most its own).
-const TRAINING_WIDTH: u32 = 160;
+/// Training paths: the camera's frame at about this many pixels across (at most its own);
+/// fewer in fuzz builds, as for [`crate::light_visibility`]'s grid.
+const TRAINING_WIDTH: u32 = if cfg!(fuzzing) { 16 } else { 160 };
 /// Paths per training pixel.
 const TRAINING_SPP: u32 = 4;
 /// A region is halved while it holds more than this many training samples. On the showcase
