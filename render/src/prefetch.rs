@@ -1,7 +1,10 @@
 //! Asking the cache for data a moment before it is read, where the address is known early and
 //! the read would otherwise wait on memory.
 
-/// Asks the cache for every line of `items` (a no-op where the processor has no such hint).
+/// Asks the cache for the lines of `items`: one from its first byte, then one every 64 bytes
+/// (a no-op where the processor has no such hint). A run that starts partway into a line and
+/// ends partway into another leaves its last line unasked; asking for that one too made no
+/// difference that six alternations of the ray benchmark could measure.
 #[inline(always)]
 pub fn prefetch<T>(items: &[T]) {
     #[cfg(target_arch = "x86_64")]
