@@ -10,6 +10,12 @@
 //! pick's pmf uses the same weights); a strand no probe saw out of still keeps a small share,
 //! because probes are few and light leaks between strands.
 //!
+//! With these weights, the showcase's rings alone lighting the room directly, 41% of the points
+//! picked on strands were seen, 2% lay behind exactly one other strand and 57% behind two or
+//! more. So crediting a blocked sample with the light of the strand in front (an MIS over the
+//! first two strands along the line) recovers almost nothing; only a share over every strand
+//! along the line would, and finding them all costs more than the variance it saves.
+//!
 //! Each segment sends a few cosine-weighted rays from points spread over its surface at one
 //! time, and the counts are pooled with the segments next to it along the same strand, whose
 //! exposure differs little: on the showcase four rays a segment pooled over five segments came
