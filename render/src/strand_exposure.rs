@@ -13,8 +13,11 @@
 //! With these weights, the showcase's rings alone lighting the room directly, 41% of the points
 //! picked on strands were seen, 2% lay behind exactly one other strand and 57% behind two or
 //! more. So crediting a blocked sample with the light of the strand in front (an MIS over the
-//! first two strands along the line) recovers almost nothing; only a share over every strand
-//! along the line would, and finding them all costs more than the variance it saves.
+//! first two strands along the line) recovers almost nothing. A share over every strand within
+//! 5% of the first one's distance does recover it (the rings' direct light alone: variance
+//! ×0.33), but the query that finds them all costs more than it saves: on the whole showcase,
+//! variance ×0.70 for 1.6 times the render time, or ×0.87 for 1.1–1.2 times when only a path's
+//! first scattering shares.
 //!
 //! Each segment sends a few cosine-weighted rays from points spread over its surface at one
 //! time, and the counts are pooled with the segments next to it along the same strand, whose
