@@ -55,10 +55,12 @@ impl VoxelsBuilder {
         }
     }
 
-    /// The bricks the table would hold (padding included), for a memory check before
-    /// [`Self::build`].
-    pub fn table_len(&self) -> u64 {
-        match self.extent() {
+    /// The bricks the table would hold (padding included) once the leaves at `coming`
+    /// (origins whose values are still to be read) join what is gathered, for a memory check
+    /// before [`Self::build`].
+    pub fn table_len(&self, coming: &[IVec3]) -> u64 {
+        let coming = coming.iter().map(|&o| (o, o + BRICK));
+        match self.extent(coming) {
             Some((lo, hi)) => {
                 let n = (hi - lo) / BRICK + 2;
                 n.x as u64 * n.y as u64 * n.z as u64
@@ -67,30 +69,43 @@ impl VoxelsBuilder {
         }
     }
 
-    /// Table entries the leaves and tiles fill: no more than [`Self::table_len`] unless some
-    /// overlap (which a well-formed VDB tree never has).
-    pub fn covered_bricks(&self) -> u64 {
+    /// The bricks of values [`Self::build`] stores for the tiles: one for each value they
+    /// hold (tiles of one value share theirs), for a memory check before it.
+    pub fn tile_bricks(&self) -> u64 {
+        let values: std::collections::HashSet<u32> = self
+            .tiles
+            .iter()
+            .map(|&(_, _, v)| v.max(0.0).to_bits())
+            .collect();
+        values.len() as u64
+    }
+
+    /// Table entries the leaves and tiles fill, `coming` more leaves included: no more than
+    /// [`Self::table_len`] unless some overlap (which a well-formed VDB tree never has).
+    pub fn covered_bricks(&self, coming: usize) -> u64 {
         let tiles: u64 = self
             .tiles
             .iter()
             .map(|&(_, side, _)| ((side / BRICK) as u64).pow(3))
             .sum();
-        self.leaves.len() as u64 + tiles
+        (self.leaves.len() + coming) as u64 + tiles
     }
 
-    /// The voxel bounds [lo, hi) of everything gathered, in whole bricks.
-    fn extent(&self) -> Option<(IVec3, IVec3)> {
+    /// The voxel bounds [lo, hi) of everything gathered and the boxes `more`, in whole
+    /// bricks.
+    fn extent(&self, more: impl Iterator<Item = (IVec3, IVec3)>) -> Option<(IVec3, IVec3)> {
         let boxes = self.leaves.iter().map(|(o, _)| (*o, *o + BRICK));
         let tiles = self.tiles.iter().map(|&(o, side, _)| (o, o + side));
         boxes
             .chain(tiles)
+            .chain(more)
             .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
     }
 
     /// The grid, with negative values raised to zero (a density cannot be negative; smoke
     /// solvers leave small negative values behind).
     pub fn build(self) -> Voxels {
-        let Some((lo, hi)) = self.extent() else {
+        let Some((lo, hi)) = self.extent(std::iter::empty()) else {
             return Voxels::empty();
         };
         let origin = lo - BRICK;

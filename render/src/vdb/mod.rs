@@ -427,4 +427,18 @@ mod tests {
             let _ = read_grid(&b, "density", 1 << 26);
         }
     }
+
+    #[test]
+    fn a_leaf_far_from_the_tiles_counts_in_the_table_it_stretches() {
+        // A damaged smoke file (found by the fuzzer) whose tiles lie in one corner and one
+        // leaf far away: the table between them passed the memory check when only the tiles
+        // were counted, then took seconds to fill.
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../fuzz/corpus/vdb/03d58d9121606ddcc43af557c888a4c22113969f"
+        );
+        let bytes = std::fs::read(path).unwrap();
+        let e = read_grid(&bytes, "density", 8 << 20).err().unwrap();
+        assert!(e.contains("MiB"), "{e}");
+    }
 }

@@ -84,18 +84,23 @@ impl Stream {
         // Values follow in the root's order: its children sorted by origin.
         children_leaves.sort_by_key(|(o, _)| (o.x, o.y, o.z));
         topology.leaves = children_leaves.into_iter().flat_map(|(_, l)| l).collect();
-        let cells = topology.builder.table_len();
+        // The table spans the leaves too, whose values are read later: a leaf far from the
+        // tiles stretches it as much as a tile would.
+        let cells = topology.builder.table_len(&topology.leaves);
         // Nodes that overlap (two root children at one origin, say) would make filling the
         // table cost far more than its size.
-        if topology.builder.covered_bricks() > cells {
+        if topology.builder.covered_bricks(topology.leaves.len()) > cells {
             return Err("its tree has nodes that overlap; the file is damaged".into());
         }
-        let bytes = topology.leaves.len() as u64 * LEAF_BYTES + cells * 8;
+        // Each tile value takes a brick of its own, as a leaf does: a damaged tree of many
+        // tiles with different values would otherwise take far more memory (and time) than
+        // the table's size shows.
+        let bricks = topology.leaves.len() as u64 + topology.builder.tile_bricks();
+        let bytes = bricks * LEAF_BYTES + cells * 8;
         if bytes > self.max_bytes {
             return Err(format!(
-                "its {} leaves over {cells} bricks need about {} MiB, more than the {} MiB \
-                 allowed",
-                topology.leaves.len(),
+                "its {bricks} bricks of values (leaves and tile values) over a table of {cells} \
+                 bricks need about {} MiB, more than the {} MiB allowed",
                 bytes >> 20,
                 self.max_bytes >> 20
             ));
