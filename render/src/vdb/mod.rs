@@ -435,7 +435,7 @@ mod tests {
         // were counted, then took seconds to fill.
         let path = concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../fuzz/corpus/vdb/03d58d9121606ddcc43af557c888a4c22113969f"
+            "/../fuzz/regressions/vdb/leaf-far-from-tiles.vdb"
         );
         let bytes = std::fs::read(path).unwrap();
         let e = read_grid(&bytes, "density", 8 << 20).err().unwrap();
