@@ -484,6 +484,9 @@ fn scatter(
     let (p, ng, bsdf) = match event {
         Event::Surface(hit) => {
             let (p, ng, material) = surface_emission(scene, path, strategies, &hit, out);
+            if material.black_from(-path.ray.dir.dot(ng)) {
+                return false;
+            }
             (p, ng, &material.bsdf)
         }
         Event::Collision { medium, at } => {
@@ -531,7 +534,12 @@ fn surface_emission<'a>(
     if path.bounce == 0 {
         let facing = if cos_o >= 0.0 { ng } else { -ng };
         let object = scene.object_of(hit.triangle);
-        path.first_hit(out, hit.t, facing, material.bsdf.albedo(), object);
+        let albedo = if material.black_from(cos_o) {
+            Vec3::ZERO
+        } else {
+            material.bsdf.albedo()
+        };
+        path.first_hit(out, hit.t, facing, albedo, object);
     }
     if material.emits() {
         let le = material.emitted(cos_o);

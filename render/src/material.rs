@@ -68,12 +68,22 @@ pub struct Material {
     pub emission: Vec3,
     /// Emits from the back side too.
     pub two_sided_emission: bool,
+    /// The back side (against the geometric normal) is black: a path that meets it ends there.
+    /// Mitsuba's BSDFs are all one-sided; rift's reflect on both sides unless asked.
+    pub one_sided: bool,
 }
 
 impl Material {
     /// True when the material emits.
     pub fn emits(&self) -> bool {
         self.emission.max_element() > 0.0
+    }
+
+    /// True when a path arriving from the side whose cosine with the geometric normal is
+    /// `cos` meets a black back side ([`Self::one_sided`]).
+    #[inline]
+    pub fn black_from(&self, cos: f32) -> bool {
+        self.one_sided && cos < 0.0
     }
 
     /// Emitted radiance towards a direction whose cosine with the geometric normal is `cos`.

@@ -79,7 +79,12 @@ fn icosphere_obj(subdivisions: u32) -> String {
 
 /// Renders `extra` TOML (materials, objects, environment) at 48×48 and `spp`.
 fn render(dir: &Path, extra: &str, spp: u32) -> rift_render::film::Image {
-    let text = format!(
+    common::render_shot(dir, "shot", &shot(extra), spp)
+}
+
+/// The shot [`render`] renders: a 48×48 camera at z = 4 looking down −Z, and `extra`.
+fn shot(extra: &str) -> String {
+    format!(
         r#"
 [shot]
 name = "analytic"
@@ -92,8 +97,7 @@ fov_degrees = 40.0
 position = [0.0, 0.0, 4.0]
 {extra}
 "#
-    );
-    common::render_shot(dir, "shot", &text, spp)
+    )
 }
 
 fn sphere_scene(reflectance: f32) -> String {
@@ -192,6 +196,69 @@ fn white_furnace_for_every_bsdf() {
         );
         eprintln!("furnace {body:?}: {on}");
     }
+}
+
+/// `one_sided` blackens the back side only: a convex sphere seen from outside keeps its
+/// furnace value, the same sphere wound inside out shows its black back (and a black albedo
+/// AOV), and without the key both sides reflect.
+#[test]
+fn a_one_sided_material_is_black_from_behind_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let outward = icosphere_obj(3);
+    let inward: String = outward
+        .lines()
+        .map(|line| match line.strip_prefix("f ") {
+            Some(face) => {
+                let v: Vec<&str> = face.split_whitespace().collect();
+                format!("f {} {} {}\n", v[0], v[2], v[1])
+            }
+            None => format!("{line}\n"),
+        })
+        .collect();
+    let diffuse = "type = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]";
+    for (mesh, one_sided, black) in [
+        (&outward, true, false),
+        (&inward, true, true),
+        (&inward, false, false),
+    ] {
+        std::fs::write(dir.path().join("ball.obj"), mesh).unwrap();
+        let body = format!("{diffuse}\none_sided = {one_sided}");
+        let img = render(dir.path(), &sphere_with(&body), 32);
+        let (on, _, n) = means(&img);
+        assert!(n > 300, "the sphere covers pixels");
+        let what = format!("one_sided = {one_sided}, black side seen: {black}");
+        if black {
+            let covered = || img.alpha.iter().map(|&a| a == 1.0);
+            for (c, covered) in img.rgb.iter().zip(covered()) {
+                assert!(!covered || *c == Vec3::ZERO, "{what}: pixel {c}");
+            }
+            for (albedo, covered) in img.albedo.iter().zip(covered()) {
+                assert!(!covered || *albedo == Vec3::ZERO, "{what}: albedo {albedo}");
+            }
+        } else {
+            assert!(
+                (on - Vec3::splat(0.5)).abs().max_element() < 0.0025,
+                "{what}: sphere mean {on}"
+            );
+        }
+    }
+}
+
+/// A dielectric lets light through both sides: `one_sided` on one is refused, naming the key.
+#[test]
+fn a_one_sided_dielectric_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("ball.obj"), icosphere_obj(1)).unwrap();
+    let path = dir.path().join("shot.toml");
+    let glass = sphere_with("type = \"dielectric\"\none_sided = true");
+    std::fs::write(&path, shot(&glass)).unwrap();
+    let shot = rift_render::rift_fx::Shot::load(&path).unwrap();
+    let error = rift_render::Scene::build(&shot, 1).err().expect("refused");
+    let message = format!("{error:#}");
+    assert!(
+        message.contains("material[0].one_sided") && message.contains("shot.toml"),
+        "{message}"
+    );
 }
 
 #[test]

@@ -54,6 +54,7 @@ pub(super) fn from_mtl(name: &str, diffuse: Option<Vec3>, emission: Option<Vec3>
         },
         emission: emission.unwrap_or(Vec3::ZERO),
         two_sided_emission: false,
+        one_sided: false,
     }
 }
 
@@ -66,6 +67,7 @@ pub(super) fn boundary() -> Material {
         },
         emission: Vec3::ZERO,
         two_sided_emission: false,
+        one_sided: false,
     }
 }
 
@@ -154,6 +156,12 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
             if m.reflectance.is_some() {
                 return Err(unused("reflectance", "dielectric"));
             }
+            if m.one_sided == Some(true) {
+                return Err(Invalid::new(
+                    format!("{key}.one_sided"),
+                    "a dielectric lets light through from both sides; it cannot be one-sided",
+                ));
+            }
             if m.multiscatter.is_some() {
                 return Err(Invalid::new(
                     format!("{key}.multiscatter"),
@@ -171,6 +179,7 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         bsdf,
         emission: color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?,
         two_sided_emission: m.two_sided_emission.unwrap_or(false),
+        one_sided: m.one_sided.unwrap_or(false),
     })
 }
 

@@ -20,6 +20,8 @@
 //! reflectance = [0.8, 0.8, 0.8] # diffuse: albedo; conductor: colour at normal incidence
 //! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709
 //! two_sided_emission = false
+//! one_sided = false             # true: the back side (against the winding's normal) absorbs
+//!                               # all light, as Mitsuba's BSDFs do; the default reflects on both
 //!
 //! [[material]]
 //! name = "brass"
@@ -168,6 +170,7 @@ pub struct MaterialSection {
     pub multiscatter: Option<bool>,
     pub emission: Option<[f64; 3]>,
     pub two_sided_emission: Option<bool>,
+    pub one_sided: Option<bool>,
 }
 
 /// One `[[medium]]`.
