@@ -3,13 +3,13 @@
 //! shot. Openings that move are tested one after another, as are a shot's one or two still
 //! openings, where the tree's set-up costs more than the tests it saves.
 
+use crate::geometry::build::wide_bvh;
 use crate::geometry::wide_bvh::{BoxRay, Fixed, any_hit, closest_hit};
 use crate::ray::Ray;
 use glam::Vec3;
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh;
 
 /// Still openings from which a tree is built. On a wall of openings (96×96, 128 spp, one
 /// thread), the list cost 0.94× the tree with one opening, 1.03× with two, 1.13× with three,
@@ -48,11 +48,7 @@ impl OpeningTree {
             return Self::List;
         }
         let boxes: Vec<Aabb> = bounds.iter().flatten().copied().collect();
-        let bvh = build_cwbvh(
-            &boxes,
-            BvhBuildParams::medium_build(),
-            &mut Default::default(),
-        );
+        let bvh = wide_bvh(&boxes, BvhBuildParams::medium_build());
         Self::Tree { bvh, still, moving }
     }
 

@@ -2,6 +2,7 @@
 //! BVH; and each moving object in its own BVH under a top-level BVH of their bounds over the
 //! rays' time interval. A static scene has no top level and pays nothing for motion.
 
+use super::build::wide_bvh;
 use super::instance::{MovingInstance, Placement};
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
@@ -9,7 +10,6 @@ use super::wide_bvh::{BoxRay, Fixed, any_hit, closest_hit, node_bytes, worth_fet
 use crate::ray::Ray;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh;
 
 /// Marks a hit on static geometry.
 pub const STATIC: u32 = u32::MAX;
@@ -46,11 +46,7 @@ impl Accel {
     pub fn build(statics: &[Triangle], instances: Vec<MovingInstance>) -> Self {
         let top = (!instances.is_empty()).then(|| {
             let bounds: Vec<_> = instances.iter().map(|i| i.bounds).collect();
-            build_cwbvh(
-                &bounds,
-                BvhBuildParams::medium_build(),
-                &mut Default::default(),
-            )
+            wide_bvh(&bounds, BvhBuildParams::medium_build())
         });
         Self {
             statics: TriangleBvh::build(statics, 0),

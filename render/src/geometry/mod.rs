@@ -2,6 +2,7 @@
 //! structure that gives moving objects motion blur.
 
 pub mod accel;
+pub mod build;
 pub mod instance;
 pub mod motion;
 pub mod moving_bvh;

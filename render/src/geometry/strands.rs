@@ -12,6 +12,7 @@
 //! evaluates nothing per test; a ring whose opening does not move keeps its frame
 //! precomputed.
 
+use super::build::wide_bvh;
 use super::instance::{box_corners, swept_bounds};
 use super::moving_bvh::{expected_cost, refit_slice};
 use super::round_cone::RoundCone;
@@ -24,7 +25,6 @@ use glam::{DAffine3, Vec3};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::cwbvh::node::CwBvhNode;
 use rayon::prelude::*;
 use rift_fx::rig::Similarity;
@@ -678,11 +678,7 @@ fn build_tree(
     let (bvh, slice_nodes) = if moving && !segments.is_empty() {
         build_moving(segments, deltas, slices, &all)
     } else {
-        let bvh = build_cwbvh(
-            &swept,
-            BvhBuildParams::medium_build(),
-            &mut Default::default(),
-        );
+        let bvh = wide_bvh(&swept, BvhBuildParams::medium_build());
         (bvh, Vec::new())
     };
     let nodes = if moving {
@@ -735,11 +731,7 @@ fn build_moving(
                 .iter()
                 .map(|s| s.grouping_box(deltas, lift))
                 .collect();
-            let bvh = build_cwbvh(
-                &grouping,
-                BvhBuildParams::medium_build(),
-                &mut Default::default(),
-            );
+            let bvh = wide_bvh(&grouping, BvhBuildParams::medium_build());
             let nodes: Vec<Vec<SweptNode>> = boundaries
                 .windows(2)
                 .map(|ends| refit_slice(&bvh, &ends[0], &ends[1]))

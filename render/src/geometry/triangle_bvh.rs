@@ -2,12 +2,13 @@
 //! triangles (a static scene part in world space, or one moving object in its own space), with
 //! closest-hit and occlusion queries using the watertight triangle test.
 
+use super::build::wide_bvh;
 use super::triangle::{PackedTriangles, ShearedRay, Triangle};
 use super::wide_bvh::{BoxRay, LeafTest, node_bytes, traverse_compiled, worth_fetching_ahead};
 use glam::Vec3;
 use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 
 /// Meshes up to this many triangles get obvhs' slow build (a wider search for neighbours to
 /// pair, more reinsertion): 0.13 s at this size against 0.09 s. The Cornell box renders 3%
@@ -15,27 +16,26 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 /// gain in tracing, so large meshes keep the medium build.
 const CAREFUL_BUILD_TRIANGLES: usize = 1 << 17;
 
-/// obvhs' compressed wide BVH over `triangles` (its primitive indices index them).
+/// The compressed wide BVH over `triangles` (its primitive indices index them).
 pub(crate) fn build_cwbvh(triangles: &[Triangle]) -> CwBvh {
-    let tris: Vec<obvhs::triangle::Triangle> = triangles
+    let boxes: Vec<Aabb> = triangles
         .iter()
-        .map(|t| obvhs::triangle::Triangle {
-            v0: t.v[0].into(),
-            v1: t.v[1].into(),
-            v2: t.v[2].into(),
+        .map(|t| {
+            let (lo, hi) = (
+                t.v[0].min(t.v[1]).min(t.v[2]),
+                t.v[0].max(t.v[1]).max(t.v[2]),
+            );
+            Aabb::new(lo.into(), hi.into())
         })
         .collect();
+    // obvhs' splitting of large triangles (`pre_split`) does not apply to boxes: it gained
+    // nothing on the Cornell box and stored a split triangle once per piece.
     let params = if triangles.len() <= CAREFUL_BUILD_TRIANGLES {
-        // Without its splitting of large triangles: that gained nothing on the Cornell box
-        // and stores a split triangle once per piece.
-        BvhBuildParams {
-            pre_split: false,
-            ..BvhBuildParams::slow_build()
-        }
+        BvhBuildParams::slow_build()
     } else {
         BvhBuildParams::medium_build()
     };
-    build_cwbvh_from_tris(&tris, params, &mut Default::default())
+    wide_bvh(&boxes, params)
 }
 
 /// A closest hit.
