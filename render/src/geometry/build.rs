@@ -22,10 +22,20 @@ use obvhs::ploc::{PlocBuilder, PlocSearchDistance};
 /// say: search distance, search depth threshold, sort precision, reinsertion and leaf size
 /// (`pre_split` does not apply to boxes and is ignored).
 pub fn wide_bvh(boxes: &[Aabb], params: BvhBuildParams) -> CwBvh {
+    let mut bvh2 = clustered(boxes, params);
+    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false)
+}
+
+/// PLOC's binary tree over `boxes`, with the codes in [`cube_around`] them. The builder's
+/// buffers (three as long as `boxes`) are freed on return, before the steps that follow
+/// allocate theirs: held through them, they raised the peak of a 10⁷-triangle build by 0.9 GB.
+fn clustered(boxes: &[Aabb], params: BvhBuildParams) -> Bvh2 {
     let count = boxes.len();
     let mut bvh2 = Bvh2::zeroed(count);
     bvh2.reset_for_reuse(count, Some((0..count as u32).collect()));
-    let mut builder = PlocBuilder::with_capacity(count);
+    // Without preallocation: the leaves are this vector, and the builder sizes the rest.
+    let mut builder = PlocBuilder::new();
     builder.current_nodes = boxes
         .iter()
         .zip(0u32..)
@@ -48,8 +58,7 @@ pub fn wide_bvh(boxes: &[Aabb], params: BvhBuildParams) -> CwBvh {
         PlocSearchDistance::High => ploc!(24),
         PlocSearchDistance::VeryHigh => ploc!(32),
     }
-    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-    bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false)
+    bvh2
 }
 
 /// The cube centred on the box around `boxes`, as wide as its longest side (empty for none).
