@@ -5,9 +5,10 @@
 //! axis stretched to the length of the others, and every third bit of the code splits the
 //! primitives by height alone. Clusters pair primitives from all over the plane, and a ray
 //! meets overlapping boxes at every level. Here the codes are taken in the cube around the
-//! box, so every axis counts by its length: on `rift bench scaling`'s grid of spinning loops
-//! (10⁶ strand segments) a still ring's ray visited 26 nodes rather than about 10 and a query
-//! took 1.0 µs rather than 0.33.
+//! box, so every axis counts by its length. On `rift bench scaling`'s grid of loops (10⁶ strand
+//! segments) a ray through the still grid visited 26 nodes with obvhs' codes, against 10 with
+//! its slowest build; a query on the spinning grid took 1.0 µs, and takes 0.33 µs with the
+//! cube at the same build cost.
 
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
