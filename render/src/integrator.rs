@@ -483,10 +483,10 @@ fn scatter(
     let phase;
     let (p, ng, bsdf) = match event {
         Event::Surface(hit) => {
-            let (p, ng, material) = surface_emission(scene, path, strategies, &hit, out);
-            if material.black_from(-path.ray.dir.dot(ng)) {
+            let Some((p, ng, material)) = surface_emission(scene, path, strategies, &hit, out)
+            else {
                 return false;
-            }
+            };
             (p, ng, &material.bsdf)
         }
         Event::Collision { medium, at } => {
@@ -517,24 +517,26 @@ fn medium_vertex(path: &PathState, out: &mut PathSample, at: f32, g: f32, albedo
 }
 
 /// The surface `hit` of the path's ray: records it for the AOVs and gathers its emission;
-/// returns its point, geometric normal and material.
+/// returns its point, geometric normal and material, or `None` when the path met the black
+/// back of a one-sided material, where it ends.
 fn surface_emission<'a>(
     scene: &'a Scene,
     path: &PathState,
     strategies: &Option<Strategies>,
     hit: &Hit,
     out: &mut PathSample,
-) -> (Vec3, Vec3, &'a Material) {
+) -> Option<(Vec3, Vec3, &'a Material)> {
     let (dir, time) = (path.ray.dir, path.ray.time);
     let surface = scene.surface(hit, time);
     let (p, ng) = (surface.p, surface.ng);
     let material = scene.material(hit.triangle);
     let cos_o = -dir.dot(ng);
+    let black = material.black_from(cos_o);
     // Checked here too, so later bounces skip the albedo and object lookups.
     if path.bounce == 0 {
         let facing = if cos_o >= 0.0 { ng } else { -ng };
         let object = scene.object_of(hit.triangle);
-        let albedo = if material.black_from(cos_o) {
+        let albedo = if black {
             Vec3::ZERO
         } else {
             material.bsdf.albedo()
@@ -554,7 +556,7 @@ fn surface_emission<'a>(
             out.gather(path.beta * le * weight, path.lit_through, group);
         }
     }
-    (p, ng, material)
+    (!black).then_some((p, ng, material))
 }
 
 /// A free-flight distance through `medium` for the path's ray, whose surface lies at `hit_t`

@@ -101,7 +101,7 @@ mod tests {
             .iter()
             .map(|node| {
                 (0..8)
-                    .filter(|&k| node.is_child_empty(k) == false)
+                    .filter(|&k| !node.is_child_empty(k))
                     .map(|k| half_area(&node.child_aabb(k)))
                     .sum::<f64>()
             })
