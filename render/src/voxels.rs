@@ -40,6 +40,18 @@ pub struct VoxelsBuilder {
     tiles: Vec<(IVec3, i32, f32)>,
 }
 
+/// Bricks of the table per axis for the voxel bounds [lo, hi): a brick of padding each side.
+/// The memory check and [`VoxelsBuilder::build`] share it, so they agree on the size.
+fn table_shape(lo: IVec3, hi: IVec3) -> IVec3 {
+    (hi - lo) / BRICK + 2
+}
+
+/// A value as the grid stores it: negative densities (smoke solvers leave small ones behind)
+/// raised to zero. Tiles of one stored value share a brick.
+fn stored(value: f32) -> f32 {
+    value.max(0.0)
+}
+
 impl VoxelsBuilder {
     /// A brick of voxels at `origin` (a multiple of [`BRICK`]), z fastest.
     pub fn leaf(&mut self, origin: IVec3, values: Box<[f32; BRICK_VOXELS]>) {
@@ -62,7 +74,7 @@ impl VoxelsBuilder {
         let coming = coming.iter().map(|&o| (o, o + BRICK));
         match self.extent(coming) {
             Some((lo, hi)) => {
-                let n = (hi - lo) / BRICK + 2;
+                let n = table_shape(lo, hi);
                 n.x as u64 * n.y as u64 * n.z as u64
             }
             None => 0,
@@ -75,7 +87,7 @@ impl VoxelsBuilder {
         let values: std::collections::HashSet<u32> = self
             .tiles
             .iter()
-            .map(|&(_, _, v)| v.max(0.0).to_bits())
+            .map(|&(_, _, v)| stored(v).to_bits())
             .collect();
         values.len() as u64
     }
@@ -109,7 +121,7 @@ impl VoxelsBuilder {
             return Voxels::empty();
         };
         let origin = lo - BRICK;
-        let bricks = (hi - lo) / BRICK + 2;
+        let bricks = table_shape(lo, hi);
         let cells = (bricks.x * bricks.y * bricks.z) as usize;
         let mut voxels = Voxels {
             origin,
@@ -120,7 +132,7 @@ impl VoxelsBuilder {
         };
         let mut constant: std::collections::HashMap<u32, u32> = Default::default();
         for (at, side, value) in self.tiles {
-            let value = value.max(0.0);
+            let value = stored(value);
             let next = voxels.brick_count();
             let brick = *constant.entry(value.to_bits()).or_insert(next);
             if brick == next {
@@ -139,7 +151,7 @@ impl VoxelsBuilder {
         }
         for (at, values) in self.leaves {
             let brick = voxels.brick_count();
-            voxels.values.extend(values.iter().map(|v| v.max(0.0)));
+            voxels.values.extend(values.iter().map(|&v| stored(v)));
             let cell = voxels.cell((at - origin) / BRICK);
             voxels.table[cell] = brick;
         }
