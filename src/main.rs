@@ -9,6 +9,7 @@ mod looks_cmd;
 mod memory;
 mod merge_cmd;
 mod plot;
+mod processor;
 mod progress;
 mod render_cmd;
 mod resume;
@@ -46,6 +47,11 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    let missing = processor::missing();
+    if !missing.is_empty() {
+        eprintln!("{}", processor::refusal(&missing));
+        return ExitCode::FAILURE;
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Fx(args) => fx_cmd::run(args),

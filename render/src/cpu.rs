@@ -1,6 +1,8 @@
 //! Which vector instructions the processor has, checked once: the hot loops that gain most
-//! from AVX2 (BVH traversal, Sobol points) are compiled twice and pick at run time, so the
-//! binary still runs on any x86-64.
+//! from AVX2 (BVH traversal, Sobol points) are compiled twice and pick at run time, so a
+//! baseline build (`RUSTFLAGS="-C target-cpu=x86-64"`) runs on any x86-64 and still uses AVX2
+//! where present. The default build targets x86-64-v3 (`.cargo/config.toml`): there the check
+//! is answered at compile time and only the AVX2 compilation remains.
 //!
 //! [`run`] picks for work written once as a [`TwoWays`]: its body is compiled for AVX2 and
 //! for the baseline, and everything it inlines goes with it. A call from baseline code into
