@@ -9,6 +9,7 @@ mod looks_cmd;
 mod memory;
 mod merge_cmd;
 mod plot;
+/// Refuses, before anything runs, a processor without what the build targets.
 mod processor;
 mod progress;
 mod render_cmd;
@@ -47,11 +48,6 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let missing = processor::missing();
-    if !missing.is_empty() {
-        eprintln!("{}", processor::refusal(&missing));
-        return ExitCode::FAILURE;
-    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Fx(args) => fx_cmd::run(args),
