@@ -29,15 +29,7 @@ mod check {
         slower).\n";
 
     /// [`REFUSAL_TEXT`] as bytes in place, for the assembly to write.
-    static REFUSAL: [u8; REFUSAL_TEXT.len()] = {
-        let mut bytes = [0; REFUSAL_TEXT.len()];
-        let mut i = 0;
-        while i < bytes.len() {
-            bytes[i] = REFUSAL_TEXT[i];
-            i += 1;
-        }
-        bytes
-    };
+    static REFUSAL: [u8; REFUSAL_TEXT.len()] = *REFUSAL_TEXT.first_chunk().unwrap();
 
     // `rift_processor_supported` returns 1 in EAX when the processor has every feature, else 0;
     // `rift_processor_check`, in the constructor list, refuses the processor when it returns 0.
