@@ -22,12 +22,11 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
 echo "building rift instrumented (target/pgo-train)..."
-# RUSTFLAGS replaces the config's flags, so the target they set is repeated here: a profile
-# trained on another target's code matches fewer functions.
-target=""
-if [ "$(uname -m)" = x86_64 ]; then target="-Ctarget-cpu=x86-64-v3"; fi
-RUSTFLAGS="-Cprofile-generate=$work/build $target" CARGO_TARGET_DIR=target/pgo-train \
-  cargo build --release --quiet --bin rift
+# The instrumentation goes in as a config entry, which cargo joins to `.cargo/config.toml`'s
+# flags (the x86-64-v3 target); RUSTFLAGS would replace them, and a profile trained on another
+# target's code matches fewer functions.
+CARGO_TARGET_DIR=target/pgo-train cargo build --release --quiet --bin rift \
+  --config "target.'cfg(all())'.rustflags = ['-Cprofile-generate=$work/build']"
 rift=target/pgo-train/release/rift
 
 # Only the training runs' counts: the build scripts wrote theirs to $work/build.
