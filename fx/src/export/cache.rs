@@ -131,9 +131,16 @@ pub fn decode(bytes: &[u8]) -> Result<RingFrame, String> {
                 "ring {opening:?}: strand vertex counts do not add up to {n}"
             ));
         }
+        // Read whole before narrowing to i8, so 257 is refused rather than read as 1.
         let directions = (0..strands)
-            .map(|_| r.u32().map(|d| d as i32 as i8))
-            .collect::<Result<Vec<_>, _>>()?;
+            .map(|i| match r.u32()? as i32 {
+                1 => Ok(1),
+                -1 => Ok(-1),
+                other => Err(format!(
+                    "ring {opening:?}: strand {i} turns {other}, not +1 or -1"
+                )),
+            })
+            .collect::<Result<Vec<i8>, _>>()?;
         let points = r.vec3s(n)?;
         let velocities = r.vec3s(n)?;
         let accelerations = r.vec3s(n)?;
@@ -207,5 +214,72 @@ impl<'a> Reader<'a> {
     fn vec3s(&mut self, n: usize) -> Result<Vec<Vec3>, String> {
         let flat = self.f32s(n.checked_mul(3).ok_or("size overflow")?)?;
         Ok(flat.chunks_exact(3).map(Vec3::from_slice).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One ring of one strand (two vertices turning +1), written as a cache.
+    fn one_strand() -> RingFrame {
+        let ring = RingCurves {
+            opening: "door".into(),
+            here: Similarity::IDENTITY,
+            here_shutter: [Similarity::IDENTITY; 2],
+            vertex_counts: vec![2],
+            directions: vec![1],
+            points: vec![Vec3::X, Vec3::Y],
+            velocities: vec![Vec3::ZERO; 2],
+            accelerations: vec![Vec3::ZERO; 2],
+            widths: vec![0.01; 2],
+            colors: vec![Vec3::ONE; 2],
+            intensities: vec![1.0; 2],
+        };
+        RingFrame {
+            frame: 1,
+            time: 1.0 / 24.0,
+            fps: 24.0,
+            shutter: [0.0, 0.0],
+            rings: vec![ring],
+        }
+    }
+
+    /// `frame`'s cache with its first strand's direction stored as `direction`, and the
+    /// checksum made again so that only the direction is wrong.
+    fn with_direction(frame: &RingFrame, direction: i32) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        write(&mut bytes, frame).unwrap();
+        // Header (56 bytes), the name's length and the name, three frames of eight f64, the
+        // strand and vertex counts, one strand's vertex count: then the direction.
+        let at = 56 + 4 + frame.rings[0].opening.len() + 3 * 64 + 8 + 4;
+        bytes[at..at + 4].copy_from_slice(&direction.to_le_bytes());
+        let body = bytes.len() - 8;
+        let sum = fnv1a(&bytes[..body]);
+        bytes[body..].copy_from_slice(&sum.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn reads_back_both_directions() {
+        let frame = one_strand();
+        for d in [1, -1] {
+            let back = decode(&with_direction(&frame, d)).unwrap();
+            assert_eq!(back.rings[0].directions, vec![d as i8]);
+        }
+    }
+
+    /// −128 once overflowed the check's absolute value (a panic in builds with overflow
+    /// checks, found by fuzzing), and 257 or −255 narrowed to ±1 and were read as such.
+    #[test]
+    fn a_direction_other_than_plus_or_minus_one_is_refused() {
+        let frame = one_strand();
+        for d in [i8::MIN as i32, 0, 2, 257, -255, i32::MIN] {
+            let err = decode(&with_direction(&frame, d)).unwrap_err();
+            assert!(
+                err.contains(&format!("strand 0 turns {d}, not +1 or -1")),
+                "{d}: {err}"
+            );
+        }
     }
 }

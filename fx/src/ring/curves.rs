@@ -76,7 +76,8 @@ impl RingCurves {
         {
             return Err(format!("strand vertex counts do not add up to {n}"));
         }
-        if let Some(i) = self.directions.iter().position(|d| d.abs() != 1) {
+        // Not `d.abs()`: the absolute value of −128 overflows an i8.
+        if let Some(i) = self.directions.iter().position(|d| !matches!(d, -1 | 1)) {
             return Err(format!(
                 "strand {i} turns {}, not +1 or -1",
                 self.directions[i]
