@@ -39,9 +39,10 @@ ROOT = Path(__file__).resolve().parent.parent
 R = "rift_render::"
 STAGES = [
     ("writing the image", ("miniz", "exr::", "png::", "deflate", "crc32", "adler")),
+    # Building trees before the ray queries, whose modules hold the builders too.
+    ("set-up", ("obvhs", "clap", "toml", "tobj", "serde", "noise::", "rift_fx::", "::build",
+                "light_guide::train", "huge_pages")),
     ("ray queries", (R + "geometry::", "Scene::intersect", "Scene::occluded", "cpu::run_avx2")),
-    ("set-up", ("obvhs", "clap", "toml", "tobj", "serde", "noise::", R + "scene::", "rift_fx::",
-                "::build", "light_guide::train", "huge_pages")),
     ("openings", (R + "portal::", R + "mask::", R + "aperture", R + "opening")),
     ("light selection", (R + "lights::", R + "light_tree::", R + "light_guide::")),
     ("integrator", (R + "integrator::", R + "material::", R + "microfacet::",
@@ -50,6 +51,8 @@ STAGES = [
     ("sample numbers", (R + "sampling::", R + "sobol::")),
     ("pixel loop and film", (R + "render::", R + "film::", R + "camera::", R + "cryptomatte::",
                              "call_mut")),
+    # The rest of the scene module is loading it.
+    ("set-up", (R + "scene::",)),
 ]
 PER_PATH = [name for name, _ in STAGES if name not in ("writing the image", "set-up")]
 
@@ -165,6 +168,7 @@ def main():
     for function, _ in counted[builds[0]][1].most_common(args.top):
         values = [counted[b][1][function] / paths[b] for b in builds]
         print(f"{'':<24}" + cells(values, 1) + f"  {function[:90]}")
+
 
 if __name__ == "__main__":
     main()
