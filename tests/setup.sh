@@ -6,6 +6,8 @@
 # so).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# On a processor older than the optimised builds' target, say so before anything is built.
+tests/processor_check.sh
 python3 -m pip install --quiet --disable-pip-version-check --root-user-action=ignore -r tests/requirements.txt
 if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null && ! command -v slurmctld >/dev/null; then
   { apt-get update -qq &&
