@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::root;
+use common::{root, stderr};
 use std::process::{Command, Output};
 
 /// What x86-64-v3 needs, by Linux's names, among a few features it does not.
@@ -40,7 +40,7 @@ fn a_processor_lacking_a_feature_is_refused_by_name() {
     for missing in V3_FEATURES {
         let flags: Vec<&str> = V3_FEATURES.into_iter().filter(|&f| f != missing).collect();
         let out = check(&flags, None);
-        let said = String::from_utf8_lossy(&out.stderr);
+        let said = stderr(&out);
         if cfg!(target_arch = "x86_64") {
             assert_eq!(out.status.code(), Some(1), "without {missing}: {said}");
             assert!(
@@ -57,11 +57,7 @@ fn a_processor_lacking_a_feature_is_refused_by_name() {
 #[test]
 fn rustflags_choosing_the_target_pass_any_processor() {
     let old = check(&["sse4_2", "popcnt"], Some("-C target-cpu=x86-64"));
-    assert!(
-        old.status.success(),
-        "{}",
-        String::from_utf8_lossy(&old.stderr)
-    );
+    assert!(old.status.success(), "{}", stderr(&old));
 }
 
 /// A test binary built for x86-64-v3 is running here, so this processor has what the check
@@ -77,9 +73,5 @@ fn this_machine_passes() {
         .env_remove("CARGO_ENCODED_RUSTFLAGS")
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", stderr(&out));
 }
