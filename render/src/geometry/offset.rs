@@ -18,8 +18,24 @@ const INT_SCALE: f32 = 256.0;
 const TARGET_ULPS: f32 = 8.0;
 
 /// Moves `p` off the surface with geometric normal `n` (unit), to the side `n` points to.
+/// Every path vertex offsets twice (its shadow ray and its next ray), so on x86-64 the three
+/// coordinates go through SSE2 (every x86-64 has it) as one vector: a quarter of the
+/// instructions of [`offset_origin_portable`], which it matches to the bit.
 #[inline]
 pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        offset_origin_sse2(p, n)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        offset_origin_portable(p, n)
+    }
+}
+
+/// [`offset_origin`] a coordinate at a time.
+#[inline]
+pub fn offset_origin_portable(p: Vec3, n: Vec3) -> Vec3 {
     let of_i = (n * INT_SCALE).as_ivec3();
     let step = |x: f32, o: i32| {
         let bits = x.to_bits() as i32;
@@ -38,6 +54,33 @@ pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
         pick(p.y, p_i.y, n.y),
         pick(p.z, p_i.z, n.z),
     )
+}
+
+/// [`offset_origin_portable`] in one SSE2 register. The float-to-integer conversion truncates
+/// as `as i32` does for a unit normal's 256 steps at most; a normal that is not a number
+/// (which `as i32` takes as 0) only meets the coordinates it already spoils near the origin.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn offset_origin_sse2(p: Vec3, n: Vec3) -> Vec3 {
+    use std::arch::x86_64::*;
+    let (p, n) = (glam::Vec3A::from(p), glam::Vec3A::from(n));
+    let (pv, nv): (__m128, __m128) = (p.into(), n.into());
+    // SAFETY: SSE2 is part of x86-64.
+    let moved = unsafe {
+        let steps = _mm_cvttps_epi32(_mm_mul_ps(nv, _mm_set1_ps(INT_SCALE)));
+        // Steps away from zero: negated where the coordinate is negative (−0.0 is not).
+        let negative = _mm_castps_si128(_mm_cmplt_ps(pv, _mm_setzero_ps()));
+        let steps = _mm_sub_epi32(_mm_xor_si128(steps, negative), negative);
+        let stepped = _mm_castsi128_ps(_mm_add_epi32(_mm_castps_si128(pv), steps));
+        let nudged = _mm_add_ps(pv, _mm_mul_ps(_mm_set1_ps(FLOAT_SCALE), nv));
+        let magnitude = _mm_andnot_ps(_mm_set1_ps(-0.0), pv);
+        let near_origin = _mm_cmplt_ps(magnitude, _mm_set1_ps(ORIGIN));
+        _mm_or_ps(
+            _mm_and_ps(near_origin, nudged),
+            _mm_andnot_ps(near_origin, stepped),
+        )
+    };
+    Vec3::from(glam::Vec3A::from(moved))
 }
 
 /// Moves the point `p` a light sampler chose on an emitter (geometric normal `n`, unit) off
@@ -76,6 +119,30 @@ mod tests {
                 "scale {scale}: target moved {} against {}",
                 (target - p).length(),
                 (q - p).length()
+            );
+        }
+    }
+
+    /// The vector form moves every point as the portable one does, to the bit: points near
+    /// the origin, far from it, either sign, −0.0, and normals along the axes and between.
+    #[test]
+    fn both_forms_of_the_origin_offset_agree_to_the_bit() {
+        let unit = |i: u32| crate::sampling::hash32(i) as f32 / 2_147_483_648.0 - 1.0;
+        for i in 0..20_000u32 {
+            let scale = [0.0, 1e-3, 0.02, 0.5, 1.0, 40.0, 1e4, 1e6][(i % 8) as usize];
+            let mut p = Vec3::new(unit(6 * i), unit(6 * i + 1), unit(6 * i + 2)) * scale;
+            if i % 11 == 0 {
+                p.y = -0.0;
+            }
+            let n = match i % 5 {
+                0 => Vec3::AXES[(i / 5 % 3) as usize] * unit(i).signum(),
+                _ => Vec3::new(unit(6 * i + 3), unit(6 * i + 4), unit(6 * i + 5)).normalize(),
+            };
+            let (fast, plain) = (offset_origin(p, n), offset_origin_portable(p, n));
+            assert_eq!(
+                fast.to_array().map(f32::to_bits),
+                plain.to_array().map(f32::to_bits),
+                "p {p}, n {n}"
             );
         }
     }
