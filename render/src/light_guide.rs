@@ -611,7 +611,7 @@ mod tests {
     /// halves it, to an uneven depth (up to 16 levels), each leaf its own factors.
     fn uneven_guide(lower: Vec3, upper: Vec3) -> LightGuide {
         fn split(guide: &mut LightGuide, slot: usize, bounds: [Vec3; 2], depth: u32) {
-            let stop = depth >= 16 || hash32(slot as u32 ^ 0x5bd1) % 5 == 0 && depth > 3;
+            let stop = depth >= 16 || hash32(slot as u32 ^ 0x5bd1).is_multiple_of(5) && depth > 3;
             if stop {
                 guide.nodes[slot] = RegionNode::leaf(guide.factors.len() as u32);
                 let factor = guide.factors.len() as f32;
