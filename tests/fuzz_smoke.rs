@@ -6,7 +6,10 @@
 mod common;
 
 use common::root;
+use std::path::Path;
 use std::process::Command;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Seconds each target runs for.
 const SECONDS: u32 = 8;
@@ -49,44 +52,77 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
         return;
     }
     let work = tempfile::tempdir().unwrap();
-    for (target, _) in rift_render::untrusted::TARGETS {
-        // New inputs go to a scratch folder; the committed seed corpus stays as it is.
-        let scratch = work.path().join(target);
-        std::fs::create_dir(&scratch).unwrap();
-        // Findings are kept (fuzz/artifacts is not committed) to be reproduced and fixed.
-        let artifacts = fuzz.join("artifacts").join(target);
-        std::fs::create_dir_all(&artifacts).unwrap();
-        // Optimised, with debug assertions and overflow checks (`-a`), which the stable replay
-        // of the corpora (`fuzz_corpora.rs`, a release build) does not have; the inputs that
-        // once crashed a target run there too.
-        let regressions = Some(fuzz.join("regressions").join(target)).filter(|d| d.is_dir());
-        let out = Command::new("cargo")
-            .current_dir(&fuzz)
-            .args(["+nightly", "fuzz", "run", "-O", "-a", target])
-            .arg(&scratch)
-            .arg(fuzz.join("corpus").join(target))
-            .args(regressions)
-            .arg("--")
-            .args([
-                format!("-max_total_time={SECONDS}"),
-                "-rss_limit_mb=2048".into(),
-                "-malloc_limit_mb=1024".into(),
-                "-timeout=10".into(),
-                format!("-artifact_prefix={}/", artifacts.display()),
-            ])
-            .output()
-            .unwrap();
-        let log = String::from_utf8_lossy(&out.stderr);
-        let tail: String = log.lines().rev().take(30).collect::<Vec<_>>().join("\n");
-        assert!(
-            out.status.success(),
-            "fuzz target {target} found something:\n{tail}"
-        );
-        let runs = log
-            .lines()
-            .rev()
-            .find_map(|l| l.strip_prefix("Done ").and_then(|r| r.split(' ').next()))
-            .unwrap_or("?");
-        eprintln!("{target}: {runs} runs in {SECONDS} s, no finding");
+    // The targets run on every core at once (two on the CI machines): each libFuzzer run is
+    // one process on one core.
+    let targets: Vec<&str> = rift_render::untrusted::TARGETS
+        .iter()
+        .map(|t| t.0)
+        .collect();
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let next = AtomicUsize::new(0);
+    let outcomes = Mutex::new(Vec::new());
+    std::thread::scope(|scope| {
+        for _ in 0..cores.min(targets.len()) {
+            scope.spawn(|| {
+                while let Some(&target) = targets.get(next.fetch_add(1, Ordering::Relaxed)) {
+                    let outcome = fuzz_briefly(&fuzz, work.path(), target);
+                    outcomes.lock().unwrap().push((target, outcome));
+                }
+            });
+        }
+    });
+    let mut outcomes = outcomes.into_inner().unwrap();
+    outcomes.sort_by_key(|(target, _)| *target);
+    let mut findings = Vec::new();
+    for (target, outcome) in outcomes {
+        match outcome {
+            Ok(runs) => eprintln!("{target}: {runs} runs in {SECONDS} s, no finding"),
+            Err(tail) => findings.push(format!("fuzz target {target} found something:\n{tail}")),
+        }
     }
+    assert!(findings.is_empty(), "{}", findings.join("\n\n"));
+}
+
+/// Runs `target` for [`SECONDS`] from its committed corpus and regressions, new inputs going
+/// to a scratch folder under `work`: the number of runs, or the end of its log when it found
+/// something.
+fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String> {
+    // New inputs go to a scratch folder; the committed seed corpus stays as it is.
+    let scratch = work.join(target);
+    std::fs::create_dir(&scratch).unwrap();
+    // Findings are kept (fuzz/artifacts is not committed) to be reproduced and fixed.
+    let artifacts = fuzz.join("artifacts").join(target);
+    std::fs::create_dir_all(&artifacts).unwrap();
+    // Optimised, with debug assertions and overflow checks (`-a`), which the stable replay
+    // of the corpora (`fuzz_corpora.rs`, a release build) does not have; the inputs that
+    // once crashed a target run there too.
+    let regressions = Some(fuzz.join("regressions").join(target)).filter(|d| d.is_dir());
+    let out = Command::new("cargo")
+        .current_dir(fuzz)
+        .args(["+nightly", "fuzz", "run", "-O", "-a", target])
+        .arg(&scratch)
+        .arg(fuzz.join("corpus").join(target))
+        .args(regressions)
+        .arg("--")
+        .args([
+            format!("-max_total_time={SECONDS}"),
+            "-rss_limit_mb=2048".into(),
+            "-malloc_limit_mb=1024".into(),
+            "-timeout=10".into(),
+            format!("-artifact_prefix={}/", artifacts.display()),
+        ])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stderr);
+    if !out.status.success() {
+        let mut tail: Vec<&str> = log.lines().rev().take(30).collect();
+        tail.reverse();
+        return Err(tail.join("\n"));
+    }
+    let runs = log
+        .lines()
+        .rev()
+        .find_map(|l| l.strip_prefix("Done ").and_then(|r| r.split(' ').next()))
+        .unwrap_or("?");
+    Ok(runs.to_owned())
 }
