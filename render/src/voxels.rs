@@ -74,8 +74,12 @@ impl VoxelsBuilder {
         let coming = coming.iter().map(|&o| (o, o + BRICK));
         match self.extent(coming) {
             Some((lo, hi)) => {
+                // Saturating: a damaged file's nodes far apart on every axis ask for more
+                // entries than a u64 counts, which the memory check then refuses.
                 let n = table_shape(lo, hi);
-                n.x as u64 * n.y as u64 * n.z as u64
+                (n.x as u64)
+                    .saturating_mul(n.y as u64)
+                    .saturating_mul(n.z as u64)
             }
             None => 0,
         }

@@ -429,6 +429,21 @@ mod tests {
     }
 
     #[test]
+    fn a_table_past_what_a_u64_counts_is_refused() {
+        // A damaged file (found by the fuzzer) whose nodes lie so far apart on every axis
+        // that the table's entries, times their bytes, passed 2^64: the count wrapped (or,
+        // with overflow checks, panicked) before the memory check.
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../fuzz/regressions/vdb/table-past-u64.vdb"
+        );
+        let bytes = std::fs::read(path).unwrap();
+        let e = read_grid(&bytes, "density", 1 << 30).err().unwrap();
+        // The bytes stop at the most a u64 counts (they wrapped to 6.6 million MiB before).
+        assert!(e.contains(&format!("{} MiB", u64::MAX >> 20)), "{e}");
+    }
+
+    #[test]
     fn a_leaf_far_from_the_tiles_counts_in_the_table_it_stretches() {
         // A damaged smoke file (found by the fuzzer) whose tiles lie in one corner and one
         // leaf far away: the table between them passed the memory check when only the tiles
