@@ -115,9 +115,7 @@ fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String
         .unwrap();
     let log = String::from_utf8_lossy(&out.stderr);
     if !out.status.success() {
-        let mut tail: Vec<&str> = log.lines().rev().take(30).collect();
-        tail.reverse();
-        return Err(tail.join("\n"));
+        return Err(what_it_found(&log));
     }
     let runs = log
         .lines()
@@ -125,4 +123,63 @@ fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String
         .find_map(|l| l.strip_prefix("Done ").and_then(|r| r.split(' ').next()))
         .unwrap_or("?");
     Ok(runs.to_owned())
+}
+
+/// The lines of a failed run's log that say what happened: the panic and its message,
+/// libFuzzer's and the sanitizer's verdicts, and how to reproduce it (the input's own dump,
+/// one line of up to megabytes, left out); the log's last lines when none of them is there.
+fn what_it_found(log: &str) -> String {
+    const MARKS: [&str; 4] = ["panicked at", "ERROR:", "SUMMARY:", "cargo fuzz run"];
+    let lines: Vec<&str> = log.lines().collect();
+    let mut kept = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        if MARKS.iter().any(|m| line.contains(m)) {
+            kept.push(*line);
+            if line.contains("panicked at") {
+                kept.extend(lines.get(i + 1));
+            }
+        }
+    }
+    if kept.is_empty() {
+        kept = lines[lines.len().saturating_sub(30)..].to_vec();
+    }
+    kept.iter()
+        .map(|l| l.chars().take(300).collect::<String>())
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn a_finding_is_reported_by_its_panic_and_how_to_reproduce_it() {
+    let dump = format!("\t[{}]", vec!["0"; 50_000].join(", "));
+    let log = [
+        "INFO: Running with entropic power schedule",
+        "thread '<unnamed>' (22747) panicked at render/src/vdb/tree.rs:99:43:",
+        "attempt to multiply with overflow",
+        "==22747== ERROR: libFuzzer: deadly signal",
+        "    #0 0x55a60c09cd91 in __sanitizer_print_stack_trace",
+        "SUMMARY: libFuzzer: deadly signal",
+        "Output of `std::fmt::Debug`:",
+        &dump,
+        "Reproduce with:",
+        "\tcargo fuzz run -O -a vdb artifacts/vdb/crash-68a4",
+    ]
+    .join("\n");
+    let found = what_it_found(&log);
+    assert_eq!(
+        found.lines().collect::<Vec<_>>(),
+        [
+            "thread '<unnamed>' (22747) panicked at render/src/vdb/tree.rs:99:43:",
+            "attempt to multiply with overflow",
+            "==22747== ERROR: libFuzzer: deadly signal",
+            "SUMMARY: libFuzzer: deadly signal",
+            "\tcargo fuzz run -O -a vdb artifacts/vdb/crash-68a4",
+        ]
+    );
+    // A log without any of those ends in its last lines, each cut short.
+    let other = what_it_found(&format!("one\ntwo\n{dump}"));
+    assert!(
+        other.starts_with("one\ntwo\n\t[0, 0") && other.len() < 320,
+        "{other}"
+    );
 }
