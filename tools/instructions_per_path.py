@@ -8,7 +8,7 @@ trees, strands) or a chain of divisions and square roots waits: confirm a gain w
 `farm-bench --vs`.
 
     python3 tools/instructions_per_path.py [SHOT] [--spp N] [--frame F] [--res W H]
-        [--rift BINARY] [--vs BINARY] [--top N]
+        [--rift BINARY] [--vs BINARY] [--top N] [--inlined FUNCTION [--depth D]]
 
 The shot renders on one thread under `valgrind --tool=callgrind` (about fifty times slower
 than native: keep it small, the default is the Cornell box at 4 spp). Every function's own
@@ -20,6 +20,12 @@ grow with the samples. A shot whose light selection is learned traces its traini
 through the same functions before rendering (160 pixels across, 4 samples each): they count
 in the per-path figures, a large share of a small render, so compare builds at the same
 settings. `--vs` counts a second build the same way and prints the ratios.
+
+Most of the render core is inlined into a few functions (`integrator::trace` holds the BSDFs,
+light sampling and offsets), so `--inlined integrator::trace` also splits that function's own
+instructions by the functions inlined into it, as a tree `--depth` levels deep (build A only):
+callgrind counts each instruction and `addr2line -i` (binutils) names the inlined calls it
+came from.
 
 Needs valgrind (Debian: `apt-get install valgrind`) and a release build.
 """
@@ -64,15 +70,22 @@ def stage_of(function):
     return "other"
 
 
-def self_costs(callgrind_out):
-    """Each function's own instructions, from a callgrind output file."""
+def self_costs(callgrind_out, by_address_of=None):
+    """Each function's own instructions, from a callgrind output file; and, for the functions
+    whose names end with `by_address_of`, their instructions by address (the output must
+    then hold addresses: callgrind's `--dump-instr=yes`)."""
     costs = Counter()
+    at_address = Counter()
     names = {}
     function = None
     after_call = False
+    columns = ["line"]
+    last = {}
     with open(callgrind_out) as f:
         for line in f:
-            if line.startswith(("fn=", "cfn=")):
+            if line.startswith("positions:"):
+                columns = line.split()[1:]
+            elif line.startswith(("fn=", "cfn=")):
                 # A name is given once, with its number, wherever it first appears (a
                 # function or a callee); later lines give the number alone.
                 m = re.match(r"c?fn=\((\d+)\)(?: (.*))?", line.rstrip("\n"))
@@ -84,20 +97,70 @@ def self_costs(callgrind_out):
                 # The next cost line is what the call cost, already counted in the callee.
                 after_call = True
             elif line[:1].isdigit() or line[:1] in "+-*":
+                fields = line.split()
+                # Positions are absolute, or relative to the last cost line's ("+3", "-2",
+                # "*" the same): followed even through the calls' lines.
+                for column, field in zip(columns, fields):
+                    last[column] = position(field, last.get(column, 0))
                 if after_call:
                     after_call = False
                     continue
-                fields = line.split()
-                if len(fields) >= 2 and function is not None:
-                    costs[function] += int(fields[1])
-    return costs
+                if len(fields) > len(columns) and function is not None:
+                    costs[function] += int(fields[len(columns)])
+                    if by_address_of and function.endswith(by_address_of):
+                        at_address[last["instr"]] += int(fields[len(columns)])
+    return costs, at_address
+
+
+def position(field, last):
+    """A callgrind position: decimal or hexadecimal, absolute or relative to `last`."""
+    if field == "*":
+        return last
+    if field[0] in "+-":
+        return last + (1 if field[0] == "+" else -1) * int(field[1:], 0)
+    return int(field, 0)
+
+
+def inlined_tree(binary, at_address):
+    """Instructions by inlined call path (outermost first, the function itself left out),
+    from the addresses' inlining as `addr2line -i` reports it."""
+    addresses = sorted(at_address)
+    try:
+        done = subprocess.run(["addr2line", "-e", binary, "-f", "-i", "-C", "-a"],
+                              input="\n".join(hex(a) for a in addresses), check=True,
+                              capture_output=True, text=True)
+    except FileNotFoundError:
+        sys.exit("tools/instructions_per_path.py: addr2line is not installed "
+                 "(Debian: apt-get install binutils)")
+    stacks = {}
+    current = None
+    for line in done.stdout.splitlines():
+        if line.startswith("0x"):
+            current = stacks.setdefault(int(line, 16), [])
+        elif current is not None and not line.startswith(("/", "??")):
+            current.append(short_name(line))
+    tree = Counter()
+    for address, n in at_address.items():
+        path = []
+        for name in reversed(stacks.get(address, [])):
+            if not path or path[-1] != name:
+                path.append(name)
+        for depth in range(len(path)):
+            tree[tuple(path[1:depth + 1])] += n
+    return tree
+
+
+def short_name(function):
+    """`module::function` of a demangled name, without its generic arguments."""
+    return "::".join(re.sub(r"<.*>", "", function).split("::")[-2:])
 
 
 def count(rift, args, tmp):
     """(camera paths, own instructions by function) for one build."""
     out = Path(tmp) / "callgrind.out"
-    command = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", rift, "render",
-               args.shot, "-o", str(Path(tmp) / "image.exr"), "--spp", str(args.spp),
+    dump = ["--dump-instr=yes"] if args.inlined and rift == args.rift else []
+    command = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *dump, rift,
+               "render", args.shot, "-o", str(Path(tmp) / "image.exr"), "--spp", str(args.spp),
                "--threads", "1"]
     if args.frame is not None:
         command += ["--frame", str(args.frame)]
@@ -114,7 +177,7 @@ def count(rift, args, tmp):
     if not frames:
         sys.exit(f"tools/instructions_per_path.py: {rift} did not report its frame size")
     paths = sum(int(w) * int(h) * float(spp) for w, h, spp in frames)
-    return paths, self_costs(out)
+    return paths, *self_costs(out, args.inlined if dump else None)
 
 
 def by_stage(costs):
@@ -133,6 +196,10 @@ def main():
     parser.add_argument("--rift", default=str(ROOT / "target/release/rift"))
     parser.add_argument("--vs", help="a second build, counted the same way")
     parser.add_argument("--top", type=int, default=12, help="functions listed")
+    parser.add_argument("--inlined", metavar="FUNCTION",
+                        help="split the own instructions of the function whose name ends so "
+                             "(integrator::trace) by what is inlined into it")
+    parser.add_argument("--depth", type=int, default=3, help="levels of the --inlined tree")
     args = parser.parse_args()
     if args.spp < 1:
         parser.error("--spp: expected 1 or more")
@@ -156,6 +223,7 @@ def main():
         return text
 
     stages = {b: by_stage(counted[b][1]) for b in builds}
+    at_address = counted[builds[0]][2]
     paths = {b: counted[b][0] for b in builds}
     for name in PER_PATH:
         print(f"{name:<24}" + cells([stages[b][name] / paths[b] for b in builds], 1))
@@ -168,6 +236,27 @@ def main():
     for function, _ in counted[builds[0]][1].most_common(args.top):
         values = [counted[b][1][function] / paths[b] for b in builds]
         print(f"{'':<24}" + cells(values, 1) + f"  {function[:90]}")
+    if args.inlined:
+        print_inlined(args, inlined_tree(args.rift, at_address), paths[args.rift])
+
+
+def print_inlined(args, tree, paths):
+    """The --inlined tree, instructions a path, branches under 1% of the whole left out."""
+    whole = tree[()]
+    if not whole:
+        sys.exit(f"tools/instructions_per_path.py: no function of A ends with {args.inlined}")
+    print(f"inlined into {args.inlined} (A), instructions a path:")
+    print(f"{whole / paths:>8,.0f}  {args.inlined}")
+
+    def children(path, level):
+        below = [(p, n) for p, n in tree.items() if len(p) == len(path) + 1 and p[:-1] == path]
+        for p, n in sorted(below, key=lambda item: -item[1]):
+            if n >= whole / 100:
+                print(f"{n / paths:>8,.0f}  {'  ' * level}{p[-1]}")
+                if level < args.depth:
+                    children(p, level + 1)
+
+    children((), 1)
 
 
 if __name__ == "__main__":
