@@ -156,7 +156,8 @@ def short_name(function):
 
 
 def count(rift, args, tmp):
-    """(camera paths, own instructions by function) for one build."""
+    """(camera paths, own instructions by function, those of `--inlined` by address) for one
+    build; the addresses only for build A."""
     out = Path(tmp) / "callgrind.out"
     dump = ["--dump-instr=yes"] if args.inlined and rift == args.rift else []
     command = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *dump, rift,

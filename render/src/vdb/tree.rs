@@ -97,7 +97,9 @@ impl Stream {
         // the table's size shows.
         let bricks = topology.leaves.len() as u64 + topology.builder.tile_bricks();
         // Saturating, as the table's size is: past what a u64 counts is past any limit.
-        let bytes = (bricks.saturating_mul(LEAF_BYTES)).saturating_add(cells.saturating_mul(8));
+        let bytes = bricks
+            .saturating_mul(LEAF_BYTES)
+            .saturating_add(cells.saturating_mul(8));
         if bytes > self.max_bytes {
             return Err(format!(
                 "its {bricks} bricks of values (leaves and tile values) over a table of {cells} \
