@@ -439,7 +439,7 @@ mod tests {
         );
         let bytes = std::fs::read(path).unwrap();
         let e = read_grid(&bytes, "density", 1 << 30).err().unwrap();
-        // The bytes stop at the most a u64 counts (they wrapped to 6.6 million MiB before).
+        // The bytes stop at the most a u64 counts (they wrapped to 6.6e12 MiB before).
         assert!(e.contains(&format!("{} MiB", u64::MAX >> 20)), "{e}");
     }
 
