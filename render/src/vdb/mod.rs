@@ -433,12 +433,7 @@ mod tests {
         // A damaged file (found by the fuzzer) whose nodes lie so far apart on every axis
         // that the table's entries, times their bytes, passed 2^64: the count wrapped (or,
         // with overflow checks, panicked) before the memory check.
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../fuzz/regressions/vdb/table-past-u64.vdb"
-        );
-        let bytes = std::fs::read(path).unwrap();
-        let e = read_grid(&bytes, "density", 1 << 30).err().unwrap();
+        let e = refusal_of_regression("table-past-u64.vdb", 1 << 30);
         // The bytes stop at the most a u64 counts (they wrapped to 6.6e12 MiB before).
         assert!(e.contains(&format!("{} MiB", u64::MAX >> 20)), "{e}");
     }
@@ -448,12 +443,18 @@ mod tests {
         // A damaged smoke file (found by the fuzzer) whose tiles lie in one corner and one
         // leaf far away: the table between them passed the memory check when only the tiles
         // were counted, then took seconds to fill.
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../fuzz/regressions/vdb/leaf-far-from-tiles.vdb"
+        let e = refusal_of_regression("leaf-far-from-tiles.vdb", 8 << 20);
+        assert!(e.contains("MiB"), "{e}");
+    }
+
+    /// The error reading the density grid of `fuzz/regressions/vdb/<name>` within
+    /// `max_bytes` gives (a panic if it reads).
+    fn refusal_of_regression(name: &str, max_bytes: u64) -> String {
+        let path = format!(
+            "{}/../fuzz/regressions/vdb/{name}",
+            env!("CARGO_MANIFEST_DIR")
         );
         let bytes = std::fs::read(path).unwrap();
-        let e = read_grid(&bytes, "density", 8 << 20).err().unwrap();
-        assert!(e.contains("MiB"), "{e}");
+        read_grid(&bytes, "density", max_bytes).err().unwrap()
     }
 }
