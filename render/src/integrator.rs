@@ -338,6 +338,34 @@ fn track_grids(
 
 /// Traces one path along `camera_ray`, whose range is the camera's clipping interval.
 pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
+    if scene.only_surfaces_and_lamps() && !scene.lights.training() {
+        trace_plain(scene, camera_ray, s)
+    } else {
+        trace_full(scene, camera_ray, s)
+    }
+}
+
+/// [`trace`] in a scene of surfaces and lamps alone: the same path, sample for sample, without
+/// the tests for openings, media, strands, the sky and hidden objects, none of which it holds.
+fn trace_plain(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
+    let mut out = PathSample::default();
+    let mut path = PathState::camera(camera_ray);
+    let mut strategies = None;
+    while let Some(hit) = scene.intersect_surfaces(&path.ray) {
+        let Some((p, ng, material)) = surface_emission(scene, &path, &strategies, &hit, &mut out)
+        else {
+            break;
+        };
+        let bsdf = &material.bsdf;
+        if !scatter_at::<false>(scene, &mut path, &mut strategies, p, ng, bsdf, s, &mut out) {
+            break;
+        }
+    }
+    out
+}
+
+/// [`trace`] in any scene.
+fn trace_full(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
     let mut out = PathSample::default();
     let mut path = PathState::camera(camera_ray);
     // How light sampling chose at the last scattering point (`None`: ordinary light sampling
@@ -505,7 +533,7 @@ fn scatter(
             (path.ray.at(at), -path.ray.dir, &phase)
         }
     };
-    scatter_at(scene, path, strategies, p, ng, bsdf, s, out)
+    scatter_at::<true>(scene, path, strategies, p, ng, bsdf, s, out)
 }
 
 /// A scattering point `at` along the path's ray in a medium: recorded for the AOVs; its
@@ -598,10 +626,11 @@ fn cross_boundary(scene: &Scene, path: &mut PathState, hit: &Hit, medium: u32) -
 /// Light sampling at the point `p` the path's ray reached (geometric normal `ng`, or the
 /// direction back along the ray in a medium), leaving its choice of strategies in
 /// `strategies`, and the BSDF sample that continues the path (with roulette). False when the
-/// path ends there.
+/// path ends there. `FULL` is false in a scene of surfaces and lamps alone
+/// ([`Scene::only_surfaces_and_lamps`]), which leaves out the strategies through openings.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn scatter_at(
+fn scatter_at<const FULL: bool>(
     scene: &Scene,
     path: &mut PathState,
     strategies: &mut Option<Strategies>,
@@ -641,7 +670,9 @@ fn scatter_at(
     if bsdf.is_delta() {
         *strategies = None;
     } else {
-        Strategies::update(strategies, scene, &receiver);
+        if FULL {
+            Strategies::update(strategies, scene, &receiver);
+        }
         let shading = Shading {
             receiver: &receiver,
             ng,
@@ -656,7 +687,7 @@ fn scatter_at(
         };
         let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
         let space = space.as_ref();
-        let (light, group) = next_event(scene, &shading, space, q, u_light, u_technique);
+        let (light, group) = next_event::<FULL>(scene, &shading, space, q, u_light, u_technique);
         out.gather(path.beta * light, through, group);
     }
     let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
@@ -706,8 +737,8 @@ struct Shading<'a> {
 /// Next-event estimation: light arriving at `at` (at its time) from one sample drawn with `u`
 /// and `u_technique`, in the space beyond the openings of `space` (`None`: ordinary light
 /// sampling), the strategy picked with probability `q`; MIS weighted against BSDF sampling
-/// (power heuristic), before the path throughput.
-fn next_event(
+/// (power heuristic), before the path throughput. `FULL` as for [`scatter_at`].
+fn next_event<const FULL: bool>(
     scene: &Scene,
     at: &Shading,
     space: Option<&Space>,
@@ -721,7 +752,7 @@ fn next_event(
     }
     // Training paths record every light sample (see `crate::light_guide`), out of line: the
     // emitter a sample took is found again from `u` (none for a point on an opening's aperture).
-    let training = scene.lights.training();
+    let training = FULL && scene.lights.training();
     let learn = |value: f32| {
         if training {
             let on_aperture = space.is_some_and(|s| u_technique < s.aperture);
@@ -743,9 +774,13 @@ fn next_event(
     let ng = at.ng;
     let dir = incoming.dir;
     let from = offset_origin(at.receiver.p, if dir.dot(ng) > 0.0 { ng } else { -ng });
-    let chain = space.map_or(Chain::default(), |s| s.chain);
-    let Some((tint, coins)) = shadow(scene, &chain, from, dir, incoming.end, at.receiver.time)
-    else {
+    let visible = if FULL {
+        let chain = space.map_or(Chain::default(), |s| s.chain);
+        shadow(scene, &chain, from, dir, incoming.end, at.receiver.time)
+    } else {
+        plain_shadow(scene, from, dir, incoming.end, at.receiver.time)
+    };
+    let Some((tint, coins)) = visible else {
         learn(0.0);
         return NONE;
     };
@@ -984,6 +1019,26 @@ impl ShadowEnd {
     };
 }
 
+/// [`shadow`] without openings, in a scene of surfaces and lamps alone.
+#[inline(always)]
+fn plain_shadow(
+    scene: &Scene,
+    from: Vec3,
+    dir: Vec3,
+    end: ShadowEnd,
+    time: f64,
+) -> Option<(Vec3, f32)> {
+    let ray = match end.target {
+        Some(target) => {
+            let to = target - from;
+            let dist = to.length();
+            Ray::new(from, to / dist, dist, time)
+        }
+        None => Ray::new(from, dir, f32::INFINITY, time),
+    };
+    (!scene.occluded_by_surfaces(&ray)).then_some((Vec3::ONE, 1.0))
+}
+
 /// Follows a shadow ray from `from` at `time` along `dir` through the openings of `chain` in
 /// order (each must be the one it meets, inside its mask at the ray's time, with nothing in
 /// front), then on to `end` beyond the last (or to infinity); an empty chain goes straight
@@ -1049,4 +1104,90 @@ pub(crate) fn shadow(
     }
     coins *= portals.transmittance(&ray);
     (coins != 0.0 && !scene.occluded(&ray, end.strand)).then_some((tint, coins))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rift_fx::Shot;
+    use crate::sampling::hash32;
+
+    /// The Cornell box of `examples/`, with `materials` added to (or replacing) its own.
+    fn cornell_box(dir: &std::path::Path, materials: &str) -> Scene {
+        let examples = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples");
+        let shot = std::fs::read_to_string(format!("{examples}/cornell.toml")).unwrap();
+        let shot = shot.replace("\"cornell.obj\"", &format!("\"{examples}/cornell.obj\""));
+        let path = dir.join("box.toml");
+        std::fs::write(&path, format!("{shot}\n{materials}")).unwrap();
+        Scene::build(&Shot::load(&path).unwrap(), 1).unwrap()
+    }
+
+    /// A number in [0, 1) hashed from `i`.
+    fn unit(i: u32) -> f32 {
+        (hash32(i) >> 8) as f32 / (1 << 24) as f32
+    }
+
+    /// The bits of everything a path returns.
+    fn bits(sample: &PathSample) -> Vec<u32> {
+        let mut bits: Vec<u32> = [sample.radiance, sample.through]
+            .iter()
+            .chain(&sample.groups)
+            .flat_map(|v| v.to_array())
+            .map(f32::to_bits)
+            .collect();
+        bits.push(sample.portal_depth);
+        if let Some(first) = sample.first {
+            bits.extend(
+                [first.t, first.normal.x, first.normal.y, first.normal.z].map(f32::to_bits),
+            );
+            bits.extend(first.albedo.to_array().map(f32::to_bits));
+            bits.push(first.object);
+        }
+        bits
+    }
+
+    #[test]
+    fn the_plain_loop_traces_the_paths_of_the_full_one_to_the_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let glossy = r#"
+[[material]]
+name = "white"
+type = "dielectric"
+ior = 1.5
+roughness = 0.2
+[[material]]
+name = "red"
+type = "conductor"
+reflectance = [0.9, 0.3, 0.2]
+roughness = 0.4
+[[material]]
+name = "green"
+type = "conductor"
+reflectance = [0.6, 0.9, 0.6]
+roughness = 0.0
+"#;
+        for (materials, what) in [("", "diffuse"), (glossy, "glass and metal")] {
+            let scene = cornell_box(dir.path(), materials);
+            assert!(scene.only_surfaces_and_lamps(), "{what}");
+            let (mut lit, mut bounced) = (0, 0);
+            for i in 0..4000 {
+                let dir = Vec3::new(0.7 * unit(2 * i) - 0.35, 0.7 * unit(2 * i + 1) - 0.35, -1.0);
+                let ray = Ray::new(
+                    Vec3::new(0.0, 0.0, 3.9),
+                    dir.normalize(),
+                    f32::INFINITY,
+                    0.0,
+                );
+                let (plain, full) = (
+                    trace_plain(&scene, ray, &mut SampleStream::new(i % 64, i)),
+                    trace_full(&scene, ray, &mut SampleStream::new(i % 64, i)),
+                );
+                assert_eq!(bits(&plain), bits(&full), "{what}, path {i}");
+                lit += (plain.radiance != Vec3::ZERO) as u32;
+                bounced += (plain.first.is_some_and(|f| f.albedo != Vec3::ZERO)) as u32;
+            }
+            // The paths compared found light and surfaces, not only the dark.
+            assert!(lit > 2000 && bounced > 2000, "{what}: {lit} lit, {bounced}");
+        }
+    }
 }

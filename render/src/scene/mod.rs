@@ -147,6 +147,14 @@ impl SceneHit {
             SceneHit::Strand(h) => h.t,
         }
     }
+
+    /// Adds `start` to the distance along the ray.
+    fn move_start(&mut self, start: f32) {
+        match self {
+            SceneHit::Surface(h) => h.t += start,
+            SceneHit::Strand(h) => h.t += start,
+        }
+    }
 }
 
 /// Everything the integrator needs.
@@ -442,26 +450,43 @@ impl Scene {
             && self.settings.max_portal_depth > 0
     }
 
+    /// True when the scene holds only surfaces and lamps: no openings, media, strands, sky or
+    /// hidden objects. Its paths then take the integrator's plain loop, which leaves out the
+    /// tests for all of those.
+    pub fn only_surfaces_and_lamps(&self) -> bool {
+        self.portals.is_empty()
+            && self.media.is_empty()
+            && self.strands.is_empty()
+            && self.lights.environment.is_none()
+            && !self.visibility.hides_anything()
+    }
+
     /// The closest surface or strand a ray of `class` sees along `ray`. A ray whose range
     /// starts past its origin is traced from there (clipping moves the camera ray's start), and
     /// the hit's parameter still counts from the origin.
     #[inline]
     pub fn intersect(&self, ray: &Ray, class: RayClass) -> Option<SceneHit> {
-        if ray.t_min <= 0.0 {
-            return self.intersect_from_origin(ray, class);
-        }
-        let start = ray.t_min;
-        let moved = Ray::new(ray.at(start), ray.dir, ray.t_max - start, ray.time);
-        Some(match self.intersect_from_origin(&moved, class)? {
-            SceneHit::Surface(mut h) => {
-                h.t += start;
-                SceneHit::Surface(h)
-            }
-            SceneHit::Strand(mut h) => {
-                h.t += start;
-                SceneHit::Strand(h)
-            }
-        })
+        from_range_start(
+            ray,
+            |from_origin| self.intersect_from_origin(from_origin, class),
+            SceneHit::move_start,
+        )
+    }
+
+    /// [`Self::intersect`] for a scene [`Self::only_surfaces_and_lamps`] holds for.
+    #[inline]
+    pub fn intersect_surfaces(&self, ray: &Ray) -> Option<Hit> {
+        from_range_start(
+            ray,
+            |from_origin| self.accel.intersect(from_origin, &every_triangle),
+            |h, start| h.t += start,
+        )
+    }
+
+    /// [`Self::occluded`] for a scene [`Self::only_surfaces_and_lamps`] holds for.
+    #[inline]
+    pub fn occluded_by_surfaces(&self, ray: &Ray) -> bool {
+        self.accel.occluded(ray, &every_triangle)
     }
 
     /// [`Self::intersect`] for a ray whose range starts at its origin.
@@ -591,6 +616,24 @@ impl Scene {
     pub fn material(&self, triangle: u32) -> &Material {
         &self.materials[self.triangle_material[triangle as usize] as usize]
     }
+}
+
+/// The hit `from_origin` finds for `ray` traced from the start of its range, with the hit's
+/// parameter counted from the ray's origin (`move_start` adds the start to it).
+#[inline(always)]
+fn from_range_start<H>(
+    ray: &Ray,
+    from_origin: impl FnOnce(&Ray) -> Option<H>,
+    move_start: impl FnOnce(&mut H, f32),
+) -> Option<H> {
+    if ray.t_min <= 0.0 {
+        return from_origin(ray);
+    }
+    let start = ray.t_min;
+    let moved = Ray::new(ray.at(start), ray.dir, ray.t_max - start, ray.time);
+    let mut hit = from_origin(&moved)?;
+    move_start(&mut hit, start);
+    Some(hit)
 }
 
 /// Visibility flags from an optional `visibility` table (each flag defaults to true).
