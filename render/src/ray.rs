@@ -8,7 +8,8 @@ use glam::Vec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     pub origin: Vec3,
-    /// Unit direction (ray parameters are distances).
+    /// Unit direction (ray parameters are distances); a shadow ray to a point may instead
+    /// span the segment to it, over t in (0, 1) (see `integrator::segment`).
     pub dir: Vec3,
     pub t_min: f32,
     pub t_max: f32,
