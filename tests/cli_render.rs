@@ -117,6 +117,16 @@ fn unknown_material() {
 }
 
 #[test]
+fn indirect_samples_out_of_range() {
+    for bad in ["0", "17", "2.5"] {
+        let dir = cornell_dir(|t| {
+            t.replace("indirect_samples = 4", &format!("indirect_samples = {bad}"))
+        });
+        expect_failure(&dir, &["shot.toml", "render.indirect_samples"]);
+    }
+}
+
+#[test]
 fn unknown_render_key() {
     let dir = cornell_dir(|t| t.replace("spp = 64", "spp = 64\nsamples = 3"));
     expect_failure(&dir, &["shot.toml: render.samples", "unknown field"]);

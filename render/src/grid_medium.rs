@@ -173,6 +173,7 @@ pub enum Tracked {
 
 /// A small random number generator for the tracking's variable number of draws, seeded once
 /// per stretch from the path's sample stream (or from the ray, for shadow rays).
+#[derive(Clone, Copy)]
 pub struct Rng(u32);
 
 impl Rng {

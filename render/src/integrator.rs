@@ -92,6 +92,7 @@ pub struct FirstHit {
 
 /// A path between events: the ray it follows and what it carries from its last scattering
 /// event.
+#[derive(Clone, Copy)]
 struct PathState {
     ray: Ray,
     /// Throughput.
@@ -349,34 +350,63 @@ pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample
 /// the tests for openings, media, strands, the sky and hidden objects, none of which it holds.
 fn trace_plain(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
     let mut out = PathSample::default();
-    let mut path = PathState::camera(camera_ray);
+    follow_plain(scene, PathState::camera(camera_ray), s, &mut out);
+    out
+}
+
+/// Follows `path` in a scene of surfaces and lamps alone to its end.
+fn follow_plain(scene: &Scene, mut path: PathState, s: &mut SampleStream, out: &mut PathSample) {
     let mut strategies = None;
     while let Some(hit) = scene.intersect_surfaces(&path.ray) {
-        let Some((p, ng, material)) = surface_emission(scene, &path, &strategies, &hit, &mut out)
-        else {
+        let Some((p, ng, material)) = surface_emission(scene, &path, &strategies, &hit, out) else {
             break;
         };
         let bsdf = &material.bsdf;
-        if !scatter_at::<false>(scene, &mut path, &mut strategies, p, ng, bsdf, s, &mut out) {
+        if !scatter_at::<false>(scene, &mut path, &mut strategies, p, ng, bsdf, s, out) {
             break;
         }
     }
-    out
+}
+
+/// Follows `path` to its end, in the loop that [`trace`] chose for the scene.
+fn follow<const FULL: bool>(
+    scene: &Scene,
+    path: PathState,
+    strategies: Option<Strategies>,
+    s: &mut SampleStream,
+    out: &mut PathSample,
+) {
+    if FULL {
+        follow_full(scene, path, strategies, s, out);
+    } else {
+        follow_plain(scene, path, s, out);
+    }
 }
 
 /// [`trace`] in any scene.
 fn trace_full(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
     let mut out = PathSample::default();
     let mut path = PathState::camera(camera_ray);
-    // How light sampling chose at the last scattering point (`None`: ordinary light sampling
-    // only). Kept beside the path state, which stays small where no opening can matter.
-    let mut strategies: Option<Strategies> = None;
     if !scene.media.bounded.is_empty() {
         path.inside = scene.media.at_point(camera_ray.origin);
     }
     if !scene.media.grids.is_empty() {
         path.rng = Rng::new(crate::sampling::hash32(s.uniform().to_bits()));
     }
+    follow_full(scene, path, None, s, &mut out);
+    out
+}
+
+/// Follows `path` to its end in any scene. `strategies` is how light sampling chose at its
+/// last scattering point (`None`: ordinary light sampling only), kept beside the path state,
+/// which stays small where no opening can matter.
+fn follow_full(
+    scene: &Scene,
+    mut path: PathState,
+    mut strategies: Option<Strategies>,
+    s: &mut SampleStream,
+    out: &mut PathSample,
+) {
     loop {
         let hit = scene.intersect(&path.ray, path.class());
         let hit_t = hit.map(|h| h.t());
@@ -385,7 +415,7 @@ fn trace_full(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSampl
         // Where the path scatters next: a collision in a grid or in its medium, or the
         // surface it hit.
         let mut collided = None;
-        match cross_openings(scene, &mut path, collision.or(hit_t), s, &mut out) {
+        match cross_openings(scene, &mut path, collision.or(hit_t), s, out) {
             Crossing::Passed => {}
             Crossing::Teleported(at) => {
                 if let Some(m) = medium {
@@ -432,15 +462,14 @@ fn trace_full(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSampl
             (Some(event), _) => event,
             (None, Some(SceneHit::Surface(h))) => Event::Surface(h),
             (None, hit) => {
-                finish(scene, &mut path, strategies.as_ref(), hit, &mut out);
+                finish(scene, &mut path, strategies.as_ref(), hit, out);
                 break;
             }
         };
-        if !scatter(scene, &mut path, &mut strategies, event, s, &mut out) {
+        if !scatter(scene, &mut path, &mut strategies, event, s, out) {
             break;
         }
     }
-    out
 }
 
 /// Where a path scatters.
@@ -667,20 +696,20 @@ fn scatter_at<const FULL: bool>(
         time,
     };
 
+    let shading = Shading {
+        receiver: &receiver,
+        ng,
+        frame: &frame,
+        wo,
+        bsdf,
+        side,
+    };
     if bsdf.is_delta() {
         *strategies = None;
     } else {
         if FULL {
             Strategies::update(strategies, scene, &receiver);
         }
-        let shading = Shading {
-            receiver: &receiver,
-            ng,
-            frame: &frame,
-            wo,
-            bsdf,
-            side,
-        };
         let (space, q) = match strategies {
             Some(strategies) => strategies.pick(scene, u_strategy),
             None => (None, 1.0),
@@ -689,21 +718,80 @@ fn scatter_at<const FULL: bool>(
         let space = space.as_ref();
         let (light, group) = next_event::<FULL>(scene, &shading, space, q, u_light, u_technique);
         out.gather(path.beta * light, through, group);
+        let branches = scene.settings.indirect_samples;
+        if path.bounce == 0 && branches > 1 && !(FULL && scene.lights.training()) {
+            split::<FULL>(scene, path, strategies, &shading, branches, s, out);
+            let (u_bsdf, u_lobe, u_roulette) = branch_numbers(s);
+            return continue_path(path, &shading, u_bsdf, u_lobe, u_roulette);
+        }
     }
-    let Some(bs) = bsdf.sample(wo, u_bsdf, u_lobe, side) else {
+    continue_path(path, &shading, u_bsdf, u_lobe, u_roulette)
+}
+
+/// The numbers a branch of a split path draws for its BSDF sample: the direction from the
+/// bounce's stratified set (the light point's two are the unsplit path's), lobe and roulette
+/// from the hashed stream.
+fn branch_numbers(s: &mut SampleStream) -> (glam::Vec2, f32, f32) {
+    let [by, _, bx, _] = s.next_4d();
+    let [u_roulette, u_lobe, ..] = s.uniform_4d();
+    (glam::Vec2::new(bx, by), u_lobe, u_roulette)
+}
+
+/// Splits `path`, at its first scattering event `at`, into `n` branches that each carry 1/n
+/// of its throughput (roulette still weighs the whole): branches 1 to n − 1 are traced to
+/// their ends here, each with its own sample stream ([`SampleStream::branch`]); branch 0 is
+/// left to the caller, in `path` and `s`.
+#[inline(never)]
+fn split<const FULL: bool>(
+    scene: &Scene,
+    path: &mut PathState,
+    strategies: &Option<Strategies>,
+    at: &Shading,
+    n: u32,
+    s: &mut SampleStream,
+    out: &mut PathSample,
+) {
+    path.beta /= n as f32;
+    path.eta_scale *= n as f32;
+    for k in 1..n {
+        let mut branch = *path;
+        let mut stream = s.branch(k, n);
+        let (u_bsdf, u_lobe, u_roulette) = branch_numbers(&mut stream);
+        if !scene.media.grids.is_empty() {
+            branch.rng = Rng::new(crate::sampling::hash32(stream.uniform().to_bits()));
+        }
+        if continue_path(&mut branch, at, u_bsdf, u_lobe, u_roulette) {
+            follow::<FULL>(scene, branch, *strategies, &mut stream, out);
+        }
+    }
+    *s = s.branch(0, n);
+}
+
+/// The BSDF sample at `at` that continues the path, drawn with `u_bsdf` and `u_lobe`, then
+/// roulette with `u_roulette`. False when the path ends there.
+#[inline(always)]
+fn continue_path(
+    path: &mut PathState,
+    at: &Shading,
+    u_bsdf: glam::Vec2,
+    u_lobe: f32,
+    u_roulette: f32,
+) -> bool {
+    let Some(bs) = at.bsdf.sample(at.wo, u_bsdf, u_lobe, at.side) else {
         return false;
     };
     path.beta *= bs.weight;
     path.eta_scale *= bs.eta * bs.eta;
     path.prev_pdf = bs.pdf;
     path.prev_delta = bs.delta;
-    path.prev_receiver = receiver;
+    path.prev_receiver = *at.receiver;
     // The side comes from the direction before its normalisation, which has the same sign,
     // so the new origin does not wait on the square root.
-    let towards = frame.to_world(bs.wi);
+    let (p, ng) = (at.receiver.p, at.ng);
+    let towards = at.frame.to_world(bs.wi);
     let origin = offset_origin(p, if towards.dot(ng) > 0.0 { ng } else { -ng });
     let dir = towards.normalize();
-    path.ray = Ray::new(origin, dir, f32::INFINITY, time);
+    path.ray = Ray::new(origin, dir, f32::INFINITY, at.receiver.time);
     path.chain = Chain::default();
     path.coins = 1.0;
     path.travelled = 0.0;
@@ -1175,8 +1263,14 @@ type = "conductor"
 reflectance = [0.6, 0.9, 0.6]
 roughness = 0.0
 "#;
-        for (materials, what) in [("", "diffuse"), (glossy, "glass and metal")] {
-            let scene = cornell_box(dir.path(), materials);
+        let cases = [
+            ("", 1, "diffuse"),
+            (glossy, 1, "glass and metal"),
+            ("", 3, "diffuse, split in three"),
+        ];
+        for (materials, branches, what) in cases {
+            let mut scene = cornell_box(dir.path(), materials);
+            scene.settings.indirect_samples = branches;
             assert!(scene.only_surfaces_and_lamps(), "{what}");
             let (mut lit, mut bounced) = (0, 0);
             for i in 0..4000 {

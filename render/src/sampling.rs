@@ -165,6 +165,9 @@ impl AliasTable {
 pub const SOBOL_SETS: u32 = 4;
 
 pub struct SampleStream {
+    /// The sample's index in its pixel, and the pixel's seed.
+    index: u32,
+    seed: u32,
     sobol: SobolSample,
     set: u32,
     /// State of the hashed stream (SplitMix64).
@@ -175,9 +178,22 @@ impl SampleStream {
     /// Sample `index` of the pixel whose decorrelation seed is `seed`.
     pub fn new(index: u32, seed: u32) -> Self {
         Self {
+            index,
+            seed,
             sobol: SobolSample::new(index, seed),
             set: 0,
             uniform: ((seed as u64) << 32 | index as u64) ^ 0x5bd1_e995_9e37_79b9,
+        }
+    }
+
+    /// Branch `k` of the `n` a path splits into at the bounce whose set was drawn last: the
+    /// stream of sample index·`n` + `k` from that set on, so the branches of a pixel's samples
+    /// take the sequence's first spp·`n` points there, stratified against each other (points
+    /// repeat past 2¹⁶, unbiased but no longer stratified).
+    pub fn branch(&self, k: u32, n: u32) -> Self {
+        Self {
+            set: self.set.saturating_sub(1),
+            ..Self::new(self.index.wrapping_mul(n).wrapping_add(k), self.seed)
         }
     }
 

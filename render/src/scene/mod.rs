@@ -46,6 +46,8 @@ pub struct Settings {
     pub seed: u32,
     /// `None`: unlimited (Russian roulette ends paths).
     pub max_bounces: Option<u32>,
+    /// Branches a camera path splits into at its first scattering event (1: none).
+    pub indirect_samples: u32,
     /// Teleports allowed in a row before the next scattering event.
     pub max_portal_depth: u32,
     /// Light sampling also looks through openings (see [`crate::through`]).
@@ -77,6 +79,16 @@ impl Settings {
             .map_err(invalid)?,
             max_bounces: optional(render.max_bounces, None, |v| {
                 check::integer("render.max_bounces", v, 0, 1 << 16, "an integer ≥ 0").map(Some)
+            })
+            .map_err(invalid)?,
+            indirect_samples: optional(render.indirect_samples, 1, |v| {
+                check::integer(
+                    "render.indirect_samples",
+                    v,
+                    1,
+                    16,
+                    "an integer from 1 to 16",
+                )
             })
             .map_err(invalid)?,
             max_portal_depth: optional(

@@ -5,6 +5,13 @@
 //! spp = 64                      # samples per pixel
 //! seed = 0
 //! max_bounces = 16              # omit for unlimited (Russian roulette ends paths)
+//! indirect_samples = 1          # branches a camera path splits into where it first scatters
+//!                               # (1 to 16, default 1), each a BSDF sample carrying 1/n of it, light
+//!                               # sampled there once: more of each pixel sample spent on indirect
+//!                               # light (Arnold's diffuse samples). Pays where bounce light is the
+//!                               # noise (lit interiors); costs where the pixel's own dimensions are
+//!                               # (edges, depth of field, motion blur). Past spp × n = 65536 the
+//!                               # branches' sample points repeat
 //! max_portal_depth = 8          # teleports in a row before the next scattering event (default 8);
 //!                               # an opening met past the limit ends the path (black)
 //! light_through_openings = true # light sampling also looks through openings (false: only BSDF
@@ -147,6 +154,7 @@ pub struct RenderSection {
     pub spp: Option<i64>,
     pub seed: Option<i64>,
     pub max_bounces: Option<i64>,
+    pub indirect_samples: Option<i64>,
     pub max_portal_depth: Option<i64>,
     pub light_through_openings: Option<bool>,
     pub output: Option<String>,
