@@ -6,12 +6,12 @@
 //! seed = 0
 //! max_bounces = 16              # omit for unlimited (Russian roulette ends paths)
 //! indirect_samples = 1          # branches a camera path splits into where it first scatters
-//!                               # (1 to 16, default 1), each a BSDF sample carrying 1/n of it, light
-//!                               # sampled there once: more of each pixel sample spent on indirect
-//!                               # light (Arnold's diffuse samples). Pays where bounce light is the
-//!                               # noise (lit interiors); costs where the pixel's own dimensions are
-//!                               # (edges, depth of field, motion blur). Past spp × n = 65536 the
-//!                               # branches' sample points repeat
+//!                               # (1 to 16, default 1; not at a mirror or smooth glass), each a BSDF
+//!                               # sample carrying 1/n of it, light sampled there once: more of each
+//!                               # pixel sample spent on indirect light (Arnold's diffuse samples).
+//!                               # Pays where bounce light is the noise (lit interiors); costs where
+//!                               # the pixel's own dimensions are (edges, depth of field, motion
+//!                               # blur). Past spp × n = 65536 the branches' sample points repeat
 //! max_portal_depth = 8          # teleports in a row before the next scattering event (default 8);
 //!                               # an opening met past the limit ends the path (black)
 //! light_through_openings = true # light sampling also looks through openings (false: only BSDF
