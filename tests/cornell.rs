@@ -19,30 +19,6 @@ fn reference() -> PathBuf {
     path
 }
 
-/// Renders `shot` at `spp` through the CLI in `dir`, returning (mean, relMSE against the
-/// reference).
-fn render_in(dir: &std::path::Path, shot: &std::path::Path, spp: u32) -> (DVec3, f64) {
-    let out = dir.join("c.exr");
-    let r = rift(
-        dir,
-        &[
-            "render",
-            shot.to_str().unwrap(),
-            "--spp",
-            &spp.to_string(),
-            "-o",
-            out.to_str().unwrap(),
-        ],
-    );
-    assert!(r.status.success(), "{}", stderr(&r));
-    let (w, h, img) = read_exr_rgb(&out).unwrap();
-    let (rw, rh, reference) = read_exr_rgb(&reference()).unwrap();
-    assert_eq!((w, h), (rw, rh));
-    let mean = channel_mean(&img);
-    let rel_mse = relative_mse(&img, &reference);
-    (mean, rel_mse)
-}
-
 #[test]
 fn cornell_matches_the_reference_mean_and_converges_as_one_over_spp() {
     let (_, _, reference) = read_exr_rgb(&reference()).unwrap();
@@ -89,8 +65,8 @@ fn split_paths_keep_the_reference_mean_and_lower_the_error() {
     );
 }
 
-/// The example at `spp` with `[render] indirect_samples = branches`: (mean, relMSE against the
-/// reference).
+/// Renders the example at `spp` with `[render] indirect_samples = branches` through the CLI,
+/// returning (mean, relMSE against the reference).
 fn render_with_branches(spp: u32, branches: u32) -> (DVec3, f64) {
     let dir = cornell_dir(|t| {
         let t = t.replace("indirect_samples = 4\n", "");
@@ -99,7 +75,23 @@ fn render_with_branches(spp: u32, branches: u32) -> (DVec3, f64) {
             &format!("seed = 0\nindirect_samples = {branches}"),
         )
     });
-    render_in(dir.path(), &dir.path().join("shot.toml"), spp)
+    let out = dir.path().join("c.exr");
+    let r = rift(
+        dir.path(),
+        &[
+            "render",
+            "shot.toml",
+            "--spp",
+            &spp.to_string(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert!(r.status.success(), "{}", stderr(&r));
+    let (w, h, img) = read_exr_rgb(&out).unwrap();
+    let (rw, rh, reference) = read_exr_rgb(&reference()).unwrap();
+    assert_eq!((w, h), (rw, rh));
+    (channel_mean(&img), relative_mse(&img, &reference))
 }
 
 #[test]

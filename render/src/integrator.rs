@@ -391,10 +391,15 @@ fn trace_full(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSampl
         path.inside = scene.media.at_point(camera_ray.origin);
     }
     if !scene.media.grids.is_empty() {
-        path.rng = Rng::new(crate::sampling::hash32(s.uniform().to_bits()));
+        path.rng = grid_rng(s);
     }
     follow_full(scene, path, None, s, &mut out);
     out
+}
+
+/// A generator for tracking through density grids, seeded from the path's sample stream.
+fn grid_rng(s: &mut SampleStream) -> Rng {
+    Rng::new(crate::sampling::hash32(s.uniform().to_bits()))
 }
 
 /// Follows `path` to its end in any scene. `strategies` is how light sampling chose at its
@@ -758,7 +763,7 @@ fn split<const FULL: bool>(
         let mut stream = s.branch(k, n);
         let (u_bsdf, u_lobe, u_roulette) = branch_numbers(&mut stream);
         if !scene.media.grids.is_empty() {
-            branch.rng = Rng::new(crate::sampling::hash32(stream.uniform().to_bits()));
+            branch.rng = grid_rng(&mut stream);
         }
         if continue_path(&mut branch, at, u_bsdf, u_lobe, u_roulette) {
             follow::<FULL>(scene, branch, *strategies, &mut stream, out);
