@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{largest_difference, rift, root, stderr};
+use common::{largest_difference, python_command, rift, root, stderr};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -70,7 +70,17 @@ fn assert_frames_equal_direct_renders(dir: &Path) {
 }
 
 fn run(program: &str, args: &[&str], dir: &Path) -> Output {
-    Command::new(program)
+    run_command(Command::new(program), args, dir)
+}
+
+/// The OpenJD CLI of the suite's Python environment with `args` in `dir`.
+fn openjd(args: &[&str], dir: &Path) -> Output {
+    run_command(python_command("openjd"), args, dir)
+}
+
+fn run_command(mut command: Command, args: &[&str], dir: &Path) -> Output {
+    let program = command.get_program().to_string_lossy().into_owned();
+    command
         .args(args)
         .current_dir(dir)
         .output()
@@ -79,17 +89,17 @@ fn run(program: &str, args: &[&str], dir: &Path) -> Output {
 
 #[test]
 fn an_openjd_job_runs_end_to_end_and_equals_direct_renders() {
-    let probe = Command::new("openjd").arg("--version").output();
+    let probe = python_command("openjd").arg("--version").output();
     assert!(
         probe.is_ok_and(|o| o.status.success()),
-        "the OpenJD CLI is needed: tests/setup.sh (pip install -r tests/requirements.txt)"
+        "the OpenJD CLI is needed: tests/setup.sh installs tests/requirements.txt"
     );
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let shot = shot();
     let made = rift(d, &job_args("openjd", shot.to_str().unwrap(), "job.yaml"));
     assert!(made.status.success(), "{}", stderr(&made));
-    let check = run("openjd", &["check", "job.yaml"], d);
+    let check = openjd(&["check", "job.yaml"], d);
     assert!(
         check.status.success(),
         "{}",
@@ -108,7 +118,7 @@ fn an_openjd_job_runs_end_to_end_and_equals_direct_renders() {
         "Merge",
         "--run-dependencies",
     ];
-    let job = run("openjd", &args, d);
+    let job = openjd(&args, d);
     let log = String::from_utf8_lossy(&job.stdout);
     assert!(job.status.success(), "openjd run failed:\n{log}");
     for frame in FRAMES {

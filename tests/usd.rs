@@ -1,13 +1,13 @@
 //! The USD that `rift fx` writes opens in Pixar's usd-core and passes every registered
 //! `UsdValidation` validator, plus rift's own checks of what it promises to author
 //! (tests/support/usd_validate.py). usd-core comes from tests/requirements.txt, which the test
-//! command installs; without it this test fails rather than skipping.
+//! command installs into the suite's own environment; without it this test fails rather than
+//! skipping.
 
 mod common;
 
-use common::{fx_frames, rift, root, stderr};
+use common::{fx_frames, python_command, rift, root, stderr};
 use std::path::Path;
-use std::process::Command;
 
 #[test]
 fn example_shot_usd_passes_usd_core_validators() {
@@ -24,17 +24,17 @@ fn example_shot_usd_passes_usd_core_validators() {
         "{usda:?}"
     );
 
-    let probe = Command::new("python3")
+    let probe = python_command("python3")
         .args(["-c", "import pxr.UsdValidation"])
         .output();
     let ready = probe.as_ref().is_ok_and(|o| o.status.success());
     assert!(
         ready,
-        "Pixar's usd-core is needed: python3 -m pip install -r tests/requirements.txt ({:?})",
+        "Pixar's usd-core is needed: tests/setup.sh installs tests/requirements.txt ({:?})",
         probe.map(|o| String::from_utf8_lossy(&o.stderr).into_owned())
     );
     let script = root().join("tests/support/usd_validate.py");
-    let check = Command::new("python3")
+    let check = python_command("python3")
         .arg(script)
         .args(&usda)
         .output()
@@ -51,7 +51,7 @@ fn example_shot_usd_passes_usd_core_validators() {
 /// Runs a Python script of `tests/support` with `args`; panics with its output unless it
 /// succeeds.
 fn python(script: &str, args: &[&str], cwd: &Path) -> String {
-    let out = Command::new("python3")
+    let out = python_command("python3")
         .arg(root().join("tests/support").join(script))
         .args(args)
         .current_dir(cwd)
@@ -96,19 +96,19 @@ fn the_shot_stage_carries_camera_openings_and_rings_as_rift_has_them() {
 
 #[test]
 fn blender_plays_the_shot_stage_as_moving_curves() {
-    let probe = Command::new("python3")
+    let probe = python_command("python3")
         .args(["-c", "import sys, bpy; print(sys.version_info[:2])"])
         .output()
         .unwrap();
     if !probe.status.success() {
-        let version = Command::new("python3")
+        let version = python_command("python3")
             .args(["-c", "import sys; print(sys.version_info[:2] == (3, 11))"])
             .output()
             .unwrap();
         // bpy 4.5 is built for Python 3.11 only (tests/requirements.txt).
         assert!(
             String::from_utf8_lossy(&version.stdout).trim() != "True",
-            "Blender's Python module is needed: tests/setup.sh (pip install -r tests/requirements.txt)"
+            "Blender's Python module is needed: tests/setup.sh installs tests/requirements.txt"
         );
         eprintln!("skipped: bpy 4.5 needs Python 3.11, which this machine's python3 is not");
         return;

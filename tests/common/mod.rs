@@ -121,3 +121,24 @@ pub fn signal(child: &Child, signal: &str) {
         .unwrap();
     assert!(ok.success());
 }
+
+/// The test suite's own Python environment, which `tests/setup.sh` makes from
+/// `tests/requirements.txt` alone.
+pub fn python_env() -> PathBuf {
+    root().join("tests/.venv")
+}
+
+/// A command of the suite's Python environment (`python3`, or a console script such as
+/// `openjd`), never one from the machine's PATH: a package installed there by hand must not
+/// hide a line missing from `tests/requirements.txt`. Panics with how to make the environment
+/// when it is missing.
+pub fn python_command(program: &str) -> Command {
+    let path = python_env().join("bin").join(program);
+    assert!(
+        path.exists(),
+        "{} is missing: run tests/setup.sh, which makes the suite's Python environment from \
+         tests/requirements.txt",
+        path.display()
+    );
+    Command::new(path)
+}
