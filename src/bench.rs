@@ -133,8 +133,8 @@ pub(crate) fn alternate<const N: usize>(
     reference: &[glam::Vec3],
     keep: impl Fn(usize) -> bool,
 ) -> anyhow::Result<[f64; N]> {
-    use rift_render::film::relative_mse;
-    use rift_render::render::{RenderOptions, render};
+    use rift_render::frame::film::relative_mse;
+    use rift_render::frame::passes::{RenderOptions, render};
     let kept = |pixels: &[glam::Vec3]| -> Vec<glam::Vec3> {
         (0..pixels.len())
             .filter(|&i| keep(i))

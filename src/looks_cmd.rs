@@ -187,7 +187,7 @@ impl Sheet {
             .iter()
             .map(|c| Vec3::ONE - (-c.max(Vec3::ZERO)).exp())
             .collect();
-        rift_render::film::write_srgb_png(path, self.width, self.height, &mapped)?;
+        rift_render::frame::film::write_srgb_png(path, self.width, self.height, &mapped)?;
         Ok(())
     }
 }

@@ -12,7 +12,7 @@
 use anyhow::{Context, bail};
 use clap::Args;
 use rayon::prelude::*;
-use rift_render::film::{
+use rift_render::frame::film::{
     BACKGROUND_DEPTH, ExrLayer, Image, LIGHT_GROUP_PREFIX, Metadata, THROUGH_LAYER, Window,
     read_exr_layer,
 };
@@ -112,12 +112,13 @@ fn ensure_parts_fit(paths: &[PathBuf], max_memory: Option<u64>) -> anyhow::Resul
     let mut needed = 0u64;
     let mut largest = 0usize;
     for path in paths {
-        let (pixels, channels) = rift_render::film::exr_layer_shape(path)?;
+        let (pixels, channels) = rift_render::frame::film::exr_layer_shape(path)?;
         needed = needed.saturating_add((pixels as u64).saturating_mul(channels as u64 * 8));
         largest = largest.max(pixels);
     }
     // The merged window is at least the largest part; its sums take about 160 bytes a pixel.
-    let merged = rift_render::render::film_bytes(largest).saturating_add(largest as u64 * 160);
+    let merged =
+        rift_render::frame::passes::film_bytes(largest).saturating_add(largest as u64 * 160);
     crate::memory::ensure_fits(
         &format!("merging {} parts", paths.len()),
         needed.saturating_add(merged),

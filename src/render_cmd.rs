@@ -7,11 +7,11 @@ use clap::{Args, ValueEnum};
 use rift_fx::{FrameRange, Shot};
 use rift_render::Scene;
 use rift_render::camera::Eye;
-use rift_render::checkpoint::{Checkpoint, Key};
-use rift_render::film::Image;
-use rift_render::film::Window;
-use rift_render::lights::LightSelection;
-use rift_render::render::{Checkpointing, RenderOptions, Sums};
+use rift_render::frame::checkpoint::{Checkpoint, Key};
+use rift_render::frame::film::Image;
+use rift_render::frame::film::Window;
+use rift_render::frame::passes::{Checkpointing, RenderOptions, Sums};
+use rift_render::lights::emitters::LightSelection;
 use rift_render::scene::Overrides;
 use rift_render::scene::rings::frame_path;
 use std::path::{Path, PathBuf};
@@ -271,10 +271,10 @@ fn ensure_film_fits(
         Some(_) => 0,
     };
     let checkpoints = match args.checkpoint {
-        Some(_) => rift_render::checkpoint::checkpoint_bytes(pixels),
+        Some(_) => rift_render::frame::checkpoint::checkpoint_bytes(pixels),
         None => 0,
     };
-    let film = rift_render::render::film_bytes(pixels)
+    let film = rift_render::frame::passes::film_bytes(pixels)
         .saturating_add(rings)
         .saturating_add(checkpoints);
     let budget = crate::memory::budget(args.max_memory);
@@ -451,7 +451,7 @@ fn render_one(
         cryptomatte: args.cryptomatte,
     };
     let rendered = crate::with_threads(args.threads, || {
-        rift_render::render::render_resumable(scene, &options)
+        rift_render::frame::passes::render_resumable(scene, &options)
     })?;
     progress.finish();
     if !rendered.complete {

@@ -7,7 +7,7 @@
 //! of an uninterrupted render.
 
 use rift_fx::export::cache::fnv1a;
-use rift_render::checkpoint::Key;
+use rift_render::frame::checkpoint::Key;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};

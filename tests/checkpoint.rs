@@ -6,7 +6,7 @@
 mod common;
 
 use common::{files_in, largest_difference, rift, root, signal, start, stderr, wait_for_progress};
-use rift_render::film::read_exr_layer;
+use rift_render::frame::film::read_exr_layer;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};

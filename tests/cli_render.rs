@@ -55,7 +55,7 @@ fn same_seed_gives_identical_pixels_for_any_thread_count() {
         );
         assert!(r.status.success(), "{}", stderr(&r));
         images.push(
-            rift_render::film::read_exr_rgb(&dir.path().join(out))
+            rift_render::frame::film::read_exr_rgb(&dir.path().join(out))
                 .unwrap()
                 .2,
         );
@@ -76,7 +76,7 @@ fn same_seed_gives_identical_pixels_for_any_thread_count() {
         ],
     );
     assert!(r.status.success());
-    let other = rift_render::film::read_exr_rgb(&dir.path().join("other.exr"))
+    let other = rift_render::frame::film::read_exr_rgb(&dir.path().join("other.exr"))
         .unwrap()
         .2;
     assert!(other != images[0]);
@@ -193,7 +193,8 @@ fn resolution_override_and_png_preview() {
         ],
     );
     assert!(r.status.success(), "{}", stderr(&r));
-    let (w, h, _) = rift_render::film::read_exr_rgb(&dir.path().join("img.0001.exr")).unwrap();
+    let (w, h, _) =
+        rift_render::frame::film::read_exr_rgb(&dir.path().join("img.0001.exr")).unwrap();
     assert_eq!((w, h), (40, 30));
     let png = std::fs::read(dir.path().join("img.0001.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
@@ -232,8 +233,8 @@ fn crop_renders_the_same_pixels_as_the_full_frame() {
             "crop.exr",
         ],
     );
-    let full = rift_render::film::read_exr_layer(&dir.path().join("full.exr")).unwrap();
-    let crop = rift_render::film::read_exr_layer(&dir.path().join("crop.exr")).unwrap();
+    let full = rift_render::frame::film::read_exr_layer(&dir.path().join("full.exr")).unwrap();
+    let crop = rift_render::frame::film::read_exr_layer(&dir.path().join("crop.exr")).unwrap();
     assert_eq!(crop.display, (40, 32), "the display window stays the frame");
     assert_eq!(crop.position, (10, 16));
     assert_eq!(crop.size, (14, 16), "columns 10..24, rows 16..32");
@@ -298,7 +299,7 @@ fn aovs_and_metadata() {
             "img.exr",
         ],
     );
-    let exr = rift_render::film::read_exr_layer(&dir.path().join("img.exr")).unwrap();
+    let exr = rift_render::frame::film::read_exr_layer(&dir.path().join("img.exr")).unwrap();
     let names: Vec<&str> = exr.channels.keys().map(String::as_str).collect();
     for c in [
         "R", "G", "B", "A", "Z", "spp", "albedo.R", "albedo.G", "albedo.B", "N.X", "N.Y", "N.Z",
@@ -321,7 +322,7 @@ fn aovs_and_metadata() {
     if exr.channels["A"][corner] == 0.0 {
         assert_eq!(
             exr.channels["Z"][corner],
-            rift_render::film::BACKGROUND_DEPTH
+            rift_render::frame::film::BACKGROUND_DEPTH
         );
     }
 }
@@ -348,8 +349,8 @@ fn adaptive_sampling_spends_samples_where_the_error_is() {
             ],
         );
     }
-    let a = rift_render::film::read_exr_layer(&dir.path().join("adaptive1.exr")).unwrap();
-    let b = rift_render::film::read_exr_layer(&dir.path().join("adaptive2.exr")).unwrap();
+    let a = rift_render::frame::film::read_exr_layer(&dir.path().join("adaptive1.exr")).unwrap();
+    let b = rift_render::frame::film::read_exr_layer(&dir.path().join("adaptive2.exr")).unwrap();
     assert!(
         a.channels == b.channels,
         "adaptive output depends on threads"
@@ -389,7 +390,7 @@ fn adaptive_sampling_keeps_the_image_mean() {
         let mut args = vec!["render", "shot.toml", "-o", name];
         args.extend_from_slice(extra);
         run_ok(&dir, &args);
-        let exr = rift_render::film::read_exr_layer(&dir.path().join(name)).unwrap();
+        let exr = rift_render::frame::film::read_exr_layer(&dir.path().join(name)).unwrap();
         let luminance: f64 = (0..exr.channels["R"].len())
             .map(|i| {
                 let c = |k: &str| exr.channels[k][i] as f64;
@@ -436,7 +437,7 @@ fn time_limit_stops_early_and_still_writes_every_pixel() {
             "limited.exr",
         ],
     );
-    let exr = rift_render::film::read_exr_layer(&dir.path().join("limited.exr")).unwrap();
+    let exr = rift_render::frame::film::read_exr_layer(&dir.path().join("limited.exr")).unwrap();
     let spp = &exr.channels["spp"];
     assert!(
         spp.iter().all(|&n| n >= 4.0),
@@ -715,7 +716,8 @@ fn a_stereo_shot_renders_both_eyes_in_one_command() {
     };
     assert_eq!(view("img.left.0001.exr").as_deref(), Some("left"));
     assert_eq!(view("img.right.0001.exr").as_deref(), Some("right"));
-    let read = |name: &str| rift_render::film::read_exr_rgb(&dir.path().join("out").join(name));
+    let read =
+        |name: &str| rift_render::frame::film::read_exr_rgb(&dir.path().join("out").join(name));
     assert_ne!(
         read("img.left.0001.exr").unwrap().2,
         read("img.right.0001.exr").unwrap().2
@@ -787,7 +789,8 @@ fn ring_point_clouds_render_as_their_cache_does() {
         let r = render(rings, out);
         assert!(r.status.success(), "{rings}: {}", stderr(&r));
     }
-    let read = |name: &str| rift_render::film::read_exr_rgb(&dir.path().join("out").join(name));
+    let read =
+        |name: &str| rift_render::frame::film::read_exr_rgb(&dir.path().join("out").join(name));
     let (cache, ply) = (read("cache.exr").unwrap().2, read("ply.exr").unwrap().2);
     assert_eq!(
         cache, ply,

@@ -6,7 +6,7 @@ mod common;
 
 use common::{cornell_dir, rift, root, stderr};
 use glam::DVec3;
-use rift_render::film::{channel_mean, read_exr_rgb, relative_mse};
+use rift_render::frame::film::{channel_mean, read_exr_rgb, relative_mse};
 use std::path::PathBuf;
 
 fn reference() -> PathBuf {

@@ -6,8 +6,8 @@
 mod common;
 
 use common::{rift, stderr};
-use rift_render::cryptomatte::id;
-use rift_render::film::read_exr_layer;
+use rift_render::frame::cryptomatte::id;
+use rift_render::frame::film::read_exr_layer;
 use std::path::Path;
 
 /// Three cards facing a camera at the origin looking down −Z, 5 m away: "red" at left, "blue"

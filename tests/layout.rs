@@ -5,7 +5,7 @@
 mod common;
 
 use common::root;
-use rift_render::film::read_exr_layer;
+use rift_render::frame::film::read_exr_layer;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;
@@ -406,8 +406,13 @@ fn scene_names(layout: &Layout, frame: i64) -> Vec<String> {
 /// Per object with enough pixels: IoU of the preview's pixels and the render's (rank-0 ID
 /// covering at least half the pixel), over pixels no ring touches in the render, and how far
 /// apart their edges are (95th percentile of each edge pixel's distance to the other's edge).
-fn compare_ids(what: &str, preview: &[i64], layer: &rift_render::film::ExrLayer, names: &[String]) {
-    use rift_render::cryptomatte::id;
+fn compare_ids(
+    what: &str,
+    preview: &[i64],
+    layer: &rift_render::frame::film::ExrLayer,
+    names: &[String],
+) {
+    use rift_render::frame::cryptomatte::id;
     let ids: Vec<f32> = names.iter().map(|n| id(n)).collect();
     let channel = |name: &str| &layer.channels[name];
     let rank_ids: Vec<&Vec<f32>> = (0..3)
@@ -744,7 +749,7 @@ fn a_save_to_a_read_only_shot_is_refused_with_its_reason() {
 }
 
 /// The path tracer's render of `shot` at `frame` with Cryptomatte layers, 16 spp.
-fn render_ids(dir: &Path, shot: &Path, frame: i64) -> rift_render::film::ExrLayer {
+fn render_ids(dir: &Path, shot: &Path, frame: i64) -> rift_render::frame::film::ExrLayer {
     let exr = dir.join(format!(
         "{}.{frame}.ids.exr",
         shot.file_stem().unwrap().to_string_lossy()

@@ -6,7 +6,7 @@
 mod common;
 
 use common::{largest_difference, rift, root, signal, start, stderr, wait_for_progress};
-use rift_render::film::read_exr_layer;
+use rift_render::frame::film::read_exr_layer;
 use std::path::{Path, PathBuf};
 
 /// A copy of `examples/shots/<name>.toml` in `dir`, its mesh paths made absolute and `edit`

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{files_in, largest_difference, rift, root, stderr};
-use rift_render::film::read_exr_layer;
+use rift_render::frame::film::read_exr_layer;
 use std::path::Path;
 
 /// A shot with an opening (so the through-openings layers are written), small and quick.

@@ -3,48 +3,39 @@
 //! It builds a scene from the same shot file as rift-fx (through [`rift_fx::Shot`]) and traces
 //! light with unidirectional path tracing, next-event estimation and multiple importance
 //! sampling. render depends on fx, never the reverse.
+//!
+//! The folders, from the bottom up (each may use those above it in this list, never those
+//! below; `ARCHITECTURE.md` draws the layers):
+//!
+//! - [`platform`]: processor features, huge pages, cache prefetch.
+//! - [`sampling`]: sample numbers (Sobol, hashing) and warps.
+//! - [`geometry`]: rays, triangles, round curves, BVHs, motion.
+//! - [`material`], [`media`]: BSDFs; participating media and density grids.
+//! - [`portals`]: openings, their masks and teleports, visibility and cull volumes.
+//! - [`lights`]: emitters, the light tree, learned selection, the environment.
+//! - [`through`]: light sampling through openings.
+//! - [`scene`]: loading a shot into a [`Scene`]; [`camera`]: its lens.
+//! - [`integrator`]: the path loop, direct light, shadow rays.
+//! - [`prepare`]: the measuring and training passes that run once per scene.
+//! - [`frame`]: render passes, the film, checkpoints, Cryptomatte.
 
-pub mod aperture;
-pub mod aperture_tree;
 pub mod camera;
-pub mod checkpoint;
-pub mod cpu;
-pub mod cryptomatte;
-pub mod environment;
 pub mod error;
-pub mod exit_light;
-pub mod film;
+pub mod frame;
 pub mod geometry;
-pub mod grid_medium;
-pub mod huge_pages;
 pub mod integrator;
-pub mod light_guide;
-pub mod light_tree;
-pub mod light_visibility;
 pub mod lights;
-pub mod mask;
 pub mod material;
-pub mod medium;
-pub mod microfacet;
-pub mod multiscatter;
-pub mod opening_candidates;
-pub mod opening_tree;
-pub mod portal;
-pub mod prefetch;
-pub mod ray;
-pub mod render;
+pub mod media;
+pub mod platform;
+pub mod portals;
+pub mod prepare;
 pub mod sampling;
 pub mod scene;
-pub mod sobol;
-pub mod strand_exposure;
 pub mod through;
 pub mod untrusted;
-pub mod vdb;
-pub mod visibility;
-pub mod volumes;
-pub mod voxels;
 
 pub use error::RenderError;
-pub use ray::Ray;
+pub use geometry::Ray;
 pub use rift_fx;
 pub use scene::Scene;

@@ -73,24 +73,24 @@ pub fn ring_cache(bytes: &[u8]) {
 }
 
 /// An EXR environment map, of at most 2^20 pixels: the real limit
-/// ([`crate::film::MAX_EXR_PIXELS`]) takes gigabytes to reach, which only slows the fuzzer.
+/// ([`crate::frame::film::MAX_EXR_PIXELS`]) takes gigabytes to reach, which only slows the fuzzer.
 pub fn exr(bytes: &[u8]) {
-    let _ = crate::film::decode_exr_rgb(bytes, 1 << 20);
+    let _ = crate::frame::film::decode_exr_rgb(bytes, 1 << 20);
 }
 
 /// An EXR read whole with every channel, as `rift merge` reads its parts, of at most 2^20
 /// pixels.
 pub fn exr_layer(bytes: &[u8]) {
-    let _ = crate::film::decode_exr_layer(bytes, 1 << 20);
+    let _ = crate::frame::film::decode_exr_layer(bytes, 1 << 20);
 }
 
 /// A checkpoint `rift render --resume` continues from, of at most 2^20 pixels.
 pub fn checkpoint(bytes: &[u8]) {
-    let _ = crate::checkpoint::Checkpoint::decode(bytes, 1 << 20);
+    let _ = crate::frame::checkpoint::Checkpoint::decode(bytes, 1 << 20);
 }
 
 /// An OpenVDB file's "density" grid, with at most 8 MiB of voxels (filling a table of that
 /// size is legitimate work that only slows the fuzzer down).
 pub fn vdb(bytes: &[u8]) {
-    let _ = crate::vdb::read_grid(bytes, "density", 8 << 20);
+    let _ = crate::media::vdb::read_grid(bytes, "density", 8 << 20);
 }

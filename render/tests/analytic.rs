@@ -78,7 +78,7 @@ fn icosphere_obj(subdivisions: u32) -> String {
 }
 
 /// Renders `extra` TOML (materials, objects, environment) at 48×48 and `spp`.
-fn render(dir: &Path, extra: &str, spp: u32) -> rift_render::film::Image {
+fn render(dir: &Path, extra: &str, spp: u32) -> rift_render::frame::film::Image {
     common::render_shot(dir, "shot", &shot(extra), spp)
 }
 
@@ -125,7 +125,7 @@ material = "m"
 }
 
 /// Mean over pixels where every camera ray hit (alpha 1) and over those where none did.
-fn means(img: &rift_render::film::Image) -> (Vec3, Vec3, usize) {
+fn means(img: &rift_render::frame::film::Image) -> (Vec3, Vec3, usize) {
     let (mut hit, mut miss, mut n_hit, mut n_miss) = (Vec3::ZERO, Vec3::ZERO, 0, 0);
     for (c, a) in img.rgb.iter().zip(&img.alpha) {
         if *a == 1.0 {

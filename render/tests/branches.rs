@@ -6,7 +6,7 @@ mod common;
 
 use common::assert_statistically_equal;
 use rift_render::Scene;
-use rift_render::render::{RenderOptions, render};
+use rift_render::frame::passes::{RenderOptions, render};
 use rift_render::rift_fx::Shot;
 use std::path::Path;
 

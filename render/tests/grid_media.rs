@@ -9,7 +9,7 @@ use common::{
 };
 use glam::Vec3;
 use rift_render::Scene;
-use rift_render::grid_medium::Rng;
+use rift_render::media::grid::Rng;
 use rift_render::rift_fx::Shot;
 use std::path::{Path, PathBuf};
 

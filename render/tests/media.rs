@@ -44,7 +44,7 @@ name = "fog"
     )
 }
 
-fn mean(img: &rift_render::film::Image) -> Vec3 {
+fn mean(img: &rift_render::frame::film::Image) -> Vec3 {
     img.rgb.iter().copied().sum::<Vec3>() / img.rgb.len() as f32
 }
 
@@ -441,7 +441,10 @@ fn the_ring_glows_into_the_haze_on_both_sides_of_its_opening() {
         let mut scene = Scene::build(&shot, 1).unwrap();
         scene.settings.light_through_openings = through;
         scene.settings.seed = seed;
-        rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(128))
+        rift_render::frame::passes::render(
+            &scene,
+            &rift_render::frame::passes::RenderOptions::new(128),
+        )
     };
     let (on, on_again) = (render(true, 1), render(true, 2));
     let (off, off_again) = (render(false, 3), render(false, 4));

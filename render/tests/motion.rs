@@ -15,7 +15,12 @@ fn half_view() -> f32 {
 }
 
 /// Renders a shot (header added) at 48×48; the shutter spans the whole frame 1 → 2.
-fn render(dir: &Path, camera_transform: &str, body: &str, spp: u32) -> rift_render::film::Image {
+fn render(
+    dir: &Path,
+    camera_transform: &str,
+    body: &str,
+    spp: u32,
+) -> rift_render::frame::film::Image {
     let text = format!(
         r#"
 [shot]
@@ -76,7 +81,7 @@ fn inner_rows() -> impl Iterator<Item = usize> {
     })
 }
 
-fn check_profile(img: &rift_render::film::Image, what: &str) {
+fn check_profile(img: &rift_render::frame::film::Image, what: &str) {
     let rows: Vec<usize> = inner_rows().collect();
     assert!(rows.len() >= 8, "{what}: rows {rows:?}");
     let mut worst = 0.0f32;
@@ -151,7 +156,7 @@ transform = {transform}
     };
     let camera = "position = [0.0, 3.0, 0.0]\nlook_at = [0.0, -1.0, 0.0]\nup = [0.0, 0.0, -1.0]";
     // The central 8×8 pixels.
-    let centre = |img: &rift_render::film::Image| {
+    let centre = |img: &rift_render::frame::film::Image| {
         let mut sum = Vec3::ZERO;
         for y in 20..28 {
             for x in 20..28 {

@@ -10,8 +10,8 @@ use common::{
 };
 use glam::{DVec3, Vec3};
 use rift_render::Scene;
-use rift_render::film::Image;
-use rift_render::render::{RenderOptions, render};
+use rift_render::frame::film::Image;
+use rift_render::frame::passes::{RenderOptions, render};
 use rift_render::rift_fx::Shot;
 use rift_render::rift_fx::rig::AnimatedTransform;
 use std::path::Path;

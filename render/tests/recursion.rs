@@ -6,7 +6,7 @@ mod common;
 
 use common::{box_obj, render_shot_with};
 use glam::Vec3;
-use rift_render::film::Image;
+use rift_render::frame::film::Image;
 
 /// Levels the test follows (rings seen through 1, 2, 3 and 4 teleports).
 const LEVELS: usize = 4;

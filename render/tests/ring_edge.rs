@@ -8,7 +8,7 @@
 
 use glam::{DVec2, Vec2};
 use rift_render::Scene;
-use rift_render::mask::Mask;
+use rift_render::portals::masks::Mask;
 use rift_render::rift_fx::ring::{RingCurves, RingGenerator};
 use rift_render::rift_fx::{FrameRange, Shot};
 use std::f64::consts::TAU;

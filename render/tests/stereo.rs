@@ -5,8 +5,8 @@
 use glam::{Mat4, Vec3, Vec4};
 use rift_render::Scene;
 use rift_render::camera::Eye;
-use rift_render::film::Image;
-use rift_render::render::{RenderOptions, render};
+use rift_render::frame::film::Image;
+use rift_render::frame::passes::{RenderOptions, render};
 use rift_render::rift_fx::Shot;
 use std::path::Path;
 

@@ -6,11 +6,11 @@ mod common;
 use common::{box_obj, render_at};
 use glam::{DVec2, DVec3, Vec3};
 use rift_render::Scene;
-use rift_render::film::{Image, relative_mse};
-use rift_render::lights::Receiver;
-use rift_render::ray::Ray;
+use rift_render::frame::film::{Image, relative_mse};
+use rift_render::geometry::ray::Ray;
+use rift_render::lights::emitters::Receiver;
 use rift_render::rift_fx::Shot;
-use rift_render::through::Strategies;
+use rift_render::through::strategies::Strategies;
 use std::path::Path;
 
 /// A dark room (a closed grey box around the origin, camera inside) whose only light comes
@@ -488,7 +488,7 @@ transform = { position = [1.2, 2.6, -1.2], scale = 0.3 }
     let image = render_at(dir.path(), "both", &both, 16, 1);
     let path = dir.path().join("both.exr");
     image.write_exr(&path).unwrap();
-    let layer = rift_render::film::read_exr_layer(&path).unwrap();
+    let layer = rift_render::frame::film::read_exr_layer(&path).unwrap();
     for c in ["R", "G", "B"] {
         let get = |name: &str| &layer.channels[name];
         let (sum, a, b) = (
@@ -840,7 +840,7 @@ fn rays_find_the_walls_between_an_exit_and_the_openings_it_faces() {
     std::fs::write(&path, &text).unwrap();
     let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
     let pairs = scene.apertures.facing_pairs();
-    let walled = rift_render::exit_light::walled_off(&scene, &pairs);
+    let walled = rift_render::prepare::exits::walled_off(&scene, &pairs);
     let [start, end] = scene.portals.times();
     let room = |i: u32, exit: bool| {
         let frame = if exit {

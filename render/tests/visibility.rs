@@ -6,7 +6,7 @@ mod common;
 
 use common::{assert_statistically_equal, box_obj, render_at, render_shot, tunnel_shot};
 use glam::Vec3;
-use rift_render::film::{Image, relative_mse};
+use rift_render::frame::film::{Image, relative_mse};
 
 const RED: Vec3 = Vec3::new(0.7, 0.15, 0.1);
 const GREY: Vec3 = Vec3::splat(0.5);

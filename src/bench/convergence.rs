@@ -29,7 +29,7 @@ pub struct ConvergenceArgs {
 
 pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
     let shot = Shot::load(&args.shot)?;
-    let (rw, rh, reference) = rift_render::film::read_exr_rgb(&args.reference)?;
+    let (rw, rh, reference) = rift_render::frame::film::read_exr_rgb(&args.reference)?;
     let [w, h] = shot.camera.projection.resolution;
     anyhow::ensure!(
         (w as usize, h as usize) == (rw, rh),
@@ -66,10 +66,13 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
     for spp in counts {
         let t = Instant::now();
         let image = crate::with_threads(args.threads.threads, || {
-            rift_render::render::render(&scene, &rift_render::render::RenderOptions::new(spp))
+            rift_render::frame::passes::render(
+                &scene,
+                &rift_render::frame::passes::RenderOptions::new(spp),
+            )
         })?;
         let seconds = t.elapsed().as_secs_f64();
-        let rel = rift_render::film::relative_mse(&image.rgb, &reference);
+        let rel = rift_render::frame::film::relative_mse(&image.rgb, &reference);
         let efficiency = 1.0 / (rel * seconds);
         let mpaths = (w as f64 * h as f64 * spp as f64) / seconds / 1e6;
         println!("{spp:>6} {seconds:>10.3} {rel:>12.4e} {efficiency:>12.1} {mpaths:>10.3}");

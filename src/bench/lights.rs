@@ -33,8 +33,8 @@ pub struct LightsArgs {
 }
 
 pub fn run(args: LightsArgs) -> anyhow::Result<()> {
-    use rift_render::lights::LightSelection;
-    use rift_render::render::{RenderOptions, render};
+    use rift_render::frame::passes::{RenderOptions, render};
+    use rift_render::lights::emitters::LightSelection;
     use rift_render::scene::Overrides;
     anyhow::ensure!(
         args.spp > 0 && args.reference_spp > 0 && args.repeats > 0 && args.width > 0,
@@ -56,7 +56,7 @@ pub fn run(args: LightsArgs) -> anyhow::Result<()> {
         )?;
         if args.no_strand_shadows {
             for flags in &mut scene.strand_flags {
-                *flags = flags.without(rift_render::visibility::RayClass::Shadow);
+                *flags = flags.without(rift_render::portals::visibility::RayClass::Shadow);
             }
         }
         Ok(scene)

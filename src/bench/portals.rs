@@ -5,7 +5,7 @@ use anyhow::Context;
 use clap::Args;
 use rift_fx::Shot;
 use rift_render::Ray;
-use rift_render::visibility::RayClass;
+use rift_render::portals::visibility::RayClass;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -26,7 +26,7 @@ pub struct PortalsArgs {
 }
 
 pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
-    use rift_render::render::{RenderOptions, render};
+    use rift_render::frame::passes::{RenderOptions, render};
     anyhow::ensure!(
         args.timing.repeats > 0 && args.spp > 0,
         "expected positive counts"

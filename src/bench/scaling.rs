@@ -10,7 +10,7 @@
 use super::{Timing, median};
 use clap::Args;
 use rayon::prelude::*;
-use rift_render::render::{RenderOptions, render};
+use rift_render::frame::passes::{RenderOptions, render};
 use rift_render::rift_fx::Shot;
 use rift_render::{Ray, Scene};
 use std::io::Write;

@@ -10,9 +10,9 @@ use rift_fx::Shot;
 use rift_fx::rig::{Rig, Similarity};
 use rift_render::Ray;
 use rift_render::Scene;
-use rift_render::film::Image;
-use rift_render::portal::{Mask, OpeningLook, Portals};
-use rift_render::render::{RenderOptions, render};
+use rift_render::frame::film::Image;
+use rift_render::frame::passes::{RenderOptions, render};
+use rift_render::portals::openings::{Mask, OpeningLook, Portals};
 use std::path::Path;
 
 /// Arguments of `rift bench stability`.

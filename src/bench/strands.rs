@@ -153,7 +153,7 @@ fn light_tree_cost(
     times: [f64; 2],
     args: &StrandsArgs,
 ) -> anyhow::Result<()> {
-    use rift_render::lights::{LightSelection, Lights, Receiver};
+    use rift_render::lights::emitters::{LightSelection, Lights, Receiver};
     let t = Instant::now();
     let lights = Lights::new(Vec::new(), 0, set, times, &[], None, LightSelection::Tree);
     let build = t.elapsed().as_secs_f64();

@@ -31,7 +31,7 @@ pub struct ThroughArgs {
 /// Efficiency of light sampling through openings: on and off in turn, against a reference
 /// rendered with it on, over the pixels of the room the camera stands in (no teleport).
 pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
-    use rift_render::render::{RenderOptions, render};
+    use rift_render::frame::passes::{RenderOptions, render};
     use rift_render::scene::Overrides;
     anyhow::ensure!(
         args.spp > 0 && args.reference_spp > 0 && args.timing.repeats > 0 && args.width > 0,

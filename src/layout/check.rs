@@ -4,7 +4,7 @@
 //! and the final render agree.
 
 use rift_render::Scene;
-use rift_render::render::RenderOptions;
+use rift_render::frame::passes::RenderOptions;
 use rift_render::rift_fx::Shot;
 use rift_render::rift_fx::rig::AnimatedTransform;
 use rift_render::rift_fx::shot::pose::{self, Facing};
@@ -110,8 +110,8 @@ pub fn render(
         });
     }
     let scene = &built.as_ref().expect("built just above").scene;
-    let image = rift_render::render::render(scene, &RenderOptions::new(request.spp));
-    rift_render::film::encode_srgb_png(image.width, image.height, &image.rgb)
+    let image = rift_render::frame::passes::render(scene, &RenderOptions::new(request.spp));
+    rift_render::frame::film::encode_srgb_png(image.width, image.height, &image.rgb)
 }
 
 /// The shot's scene at the request's frame, size and camera pose.

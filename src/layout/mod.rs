@@ -235,7 +235,7 @@ impl State {
 fn staged_scene(shot: &Shot, frame: i64) -> Result<Scene, rift_render::RenderError> {
     let overrides = rift_render::scene::Overrides {
         light_through_openings: Some(false),
-        light_selection: Some(rift_render::lights::LightSelection::Power),
+        light_selection: Some(rift_render::lights::emitters::LightSelection::Power),
         ..Default::default()
     };
     Scene::build_with(shot, frame, &overrides)

@@ -10,10 +10,10 @@ use super::shot_file::ShotFile;
 use glam::Vec3;
 use rift_render::Scene;
 use rift_render::camera::Lens;
-use rift_render::mask::Mask;
+use rift_render::portals::masks::Mask;
+use rift_render::portals::visibility::RayClass;
 use rift_render::rift_fx::Shot;
 use rift_render::rift_fx::rig::{Similarity, ThereFrame};
-use rift_render::visibility::RayClass;
 use serde_json::{Value, json};
 
 /// Points of a round outline.

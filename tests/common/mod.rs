@@ -71,7 +71,7 @@ pub fn fx_frames(dir: &Path, shot: &Path, extra: &[&str]) -> Vec<PathBuf> {
 
 /// Largest difference between two EXRs over every channel, relative to max(|value|, 1e-3).
 pub fn largest_difference(a: &Path, b: &Path) -> f64 {
-    let read = |p: &Path| rift_render::film::read_exr_layer(p).unwrap();
+    let read = |p: &Path| rift_render::frame::film::read_exr_layer(p).unwrap();
     let (a, b) = (read(a), read(b));
     assert_eq!((a.position, a.size), (b.position, b.size), "data windows");
     assert_eq!(

@@ -7,7 +7,7 @@ use super::instance::{MovingInstance, Placement};
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
 use super::wide_bvh::{BoxRay, Fixed, any_hit, closest_hit, node_bytes, worth_fetching_ahead};
-use crate::ray::Ray;
+use crate::geometry::ray::Ray;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 

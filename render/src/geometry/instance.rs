@@ -5,7 +5,7 @@
 use super::motion::ObjectMotion;
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
-use crate::ray::Ray;
+use crate::geometry::ray::Ray;
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use rift_fx::rig::Similarity;

@@ -19,8 +19,8 @@ use super::round_cone::RoundCone;
 use super::wide_bvh::{
     BoxRay, Fixed, Swept, SweptNode, any_hit, closest_hit, worth_fetching_ahead,
 };
-use crate::huge_pages;
-use crate::ray::Ray;
+use crate::geometry::ray::Ray;
+use crate::platform::huge_pages;
 use glam::{DAffine3, Vec3};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
@@ -480,7 +480,7 @@ impl Strands {
     /// Asks the cache for what light sampling reads of segment `i`.
     #[inline(always)]
     pub fn prefetch(&self, i: usize) {
-        use crate::prefetch::prefetch;
+        use crate::platform::prefetch::prefetch;
         if let (Some(segment), Some(ring), Some(radiance)) = (
             self.segments.get(i..=i),
             self.segment_ring.get(i..=i),
@@ -843,7 +843,7 @@ mod tests {
         let fast = counter_rotating(spinning_ring(6, 64, 40.0));
         the_bvh_finds_what_testing_every_segment_finds(fast.clone(), MAX_TIME_SLICES);
         // And as a processor without AVX2 runs them (the swept nodes' portable slab tests).
-        crate::cpu::with_baseline(|| {
+        crate::platform::cpu::with_baseline(|| {
             the_bvh_finds_what_testing_every_segment_finds(fast, MAX_TIME_SLICES)
         });
     }

@@ -162,7 +162,7 @@ const PADDING: usize = 1;
 impl PackedTriangles {
     pub fn new(triangles: impl ExactSizeIterator<Item = Triangle>) -> Self {
         let count = triangles.len();
-        let mut coords = crate::huge_pages::with_capacity(9 * count + PADDING);
+        let mut coords = crate::platform::huge_pages::with_capacity(9 * count + PADDING);
         for t in triangles {
             for axis in 0..3 {
                 coords.extend(t.v.iter().map(|v| v[axis]));
@@ -220,7 +220,7 @@ impl super::wide_bvh::LeafData for PackedTriangles {
     fn prefetch(&self, slots: std::ops::RangeInclusive<usize>) {
         let (first, last) = slots.into_inner();
         if let Some(run) = self.coords.get(9 * first..9 * last + 9) {
-            crate::prefetch::prefetch(run);
+            crate::platform::prefetch::prefetch(run);
         }
     }
 }

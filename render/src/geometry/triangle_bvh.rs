@@ -71,11 +71,12 @@ impl TriangleBvh {
             };
         }
         let mut bvh = build_cwbvh(triangles);
-        bvh.nodes = crate::huge_pages::adopt(bvh.nodes);
+        bvh.nodes = crate::platform::huge_pages::adopt(bvh.nodes);
         let leaf_triangles =
             PackedTriangles::new(bvh.primitive_indices.iter().map(|&i| triangles[i as usize]));
-        let leaf_ids =
-            crate::huge_pages::collect(bvh.primitive_indices.iter().map(|&i| i + first_id));
+        let leaf_ids = crate::platform::huge_pages::collect(
+            bvh.primitive_indices.iter().map(|&i| i + first_id),
+        );
         Self {
             bvh: Some(bvh),
             leaf_triangles,
@@ -92,7 +93,7 @@ impl TriangleBvh {
         t_max: f32,
         accept: &impl Fn(u32, f32) -> bool,
     ) -> Option<TriangleHit> {
-        crate::cpu::run(Query::<_, true> {
+        crate::platform::cpu::run(Query::<_, true> {
             bvh: self,
             origin,
             dir,
@@ -110,7 +111,7 @@ impl TriangleBvh {
         t_max: f32,
         accept: &impl Fn(u32, f32) -> bool,
     ) -> bool {
-        crate::cpu::run(Query::<_, false> {
+        crate::platform::cpu::run(Query::<_, false> {
             bvh: self,
             origin,
             dir,
@@ -123,7 +124,7 @@ impl TriangleBvh {
 
 /// A query of one tree along `origin + t·dir`, t in (0, t_max), for the nearest admitted hit
 /// (`NEAREST`) or any: the ray set-up, traversal and leaf tests in one compilation
-/// ([`crate::cpu::run`]).
+/// ([`crate::platform::cpu::run`]).
 struct Query<'a, A, const NEAREST: bool> {
     bvh: &'a TriangleBvh,
     origin: Vec3,
@@ -138,7 +139,9 @@ struct Found {
     blocked: bool,
 }
 
-impl<A: Fn(u32, f32) -> bool, const NEAREST: bool> crate::cpu::TwoWays for Query<'_, A, NEAREST> {
+impl<A: Fn(u32, f32) -> bool, const NEAREST: bool> crate::platform::cpu::TwoWays
+    for Query<'_, A, NEAREST>
+{
     type Output = Found;
 
     #[inline(always)]
@@ -161,7 +164,7 @@ impl<A: Fn(u32, f32) -> bool, const NEAREST: bool> crate::cpu::TwoWays for Query
         let fetch_ahead = worth_fetching_ahead(node_bytes(bvh));
         let (nodes, leaves) = (&bvh.nodes, &this.leaf_triangles);
         let mut range = t_max;
-        // SAFETY (both): `AVX2` comes from `crate::cpu::run`.
+        // SAFETY (both): `AVX2` comes from `crate::platform::cpu::run`.
         if NEAREST {
             let mut test = NearestTriangle {
                 sheared,
@@ -233,7 +236,7 @@ impl<A: Fn(u32, f32) -> bool> LeafTest for NearestTriangle<'_, A> {
             // The hit's scene-wide index is read once the traversal ends; on a big mesh it
             // would wait on memory then (about 5% of a closest-hit query's time).
             if self.fetch_ahead {
-                crate::prefetch::prefetch(&self.bvh.leaf_ids[slot..=slot]);
+                crate::platform::prefetch::prefetch(&self.bvh.leaf_ids[slot..=slot]);
             }
         }
         false
@@ -346,7 +349,7 @@ mod tests {
     }
 
     /// The baseline compilation (what a processor without AVX2 runs: the portable slab tests
-    /// and bookkeeping) finds what the one `crate::cpu::run` picks here finds, to the bit.
+    /// and bookkeeping) finds what the one `crate::platform::cpu::run` picks here finds, to the bit.
     #[test]
     fn both_compilations_find_the_same_hits() {
         let tris = grid(12);
@@ -366,10 +369,13 @@ mod tests {
                 let nearest = |bvh: &TriangleBvh| bvh.intersect(origin, dir, t_max, &skip_some);
                 let any = |bvh: &TriangleBvh| bvh.occluded(origin, dir, t_max, &skip_some);
                 let picked = nearest(&accel);
-                let baseline = crate::cpu::with_baseline(|| nearest(&accel));
+                let baseline = crate::platform::cpu::with_baseline(|| nearest(&accel));
                 assert_eq!(bits(baseline), bits(picked), "ray {k} to {t_max}");
                 let picked_any = any(&accel);
-                assert_eq!(crate::cpu::with_baseline(|| any(&accel)), picked_any);
+                assert_eq!(
+                    crate::platform::cpu::with_baseline(|| any(&accel)),
+                    picked_any
+                );
                 hits += picked.is_some() as u32;
                 blocked += picked_any as u32;
             }

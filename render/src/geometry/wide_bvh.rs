@@ -14,7 +14,7 @@
 //! nearest entry first. A closest-hit query shrinks its range as hits are found, an any-hit
 //! query stops at the first.
 
-use crate::prefetch::prefetch;
+use crate::platform::prefetch::prefetch;
 use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
@@ -106,13 +106,13 @@ pub trait LeafTest {
 /// `fetch_ahead` (see [`worth_fetching_ahead`]).
 ///
 /// It is compiled as its caller is: for AVX2 when `AVX2`, else for the baseline. A caller
-/// compiled twice (see [`crate::cpu`]) takes its ray set-up and leaf tests into the same
+/// compiled twice (see [`crate::platform::cpu`]) takes its ray set-up and leaf tests into the same
 /// compilation; a call from baseline code into the AVX2 traversal cannot be inlined, and
 /// crossing cost about 75 instructions a query on a Cornell box.
 ///
 /// # Safety
 /// `AVX2` only in code compiled for AVX2, POPCNT, LZCNT and BMI1 (so on a processor that has
-/// them: [`crate::cpu::has_avx2_set`]).
+/// them: [`crate::platform::cpu::has_avx2_set`]).
 #[inline(always)]
 pub unsafe fn traverse_compiled<const AVX2: bool, L: LeafData + ?Sized>(
     nodes: &[CwBvhNode],
@@ -202,7 +202,7 @@ pub fn any_hit<L: LeafData + ?Sized, B: ChildBoxes>(
 }
 
 /// The traversal the queries share, compiled twice: for AVX2 and for the baseline
-/// ([`crate::cpu::run`]). `NEAREST` visits children nearest first ([`nearest_first`]),
+/// ([`crate::platform::cpu::run`]). `NEAREST` visits children nearest first ([`nearest_first`]),
 /// otherwise in the layout's octant order ([`traverse_groups`]).
 #[inline]
 fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
@@ -214,7 +214,7 @@ fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
     fetch_ahead: bool,
     leaf: &mut impl LeafTest,
 ) -> bool {
-    crate::cpu::run(Traversal::<NEAREST, _, _, _> {
+    crate::platform::cpu::run(Traversal::<NEAREST, _, _, _> {
         nodes,
         boxes,
         ray,
@@ -225,7 +225,7 @@ fn traverse<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes>(
     })
 }
 
-/// The arguments of [`traverse`], as work for [`crate::cpu::run`].
+/// The arguments of [`traverse`], as work for [`crate::platform::cpu::run`].
 struct Traversal<'a, const NEAREST: bool, L: ?Sized, B: ChildBoxes, T> {
     nodes: &'a [B::Node],
     boxes: &'a B,
@@ -236,8 +236,8 @@ struct Traversal<'a, const NEAREST: bool, L: ?Sized, B: ChildBoxes, T> {
     leaf: &'a mut T,
 }
 
-impl<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes, T: LeafTest> crate::cpu::TwoWays
-    for Traversal<'_, NEAREST, L, B, T>
+impl<const NEAREST: bool, L: LeafData + ?Sized, B: ChildBoxes, T: LeafTest>
+    crate::platform::cpu::TwoWays for Traversal<'_, NEAREST, L, B, T>
 {
     type Output = bool;
 
@@ -651,7 +651,7 @@ impl ChildBoxes for Fixed {
     ) -> (u32, [f32; 8]) {
         #[cfg(target_arch = "x86_64")]
         if AVX2 {
-            // SAFETY: `AVX2` is set only in the AVX2 compilation that `crate::cpu::run` picks
+            // SAFETY: `AVX2` is set only in the AVX2 compilation that `crate::platform::cpu::run` picks
             // where the processor has it.
             return unsafe { slab_hits_avx2(node, None, ray, t_max) };
         }
@@ -966,7 +966,7 @@ mod tests {
         let origins = [Vec3::ZERO, Vec3::new(5.0, -3.0, 1.0)];
         agree_with_brute_force(&tris, &origins);
         // And as a processor without AVX2 runs them.
-        crate::cpu::with_baseline(|| agree_with_brute_force(&tris, &origins));
+        crate::platform::cpu::with_baseline(|| agree_with_brute_force(&tris, &origins));
     }
 
     #[test]

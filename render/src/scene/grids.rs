@@ -1,12 +1,12 @@
 //! Media from density grids: each `[[medium]]` with a `vdb` file has its grid read (by name,
 //! "density" unless `grid` says) and placed by its `transform` and `through` keys like an
-//! object (see [`crate::grid_medium`]). A run of `#` in the file name is the frame number, so
+//! object (see [`crate::media::grid`]). A run of `#` in the file name is the frame number, so
 //! a simulation's cache (`smoke.####.vdb`) gives each frame its own grid.
 
 use super::media::GridSection;
 use super::objects::{Carried, Loader};
 use crate::error::{RenderError, key_error};
-use crate::grid_medium::{GridMedia, GridMedium, MAX_GRIDS};
+use crate::media::grid::{GridMedia, GridMedium, MAX_GRIDS};
 
 /// The grids' voxels may take at most this much memory when no budget is given.
 const DEFAULT_GRID_BYTES: u64 = 8 << 30;
@@ -41,7 +41,7 @@ pub(super) fn load(
             )
         })?;
         let name = s.grid.as_deref().unwrap_or("density");
-        let grid = crate::vdb::read_grid(&bytes, name, left).map_err(|e| {
+        let grid = crate::media::vdb::read_grid(&bytes, name, left).map_err(|e| {
             let key = if e.starts_with("no grid is called") {
                 format!("{}.grid", g.key)
             } else {

@@ -1,14 +1,14 @@
 //! The `[[medium]]` sections: at most one medium filling the scene, any number inside the
-//! closed meshes of objects (see [`crate::medium`] and [`crate::volumes`]), and media from
+//! closed meshes of objects (see [`crate::media::homogeneous`] and [`crate::media::volumes`]), and media from
 //! density grids (read by [`super::grids`]).
 
 use super::parse;
 use super::schema::MediumSection;
 use crate::error::{RenderError, key_error};
 use crate::geometry::Triangle;
-use crate::grid_medium::{Coefficients, GridMedia};
-use crate::medium::Medium;
-use crate::volumes::{Bounded, NO_MEDIUM, Volumes};
+use crate::media::grid::{Coefficients, GridMedia};
+use crate::media::homogeneous::Medium;
+use crate::media::volumes::{Bounded, NO_MEDIUM, Volumes};
 use glam::Vec3;
 use rift_fx::Invalid;
 use rift_fx::shot::check;

@@ -38,7 +38,7 @@ pub fn names() -> impl Iterator<Item = &'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::microfacet::fresnel_conductor;
+    use crate::material::microfacet::fresnel_conductor;
 
     #[test]
     fn named_metals_have_their_colours_at_normal_incidence() {

@@ -17,17 +17,17 @@ pub mod rings;
 pub mod schema;
 
 use crate::camera::{Clip, Stereo};
-use crate::environment::{Environment, LatLong};
 use crate::error::{RenderError, key_error};
+use crate::geometry::ray::Ray;
 use crate::geometry::{
     Accel, Hit, STATIC, StrandHit, Strands, Triangle, changes_during, every_triangle,
 };
-use crate::light_visibility::LightVisibility;
-use crate::lights::{LightSelection, Lights};
-use crate::material::Material;
-use crate::portal::Portals;
-use crate::ray::Ray;
-use crate::visibility::{Flags, RayClass, Visibility};
+use crate::lights::emitters::{LightSelection, Lights};
+use crate::lights::environment::{Environment, LatLong};
+use crate::material::bsdf::Material;
+use crate::portals::openings::Portals;
+use crate::portals::visibility::{Flags, RayClass, Visibility};
+use crate::through::light_visibility::LightVisibility;
 use glam::Vec3;
 use materials::color;
 use rift_fx::rig::{AnimatedTransform, Camera};
@@ -50,7 +50,7 @@ pub struct Settings {
     pub indirect_samples: u32,
     /// Teleports allowed in a row before the next scattering event.
     pub max_portal_depth: u32,
-    /// Light sampling also looks through openings (see [`crate::through`]).
+    /// Light sampling also looks through openings (see [`crate::through::strategies`]).
     pub light_through_openings: bool,
     /// Output path pattern; `#`s become the frame number.
     pub output: String,
@@ -191,16 +191,16 @@ pub struct Scene {
     /// Portal openings (none: the integrator never tests for them).
     pub portals: Portals,
     /// The openings as light sampling through them sees them.
-    pub apertures: crate::through::Apertures,
+    pub apertures: crate::through::strategies::Apertures,
     /// How much of ordinary light sampling is unblocked where (empty unless openings may
     /// bring light).
-    pub light_visibility: crate::light_visibility::LightVisibility,
+    pub light_visibility: crate::through::light_visibility::LightVisibility,
     /// Where many openings compete, the ones a shading point's search tries.
-    pub opening_candidates: Option<crate::opening_candidates::OpeningCandidates>,
+    pub opening_candidates: Option<crate::through::candidates::OpeningCandidates>,
     /// Per-object visibility flags and cull volumes.
     pub visibility: Visibility,
     /// The participating media and where they are.
-    pub media: crate::volumes::Volumes,
+    pub media: crate::media::volumes::Volumes,
     /// The object of each triangle (an index into [`Self::id_names`]), shared with
     /// [`Self::visibility`].
     pub triangle_object: Arc<[u32]>,
@@ -400,7 +400,7 @@ impl Scene {
             portals.moving(),
             times[0],
         );
-        let apertures = crate::through::Apertures::new(&portals);
+        let apertures = crate::through::strategies::Apertures::new(&portals);
         let mut scene = Self {
             apertures,
             light_visibility: Default::default(),
@@ -434,18 +434,18 @@ impl Scene {
         };
         if scene.light_through_openings_possible() {
             scene.light_visibility = LightVisibility::new(&scene, bounds, times);
-            let exits = crate::exit_light::measure(&scene);
+            let exits = crate::prepare::exits::measure(&scene);
             let pairs = scene.apertures.facing_pairs();
-            let walled_off = crate::exit_light::walled_off(&scene, &pairs);
+            let walled_off = crate::prepare::exits::walled_off(&scene, &pairs);
             scene.apertures.set_exits(exits, &walled_off);
             let worth = LightVisibility::measure_worth(&scene, times);
             scene.light_visibility.set_worth(worth);
-            scene.opening_candidates = crate::opening_candidates::OpeningCandidates::new(&scene);
+            scene.opening_candidates = crate::through::candidates::OpeningCandidates::new(&scene);
         }
         if light_selection == LightSelection::Learned {
             let started = std::time::Instant::now();
             scene.lights.set_training(true);
-            let guide = crate::light_guide::train(&scene);
+            let guide = crate::lights::guide::train(&scene);
             scene
                 .lights
                 .set_guide(guide, started.elapsed().as_secs_f64());
@@ -725,7 +725,7 @@ fn environment(
             })
             .map_err(invalid)?;
             let path = base.join(map);
-            let (w, h, texels) = crate::film::read_exr_rgb(&path)
+            let (w, h, texels) = crate::frame::film::read_exr_rgb(&path)
                 .map_err(|cause| key_error(file, "environment.map", format!("{map:?}: {cause}")))?;
             if let Some(bad) = texels
                 .iter()

@@ -3,8 +3,8 @@
 
 use glam::{DVec3, Vec3, Vec4};
 use rift_render::Scene;
-use rift_render::film::{Image, relative_mse};
-use rift_render::render::{RenderOptions, render};
+use rift_render::frame::film::{Image, relative_mse};
+use rift_render::frame::passes::{RenderOptions, render};
 use rift_render::rift_fx::Shot;
 use std::path::Path;
 

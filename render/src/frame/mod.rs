@@ -1,0 +1,10 @@
+//! A frame: render passes over tiles of pixels, the film they fill and write, checkpoints of
+//! their running sums, and Cryptomatte object IDs.
+
+pub mod checkpoint;
+pub mod cryptomatte;
+pub mod film;
+pub mod passes;
+
+pub use film::{Image, Metadata, Window};
+pub use passes::{RenderOptions, Rendered, Sums, render, render_resumable};

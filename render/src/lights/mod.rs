@@ -1,0 +1,14 @@
+//! Emitters and how next-event estimation picks them: the scene's emitters (emissive triangles,
+//! strand segments, the environment), the light tree over them, selection learned per region,
+//! and how much of each strand's light gets out of its ring.
+
+pub mod emitters;
+pub mod environment;
+pub mod guide;
+pub mod strand_exposure;
+pub mod tree;
+
+pub use emitters::{Emitter, LightSample, LightSelection, Lights, Receiver, luminance};
+pub use environment::Environment;
+pub use guide::LightGuide;
+pub use tree::LightTree;

@@ -1,0 +1,3 @@
+//! Preparing a scene for rendering: the measuring and training passes that run once per scene.
+
+pub mod exits;
