@@ -128,13 +128,13 @@ pub(crate) fn median(mut v: Vec<f64>) -> f64 {
 /// product, which it returns (lower is better).
 pub(crate) fn alternate<const N: usize>(
     names: [&str; N],
-    build: impl Fn(usize, u32) -> anyhow::Result<rift_render::Scene>,
+    build: impl Fn(usize, u32) -> anyhow::Result<rift_render::prepare::Prepared>,
     (spp, repeats, threads): (u32, usize, Option<usize>),
     reference: &[glam::Vec3],
     keep: impl Fn(usize) -> bool,
 ) -> anyhow::Result<[f64; N]> {
     use rift_render::frame::film::relative_mse;
-    use rift_render::frame::passes::{RenderOptions, render};
+    use rift_render::frame::{RenderOptions, render};
     let kept = |pixels: &[glam::Vec3]| -> Vec<glam::Vec3> {
         (0..pixels.len())
             .filter(|&i| keep(i))
@@ -146,11 +146,12 @@ pub(crate) fn alternate<const N: usize>(
     let mut errors = [(); N].map(|_| Vec::new());
     for seed in 0..repeats as u32 {
         for k in 0..N {
-            let scene = build(k, seed)?;
+            let prepared = build(k, seed)?;
             let t = Instant::now();
-            let image = crate::with_threads(threads, || render(&scene, &RenderOptions::new(spp)))?;
+            let image =
+                crate::with_threads(threads, || render(&prepared, &RenderOptions::new(spp)))?;
             // Learning light selection is part of what a variant costs.
-            let training = scene.lights.training_seconds();
+            let training = prepared.training_seconds;
             seconds[k].push(t.elapsed().as_secs_f64() + training);
             errors[k].push(relative_mse(&kept(&image.rgb), &reference));
         }

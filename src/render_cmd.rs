@@ -12,6 +12,7 @@ use rift_render::frame::film::Image;
 use rift_render::frame::film::Window;
 use rift_render::frame::passes::{Checkpointing, RenderOptions, Sums};
 use rift_render::lights::emitters::LightSelection;
+use rift_render::prepare::Prepared;
 use rift_render::scene::Overrides;
 use rift_render::scene::rings::frame_path;
 use std::path::{Path, PathBuf};
@@ -210,7 +211,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             }
             .into());
         }
-        let scene = Scene::build_with(&shot, frame, &overrides)?;
+        let prepared = Prepared::build(&shot, frame, &overrides)?;
+        let scene = &prepared.scene;
         let eyes: Vec<Option<Eye>> = match (&scene.stereo, args.eye) {
             (None, Some(_)) => bail!("--eye: {} has no [camera.stereo]", args.shot.display()),
             (None, None) => vec![None],
@@ -244,12 +246,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 // is written or read.
                 key: match checkpoint_every.is_some() || args.resume {
                     true => Some(checkpoint_key(
-                        &args, &shot.name, &scene, &overrides, eye, part,
+                        &args, &shot.name, scene, &overrides, eye, part,
                     )?),
                     false => None,
                 },
             };
-            render_one(&scene, &args, eye, part, &run, frame, &path)?;
+            render_one(&prepared, &args, eye, part, &run, frame, &path)?;
         }
     }
     Ok(())
@@ -387,9 +389,9 @@ fn checkpoint_key(
     crate::resume::key(&args.shot, shot, settings)
 }
 
-/// Renders one image of `scene` (one eye, if `eye` is given) to `path`.
+/// Renders one image of the prepared scene (one eye, if `eye` is given) to `path`.
 fn render_one(
-    scene: &Scene,
+    prepared: &Prepared,
     args: &RenderArgs,
     eye: Option<Eye>,
     part: Part,
@@ -402,6 +404,7 @@ fn render_one(
         prepare_output_dir(dir)?;
     }
     let started = Instant::now();
+    let scene = &prepared.scene;
     let spp = scene.settings.spp;
     let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
     let window = crop.unwrap_or(Window::full(w, h));
@@ -451,7 +454,7 @@ fn render_one(
         cryptomatte: args.cryptomatte,
     };
     let rendered = crate::with_threads(args.threads, || {
-        rift_render::frame::passes::render_resumable(scene, &options)
+        rift_render::frame::render_resumable(prepared, &options)
     })?;
     progress.finish();
     if !rendered.complete {

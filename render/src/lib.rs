@@ -7,7 +7,7 @@
 //! The folders, from the bottom up (each may use those above it in this list, never those
 //! below; `ARCHITECTURE.md` draws the layers):
 //!
-//! - [`platform`]: processor features, huge pages, cache prefetch.
+//! - [`platform`]: processor features, huge pages, cache prefetch; [`color`]: luminance.
 //! - [`sampling`]: sample numbers (Sobol, hashing) and warps.
 //! - [`geometry`]: rays, triangles, round curves, BVHs, motion.
 //! - [`material`], [`media`]: BSDFs; participating media and density grids.
@@ -20,6 +20,7 @@
 //! - [`frame`]: render passes, the film, checkpoints, Cryptomatte.
 
 pub mod camera;
+pub mod color;
 pub mod error;
 pub mod frame;
 pub mod geometry;

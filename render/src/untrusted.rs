@@ -2,7 +2,8 @@
 //! the regression tests that replay their corpora on stable. Each must return, with or without
 //! an error, and never panic, hang or allocate without bound, whatever the bytes.
 
-use crate::Scene;
+use crate::prepare::Prepared;
+use crate::scene::Overrides;
 use rift_fx::Shot;
 use std::path::Path;
 
@@ -42,7 +43,8 @@ pub fn shot(bytes: &[u8]) {
     };
     let strands: u32 = shot.rings.iter().flatten().map(|look| look.strands).sum();
     if strands <= MAX_FUZZED_STRANDS && shot.rig.openings.len() <= MAX_FUZZED_OPENINGS {
-        let _ = Scene::build(&shot, shot.frames.first);
+        let overrides = Overrides::default();
+        let _ = Prepared::build(&shot, shot.frames.first, &overrides);
     }
 }
 

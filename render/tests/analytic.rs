@@ -253,7 +253,7 @@ fn a_one_sided_dielectric_is_refused() {
     let glass = sphere_with("type = \"dielectric\"\none_sided = true");
     std::fs::write(&path, shot(&glass)).unwrap();
     let shot = rift_render::rift_fx::Shot::load(&path).unwrap();
-    let error = rift_render::Scene::build(&shot, 1).err().expect("refused");
+    let error = rift_render::Scene::load(&shot, 1).err().expect("refused");
     let message = format!("{error:#}");
     assert!(
         message.contains("material[0].one_sided") && message.contains("shot.toml"),

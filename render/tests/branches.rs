@@ -6,7 +6,8 @@ mod common;
 
 use common::assert_statistically_equal;
 use rift_render::Scene;
-use rift_render::frame::passes::{RenderOptions, render};
+use rift_render::frame::{RenderOptions, render};
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use std::path::Path;
 
@@ -16,14 +17,14 @@ fn split_paths_render_the_through_portal_example_as_whole_ones_do() {
     let mut shot = Shot::load(&file).unwrap();
     shot.camera.projection.resolution = [96, 54];
     let render_with = |branches: u32, seed: u32| {
-        let mut scene = Scene::build(&shot, 12).unwrap();
+        let mut scene = Scene::load(&shot, 12).unwrap();
         assert!(
             !scene.only_surfaces_and_lamps(),
             "the full loop is the one tested"
         );
         scene.settings.seed = seed;
         scene.settings.indirect_samples = branches;
-        render(&scene, &RenderOptions::new(16)).rgb
+        render(&Prepared::new(scene), &RenderOptions::new(16)).rgb
     };
     // Three branches: a count that is not a power of two, whose branch indices still cover
     // the sequence.

@@ -51,7 +51,7 @@ fn lamp_wall(dir: &Path, resolution: [u32; 2], fov: f32, extra: &str) -> String 
 fn scene(dir: &Path, text: &str) -> Scene {
     let path = dir.join("grid.toml");
     std::fs::write(&path, text).unwrap();
-    Scene::build(&Shot::load(&path).unwrap(), 1).unwrap()
+    Scene::load(&Shot::load(&path).unwrap(), 1).unwrap()
 }
 
 #[test]
@@ -269,7 +269,7 @@ fn bad_grid_media_are_refused_with_their_key() {
         std::fs::write(&path, text(medium)).unwrap();
         let e = match Shot::load(&path) {
             Err(e) => e.to_string(),
-            Ok(shot) => Scene::build(&shot, 1)
+            Ok(shot) => Scene::load(&shot, 1)
                 .err()
                 .map(|e| e.to_string())
                 .unwrap_or_default(),
@@ -343,7 +343,7 @@ fn a_grid_carried_through_an_opening_sits_where_the_solver_puts_it() {
     let scene_with = |through: &str| {
         let mut shot = Shot::load(&file).unwrap();
         shot.render.media.push(medium(through));
-        (Scene::build(&shot, 12).unwrap(), shot)
+        (Scene::load(&shot, 12).unwrap(), shot)
     };
     let (original, shot) = scene_with("");
     let (carried, _) = scene_with("through = \"room_door\"");
@@ -390,12 +390,12 @@ fn a_cache_of_one_file_per_frame_gives_each_frame_its_grid() {
     // The puff's centre voxel (3, −2, 5) lies at (1.15, 1.9, 3.25); the slab's voxel (2, 2, 2)
     // at (0.5, 0.5, 0.5), which the puff does not reach, and it ends at z = 0.
     let at = |frame: i64, p: Vec3| {
-        Scene::build(&shot, frame).unwrap().media.grids.grids[0].density_at(p, 0.0)
+        Scene::load(&shot, frame).unwrap().media.grids.grids[0].density_at(p, 0.0)
     };
     let (puff, slab) = (Vec3::new(1.15, 1.9, 3.25), Vec3::new(0.5, 0.5, 0.5));
     assert!(at(1, puff) > 0.5 && at(1, slab) == 0.0);
     assert!(at(2, slab) == 1.0 && at(2, Vec3::new(0.5, 0.5, -1.0)) == 0.0);
-    let e = Scene::build(&shot, 3).err().unwrap().to_string();
+    let e = Scene::load(&shot, 3).err().unwrap().to_string();
     assert!(
         e.contains("sim.0003.vdb") && e.contains("medium[0].vdb"),
         "{e}"

@@ -6,10 +6,10 @@ mod common;
 
 use common::{assert_statistically_equal, box_obj};
 use glam::Vec3;
-use rift_render::Scene;
 use rift_render::frame::film::relative_mse;
-use rift_render::frame::passes::{RenderOptions, render};
-use rift_render::lights::emitters::{LightSelection, Receiver};
+use rift_render::frame::{RenderOptions, render};
+use rift_render::lights::{LightSampler, LightSelection, Receiver};
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use rift_render::scene::Overrides;
 use std::path::Path;
@@ -86,20 +86,20 @@ transform = { position = [-4.0, 1.5, 0.0] }
     )
 }
 
-fn build(path: &Path, selection: LightSelection, seed: u32) -> Scene {
+fn build(path: &Path, selection: LightSelection, seed: u32) -> Prepared {
     let shot = Shot::load(path).unwrap();
     let overrides = Overrides {
         light_selection: Some(selection),
         seed: Some(seed),
         ..Default::default()
     };
-    Scene::build_with(&shot, 1, &overrides).unwrap()
+    Prepared::build(&shot, 1, &overrides).unwrap()
 }
 
 /// The probability light selection at `at` picks an emitter on the lamp outside the room (the
 /// twelve emitters after the inside lamp's twelve).
-fn outside_share(scene: &Scene, at: &Receiver) -> f32 {
-    (12..24).map(|i| scene.lights.pick_pmf(i, at)).sum()
+fn outside_share(lights: LightSampler, at: &Receiver) -> f32 {
+    (12..24).map(|i| lights.pick_pmf(i, at)).sum()
 }
 
 #[test]
@@ -110,8 +110,8 @@ fn a_lamp_behind_a_wall_gets_few_samples_once_learned() {
         build(&path, LightSelection::Tree, 1),
         build(&path, LightSelection::Learned, 1),
     );
-    assert!(tree.lights.guide().is_none());
-    let (with_factors, regions) = learned.lights.guide().expect("a guide").learned();
+    assert!(tree.light_guide.is_none());
+    let (with_factors, regions) = learned.light_guide.as_ref().expect("a guide").learned();
     assert!(
         with_factors > 0 && with_factors <= regions,
         "{with_factors} of {regions}"
@@ -130,10 +130,10 @@ fn a_lamp_behind_a_wall_gets_few_samples_once_learned() {
 /// At each floor point (x, z) of `floor`, `share` of light samples is over half under `tree`
 /// and below `ratio` times that under `learned`; `what` names what takes the share.
 fn assert_share_falls(
-    tree: &Scene,
-    learned: &Scene,
+    tree: &Prepared,
+    learned: &Prepared,
     floor: [(f32, f32); 4],
-    share: impl Fn(&Scene, &Receiver) -> f32,
+    share: impl Fn(LightSampler, &Receiver) -> f32,
     ratio: f32,
     what: &str,
 ) {
@@ -143,7 +143,10 @@ fn assert_share_falls(
             n: Some(Vec3::Y),
             time: 0.0,
         };
-        let (plain, guided) = (share(tree, &at), share(learned, &at));
+        let (plain, guided) = (
+            share(tree.context().lights, &at),
+            share(learned.context().lights, &at),
+        );
         eprintln!("floor at ({x}, {z}): {what}'s share {plain:.3} unlearned, {guided:.3} learned");
         assert!(
             plain > 0.5 && guided < ratio * plain,
@@ -194,9 +197,9 @@ fn the_guide_and_the_image_are_the_same_for_any_thread_count() {
             .build()
             .unwrap()
             .install(|| {
-                let scene = build(&path, LightSelection::Learned, 3);
-                let image = render(&scene, &RenderOptions::new(4)).rgb;
-                (scene.lights.guide().cloned(), image)
+                let prepared = build(&path, LightSelection::Learned, 3);
+                let image = render(&prepared, &RenderOptions::new(4)).rgb;
+                (prepared.light_guide, image)
             })
     };
     let (one, three) = (run(1), run(3));
@@ -259,8 +262,8 @@ fn a_sky_behind_walls_gets_few_samples_once_learned() {
     );
     // The environment is uniform, so its pdf in any direction is its share of the samples
     // over 4π.
-    let sky_share = |scene: &Scene, at: &Receiver| {
-        scene.lights.pdf_environment(Vec3::Y, at) * 4.0 * std::f32::consts::PI
+    let sky_share = |lights: LightSampler, at: &Receiver| {
+        lights.pdf_environment(Vec3::Y, at) * 4.0 * std::f32::consts::PI
     };
     let floor = [(-1.0, -1.0), (-2.0, -2.0), (0.0, 0.0), (-2.0, 0.5)];
     assert_share_falls(&tree, &learned, floor, sky_share, 0.4, "the sky");

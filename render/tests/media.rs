@@ -410,7 +410,7 @@ transform = { keys = [{ frame = 1, position = [0, 0, 0] }, { frame = 2, position
             + &objects.replace("mesh = \"", "material = \"wall\"\nmesh = \"");
         std::fs::write(&path, text).unwrap();
         let shot = Shot::load(&path).unwrap();
-        let err = Scene::build(&shot, 1).err().expect(medium).to_string();
+        let err = Scene::load(&shot, 1).err().expect(medium).to_string();
         assert!(
             err.contains("bad.toml") && err.contains(key) && err.contains(says),
             "{medium}: {err}"
@@ -438,12 +438,12 @@ fn the_ring_glows_into_the_haze_on_both_sides_of_its_opening() {
         m.remove("emission");
     }
     let render = |through: bool, seed: u32| {
-        let mut scene = Scene::build(&shot, 1).unwrap();
+        let mut scene = Scene::load(&shot, 1).unwrap();
         scene.settings.light_through_openings = through;
         scene.settings.seed = seed;
-        rift_render::frame::passes::render(
-            &scene,
-            &rift_render::frame::passes::RenderOptions::new(128),
+        rift_render::frame::render(
+            &rift_render::prepare::Prepared::new(scene),
+            &rift_render::frame::RenderOptions::new(128),
         )
     };
     let (on, on_again) = (render(true, 1), render(true, 2));

@@ -11,7 +11,8 @@ use common::{
 use glam::{DVec3, Vec3};
 use rift_render::Scene;
 use rift_render::frame::film::Image;
-use rift_render::frame::passes::{RenderOptions, render};
+use rift_render::frame::{RenderOptions, render};
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use rift_render::rift_fx::rig::AnimatedTransform;
 use std::path::Path;
@@ -283,8 +284,8 @@ fn the_hall_of_mirrors_example_recurses_deeply() {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/hall_of_mirrors.toml");
     let mut shot = Shot::load(&file).unwrap();
     shot.camera.projection.resolution = [96, 54];
-    let scene = Scene::build(&shot, 1).unwrap();
-    let image = render(&scene, &RenderOptions::new(4));
+    let prepared = Prepared::new(Scene::load(&shot, 1).unwrap());
+    let image = render(&prepared, &RenderOptions::new(4));
     // Levels shrink towards the vanishing point, so at this size only the first few cover whole
     // pixels; each of them must appear.
     for level in 0..=4 {
@@ -294,6 +295,6 @@ fn the_hall_of_mirrors_example_recurses_deeply() {
         );
     }
     let deepest = image.portal_depth.iter().fold(0.0f32, |a, &b| a.max(b));
-    assert!(deepest <= scene.settings.max_portal_depth as f32);
+    assert!(deepest <= prepared.scene.settings.max_portal_depth as f32);
     assert!(image.rgb.iter().all(|c| c.is_finite()) && image.discarded == 0);
 }

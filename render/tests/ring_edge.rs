@@ -61,7 +61,7 @@ fn mask_radius(mask: &Mask, theta: f64, time: f64) -> f64 {
 #[test]
 fn boundary_matches_the_exact_envelope() {
     let shot = Shot::load(Path::new("../examples/shots/showcase.toml")).unwrap();
-    let scene = Scene::build(&shot, FRAME).unwrap();
+    let scene = Scene::load(&shot, FRAME).unwrap();
     let rings = RingGenerator::new(
         &shot,
         FrameRange {

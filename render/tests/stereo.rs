@@ -6,7 +6,8 @@ use glam::{Mat4, Vec3, Vec4};
 use rift_render::Scene;
 use rift_render::camera::Eye;
 use rift_render::frame::film::Image;
-use rift_render::frame::passes::{RenderOptions, render};
+use rift_render::frame::{RenderOptions, render};
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use std::path::Path;
 
@@ -114,13 +115,13 @@ fn centroid(image: &Image, around: f32, radius: f32) -> f32 {
 fn check_parallax(through: bool) {
     let dir = tempfile::tempdir().unwrap();
     let shot = stereo_shot(dir.path(), through);
-    let scene = Scene::build(&shot, 1).unwrap();
+    let prepared = Prepared::new(Scene::load(&shot, 1).unwrap());
     let eye_image = |eye| {
         let options = RenderOptions {
             eye: Some(eye),
             ..RenderOptions::new(16)
         };
-        render(&scene, &options)
+        render(&prepared, &options)
     };
     let (left, right) = (eye_image(Eye::Left), eye_image(Eye::Right));
     assert_eq!(left.metadata.view.as_deref(), Some("left"));

@@ -5,10 +5,10 @@ mod common;
 
 use common::square;
 use glam::Vec3;
-use rift_render::Scene;
 use rift_render::frame::film::Image;
-use rift_render::frame::passes::{RenderOptions, render};
-use rift_render::lights::emitters::LightSelection;
+use rift_render::frame::{RenderOptions, render};
+use rift_render::lights::LightSelection;
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use rift_render::rift_fx::export::cache;
 use rift_render::rift_fx::ring::{RingCurves, RingFrame};
@@ -110,8 +110,8 @@ fn render_seeded(
         seed,
         ..Default::default()
     };
-    let scene = Scene::build_with(&shot, 1, &overrides).unwrap();
-    render(&scene, &RenderOptions::new(spp))
+    let prepared = Prepared::build(&shot, 1, &overrides).unwrap();
+    render(&prepared, &RenderOptions::new(spp))
 }
 
 fn mean(v: &[Vec3]) -> Vec3 {

@@ -7,10 +7,11 @@ use common::{box_obj, render_at};
 use glam::{DVec2, DVec3, Vec3};
 use rift_render::Scene;
 use rift_render::frame::film::{Image, relative_mse};
-use rift_render::geometry::ray::Ray;
-use rift_render::lights::emitters::Receiver;
+use rift_render::geometry::Ray;
+use rift_render::lights::Receiver;
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
-use rift_render::through::strategies::Strategies;
+use rift_render::through::{Strategies, Survey, View};
 use std::path::Path;
 
 /// A dark room (a closed grey box around the origin, camera inside) whose only light comes
@@ -392,15 +393,15 @@ fn chains_of_two_openings_are_searched_only_where_they_may_matter() {
         );
         let path = dir.path().join("rooms.toml");
         std::fs::write(&path, &text).unwrap();
-        let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-        let [start, end] = scene.portals.times();
+        let prepared = prepare(&path);
+        let [start, end] = prepared.scene.portals.times();
         let at = Receiver {
             p: Vec3::new(0.5, 0.01, 0.0),
             n: Some(Vec3::Y),
             time: 0.5 * (start + end),
         };
         let mut strategies = None;
-        Strategies::update(&mut strategies, &scene, &at);
+        Strategies::update(&mut strategies, &view(&prepared), &at);
         let chains = strategies.iter().flat_map(|s| s.chains());
         chains.map(|(chain, _)| chain.teleports()).collect()
     };
@@ -545,7 +546,7 @@ fn rays_just_inside_the_edge_teleport_and_rays_just_outside_do_not() {
         let path = dir.path().join(format!("{name}.toml"));
         std::fs::write(&path, &text).unwrap();
         let shot = Shot::load(&path).unwrap();
-        let scene = Scene::build(&shot, 1).unwrap();
+        let scene = Scene::load(&shot, 1).unwrap();
         let time = 1.0 / 24.0;
         let (here, there) = (scene.portals.here(0, time), scene.portals.there(0, time));
         // From three points in the dark room, one near the window and at grazing angles.
@@ -592,8 +593,8 @@ fn ordinary_light_sampling_is_known_to_be_blocked_in_the_dark_room_only() {
     let text = two_rooms(dir.path(), RECTANGLE, RECTANGLE, LAMP, "");
     let path = dir.path().join("rooms.toml");
     std::fs::write(&path, &text).unwrap();
-    let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-    let share = |p: [f32; 3]| scene.light_visibility.at(Vec3::from(p));
+    let prepared = prepare(&path);
+    let share = |p: [f32; 3]| survey(&prepared).visibility.at(Vec3::from(p));
     // The lamp is behind the dark room's walls (the window teleports: it passes nothing
     // straight), and in plain view across its own room, where only its far faces (it is a box
     // that glows on both sides of its faces) are hidden: about half of it.
@@ -606,8 +607,7 @@ fn ordinary_light_sampling_is_known_to_be_blocked_in_the_dark_room_only() {
     // With light sampling through openings off nothing weighs against it: no grid is built.
     let off = text.replace("[render]", "[render]\nlight_through_openings = false");
     std::fs::write(&path, &off).unwrap();
-    let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-    assert_eq!(scene.light_visibility.at(Vec3::new(0.0, 1.5, 0.0)), 1.0);
+    assert!(prepare(&path).survey.is_none());
 }
 
 /// Irradiance at `p` (facing `n`) from the lamp of [`LAMP`], by quadrature over its faces:
@@ -649,8 +649,8 @@ fn each_exit_is_measured_as_what_it_passes_on() {
     let text = two_rooms(dir.path(), RECTANGLE, RECTANGLE, LAMP, sky);
     let path = dir.path().join("rooms.toml");
     std::fs::write(&path, &text).unwrap();
-    let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-    let exits = scene.apertures.exits();
+    let prepared = prepare(&path);
+    let exits = survey(&prepared).apertures.exits();
     // The window's exit is in the lamp's room, at x = 31.98, facing −X: π times the mean
     // irradiance over it, by quadrature, within the probes' noise.
     let luminance = 0.2126 * 10.0 + 0.7152 * 8.0 + 0.0722 * 6.0;
@@ -727,12 +727,12 @@ radius = 0.4
         let path = dir.path().join("windows.toml");
         std::fs::write(&path, &text).unwrap();
         // The tree alone, without each cell's candidates (compared below).
-        let mut tree = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-        tree.opening_candidates = None;
-        let mut every = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-        every.opening_candidates = None;
-        every.apertures.search_every_opening();
-        let [start, end] = tree.portals.times();
+        let mut tree = prepare(&path);
+        survey_mut(&mut tree).candidates = None;
+        let mut every = prepare(&path);
+        survey_mut(&mut every).candidates = None;
+        survey_mut(&mut every).apertures.search_every_opening();
+        let [start, end] = tree.scene.portals.times();
         let (mut searched, mut chains_of_two) = (0, 0);
         for k in 0..3000u32 {
             let h = |i: u32| rift_render::sampling::hash32(k * 8 + i) as f32 / u32::MAX as f32;
@@ -750,9 +750,9 @@ radius = 0.4
                 n: (k % 5 != 0).then_some(n),
                 time: start + (end - start) * h(7) as f64,
             };
-            let strategies = |scene: &Scene| {
+            let strategies = |prepared: &Prepared| {
                 let mut slot = None;
-                Strategies::update(&mut slot, scene, &at);
+                Strategies::update(&mut slot, &view(prepared), &at);
                 slot.map(|s| (s.direct(), s.chains().collect::<Vec<_>>()))
             };
             let (with_tree, with_every) = (strategies(&tree), strategies(&every));
@@ -783,11 +783,11 @@ fn each_cells_candidates_keep_what_searching_every_opening_keeps_nearly_everywhe
     );
     let path = dir.path().join("windows.toml");
     std::fs::write(&path, &text).unwrap();
-    let listed = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-    assert!(listed.opening_candidates.is_some(), "60 openings compete");
-    let mut every = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-    every.opening_candidates = None;
-    every.apertures.search_every_opening();
+    let listed = prepare(&path);
+    assert!(survey(&listed).candidates.is_some(), "60 openings compete");
+    let mut every = prepare(&path);
+    survey_mut(&mut every).candidates = None;
+    survey_mut(&mut every).apertures.search_every_opening();
     let (mut searched, mut same, mut shares) = (0, 0, [0.0f64; 2]);
     for k in 0..3000u32 {
         let h = |i: u32| rift_render::sampling::hash32(k * 8 + i) as f32 / u32::MAX as f32;
@@ -796,9 +796,9 @@ fn each_cells_candidates_keep_what_searching_every_opening_keeps_nearly_everywhe
             n: (k % 5 != 0).then(|| Vec3::new(h(4) - 0.5, h(5) - 0.5, h(6) - 0.5).normalize()),
             time: 0.0,
         };
-        let strategies = |scene: &Scene| {
+        let strategies = |prepared: &Prepared| {
             let mut slot = None;
-            Strategies::update(&mut slot, scene, &at);
+            Strategies::update(&mut slot, &view(prepared), &at);
             slot.map(|s| (s.direct(), s.chains().collect::<Vec<_>>()))
         };
         let (with_list, with_every) = (strategies(&listed), strategies(&every));
@@ -838,8 +838,8 @@ fn rays_find_the_walls_between_an_exit_and_the_openings_it_faces() {
     let text = two_rooms(dir.path(), RECTANGLE, RECTANGLE, "", &extra);
     let path = dir.path().join("rooms.toml");
     std::fs::write(&path, &text).unwrap();
-    let scene = Scene::build(&Shot::load(&path).unwrap(), 1).unwrap();
-    let pairs = scene.apertures.facing_pairs();
+    let scene = Scene::load(&Shot::load(&path).unwrap(), 1).unwrap();
+    let pairs = rift_render::through::facing_pairs(&scene.portals);
     let walled = rift_render::prepare::exits::walled_off(&scene, &pairs);
     let [start, end] = scene.portals.times();
     let room = |i: u32, exit: bool| {
@@ -873,4 +873,26 @@ fn rays_find_the_walls_between_an_exit_and_the_openings_it_faces() {
         across > 10 && within > 3,
         "{across} pairs across walls, {within} within rooms"
     );
+}
+
+/// The shot at `path`, loaded and prepared.
+fn prepare(path: &Path) -> Prepared {
+    Prepared::new(Scene::load(&Shot::load(path).unwrap(), 1).unwrap())
+}
+
+/// What preparing measured of the openings (the shot's must be able to bring light).
+fn survey(prepared: &Prepared) -> &Survey {
+    prepared.survey.as_ref().expect("openings that bring light")
+}
+
+fn survey_mut(prepared: &mut Prepared) -> &mut Survey {
+    prepared.survey.as_mut().expect("openings that bring light")
+}
+
+/// The strategy search's view of the prepared scene.
+fn view(prepared: &Prepared) -> View<'_> {
+    prepared
+        .context()
+        .through
+        .expect("openings that bring light")
 }

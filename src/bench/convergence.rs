@@ -50,7 +50,7 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
             anyhow::anyhow!("--spp: expected comma-separated sample counts from 1 to 65536")
         })?;
     let frame = shot.frames.first;
-    let scene = rift_render::Scene::build(&shot, frame)?;
+    let prepared = rift_render::prepare::Prepared::build(&shot, frame, &Default::default())?;
     let threads = crate::with_threads(args.threads.threads, rayon::current_num_threads)?;
     println!(
         "rift bench convergence: {} against {}, {w}x{h}, {threads} threads",
@@ -66,10 +66,7 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
     for spp in counts {
         let t = Instant::now();
         let image = crate::with_threads(args.threads.threads, || {
-            rift_render::frame::passes::render(
-                &scene,
-                &rift_render::frame::passes::RenderOptions::new(spp),
-            )
+            rift_render::frame::render(&prepared, &rift_render::frame::RenderOptions::new(spp))
         })?;
         let seconds = t.elapsed().as_secs_f64();
         let rel = rift_render::frame::film::relative_mse(&image.rgb, &reference);

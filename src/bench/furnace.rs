@@ -8,9 +8,9 @@
 
 use clap::Args;
 use glam::Vec3;
+use rift_render::material::bsdf::multiscatter::{Multiscatter, directional_albedo, mean_albedo};
 use rift_render::material::bsdf::{Bsdf, Side};
 use rift_render::material::microfacet::{ConductorFresnel, Ggx, Shadowing};
-use rift_render::material::multiscatter::{Multiscatter, directional_albedo, mean_albedo};
 
 /// Arguments of `rift bench furnace`.
 #[derive(Args)]

@@ -3,6 +3,7 @@
 use super::{Threads, alternate};
 use clap::Args;
 use rift_fx::Shot;
+use rift_render::prepare::Prepared;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -44,8 +45,8 @@ pub fn run(args: LightsArgs) -> anyhow::Result<()> {
     let [w, h] = shot.camera.projection.resolution;
     let height = ((args.width as f64 * h as f64 / w as f64).round() as u32).max(1);
     shot.camera.projection.resolution = [args.width, height];
-    let build = |selection, seed| -> anyhow::Result<rift_render::Scene> {
-        let mut scene = rift_render::Scene::build_with(
+    let build = |selection, seed| -> anyhow::Result<Prepared> {
+        let mut scene = rift_render::Scene::load_with(
             &shot,
             shot.frames.first,
             &Overrides {
@@ -59,7 +60,7 @@ pub fn run(args: LightsArgs) -> anyhow::Result<()> {
                 *flags = flags.without(rift_render::portals::visibility::RayClass::Shadow);
             }
         }
-        Ok(scene)
+        Ok(Prepared::new(scene))
     };
     let threads = crate::with_threads(args.threads.threads, rayon::current_num_threads)?;
     let t = Instant::now();
@@ -67,7 +68,7 @@ pub fn run(args: LightsArgs) -> anyhow::Result<()> {
     let reference = crate::with_threads(args.threads.threads, || {
         render(&reference_scene, &RenderOptions::new(args.reference_spp))
     })?;
-    let emitters = build(LightSelection::Tree, 0)?.strands.segments.len();
+    let emitters = build(LightSelection::Tree, 0)?.scene.strands.segments.len();
     println!(
         "rift bench lights: {}{} ({}x{height}, {emitters} strand segments), reference {} spp in {:.1} s, {threads} threads, median of {}",
         args.shot.display(),

@@ -6,6 +6,7 @@ use clap::Args;
 use rift_fx::Shot;
 use rift_render::Ray;
 use rift_render::portals::visibility::RayClass;
+use rift_render::prepare::Prepared;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -38,7 +39,7 @@ pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
         .collect::<Result<_, _>>()
         .context("--depths: expected comma-separated integers")?;
     let shot = Shot::load(&args.shot)?;
-    let scene = rift_render::Scene::build(&shot, shot.frames.first)?;
+    let scene = rift_render::Scene::load(&shot, shot.frames.first)?;
     anyhow::ensure!(
         !scene.portals.is_empty(),
         "{}: the shot has no opening",
@@ -121,13 +122,13 @@ pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
             max_portal_depth: Some(depth),
             ..Default::default()
         };
-        let scene = rift_render::Scene::build_with(&shot, shot.frames.first, &overrides)?;
+        let prepared = Prepared::build(&shot, shot.frames.first, &overrides)?;
         let mut times = Vec::new();
         let mut image = None;
         for _ in 0..args.timing.repeats {
             let t = Instant::now();
             image = Some(crate::with_threads(args.timing.threads, || {
-                render(&scene, &RenderOptions::new(args.spp))
+                render(&prepared, &RenderOptions::new(args.spp))
             })?);
             times.push(t.elapsed().as_secs_f64());
         }

@@ -10,9 +10,10 @@
 use super::{Timing, median};
 use clap::Args;
 use rayon::prelude::*;
+use rift_render::Ray;
 use rift_render::frame::passes::{RenderOptions, render};
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
-use rift_render::{Ray, Scene};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -140,7 +141,7 @@ fn measure_render(
     let peak_known = reset_peak_memory();
     let t = Instant::now();
     let shot = Shot::load(shot)?;
-    let scene = Scene::build(&shot, shot.frames.first)?;
+    let prepared = Prepared::build(&shot, shot.frames.first, &Default::default())?;
     let build = t.elapsed().as_secs_f64();
     let paths = (args.res * args.res * args.spp) as f64;
     let mut times = Vec::new();
@@ -149,7 +150,7 @@ fn measure_render(
         let mut renders = 0;
         while renders == 0 || t.elapsed().as_secs_f64() < LEAST_SAMPLE_SECONDS {
             crate::with_threads(args.timing.threads, || {
-                render(&scene, &RenderOptions::new(args.spp))
+                render(&prepared, &RenderOptions::new(args.spp))
             })?;
             renders += 1;
         }

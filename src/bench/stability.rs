@@ -13,6 +13,7 @@ use rift_render::Scene;
 use rift_render::frame::film::Image;
 use rift_render::frame::passes::{RenderOptions, render};
 use rift_render::portals::openings::{Mask, OpeningLook, Portals};
+use rift_render::prepare::Prepared;
 use std::path::Path;
 
 /// Arguments of `rift bench stability`.
@@ -176,8 +177,8 @@ fn render_text(dir: &Path, name: &str, text: &str, spp: u32) -> anyhow::Result<I
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, text)?;
     let shot = Shot::load(&path)?;
-    let scene = Scene::build(&shot, 1).with_context(|| format!("{name} scene"))?;
-    Ok(render(&scene, &RenderOptions::new(spp)))
+    let scene = Scene::load(&shot, 1).with_context(|| format!("{name} scene"))?;
+    Ok(render(&Prepared::new(scene), &RenderOptions::new(spp)))
 }
 
 /// A closed cube from −1 to 1, as OBJ, its faces towards the inside.

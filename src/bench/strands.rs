@@ -179,7 +179,7 @@ fn light_tree_cost(
                 .into_par_iter()
                 .filter(|&i| {
                     let (at, u) = receiver(i);
-                    lights.pick(u, &at, set).is_some()
+                    lights.sampler(None).pick(u, &at, set).is_some()
                 })
                 .count()
         })?;
@@ -191,7 +191,7 @@ fn light_tree_cost(
                 .into_par_iter()
                 .map(|i| {
                     let (at, _) = receiver(i);
-                    lights.pick_pmf(i * 7919 % segments, &at) as f64
+                    lights.sampler(None).pick_pmf(i * 7919 % segments, &at) as f64
                 })
                 .sum::<f64>()
         })?;

@@ -3,6 +3,7 @@
 use super::{Timing, alternate};
 use clap::Args;
 use rift_fx::Shot;
+use rift_render::prepare::Prepared;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -43,7 +44,7 @@ pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
     let height = ((args.width as f64 * h as f64 / w as f64).round() as u32).max(1);
     shot.camera.projection.resolution = [args.width, height];
     let build = |on: bool, seed| {
-        rift_render::Scene::build_with(
+        Prepared::build(
             &shot,
             frame,
             &Overrides {

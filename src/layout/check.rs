@@ -5,6 +5,7 @@
 
 use rift_render::Scene;
 use rift_render::frame::passes::RenderOptions;
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use rift_render::rift_fx::rig::AnimatedTransform;
 use rift_render::rift_fx::shot::pose::{self, Facing};
@@ -77,7 +78,7 @@ impl Request {
 /// only in samples) build it once.
 pub struct Built {
     view: View,
-    scene: Scene,
+    prepared: Prepared,
 }
 
 /// What a check render's scene depends on: all of the request but its samples.
@@ -106,16 +107,16 @@ pub fn render(
         *built = None;
         *built = Some(Built {
             view,
-            scene: build(shot, request)?,
+            prepared: build(shot, request)?,
         });
     }
-    let scene = &built.as_ref().expect("built just above").scene;
-    let image = rift_render::frame::passes::render(scene, &RenderOptions::new(request.spp));
+    let prepared = &built.as_ref().expect("built just above").prepared;
+    let image = rift_render::frame::render(prepared, &RenderOptions::new(request.spp));
     rift_render::frame::film::encode_srgb_png(image.width, image.height, &image.rgb)
 }
 
-/// The shot's scene at the request's frame, size and camera pose.
-fn build(shot: &Shot, request: &Request) -> Result<Scene, String> {
+/// The shot's scene at the request's frame, size and camera pose, prepared.
+fn build(shot: &Shot, request: &Request) -> Result<Prepared, String> {
     let mut shot = shot.clone();
     if let Some((position, look_at)) = request.pose {
         let spec = PoseSpec {
@@ -127,5 +128,6 @@ fn build(shot: &Shot, request: &Request) -> Result<Scene, String> {
         shot.camera.transform = AnimatedTransform::constant(at);
     }
     shot.camera.projection.resolution = [request.width, request.height];
-    Scene::build(&shot, request.frame).map_err(|e| e.to_string())
+    let scene = Scene::load(&shot, request.frame).map_err(|e| e.to_string())?;
+    Ok(Prepared::new(scene))
 }

@@ -228,17 +228,16 @@ impl State {
     }
 }
 
-/// The scene the page shows and edits are checked on: the renderer's own, without what only
-/// rendering needs: the probing of where openings let light in (a fifth of a build) and the
-/// strands' exposure the light tree weighs them by (power alone picks lights here); the check
-/// render builds its scene whole.
+/// The scene the page shows and edits are checked on: the renderer's own as loaded, without
+/// what only rendering needs: the preparing passes ([`rift_render::prepare`]) and the strands'
+/// exposure the light tree weighs them by (power alone picks lights here); the check render
+/// loads and prepares its scene whole.
 fn staged_scene(shot: &Shot, frame: i64) -> Result<Scene, rift_render::RenderError> {
     let overrides = rift_render::scene::Overrides {
-        light_through_openings: Some(false),
-        light_selection: Some(rift_render::lights::emitters::LightSelection::Power),
+        light_selection: Some(rift_render::lights::LightSelection::Power),
         ..Default::default()
     };
-    Scene::build_with(shot, frame, &overrides)
+    Scene::load_with(shot, frame, &overrides)
 }
 
 /// Checks that a pose edit places its target where it asked at `frame` in the edited `scene`

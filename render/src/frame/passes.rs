@@ -6,10 +6,12 @@
 //! machine.
 
 use crate::camera::{Eye, Lens};
+use crate::color::luminance_f64;
 use crate::frame::cryptomatte::{Counts, Cryptomatte};
 use crate::frame::film::{BACKGROUND_DEPTH, Image, Metadata, Window};
 use crate::geometry::ray::Ray;
-use crate::integrator::{PathSample, trace};
+use crate::integrator::{Context, NoRecorder, PathSample, trace};
+use crate::prepare::Prepared;
 use crate::sampling::{SampleStream, hash32};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
@@ -149,7 +151,7 @@ impl Pixel {
         if n < 2.0 {
             return f64::INFINITY;
         }
-        let mean = luminance(self.sum) / n;
+        let mean = luminance_f64(self.sum) / n;
         let variance = ((self.lum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0);
         (variance / n).sqrt() / (mean * mean + 0.01).sqrt()
     }
@@ -160,10 +162,6 @@ impl Pixel {
     }
 }
 
-fn luminance(c: DVec3) -> f64 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
-
 /// A finished render, or one a stop ended early.
 pub struct Rendered {
     pub image: Image,
@@ -171,16 +169,18 @@ pub struct Rendered {
     pub complete: bool,
 }
 
-/// Renders `scene` through its camera; each sample has its own time within the shutter.
-pub fn render(scene: &Scene, options: &RenderOptions) -> Image {
-    render_resumable(scene, options).image
+/// Renders the prepared scene through its camera; each sample has its own time within the
+/// shutter.
+pub fn render(prepared: &Prepared, options: &RenderOptions) -> Image {
+    render_resumable(prepared, options).image
 }
 
 /// [`render`], continuing from `options.resume`, handing out checkpoints and honouring
 /// `options.stop`.
-pub fn render_resumable(scene: &Scene, options: &RenderOptions) -> Rendered {
+pub fn render_resumable(prepared: &Prepared, options: &RenderOptions) -> Rendered {
     let started = Instant::now();
-    let frame = FrameSampler::new(scene, options);
+    let scene = &prepared.scene;
+    let frame = FrameSampler::new(prepared.context(), options);
     let window = frame.window;
     let groups = scene.light_groups.len();
     let tiles = tiles(
@@ -446,7 +446,7 @@ fn row_index(window: Window, tile: Window, k: usize) -> usize {
 
 /// What every sample of the frame shares: the camera, the window and the seeds.
 struct FrameSampler<'a> {
-    scene: &'a Scene,
+    ctx: Context<'a>,
     eye: Option<Eye>,
     /// The full frame's size.
     size: (usize, usize),
@@ -461,10 +461,11 @@ struct FrameSampler<'a> {
 }
 
 impl<'a> FrameSampler<'a> {
-    fn new(scene: &'a Scene, options: &RenderOptions) -> Self {
+    fn new(ctx: Context<'a>, options: &RenderOptions) -> Self {
+        let scene = ctx.scene;
         let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
         Self {
-            scene,
+            ctx,
             eye: options.eye,
             size: (w, h),
             window: options.crop.unwrap_or(Window::full(w, h)),
@@ -491,7 +492,7 @@ impl<'a> FrameSampler<'a> {
     ) {
         let (w, h) = self.size;
         let [open, close] = self.shutter;
-        let scene = self.scene;
+        let scene = self.ctx.scene;
         let pixel_seed = hash32(hash32((y * w + x) as u32) ^ self.seed);
         for i in px.samples..last {
             let mut s = SampleStream::new(i, pixel_seed);
@@ -513,11 +514,10 @@ impl<'a> FrameSampler<'a> {
                 Some((0.0, f32::INFINITY))
             };
             let sample = match range {
-                Some((t_min, t_max)) => trace(
-                    scene,
-                    Ray::new(o, d, t_max, time).between(t_min, t_max),
-                    &mut s,
-                ),
+                Some((t_min, t_max)) => {
+                    let ray = Ray::new(o, d, t_max, time).between(t_min, t_max);
+                    trace(&self.ctx, ray, &mut s, &mut NoRecorder)
+                }
                 None => PathSample::default(),
             };
             if !sample.radiance.is_finite() {
@@ -527,7 +527,7 @@ impl<'a> FrameSampler<'a> {
             let c = sample.radiance.as_dvec3();
             px.sum += c;
             px.through += sample.through.as_dvec3();
-            px.lum_sq += luminance(c) * luminance(c);
+            px.lum_sq += luminance_f64(c) * luminance_f64(c);
             px.portal_depth += sample.portal_depth;
             for (sum, light) in groups.iter_mut().zip(&sample.groups) {
                 *sum += light.as_dvec3();

@@ -31,7 +31,10 @@ use crate::frame::cryptomatte::NONE as NO_OBJECT;
 use crate::geometry::Hit;
 use crate::geometry::ray::Ray;
 use crate::geometry::{offset_origin, offset_target};
-use crate::lights::emitters::{Found, LightPlace, LightSample, LightSource, Receiver};
+use crate::lights::LightGuide;
+use crate::lights::emitters::{
+    Found, LightPlace, LightSample, LightSampler, LightSource, Picked, Receiver,
+};
 use crate::material::bsdf::{Bsdf, Material, Side};
 use crate::media::grid::{Rng, Tracked};
 use crate::media::homogeneous::{Flight, Medium};
@@ -40,8 +43,8 @@ use crate::portals::visibility::RayClass;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::light_groups::MAX_LIGHT_GROUPS;
 use crate::scene::{Scene, SceneHit};
-use crate::through::aperture;
-use crate::through::strategies::{Chain, Space, Strategies};
+use crate::through::aperture_sampling;
+use crate::through::{Chain, Space, Strategies, Survey, View};
 use glam::Vec3;
 
 /// Roulette starts after this many bounces.
@@ -59,6 +62,88 @@ const ROULETTE_MAX_SURVIVAL: f32 = 0.99;
 /// A tie between an opening and a surface within this relative distance goes to the opening, so
 /// an opening placed flat on a wall works.
 const PORTAL_TIE: f32 = 1e-4;
+
+/// What paths are traced in: the scene, and what preparing it measured for light sampling
+/// ([`crate::prepare`]).
+#[derive(Clone, Copy)]
+pub struct Context<'a> {
+    pub scene: &'a Scene,
+    /// Light sampling, its selection guided where a guide was learned.
+    pub lights: LightSampler<'a>,
+    /// Light sampling through openings; `None` where it cannot bring light (no opening, no
+    /// light, no teleport allowed) or the shot turns it off: ordinary light sampling only.
+    pub through: Option<View<'a>>,
+}
+
+impl<'a> Context<'a> {
+    /// Paths in `scene`, sampling light through its openings as `survey` measured them and
+    /// picking lights as `guide` learned (each `None`: without).
+    pub fn new(
+        scene: &'a Scene,
+        survey: Option<&'a Survey>,
+        guide: Option<&'a LightGuide>,
+    ) -> Self {
+        Self {
+            scene,
+            lights: scene.lights.sampler(guide),
+            through: survey.map(|survey| through_view(scene, survey)),
+        }
+    }
+
+    /// Paths in `scene` with ordinary light sampling and the unguided light tree, as the
+    /// measuring passes that prepare a scene trace them.
+    pub fn plain(scene: &'a Scene) -> Self {
+        Self::new(scene, None, None)
+    }
+}
+
+/// The strategy search's view of `scene`, whose openings `survey` measured.
+pub fn through_view<'a>(scene: &'a Scene, survey: &'a Survey) -> View<'a> {
+    View {
+        portals: &scene.portals,
+        lights: &scene.lights,
+        survey,
+        max_depth: scene.settings.max_portal_depth,
+    }
+}
+
+/// Where a path leaves what it saw for whoever trains on it ([`crate::prepare::training`]).
+/// Rendering passes [`NoRecorder`], whose `RECORDS` is false: the loop then leaves every
+/// recording step out, as `FULL` leaves out the tests a scene of surfaces and lamps does not
+/// need.
+pub trait Recorder {
+    /// False for a recorder that keeps nothing.
+    const RECORDS: bool;
+    /// Keeps one light sample.
+    fn light_sample(&mut self, record: LightRecord);
+}
+
+/// The recorder that keeps nothing.
+pub struct NoRecorder;
+
+impl Recorder for NoRecorder {
+    const RECORDS: bool = false;
+    #[inline(always)]
+    fn light_sample(&mut self, _: LightRecord) {}
+}
+
+/// One light sample a recorded path took.
+#[derive(Clone, Copy, Debug)]
+pub struct LightRecord {
+    /// Where it was taken, as light selection saw it (beyond openings for a chain's strategy).
+    pub receiver: Receiver,
+    /// What it took (`None`: a point on an opening's aperture, or no light at all).
+    pub took: Option<Picked>,
+    /// Luminance of what it brought over the density it was drawn with, shadow ray included.
+    pub value: f32,
+}
+
+impl Recorder for Vec<LightRecord> {
+    const RECORDS: bool = true;
+    fn light_sample(&mut self, record: LightRecord) {
+        self.push(record);
+    }
+}
 
 /// What one camera path returns.
 #[derive(Clone, Copy, Debug, Default)]
@@ -172,7 +257,7 @@ impl PathState {
     /// samples.
     fn emission_weight(
         &self,
-        scene: &Scene,
+        ctx: &Context,
         strategies: Option<&Strategies>,
         found: Found,
         t: f32,
@@ -181,32 +266,32 @@ impl PathState {
         if self.prev_delta {
             return 1.0;
         }
-        let (q, space) = match strategies {
-            Some(strategies) => strategies.find(scene, &self.chain),
-            None if self.chain == Chain::default() => (1.0, None),
-            None => (0.0, None),
+        let (q, space) = match (strategies, &ctx.through) {
+            (Some(strategies), Some(view)) => strategies.find(view, &self.chain),
+            _ if self.chain == Chain::default() => (1.0, None),
+            _ => (0.0, None),
         };
         if q <= 0.0 {
             return 1.0;
         }
         let dir = self.ray.dir;
-        let lights = &scene.lights;
+        let lights = &ctx.lights;
         let pdf_light = match space {
             None => lights.pdf_found(
                 found,
                 &self.prev_receiver,
                 dir,
                 self.travelled + t,
-                &scene.strands,
+                &ctx.scene.strands,
             ),
             Some(space) => {
                 // Distances beyond the chain count from the mapped shading point.
                 let at = &space.receiver;
                 let distance = point.map_or(t, |y| y.distance(at.p));
-                let pdf = lights.pdf_found(found, at, dir, distance, &scene.strands);
+                let pdf = lights.pdf_found(found, at, dir, distance, &ctx.scene.strands);
                 let sky = matches!(found, Found::Environment)
                     .then(|| (&self.prev_receiver, space.direction_back(dir)));
-                space.density(&scene.portals, pdf, sky)
+                space.density(&ctx.scene.portals, pdf, sky)
             }
         };
         power_heuristic(self.prev_pdf * self.coins, q * pdf_light)
@@ -254,22 +339,22 @@ enum Crossing {
 /// escapes): each meets a teleport with its opacity's probability, else the ray passes. A
 /// teleport updates the path's ray, time, throughput and chain.
 fn cross_openings(
-    scene: &Scene,
+    ctx: &Context,
     path: &mut PathState,
     hit_t: Option<f32>,
     s: &mut SampleStream,
     out: &mut PathSample,
 ) -> Crossing {
-    let portals = &scene.portals;
+    let portals = &ctx.scene.portals;
     let ray = path.ray;
     let end = hit_t.unwrap_or(ray.t_max);
     if portals.is_empty() {
-        return track_grids(scene, path, ray.t_min, end, out).unwrap_or(Crossing::Passed);
+        return track_grids(ctx, path, ray.t_min, end, out).unwrap_or(Crossing::Passed);
     }
     let limit = hit_t.map_or(ray.t_max, |t| t * (1.0 + PORTAL_TIE));
     let mut from = ray.t_min;
     while let Some(ph) = portals.intersect(&ray.between(from, limit)) {
-        if let Some(stopped) = track_grids(scene, path, from, ph.t, out) {
+        if let Some(stopped) = track_grids(ctx, path, from, ph.t, out) {
             return stopped;
         }
         let look = portals.look(ph.opening);
@@ -284,7 +369,7 @@ fn cross_openings(
         if path.bounce == 0 && path.opening_t.is_none() {
             path.opening_t = Some(ph.t);
         }
-        if path.chain.teleports() >= scene.settings.max_portal_depth {
+        if path.chain.teleports() >= ctx.scene.settings.max_portal_depth {
             path.first_hit(out, ph.t, -ray.dir, Vec3::ZERO, NO_OBJECT);
             return Crossing::Ended;
         }
@@ -302,20 +387,20 @@ fn cross_openings(
         path.ray = Ray::new(next.origin, next.direction, f32::INFINITY, time);
         return Crossing::Teleported(ph.t);
     }
-    track_grids(scene, path, from, end, out).unwrap_or(Crossing::Passed)
+    track_grids(ctx, path, from, end, out).unwrap_or(Crossing::Passed)
 }
 
 /// Delta-tracks the path's ray through the scene's density grids over [`from`, `to`],
 /// gathering their emission and weighting the throughput: `Some` when the path collides
 /// there (the caller's homogeneous medium had drawn no collision before `to`).
 fn track_grids(
-    scene: &Scene,
+    ctx: &Context,
     path: &mut PathState,
     from: f32,
     to: f32,
     out: &mut PathSample,
 ) -> Option<Crossing> {
-    let grids = &scene.media.grids;
+    let grids = &ctx.scene.media.grids;
     if grids.is_empty() || from >= to || from.is_nan() || to.is_nan() {
         return None;
     }
@@ -337,63 +422,76 @@ fn track_grids(
     (tracked != Tracked::Passed).then_some(Crossing::InGrid(tracked))
 }
 
-/// Traces one path along `camera_ray`, whose range is the camera's clipping interval.
-pub fn trace(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
-    if scene.only_surfaces_and_lamps() && !scene.lights.training() {
-        trace_plain(scene, camera_ray, s)
+/// Traces one path along `camera_ray`, whose range is the camera's clipping interval, leaving
+/// what it records in `recorder`.
+pub fn trace<R: Recorder>(
+    ctx: &Context,
+    camera_ray: Ray,
+    s: &mut SampleStream,
+    recorder: &mut R,
+) -> PathSample {
+    if ctx.scene.only_surfaces_and_lamps() && !R::RECORDS {
+        trace_plain(ctx, camera_ray, s)
     } else {
-        trace_full(scene, camera_ray, s)
+        trace_full(ctx, camera_ray, s, recorder)
     }
 }
 
 /// [`trace`] in a scene of surfaces and lamps alone: the same path, sample for sample, without
 /// the tests for openings, media, strands, the sky and hidden objects, none of which it holds.
-fn trace_plain(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
+fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
     let mut out = PathSample::default();
-    follow_plain(scene, PathState::camera(camera_ray), s, &mut out);
+    follow_plain(ctx, PathState::camera(camera_ray), s, &mut out);
     out
 }
 
 /// Follows `path` in a scene of surfaces and lamps alone to its end.
-fn follow_plain(scene: &Scene, mut path: PathState, s: &mut SampleStream, out: &mut PathSample) {
+fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &mut PathSample) {
     let mut strategies = None;
-    while let Some(hit) = scene.intersect_surfaces(&path.ray) {
-        let Some((p, ng, material)) = surface_emission(scene, &path, &strategies, &hit, out) else {
+    while let Some(hit) = ctx.scene.intersect_surfaces(&path.ray) {
+        let Some((p, ng, material)) = surface_emission(ctx, &path, &strategies, &hit, out) else {
             break;
         };
         let bsdf = &material.bsdf;
-        if !scatter_at::<false>(scene, &mut path, &mut strategies, p, ng, bsdf, s, out) {
+        let plain = &mut NoRecorder;
+        if !scatter_at::<false, _>(ctx, &mut path, &mut strategies, p, ng, bsdf, s, out, plain) {
             break;
         }
     }
 }
 
-/// Follows `path` to its end, in the loop that [`trace`] chose for the scene.
-fn follow<const FULL: bool>(
-    scene: &Scene,
+/// Follows `path` to its end, in the loop that [`trace`] chose for the ctx.scene.
+fn follow<const FULL: bool, R: Recorder>(
+    ctx: &Context,
     path: PathState,
     strategies: Option<Strategies>,
     s: &mut SampleStream,
     out: &mut PathSample,
+    recorder: &mut R,
 ) {
     if FULL {
-        follow_full(scene, path, strategies, s, out);
+        follow_full(ctx, path, strategies, s, out, recorder);
     } else {
-        follow_plain(scene, path, s, out);
+        follow_plain(ctx, path, s, out);
     }
 }
 
-/// [`trace`] in any scene.
-fn trace_full(scene: &Scene, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
+/// [`trace`] in any ctx.scene.
+fn trace_full<R: Recorder>(
+    ctx: &Context,
+    camera_ray: Ray,
+    s: &mut SampleStream,
+    recorder: &mut R,
+) -> PathSample {
     let mut out = PathSample::default();
     let mut path = PathState::camera(camera_ray);
-    if !scene.media.bounded.is_empty() {
-        path.inside = scene.media.at_point(camera_ray.origin);
+    if !ctx.scene.media.bounded.is_empty() {
+        path.inside = ctx.scene.media.at_point(camera_ray.origin);
     }
-    if !scene.media.grids.is_empty() {
+    if !ctx.scene.media.grids.is_empty() {
         path.rng = grid_rng(s);
     }
-    follow_full(scene, path, None, s, &mut out);
+    follow_full(ctx, path, None, s, &mut out, recorder);
     out
 }
 
@@ -402,31 +500,32 @@ fn grid_rng(s: &mut SampleStream) -> Rng {
     Rng::new(crate::sampling::hash32(s.uniform().to_bits()))
 }
 
-/// Follows `path` to its end in any scene. `strategies` is how light sampling chose at its
+/// Follows `path` to its end in any ctx.scene. `strategies` is how light sampling chose at its
 /// last scattering point (`None`: ordinary light sampling only), kept beside the path state,
 /// which stays small where no opening can matter.
-fn follow_full(
-    scene: &Scene,
+fn follow_full<R: Recorder>(
+    ctx: &Context,
     mut path: PathState,
     mut strategies: Option<Strategies>,
     s: &mut SampleStream,
     out: &mut PathSample,
+    recorder: &mut R,
 ) {
     loop {
-        let hit = scene.intersect(&path.ray, path.class());
+        let hit = ctx.scene.intersect(&path.ray, path.class());
         let hit_t = hit.map(|h| h.t());
-        let medium = scene.media.medium(path.inside);
+        let medium = ctx.scene.media.medium(path.inside);
         let collision = medium.and_then(|m| free_flight(m, hit_t, s));
         // Where the path scatters next: a collision in a grid or in its medium, or the
         // surface it hit.
         let mut collided = None;
-        match cross_openings(scene, &mut path, collision.or(hit_t), s, out) {
+        match cross_openings(ctx, &mut path, collision.or(hit_t), s, out) {
             Crossing::Passed => {}
             Crossing::Teleported(at) => {
                 if let Some(m) = medium {
                     path.beta *= m.passage(at);
                 }
-                path.inside = scene.media.at_point(path.ray.origin);
+                path.inside = ctx.scene.media.at_point(path.ray.origin);
                 continue;
             }
             Crossing::Ended | Crossing::InGrid(Tracked::Absorbed { .. }) => break,
@@ -456,9 +555,9 @@ fn follow_full(
         }
         if collided.is_none()
             && let Some(SceneHit::Surface(h)) = &hit
-            && let Some(boundary) = scene.media.boundary(h.triangle)
+            && let Some(boundary) = ctx.scene.media.boundary(h.triangle)
         {
-            if !cross_boundary(scene, &mut path, h, boundary) {
+            if !cross_boundary(ctx, &mut path, h, boundary) {
                 break;
             }
             continue;
@@ -467,11 +566,11 @@ fn follow_full(
             (Some(event), _) => event,
             (None, Some(SceneHit::Surface(h))) => Event::Surface(h),
             (None, hit) => {
-                finish(scene, &mut path, strategies.as_ref(), hit, out);
+                finish(ctx, &mut path, strategies.as_ref(), hit, out);
                 break;
             }
         };
-        if !scatter(scene, &mut path, &mut strategies, event, s, out) {
+        if !scatter(ctx, &mut path, &mut strategies, event, s, out, recorder) {
             break;
         }
     }
@@ -495,7 +594,7 @@ enum Event<'a> {
 /// The end of a path that met no surface to scatter at: the sky it escapes to, or the strand
 /// it hits (strands glow and absorb: their emission ends the path).
 fn finish(
-    scene: &Scene,
+    ctx: &Context,
     path: &mut PathState,
     strategies: Option<&Strategies>,
     hit: Option<SceneHit>,
@@ -503,11 +602,11 @@ fn finish(
 ) {
     let dir = path.ray.dir;
     let Some(hit) = hit else {
-        if let Some(env) = &scene.lights.environment {
+        if let Some(env) = &ctx.scene.lights.environment {
             let weight =
-                path.emission_weight(scene, strategies, Found::Environment, f32::INFINITY, None);
+                path.emission_weight(ctx, strategies, Found::Environment, f32::INFINITY, None);
             let light = path.beta * env.radiance(dir) * weight;
-            out.gather(light, path.lit_through, scene.environment_group);
+            out.gather(light, path.lit_through, ctx.scene.environment_group);
         }
         return;
     };
@@ -518,35 +617,41 @@ fn finish(
             normal: h.normal,
         };
         let point = Some(path.ray.at(h.t));
-        let weight = path.emission_weight(scene, strategies, found, h.t, point);
-        let le = scene.strands.radiance(h.segment, h.s);
-        let group = scene.strand_light_group(h.segment);
+        let weight = path.emission_weight(ctx, strategies, found, h.t, point);
+        let le = ctx.scene.strands.radiance(h.segment, h.s);
+        let group = ctx.scene.strand_light_group(h.segment);
         out.gather(path.beta * le * weight, path.lit_through, group);
         let facing = if h.normal.dot(dir) <= 0.0 {
             h.normal
         } else {
             -h.normal
         };
-        path.first_hit(out, h.t, facing, Vec3::ZERO, scene.strand_object(h.segment));
+        path.first_hit(
+            out,
+            h.t,
+            facing,
+            Vec3::ZERO,
+            ctx.scene.strand_object(h.segment),
+        );
     }
 }
 
 /// Scatters the path at `event`: a surface's emission or a medium's, then light sampling
 /// (leaving its choice of strategies in `strategies`) and the BSDF (or phase function) sample
 /// that continues the path, with roulette. False when the path ends there.
-fn scatter(
-    scene: &Scene,
+fn scatter<R: Recorder>(
+    ctx: &Context,
     path: &mut PathState,
     strategies: &mut Option<Strategies>,
     event: Event,
     s: &mut SampleStream,
     out: &mut PathSample,
+    recorder: &mut R,
 ) -> bool {
     let phase;
     let (p, ng, bsdf) = match event {
         Event::Surface(hit) => {
-            let Some((p, ng, material)) = surface_emission(scene, path, strategies, &hit, out)
-            else {
+            let Some((p, ng, material)) = surface_emission(ctx, path, strategies, &hit, out) else {
                 return false;
             };
             (p, ng, &material.bsdf)
@@ -567,7 +672,7 @@ fn scatter(
             (path.ray.at(at), -path.ray.dir, &phase)
         }
     };
-    scatter_at::<true>(scene, path, strategies, p, ng, bsdf, s, out)
+    scatter_at::<true, R>(ctx, path, strategies, p, ng, bsdf, s, out, recorder)
 }
 
 /// A scattering point `at` along the path's ray in a medium: recorded for the AOVs; its
@@ -582,22 +687,22 @@ fn medium_vertex(path: &PathState, out: &mut PathSample, at: f32, g: f32, albedo
 /// returns its point, geometric normal and material, or `None` when the path met the black
 /// back of a one-sided material, where it ends.
 fn surface_emission<'a>(
-    scene: &'a Scene,
+    ctx: &Context<'a>,
     path: &PathState,
     strategies: &Option<Strategies>,
     hit: &Hit,
     out: &mut PathSample,
 ) -> Option<(Vec3, Vec3, &'a Material)> {
     let (dir, time) = (path.ray.dir, path.ray.time);
-    let surface = scene.surface(hit, time);
+    let surface = ctx.scene.surface(hit, time);
     let (p, ng) = (surface.p, surface.ng);
-    let material = scene.material(hit.triangle);
+    let material = ctx.scene.material(hit.triangle);
     let cos_o = -dir.dot(ng);
     let black = material.black_from(cos_o);
     // Checked here too, so later bounces skip the albedo and object lookups.
     if path.bounce == 0 {
         let facing = if cos_o >= 0.0 { ng } else { -ng };
-        let object = scene.object_of(hit.triangle);
+        let object = ctx.scene.object_of(hit.triangle);
         let albedo = if black {
             Vec3::ZERO
         } else {
@@ -613,8 +718,8 @@ fn surface_emission<'a>(
                 area_scale: surface.area_scale,
                 normal: ng,
             };
-            let weight = path.emission_weight(scene, strategies.as_ref(), found, hit.t, Some(p));
-            let group = scene.triangle_light_group(hit.triangle);
+            let weight = path.emission_weight(ctx, strategies.as_ref(), found, hit.t, Some(p));
+            let group = ctx.scene.triangle_light_group(hit.triangle);
             out.gather(path.beta * le * weight, path.lit_through, group);
         }
     }
@@ -637,15 +742,15 @@ const MAX_BOUNDARY_CROSSINGS: u32 = 256;
 /// The path's ray passes the boundary of bounded medium `medium` at `hit` without scattering:
 /// it goes on from there in the medium on the other side. False when it has crossed too many
 /// in a row.
-fn cross_boundary(scene: &Scene, path: &mut PathState, hit: &Hit, medium: u32) -> bool {
+fn cross_boundary(ctx: &Context, path: &mut PathState, hit: &Hit, medium: u32) -> bool {
     path.crossings += 1;
     if path.crossings > MAX_BOUNDARY_CROSSINGS {
         return false;
     }
     let ray = path.ray;
-    let surface = scene.surface(hit, ray.time);
+    let surface = ctx.scene.surface(hit, ray.time);
     let ng = surface.ng;
-    path.inside = scene.media.crossed(medium, ray.dir, ng);
+    path.inside = ctx.scene.media.crossed(medium, ray.dir, ng);
     path.travelled += hit.t;
     let origin = offset_origin(surface.p, if ray.dir.dot(ng) > 0.0 { ng } else { -ng });
     path.ray = Ray {
@@ -664,8 +769,8 @@ fn cross_boundary(scene: &Scene, path: &mut PathState, hit: &Hit, medium: u32) -
 /// ([`Scene::only_surfaces_and_lamps`]), which leaves out the strategies through openings.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn scatter_at<const FULL: bool>(
-    scene: &Scene,
+fn scatter_at<const FULL: bool, R: Recorder>(
+    ctx: &Context,
     path: &mut PathState,
     strategies: &mut Option<Strategies>,
     p: Vec3,
@@ -673,6 +778,7 @@ fn scatter_at<const FULL: bool>(
     bsdf: &Bsdf,
     s: &mut SampleStream,
     out: &mut PathSample,
+    recorder: &mut R,
 ) -> bool {
     let (dir, time) = (path.ray.dir, path.ray.time);
     // Dimensions of this bounce, drawn whether or not they are used. Which of the set's four
@@ -683,7 +789,12 @@ fn scatter_at<const FULL: bool>(
     let [by, ly, bx, lx] = s.next_4d();
     let [u_roulette, u_lobe, u_strategy, u_technique] = s.uniform_4d();
     let (u_light, u_bsdf) = (glam::Vec2::new(lx, ly), glam::Vec2::new(bx, by));
-    if scene.settings.max_bounces.is_some_and(|m| path.bounce >= m) {
+    if ctx
+        .scene
+        .settings
+        .max_bounces
+        .is_some_and(|m| path.bounce >= m)
+    {
         return false;
     }
 
@@ -713,19 +824,23 @@ fn scatter_at<const FULL: bool>(
         *strategies = None;
     } else {
         if FULL {
-            Strategies::update(strategies, scene, &receiver);
+            match &ctx.through {
+                Some(view) => Strategies::update(strategies, view, &receiver),
+                None => *strategies = None,
+            }
         }
-        let (space, q) = match strategies {
-            Some(strategies) => strategies.pick(scene, u_strategy),
-            None => (None, 1.0),
+        let (space, q) = match (&*strategies, &ctx.through) {
+            (Some(strategies), Some(view)) => strategies.pick(view, u_strategy),
+            _ => (None, 1.0),
         };
         let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
         let space = space.as_ref();
-        let (light, group) = next_event::<FULL>(scene, &shading, space, q, u_light, u_technique);
+        let (light, group) =
+            next_event::<FULL, R>(ctx, &shading, space, q, u_light, u_technique, recorder);
         out.gather(path.beta * light, through, group);
-        let branches = scene.settings.indirect_samples;
-        if path.bounce == 0 && branches > 1 && !(FULL && scene.lights.training()) {
-            split::<FULL>(scene, path, strategies, &shading, branches, s, out);
+        let branches = ctx.scene.settings.indirect_samples;
+        if path.bounce == 0 && branches > 1 && !R::RECORDS {
+            split::<FULL, R>(ctx, path, strategies, &shading, branches, s, out, recorder);
             let (u_bsdf, u_lobe, u_roulette) = branch_numbers(s);
             return continue_path(path, &shading, u_bsdf, u_lobe, u_roulette);
         }
@@ -746,15 +861,17 @@ fn branch_numbers(s: &mut SampleStream) -> (glam::Vec2, f32, f32) {
 /// of its throughput (roulette still weighs the whole): branches 1 to n − 1 are traced to
 /// their ends here, each with its own sample stream ([`SampleStream::branch`]); branch 0 is
 /// left to the caller, in `path` and `s`.
+#[allow(clippy::too_many_arguments)]
 #[inline(never)]
-fn split<const FULL: bool>(
-    scene: &Scene,
+fn split<const FULL: bool, R: Recorder>(
+    ctx: &Context,
     path: &mut PathState,
     strategies: &Option<Strategies>,
     at: &Shading,
     n: u32,
     s: &mut SampleStream,
     out: &mut PathSample,
+    recorder: &mut R,
 ) {
     path.beta /= n as f32;
     path.eta_scale *= n as f32;
@@ -762,11 +879,11 @@ fn split<const FULL: bool>(
         let mut branch = *path;
         let mut stream = s.branch(k, n);
         let (u_bsdf, u_lobe, u_roulette) = branch_numbers(&mut stream);
-        if !scene.media.grids.is_empty() {
+        if !ctx.scene.media.grids.is_empty() {
             branch.rng = grid_rng(&mut stream);
         }
         if continue_path(&mut branch, at, u_bsdf, u_lobe, u_roulette) {
-            follow::<FULL>(scene, branch, *strategies, &mut stream, out);
+            follow::<FULL, R>(ctx, branch, *strategies, &mut stream, out, recorder);
         }
     }
     *s = s.branch(0, n);
@@ -831,29 +948,30 @@ struct Shading<'a> {
 /// and `u_technique`, in the space beyond the openings of `space` (`None`: ordinary light
 /// sampling), the strategy picked with probability `q`; MIS weighted against BSDF sampling
 /// (power heuristic), before the path throughput. `FULL` as for [`scatter_at`].
-fn next_event<const FULL: bool>(
-    scene: &Scene,
+fn next_event<const FULL: bool, R: Recorder>(
+    ctx: &Context,
     at: &Shading,
     space: Option<&Space>,
     q: f32,
     u: glam::Vec2,
     u_technique: f32,
+    recorder: &mut R,
 ) -> (Vec3, u8) {
     const NONE: (Vec3, u8) = (Vec3::ZERO, 0);
     if q <= 0.0 {
         return NONE;
     }
-    // Training paths record every light sample (see `crate::lights::guide`), out of line: the
-    // emitter a sample took is found again from `u` (none for a point on an opening's aperture).
-    let training = FULL && scene.lights.training();
-    let learn = |value: f32| {
-        if training {
+    // Training paths record every light sample (see `crate::prepare::training`), out of line:
+    // the emitter a sample took is found again from `u` (none for a point on an opening's
+    // aperture).
+    let mut learn = |value: f32| {
+        if FULL && R::RECORDS {
             let on_aperture = space.is_some_and(|s| u_technique < s.aperture);
             let receiver = space.map_or(at.receiver, |s| &s.receiver);
-            record_light_sample(scene, receiver, (!on_aperture).then_some(u), value);
+            record_light_sample(ctx, receiver, (!on_aperture).then_some(u), value, recorder);
         }
     };
-    let Some(incoming) = incoming(scene, at.receiver, space, u, u_technique) else {
+    let Some(incoming) = incoming(ctx, at.receiver, space, u, u_technique) else {
         learn(0.0);
         return NONE;
     };
@@ -869,9 +987,9 @@ fn next_event<const FULL: bool>(
     let from = offset_origin(at.receiver.p, if dir.dot(ng) > 0.0 { ng } else { -ng });
     let visible = if FULL {
         let chain = space.map_or(Chain::default(), |s| s.chain);
-        shadow(scene, &chain, from, dir, incoming.end, at.receiver.time)
+        shadow(ctx, &chain, from, dir, incoming.end, at.receiver.time)
     } else {
-        plain_shadow(scene, from, dir, incoming.end, at.receiver.time)
+        plain_shadow(ctx, from, dir, incoming.end, at.receiver.time)
     };
     let Some((tint, coins)) = visible else {
         learn(0.0);
@@ -883,11 +1001,11 @@ fn next_event<const FULL: bool>(
     } else {
         1.0
     };
-    if training {
+    if FULL && R::RECORDS {
         // What light sampling must bring: its MIS weight leaves out what BSDF sampling finds
         // well (a wide sky, a big lamp close by).
         let brought = f * incoming.radiance * tint * (weight * coins / incoming.pdf);
-        learn(crate::lights::emitters::luminance(brought));
+        learn(crate::color::luminance(brought));
     }
     let light = f * incoming.radiance * tint * (weight * coins / pdf_light);
     (light, incoming.group)
@@ -913,11 +1031,17 @@ pub(crate) struct Incoming {
 /// (luminance over its density, shadow ray included).
 #[cold]
 #[inline(never)]
-fn record_light_sample(scene: &Scene, receiver: &Receiver, u: Option<glam::Vec2>, value: f32) {
-    let lights = &scene.lights;
-    crate::lights::guide::record(crate::lights::guide::Record {
+fn record_light_sample<R: Recorder>(
+    ctx: &Context,
+    receiver: &Receiver,
+    u: Option<glam::Vec2>,
+    value: f32,
+    recorder: &mut R,
+) {
+    let lights = &ctx.lights;
+    recorder.light_sample(LightRecord {
         receiver: *receiver,
-        took: u.and_then(|u| lights.picked(u, receiver, &scene.strands)),
+        took: u.and_then(|u| lights.picked(u, receiver, &ctx.scene.strands)),
         value,
     });
 }
@@ -926,7 +1050,7 @@ fn record_light_sample(scene: &Scene, receiver: &Receiver, u: Option<glam::Vec2>
 /// point on its first opening for the sky beyond when `u_technique` falls in its aperture
 /// share, else a light sample as seen from `at`'s image beyond the chain.
 pub(crate) fn incoming(
-    scene: &Scene,
+    ctx: &Context,
     at: &Receiver,
     space: Option<&Space>,
     u: glam::Vec2,
@@ -935,35 +1059,36 @@ pub(crate) fn incoming(
     if let Some(space) = space
         && u_technique < space.aperture
     {
-        return sky_through_aperture(scene, at, space, u);
+        return sky_through_aperture(ctx, at, space, u);
     }
     // The point light selection sees: the shading point, or its image beyond the openings.
     let receiver = space.map_or(at, |s| &s.receiver);
     let time = receiver.time;
-    let light = scene.lights.sample(
+    let light = ctx.lights.sample(
         u,
         receiver,
-        |e| scene.world_triangle(e.triangle, e.instance, time),
-        &scene.strands,
+        |e| ctx.scene.world_triangle(e.triangle, e.instance, time),
+        &ctx.scene.strands,
     )?;
-    let arrival = arrival(scene, &light, receiver)?;
+    let arrival = arrival(ctx, &light, receiver)?;
     match space {
         None => Some(arrival),
-        Some(space) => Some(brought_back(scene, at, space, arrival)),
+        Some(space) => Some(brought_back(ctx, at, space, arrival)),
     }
 }
 
 /// One ordinary light sample for `at`, traced with its shadow ray, as the scene's
 /// measurements draw them ([`crate::through::light_visibility`], [`crate::prepare::exits`]); `None` when
 /// it brings nothing.
-pub(crate) fn probe_light(scene: &Scene, at: &Receiver, u: glam::Vec2) -> Option<Probe> {
-    let light = incoming(scene, at, None, u, 0.0)?;
-    let weight = (crate::lights::emitters::luminance(light.radiance) / light.pdf) as f64;
+pub fn probe_light(scene: &Scene, at: &Receiver, u: glam::Vec2) -> Option<Probe> {
+    let ctx = &Context::plain(scene);
+    let light = incoming(ctx, at, None, u, 0.0)?;
+    let weight = (crate::color::luminance(light.radiance) / light.pdf) as f64;
     if !weight.is_finite() || weight <= 0.0 {
         return None;
     }
     let none = Chain::default();
-    let transmitted = shadow(scene, &none, at.p, light.dir, light.end, at.time)
+    let transmitted = shadow(ctx, &none, at.p, light.dir, light.end, at.time)
         .map_or(0.0, |(_, coins)| coins as f64);
     Some(Probe {
         dir: light.dir,
@@ -974,7 +1099,7 @@ pub(crate) fn probe_light(scene: &Scene, at: &Receiver, u: glam::Vec2) -> Option
 }
 
 /// What [`probe_light`] found.
-pub(crate) struct Probe {
+pub struct Probe {
     /// Unit direction at the point.
     pub dir: Vec3,
     /// Luminance over solid-angle pdf.
@@ -989,12 +1114,12 @@ pub(crate) struct Probe {
 /// Kept out of line, with [`sky_through_aperture`]: scenes without openings never run them,
 /// and inlined they slowed the Cornell box by 2%.
 #[inline(never)]
-fn brought_back(scene: &Scene, at: &Receiver, space: &Space, arrival: Incoming) -> Incoming {
+fn brought_back(ctx: &Context, at: &Receiver, space: &Space, arrival: Incoming) -> Incoming {
     let dir = space.direction_back(arrival.dir);
     let sky = arrival.end.target.is_none().then_some((at, dir));
     Incoming {
         dir,
-        pdf: space.density(&scene.portals, arrival.pdf, sky),
+        pdf: space.density(&ctx.scene.portals, arrival.pdf, sky),
         ..arrival
     }
 }
@@ -1003,46 +1128,47 @@ fn brought_back(scene: &Scene, at: &Receiver, space: &Space, arrival: Incoming) 
 /// opening.
 #[inline(never)]
 fn sky_through_aperture(
-    scene: &Scene,
+    ctx: &Context,
     at: &Receiver,
     space: &Space,
     u: glam::Vec2,
 ) -> Option<Incoming> {
-    let sky = scene.lights.environment.as_ref()?;
-    let (dir, pdf_aperture) = aperture::sample(&scene.portals, space.first(), at.time, at.p, u)?;
+    let sky = ctx.scene.lights.environment.as_ref()?;
+    let (dir, pdf_aperture) =
+        aperture_sampling::sample(&ctx.scene.portals, space.first(), at.time, at.p, u)?;
     let beyond = space.direction_beyond(dir);
-    let pdf_light = scene.lights.pdf_environment(beyond, &space.receiver);
+    let pdf_light = ctx.lights.pdf_environment(beyond, &space.receiver);
     Some(Incoming {
         dir,
         radiance: sky.radiance(beyond),
         end: ShadowEnd::SKY,
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
-        group: scene.environment_group,
+        group: ctx.scene.environment_group,
     })
 }
 
 /// How `light` reaches `at`: its direction, target and solid-angle pdf there; `None` when it
 /// sends nothing that way (its back, or culled).
 #[inline]
-fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming> {
+fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming> {
     let time = at.time;
     let (bsdf_can_find, group) = match light.place {
         LightPlace::Point {
             source: LightSource::Triangle(triangle),
             ..
         } => (
-            scene.visibility.sees(triangle, RayClass::Indirect),
-            scene.triangle_light_group(triangle),
+            ctx.scene.visibility.sees(triangle, RayClass::Indirect),
+            ctx.scene.triangle_light_group(triangle),
         ),
         LightPlace::Point {
             source: LightSource::Strand(segment),
             ..
         } => (
-            scene.strand_sees(segment, RayClass::Indirect),
-            scene.strand_light_group(segment),
+            ctx.scene.strand_sees(segment, RayClass::Indirect),
+            ctx.scene.strand_light_group(segment),
         ),
-        LightPlace::Direction(_) => (true, scene.environment_group),
+        LightPlace::Direction(_) => (true, ctx.scene.environment_group),
     };
     match light.place {
         LightPlace::Direction(dir) => Some(Incoming {
@@ -1060,7 +1186,7 @@ fn arrival(scene: &Scene, light: &LightSample, at: &Receiver) -> Option<Incoming
             source,
         } => {
             if let LightSource::Triangle(triangle) = source
-                && scene.visibility.culled(triangle, point, time)
+                && ctx.scene.visibility.culled(triangle, point, time)
             {
                 return None;
             }
@@ -1115,7 +1241,7 @@ impl ShadowEnd {
 /// [`shadow`] without openings, in a scene of surfaces and lamps alone.
 #[inline(always)]
 fn plain_shadow(
-    scene: &Scene,
+    ctx: &Context,
     from: Vec3,
     dir: Vec3,
     end: ShadowEnd,
@@ -1125,7 +1251,7 @@ fn plain_shadow(
         Some(target) => segment(from, target, time),
         None => Ray::new(from, dir, f32::INFINITY, time),
     };
-    (!scene.occluded_by_surfaces(&ray)).then_some((Vec3::ONE, 1.0))
+    (!ctx.scene.occluded_by_surfaces(&ray)).then_some((Vec3::ONE, 1.0))
 }
 
 /// The shadow ray from `from` to `target` as the segment between them, over t in (0, 1), for
@@ -1144,17 +1270,17 @@ fn segment(from: Vec3, target: Vec3, time: f64) -> Ray {
 /// makes (opacity per teleport, 1 − opacity per opening passed), or `None` when it is blocked
 /// or leaves the chain.
 pub(crate) fn shadow(
-    scene: &Scene,
+    ctx: &Context,
     chain: &Chain,
     from: Vec3,
     dir: Vec3,
     end: ShadowEnd,
     time: f64,
 ) -> Option<(Vec3, f32)> {
-    let portals = &scene.portals;
+    let portals = &ctx.scene.portals;
     let mut ray = Ray::new(from, dir, f32::INFINITY, time);
     let (mut tint, mut coins) = (Vec3::ONE, 1.0f32);
-    let media = (!scene.media.is_empty()).then_some(&scene.media);
+    let media = (!ctx.scene.media.is_empty()).then_some(&ctx.scene.media);
     for i in chain.openings() {
         let hit = portals.intersect_one(i, &ray)?;
         if let Some(media) = media {
@@ -1167,7 +1293,7 @@ pub(crate) fn shadow(
         };
         coins *= portals.transmittance(&before);
         if coins == 0.0
-            || scene.occluded(
+            || ctx.scene.occluded(
                 &Ray {
                     t_max: hit.t * (1.0 - PORTAL_TIE),
                     ..ray
@@ -1191,7 +1317,7 @@ pub(crate) fn shadow(
         if chain.teleports() > 0 && to.dot(ray.dir) <= 0.0 {
             return None;
         }
-        ray = if media.is_none() && scene.strands.is_empty() {
+        ray = if media.is_none() && ctx.scene.strands.is_empty() {
             segment(ray.origin, target, ray.time)
         } else {
             let dist = to.length();
@@ -1205,7 +1331,7 @@ pub(crate) fn shadow(
         }
     }
     coins *= portals.transmittance(&ray);
-    (coins != 0.0 && !scene.occluded(&ray, end.strand)).then_some((tint, coins))
+    (coins != 0.0 && !ctx.scene.occluded(&ray, end.strand)).then_some((tint, coins))
 }
 
 #[cfg(test)]
@@ -1221,7 +1347,7 @@ mod tests {
         let shot = shot.replace("\"cornell.obj\"", &format!("\"{examples}/cornell.obj\""));
         let path = dir.join("box.toml");
         std::fs::write(&path, format!("{shot}\n{materials}")).unwrap();
-        Scene::build(&Shot::load(&path).unwrap(), 1).unwrap()
+        Scene::load(&Shot::load(&path).unwrap(), 1).unwrap()
     }
 
     /// A number in [0, 1) hashed from `i`.
@@ -1286,9 +1412,10 @@ roughness = 0.0
                     f32::INFINITY,
                     0.0,
                 );
+                let ctx = &Context::plain(&scene);
                 let (plain, full) = (
-                    trace_plain(&scene, ray, &mut SampleStream::new(i % 64, i)),
-                    trace_full(&scene, ray, &mut SampleStream::new(i % 64, i)),
+                    trace_plain(ctx, ray, &mut SampleStream::new(i % 64, i)),
+                    trace_full(ctx, ray, &mut SampleStream::new(i % 64, i), &mut NoRecorder),
                 );
                 assert_eq!(bits(&plain), bits(&full), "{what}, path {i}");
                 lit += (plain.radiance != Vec3::ZERO) as u32;

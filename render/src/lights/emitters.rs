@@ -7,6 +7,7 @@
 //! gives it a share of the samples at each point by its estimate against the emitters' (see
 //! `EnvironmentSplit`), and selection by power gives it half.
 
+use crate::color::luminance;
 use crate::geometry::{MovingInstance, RoundCone, STATIC, Strands, Triangle};
 use crate::lights::environment::Environment;
 use crate::lights::guide::LightGuide;
@@ -49,7 +50,7 @@ pub enum LightSource {
     Strand(u32),
 }
 
-/// What a light sample took (see [`Lights::picked`]).
+/// What a light sample took (see [`LightSampler::picked`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Picked {
     Environment,
@@ -162,22 +163,11 @@ pub struct Lights {
     environment_split: EnvironmentSplit,
     /// The times rays can have, which the tree's moving bounds span.
     times: [f64; 2],
-    /// The tree's first choices as learned per place, once trained.
-    guide: Guide,
+    /// How the emitters are picked.
+    selection: LightSelection,
     /// What a light sample costs, relative to one aimed at a lamp, in each lane of the tree's
     /// top two levels (the mean over its emitters, weighed as the tree weighs them).
     lane_costs: PerLane,
-}
-
-/// Where learning light selection per place stands.
-#[derive(Clone, Debug, Default)]
-enum Guide {
-    #[default]
-    Off,
-    /// Training paths are being traced: light samples are recorded.
-    Training,
-    /// Trained, in this many seconds.
-    On(LightGuide, f64),
 }
 
 /// How light sampling shares its samples between the environment and the emitters.
@@ -206,11 +196,6 @@ impl Default for EnvironmentSplit {
 const LEAST_SPLIT_SHARE: f32 = 0.05;
 /// The same once the split is learned (see [`crate::lights::guide`]), which sees occlusion.
 const LEAST_LEARNED_SPLIT_SHARE: f32 = 0.01;
-
-/// Rec. 709 luminance of a linear colour.
-pub fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
 
 /// The selection bounds of one emissive triangle. One on a moving instance may turn, so it
 /// counts as facing everywhere; its box is the instance's world bounds over `times`, and its
@@ -409,7 +394,7 @@ impl Lights {
             environment,
             environment_split,
             times,
-            guide: Guide::Off,
+            selection,
             lane_costs,
         }
     }
@@ -420,60 +405,23 @@ impl Lights {
         &self.lane_costs
     }
 
+    /// How the emitters are picked.
+    pub fn selection(&self) -> LightSelection {
+        self.selection
+    }
+
     /// True when light selection descends the tree (not power, not the pieces of one lamp).
     pub fn descends_tree(&self) -> bool {
         matches!(self.picker, Picker::Tree)
     }
 
-    /// Marks training paths being traced (their light samples are recorded), or not.
-    pub fn set_training(&mut self, training: bool) {
-        self.guide = if training {
-            Guide::Training
-        } else {
-            Guide::Off
-        };
-    }
-
-    /// True while training paths are traced.
-    #[inline(always)]
-    pub fn training(&self) -> bool {
-        matches!(self.guide, Guide::Training)
-    }
-
-    /// Guides the tree's first choices by `guide`, which took `seconds` to learn.
-    pub fn set_guide(&mut self, guide: Option<LightGuide>, seconds: f64) {
-        self.guide = guide.map_or(Guide::Off, |g| Guide::On(g, seconds));
-    }
-
-    /// The guide, if light selection is learned.
-    pub fn guide(&self) -> Option<&LightGuide> {
-        match &self.guide {
-            Guide::On(guide, _) => Some(guide),
-            _ => None,
+    /// Light sampling over these lights, its selection guided by `guide` where one was
+    /// learned ([`crate::lights::guide`]).
+    pub fn sampler<'a>(&'a self, guide: Option<&'a LightGuide>) -> LightSampler<'a> {
+        LightSampler {
+            lights: self,
+            guide,
         }
-    }
-
-    /// Seconds spent learning light selection (0 when it is not learned).
-    pub fn training_seconds(&self) -> f64 {
-        match self.guide {
-            Guide::On(_, seconds) => seconds,
-            _ => 0.0,
-        }
-    }
-
-    /// The guide's factors at `at`, if guided.
-    #[inline(always)]
-    fn factors(&self, at: &Receiver) -> Option<&crate::lights::guide::RegionFactors> {
-        match &self.guide {
-            Guide::On(guide, _) => guide.at(at.p),
-            _ => None,
-        }
-    }
-
-    /// The guide's factors for the tree's lanes at `at`, if guided.
-    #[inline(always)]
-    fn lane_factors(&self, at: &Receiver) -> Option<&PerLane> {
-        self.factors(at).map(|f| &f.lanes)
     }
 
     /// The unguided tree's shares at the top two levels at `at`.
@@ -484,25 +432,6 @@ impl Lights {
     /// The lanes emitter `i`'s path takes at the tree's top two levels.
     pub fn top_lanes(&self, i: usize) -> Option<(usize, Option<usize>)> {
         self.tree.top_lanes(i)
-    }
-
-    /// Probability that light sampling at `at` takes the environment rather than an emitter:
-    /// the estimate's share, moved by the guide's learned factor where there is one.
-    #[inline]
-    fn environment_probability(&self, at: &Receiver) -> f32 {
-        let estimated = self.estimated_environment_share(at);
-        // Only a split by estimate is learned: a fixed one needs no guide lookup.
-        if self.environment_split != EnvironmentSplit::ByEstimate {
-            return estimated;
-        }
-        match self.factors(at) {
-            Some(factors) => {
-                let sky = factors.sky * estimated;
-                (sky / (sky + 1.0 - estimated))
-                    .clamp(LEAST_LEARNED_SPLIT_SHARE, 1.0 - LEAST_LEARNED_SPLIT_SHARE)
-            }
-            None => estimated,
-        }
     }
 
     /// The environment's share of light samples at `at` before anything learned.
@@ -556,21 +485,76 @@ impl Lights {
         PI * self.environment_luminance
     }
 
+    /// Asks the cache for what [`LightSampler::sample`] reads of emitter `i` once it is
+    /// picked.
+    #[inline(always)]
+    fn fetch(&self, i: usize, strands: &Strands) {
+        match i.checked_sub(self.emitters.len()) {
+            None => crate::platform::prefetch::prefetch(std::slice::from_ref(&self.emitters[i])),
+            Some(segment) => strands.prefetch(segment),
+        }
+    }
+}
+
+/// Light sampling as a shading point calls it: the scene's [`Lights`], with the tree's first
+/// choices reweighed by a learned guide where there is one. Without a guide (training paths,
+/// `--light-selection tree`) it picks as the tree alone does.
+#[derive(Clone, Copy)]
+pub struct LightSampler<'a> {
+    pub lights: &'a Lights,
+    guide: Option<&'a LightGuide>,
+}
+
+impl LightSampler<'_> {
+    /// The guide's factors at `at`, if guided.
+    #[inline(always)]
+    fn factors(&self, at: &Receiver) -> Option<&crate::lights::guide::RegionFactors> {
+        self.guide.and_then(|guide| guide.at(at.p))
+    }
+
+    /// The guide's factors for the tree's lanes at `at`, if guided.
+    #[inline(always)]
+    fn lane_factors(&self, at: &Receiver) -> Option<&PerLane> {
+        self.factors(at).map(|f| &f.lanes)
+    }
+
+    /// Probability that light sampling at `at` takes the environment rather than an emitter:
+    /// the estimate's share, moved by the guide's learned factor where there is one.
+    #[inline]
+    fn environment_probability(&self, at: &Receiver) -> f32 {
+        let estimated = self.lights.estimated_environment_share(at);
+        // Only a split by estimate is learned: a fixed one needs no guide lookup.
+        if self.lights.environment_split != EnvironmentSplit::ByEstimate {
+            return estimated;
+        }
+        match self.factors(at) {
+            Some(factors) => {
+                let sky = factors.sky * estimated;
+                (sky / (sky + 1.0 - estimated))
+                    .clamp(LEAST_LEARNED_SPLIT_SHARE, 1.0 - LEAST_LEARNED_SPLIT_SHARE)
+            }
+            None => estimated,
+        }
+    }
+
     /// Picks an emitter for `at`: (index, probability, `u` rescaled for reuse).
     pub fn pick(&self, u: f32, at: &Receiver, strands: &Strands) -> Option<(usize, f32, f32)> {
-        match &self.picker {
-            Picker::Tree if self.fetch_ahead => self.tree.sample_fetching(
+        match &self.lights.picker {
+            Picker::Tree if self.lights.fetch_ahead => self.lights.tree.sample_fetching(
                 u,
                 at.p,
                 at.n,
-                self.tau(at.time),
+                self.lights.tau(at.time),
                 self.lane_factors(at),
-                |i| self.fetch(i, strands),
+                |i| self.lights.fetch(i, strands),
             ),
-            Picker::Tree => {
-                self.tree
-                    .sample(u, at.p, at.n, self.tau(at.time), self.lane_factors(at))
-            }
+            Picker::Tree => self.lights.tree.sample(
+                u,
+                at.p,
+                at.n,
+                self.lights.tau(at.time),
+                self.lane_factors(at),
+            ),
             Picker::Power(table) if table.is_empty() => None,
             Picker::Power(table) => {
                 let (i, rest) = table.sample(u.clamp(0.0, 1.0 - f32::EPSILON));
@@ -579,21 +563,16 @@ impl Lights {
         }
     }
 
-    /// Asks the cache for what [`Self::sample`] reads of emitter `i` once it is picked.
-    #[inline(always)]
-    fn fetch(&self, i: usize, strands: &Strands) {
-        match i.checked_sub(self.emitters.len()) {
-            None => crate::platform::prefetch::prefetch(std::slice::from_ref(&self.emitters[i])),
-            Some(segment) => strands.prefetch(segment),
-        }
-    }
-
     /// Probability that [`Self::pick`] chooses emitter `i` for `at`.
     pub fn pick_pmf(&self, i: usize, at: &Receiver) -> f32 {
-        match &self.picker {
-            Picker::Tree => self
-                .tree
-                .pmf(i, at.p, at.n, self.tau(at.time), self.lane_factors(at)),
+        match &self.lights.picker {
+            Picker::Tree => self.lights.tree.pmf(
+                i,
+                at.p,
+                at.n,
+                self.lights.tau(at.time),
+                self.lane_factors(at),
+            ),
             Picker::Power(table) => table.pmf(i),
         }
     }
@@ -617,7 +596,7 @@ impl Lights {
     /// emitter (that cost the Cornell box 2.5%).
     pub fn picked(&self, u: Vec2, at: &Receiver, strands: &Strands) -> Option<Picked> {
         let (_, on_environment, u_point) = self.split(u, at);
-        if on_environment && self.environment.is_some() {
+        if on_environment && self.lights.environment.is_some() {
             return Some(Picked::Environment);
         }
         self.pick(u_point.x, at, strands)
@@ -638,7 +617,7 @@ impl Lights {
         strands: &Strands,
     ) -> Option<LightSample> {
         let (p_env, on_environment, u_point) = self.split(u, at);
-        if let Some(env) = self.environment.as_ref().filter(|_| on_environment) {
+        if let Some(env) = self.lights.environment.as_ref().filter(|_| on_environment) {
             let s = env.sample(u_point);
             return (s.pdf > 0.0).then_some(LightSample {
                 place: LightPlace::Direction(s.direction),
@@ -649,11 +628,11 @@ impl Lights {
         let (i, pmf, u_rest) = self.pick(u_point.x, at, strands)?;
         let u_point = Vec2::new(u_rest, u_point.y);
         let pick = (1.0 - p_env) * pmf;
-        if i >= self.emitters.len() {
-            let segment = (i - self.emitters.len()) as u32;
+        if i >= self.lights.emitters.len() {
+            let segment = (i - self.lights.emitters.len()) as u32;
             return sample_segment(strands, segment, at, u_point, pick);
         }
-        let e = &self.emitters[i];
+        let e = &self.lights.emitters[i];
         let (tri, normal, area) = if e.instance == STATIC {
             (e.vertices, e.normal, e.area)
         } else {
@@ -675,7 +654,7 @@ impl Lights {
         })
     }
 
-    /// Solid-angle pdf with which [`Lights::sample`], called for `at`, would have picked the
+    /// Solid-angle pdf with which [`LightSampler::sample`], called for `at`, would have picked the
     /// emitter point `found` that lies `distance` away along unit `dir` (the one conversion
     /// from each emitter kind's own measure that MIS needs).
     pub fn pdf_found(
@@ -700,20 +679,21 @@ impl Lights {
         pdf_area * distance * distance / normal.dot(dir).abs()
     }
 
-    /// Solid-angle pdf with which [`Lights::sample`], called for `at`, picks environment
+    /// Solid-angle pdf with which [`LightSampler::sample`], called for `at`, picks environment
     /// direction `dir`.
     pub fn pdf_environment(&self, dir: Vec3, at: &Receiver) -> f32 {
-        self.environment
+        self.lights
+            .environment
             .as_ref()
             .map_or(0.0, |env| self.environment_probability(at) * env.pdf(dir))
     }
 
-    /// Area-measure pdf with which [`Lights::sample`] picks a point on `triangle` for `at`,
+    /// Area-measure pdf with which [`LightSampler::sample`] picks a point on `triangle` for `at`,
     /// when the triangle's world area is `area_scale` times its stored area.
     pub fn pdf_triangle(&self, triangle: u32, area_scale: f32, at: &Receiver) -> f32 {
-        match self.by_triangle.get(triangle as usize) {
+        match self.lights.by_triangle.get(triangle as usize) {
             Some(&i) if i != u32::MAX => {
-                let e = &self.emitters[i as usize];
+                let e = &self.lights.emitters[i as usize];
                 (1.0 - self.environment_probability(at)) * self.pick_pmf(i as usize, at)
                     / (e.area * area_scale)
             }
@@ -721,7 +701,7 @@ impl Lights {
         }
     }
 
-    /// Area-measure pdf with which [`Lights::sample`] picks the point of strand `segment` at
+    /// Area-measure pdf with which [`LightSampler::sample`] picks the point of strand `segment` at
     /// position `s` with outward `normal`, for `at` (at its time).
     pub fn pdf_strand(
         &self,
@@ -731,11 +711,11 @@ impl Lights {
         at: &Receiver,
         strands: &Strands,
     ) -> f32 {
-        if segment as usize >= self.strand_count {
+        if segment as usize >= self.lights.strand_count {
             return 0.0;
         }
         let pick = (1.0 - self.environment_probability(at))
-            * self.pick_pmf(self.emitters.len() + segment as usize, at);
+            * self.pick_pmf(self.lights.emitters.len() + segment as usize, at);
         if pick == 0.0 {
             return 0.0;
         }
@@ -993,7 +973,7 @@ mod tests {
             let mut integral = std::collections::HashMap::<LightSource, f64>::new();
             for k in 0..SAMPLES {
                 let u = hammersley(k);
-                let Some(sample) = lights.sample(u, &at, world, &strands) else {
+                let Some(sample) = lights.sampler(None).sample(u, &at, world, &strands) else {
                     continue;
                 };
                 let LightPlace::Point {
@@ -1008,14 +988,16 @@ mod tests {
                 let (evaluated, g) = match source {
                     LightSource::Triangle(t) => {
                         let scale = if t == 2 { placement.scale.powi(2) } else { 1.0 };
-                        (lights.pdf_triangle(t, scale, &at), 1.0)
+                        (lights.sampler(None).pdf_triangle(t, scale, &at), 1.0)
                     }
                     LightSource::Strand(segment) => {
                         let seg = strands.world_segment(segment, time);
                         let s = (point - seg.a).dot(seg.b - seg.a) / seg.a.distance_squared(seg.b);
                         let cos_phi = Cylinder::new(&seg, s, at.p).unwrap().facing.dot(normal);
                         (
-                            lights.pdf_strand(segment, s, normal, &at, &strands),
+                            lights
+                                .sampler(None)
+                                .pdf_strand(segment, s, normal, &at, &strands),
                             (cos_phi * cos_phi) as f64,
                         )
                     }
@@ -1096,7 +1078,8 @@ mod tests {
                 None,
                 LightSelection::Tree,
             );
-            let share = lights.pick_pmf(0, &at) + lights.pick_pmf(1, &at);
+            let share =
+                lights.sampler(None).pick_pmf(0, &at) + lights.sampler(None).pick_pmf(1, &at);
             // Weighed by power, the ring would take π times the lamp's share (a quarter for the
             // lamp, or two fifths when it emits both ways).
             assert!(
@@ -1148,7 +1131,7 @@ mod tests {
             n: Some(Vec3::Y),
             time: 0.0,
         };
-        let share = |at: &Receiver| lights.environment_probability(at);
+        let share = |at: &Receiver| lights.sampler(None).environment_probability(at);
         assert!(
             share(&under) < 0.1,
             "under the lamp the sky gets {}",
@@ -1156,25 +1139,30 @@ mod tests {
         );
         assert!(share(&far) > 0.9, "far away the sky gets {}", share(&far));
         assert_eq!(
-            build(LightSelection::Power).environment_probability(&under),
+            build(LightSelection::Power)
+                .sampler(None)
+                .environment_probability(&under),
             0.5
         );
         for at in [under, far] {
             let (mut sky, mut lamps) = (0, 0);
             for k in 0..2000 {
                 let u = hammersley(k * (SAMPLES / 2000));
-                let s = lights.sample(u, &at, |e| e.vertices, &none).unwrap();
+                let s = lights
+                    .sampler(None)
+                    .sample(u, &at, |e| e.vertices, &none)
+                    .unwrap();
                 let evaluated = match s.place {
                     LightPlace::Direction(dir) => {
                         sky += 1;
-                        lights.pdf_environment(dir, &at)
+                        lights.sampler(None).pdf_environment(dir, &at)
                     }
                     LightPlace::Point {
                         source: LightSource::Triangle(t),
                         ..
                     } => {
                         lamps += 1;
-                        lights.pdf_triangle(t, 1.0, &at)
+                        lights.sampler(None).pdf_triangle(t, 1.0, &at)
                     }
                     other => panic!("{other:?}"),
                 };
@@ -1224,12 +1212,15 @@ mod tests {
         for x in [0.1, 1.9, -5.0] {
             let at = under_first(x);
             assert_eq!(
-                [0, 1].map(|i| one.pick_pmf(i, &at)),
+                [0, 1].map(|i| one.sampler(None).pick_pmf(i, &at)),
                 [0.5, 0.5],
                 "at x = {x}"
             );
             let picked = (0..1000)
-                .filter_map(|k| one.pick((k as f32 + 0.5) / 1000.0, &at, &none))
+                .filter_map(|k| {
+                    one.sampler(None)
+                        .pick((k as f32 + 0.5) / 1000.0, &at, &none)
+                })
                 .filter(|&(i, pmf, _)| i == 0 && pmf == 0.5)
                 .count();
             assert_eq!(picked, 500);
@@ -1242,7 +1233,7 @@ mod tests {
         }));
         let two = build(two);
         let at = under_first(11.0);
-        let far: f32 = (0..2).map(|i| two.pick_pmf(i, &at)).sum();
+        let far: f32 = (0..2).map(|i| two.sampler(None).pick_pmf(i, &at)).sum();
         assert!(far < 0.1, "the far quad gets {far}");
         // Touching is what joins pieces, up to four of them.
         let strip: Vec<LightBounds> = (0..5)

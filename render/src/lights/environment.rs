@@ -6,7 +6,7 @@
 //! wraps around the viewer the way the image reads left to right. `rotation_degrees` turns it
 //! about +Y.
 
-use crate::lights::emitters::luminance;
+use crate::color::luminance;
 use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
 

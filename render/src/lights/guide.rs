@@ -1,53 +1,21 @@
 //! Light selection learned per region: the light tree's first two choices reweighed, region by
-//! region of the scene, by what each branch was seen to bring there.
+//! region of the scene, by what each branch was seen to bring there
+//! ([`crate::prepare::training`] learns it).
 //!
-//! The tree's importance is an unoccluded bound. It cannot see that a ring lying in the plane of
-//! the wall it lights sends that wall little, that the lamps of a room are behind a wall from the
-//! room next door, or that one side of a ring hides behind the other. So, before rendering, a few
-//! camera paths are traced at a low resolution (`TRAINING_WIDTH` pixels across,
-//! `TRAINING_SPP` paths each), and every light sample they take is recorded with what it
-//! brought, shadow ray included. The places those samples were taken at are cut into regions,
-//! the leaves of a k-d tree halved at the middle of their longest side until each holds about
-//! `REGION_SAMPLES` of them, so regions are small where shading is dense.
-//!
-//! In each region, for each lane of the tree's root and of the root's children, the samples
-//! give the second moment of the estimate that lane alone would make. One-sample selection has
-//! the least variance when lanes are chosen in proportion to the root of that moment. Each
-//! lane's factor turns the tree's mean share in the region into that proportion, blended with
-//! the tree's own share (`TREE_SHARE`) so that no lane the tree would pick is ever starved.
-//! The descent and the replay of its pmf apply the same factors, so the estimate stays unbiased
-//! whatever was learned: a poor guide costs noise, never bias.
-//!
-//! Where the scene has an environment beside its emitters, each region also learns the split
-//! between them the same way: the estimate behind the split counts the sky in full inside a
-//! closed room, and the emitters in full behind a wall.
-//!
-//! What is recorded is each sample's MIS-weighted value: what light sampling itself must bring,
-//! leaving out what BSDF sampling finds well (a wide sky, a big lamp close by).
-//!
-//! The tree's root holds the kinds of emitters apart when there are at most four (the lamps,
-//! and each ring's strands; see [`crate::lights::emitters`]), so the root's factors are what a region
-//! learns about each ring and the lamps, and the next level's about each quarter of a ring.
-//!
-//! Training depends only on the scene (its resolution, camera and seed), never on the crop, the
-//! sample range or the thread count, so every part of a split render learns the same guide.
+//! The regions are the leaves of a k-d tree over the places training paths took light samples,
+//! halved at the middle of their longest side until each holds about [`REGION_SAMPLES`] of
+//! them, so regions are small where shading is dense. Each region keeps factors for the lanes
+//! of the tree's root and of the root's children, and for the split between the environment and
+//! the emitters ([`RegionFactors`]); the descent and the replay of its pmf apply the same
+//! factors, so the estimate stays unbiased whatever was learned: a poor guide costs noise,
+//! never bias. A lookup, made at every light pick and pmf, starts from a regular grid over the
+//! regions' box that names the deepest node holding each cell ([`GRID_LEVELS`]).
 
-use crate::geometry::ray::Ray;
-use crate::integrator::trace;
-use crate::lights::emitters::{Picked, Receiver};
-use crate::lights::tree::{PerLane, WIDTH};
-use crate::sampling::{SampleStream, hash32};
-use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use crate::lights::tree::PerLane;
+use glam::Vec3;
 use rayon::prelude::*;
-use std::cell::RefCell;
 use std::ops::Range;
 
-/// Training paths: the camera's frame at about this many pixels across (at most its own);
-/// fewer in fuzz builds, as for [`crate::through::light_visibility`]'s grid.
-const TRAINING_WIDTH: u32 = if cfg!(fuzzing) { 16 } else { 160 };
-/// Paths per training pixel.
-const TRAINING_SPP: u32 = 4;
 /// A region is halved while it holds more than this many training samples. On the showcase
 /// (320×180, 32 spp, two seeds), 128, 256 and 512 gave 9.40%, 9.02% and 8.98% noise.
 const REGION_SAMPLES: usize = 512;
@@ -59,15 +27,6 @@ const MAX_DEPTH: u32 = 48;
 /// a chain of a dozen dependent loads, a fifth of a ring-lit pick. On the showcase 9 of 10
 /// cells name a leaf; 2^10 cells left a third of the lookups' time (and were 3% slower).
 const GRID_LEVELS: u32 = 14;
-/// Light samples a region must have seen before its factors are trusted.
-const LEAST_SAMPLES: usize = 32;
-/// The tree's own share kept in every choice: what the guide cannot starve. On the showcase
-/// and `lit_through`, 0.1 to 0.35 all measured within half a percent of noise of 0.2.
-const TREE_SHARE: f64 = 0.2;
-
-/// The largest factor a lane gets: a lane the tree all but ignores where it brought most of the
-/// light is raised this far, which keeps the descent's weights far from overflow.
-const MAX_FACTOR: f64 = 1e4;
 
 /// Per-region factors for the light tree's top two levels.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -152,6 +111,55 @@ impl RegionNode {
 }
 
 impl LightGuide {
+    /// Regions over `count` sample places (`place` gives each one's position; those that are
+    /// not finite are left out), each region's factors learned by `learn` from the indices of
+    /// its places (`None`: it learned nothing); `None` without a finite place.
+    pub fn learn(
+        count: usize,
+        place: impl Fn(u32) -> Vec3 + Sync,
+        learn: impl Fn(&[u32]) -> Option<RegionFactors> + Sync,
+    ) -> Option<Self> {
+        let mut kept: Vec<u32> = (0..count as u32)
+            .filter(|&i| place(i).is_finite())
+            .collect();
+        let (lower, upper) = kept.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &i| {
+                let p = place(i);
+                (lo.min(p), hi.max(p))
+            },
+        );
+        if kept.is_empty() {
+            return None;
+        }
+        let mut guide = LightGuide {
+            lower,
+            upper,
+            nodes: vec![RegionNode::leaf(NOTHING_LEARNED)],
+            factors: Vec::new(),
+            grid: Grid::default(),
+        };
+        let mut regions = Regions {
+            nodes: &mut guide.nodes,
+            place: &place,
+            kept: &mut kept,
+            leaves: Vec::new(),
+        };
+        regions.split(0, 0..regions.kept.len(), [lower, upper], 0);
+        let leaves = regions.leaves;
+        let learned: Vec<Option<RegionFactors>> = leaves
+            .par_iter()
+            .map(|(_, members)| learn(&kept[members.clone()]))
+            .collect();
+        for ((node, _), factors) in leaves.iter().zip(learned) {
+            if let Some(factors) = factors {
+                guide.nodes[*node] = RegionNode::leaf(guide.factors.len() as u32);
+                guide.factors.push(factors);
+            }
+        }
+        Some(guide.with_grid())
+    }
+
     /// The factors at `p` (its region's); `None` outside the regions or where nothing was
     /// learned.
     #[inline]
@@ -233,93 +241,19 @@ impl LightGuide {
     }
 }
 
-/// One light sample a training path took.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Record {
-    /// Where it was taken, as light selection saw it (beyond openings for a chain's strategy).
-    pub receiver: Receiver,
-    /// What it took (`None`: a point on an opening's aperture, or no light at all).
-    pub took: Option<Picked>,
-    /// Luminance of what it brought over the density it was drawn with, shadow ray included.
-    pub value: f32,
-}
-
-thread_local! {
-    /// Where the integrator leaves its records while a training path is traced.
-    static SINK: RefCell<Option<Vec<Record>>> = const { RefCell::new(None) };
-}
-
-/// Keeps `record` when the calling thread is tracing training paths.
-pub(crate) fn record(record: Record) {
-    SINK.with(|sink| {
-        if let Some(records) = sink.borrow_mut().as_mut() {
-            records.push(record);
-        }
-    });
-}
-
-/// Learns the guide of `scene` from training paths over its camera's frame; `None` when its
-/// light selection does not descend a tree, or no training path took a light sample. The
-/// scene's lights must be in training (see [`crate::lights::emitters::Lights::set_training`]) for the
-/// paths to leave records.
-pub fn train(scene: &Scene) -> Option<LightGuide> {
-    if !scene.lights.descends_tree() {
-        return None;
-    }
-    let records = training_records(scene);
-    let mut kept: Vec<u32> = (0..records.len() as u32)
-        .filter(|&i| records[i as usize].receiver.p.is_finite())
-        .collect();
-    let (lower, upper) = kept.iter().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &i| {
-            let p = records[i as usize].receiver.p;
-            (lo.min(p), hi.max(p))
-        },
-    );
-    if kept.is_empty() {
-        return None;
-    }
-    let mut guide = LightGuide {
-        lower,
-        upper,
-        nodes: vec![RegionNode::leaf(NOTHING_LEARNED)],
-        factors: Vec::new(),
-        grid: Grid::default(),
-    };
-    let mut regions = Regions {
-        nodes: &mut guide.nodes,
-        records: &records,
-        kept: &mut kept,
-        leaves: Vec::new(),
-    };
-    regions.split(0, 0..regions.kept.len(), [lower, upper], 0);
-    let leaves = regions.leaves;
-    let learned: Vec<Option<RegionFactors>> = leaves
-        .par_iter()
-        .map(|(_, members)| learn(scene, &records, &kept[members.clone()]))
-        .collect();
-    for ((node, _), factors) in leaves.iter().zip(learned) {
-        if let Some(factors) = factors {
-            guide.nodes[*node] = RegionNode::leaf(guide.factors.len() as u32);
-            guide.factors.push(factors);
-        }
-    }
-    Some(guide.with_grid())
-}
-
-/// The regions' k-d tree as it is built over the training records.
-struct Regions<'a> {
+/// The regions' k-d tree as it is built over the sample places.
+struct Regions<'a, P> {
     nodes: &'a mut Vec<RegionNode>,
-    records: &'a [Record],
+    /// Each place's position.
+    place: &'a P,
     /// Indices of the records used, partitioned in place so each region's are a range.
     kept: &'a mut [u32],
     /// Each leaf's node and its range of `kept`.
     leaves: Vec<(usize, Range<usize>)>,
 }
 
-impl Regions<'_> {
-    /// Makes node `slot` the region over `kept[members]` (records inside `bounds`, `depth`
+impl<P: Fn(u32) -> Vec3> Regions<'_, P> {
+    /// Makes node `slot` the region over `kept[members]` (places inside `bounds`, `depth`
     /// halvings from the root): a leaf, or a split at the middle of its longest side whose
     /// halves follow the nodes made so far.
     fn split(&mut self, slot: usize, members: Range<usize>, bounds: [Vec3; 2], depth: u32) {
@@ -337,7 +271,7 @@ impl Regions<'_> {
         let part = &mut self.kept[members.clone()];
         let mut below = 0;
         for k in 0..part.len() {
-            if self.records[part[k] as usize].receiver.p[axis] < at {
+            if (self.place)(part[k])[axis] < at {
                 part.swap(k, below);
                 below += 1;
             }
@@ -378,234 +312,10 @@ fn split_node(
     (first, [[lower, low_upper], [high_lower, upper]])
 }
 
-/// The factors one region's samples (`members`, indices of `records`) teach; `None` when they
-/// are too few.
-fn learn(scene: &Scene, records: &[Record], members: &[u32]) -> Option<RegionFactors> {
-    if members.len() < LEAST_SAMPLES {
-        return None;
-    }
-    let lights = &scene.lights;
-    let mut moments = Moments::default();
-    for &i in members {
-        let r = &records[i as usize];
-        let Some(shares) = lights.lane_shares(&r.receiver) else {
-            continue;
-        };
-        let sky_share = lights.estimated_environment_share(&r.receiver) as f64;
-        // The lanes an emitter's path took, and which side of the split the sample fell on
-        // (`Some(true)`: the environment).
-        let (lanes, side) = match r.took {
-            Some(Picked::Emitter(e)) => {
-                let lanes = lights.top_lanes(e);
-                (lanes, lanes.map(|_| false))
-            }
-            Some(Picked::Environment) => (None, Some(true)),
-            None => (None, None),
-        };
-        // Within the emitters' side, a sample's own estimate leaves out the split's share.
-        moments.add(&shares, lanes, r.value as f64 * (1.0 - sky_share));
-        moments.add_split(sky_share, side, r.value as f64);
-    }
-    Some(RegionFactors {
-        lanes: moments.factors(lights.lane_costs()),
-        sky: if lights.splits_by_estimate() {
-            moments.sky_factor()
-        } else {
-            1.0
-        },
-    })
-}
-
-/// The records of [`TRAINING_SPP`] paths a pixel over the camera's frame at about
-/// [`TRAINING_WIDTH`] pixels across, row after row (the same whatever the thread count).
-fn training_records(scene: &Scene) -> Vec<Record> {
-    let [w, h] = scene.camera.projection.resolution;
-    let width = TRAINING_WIDTH.min(w).max(1);
-    let height = ((h as u64 * width as u64 / w.max(1) as u64) as u32).max(1);
-    let seed = hash32(scene.settings.seed ^ 0x4c16_47e5);
-    let rows: Vec<Vec<Record>> = (0..height)
-        .into_par_iter()
-        .map(|y| {
-            SINK.with(|sink| *sink.borrow_mut() = Some(Vec::new()));
-            for x in 0..width {
-                let pixel_seed = hash32(hash32(y * width + x) ^ seed);
-                for i in 0..TRAINING_SPP {
-                    let pixel = (
-                        Vec2::new(x as f32, y as f32),
-                        Vec2::new(width as f32, height as f32),
-                    );
-                    training_path(scene, pixel, &mut SampleStream::new(i, pixel_seed));
-                }
-            }
-            SINK.with(|sink| sink.borrow_mut().take())
-                .unwrap_or_default()
-        })
-        .collect();
-    // Row after row into one list, each row freed as it is moved (a flattening collect would
-    // hold every record twice at its peak: 20 MB on the showcase).
-    let mut records = Vec::with_capacity(rows.iter().map(Vec::len).sum());
-    for row in rows {
-        records.extend(row);
-    }
-    records
-}
-
-/// Traces one training path through `pixel` (its corner and the training frame's size), with
-/// the shot camera at a time in the shutter.
-fn training_path(scene: &Scene, (corner, size): (Vec2, Vec2), s: &mut SampleStream) {
-    let [open, close] = scene.shutter;
-    let [jx, jy, lx, ly] = s.next_4d();
-    let time = open + (close - open) * s.time() as f64;
-    let lens = crate::camera::Lens::at(&scene.camera, time);
-    let (o, d) = lens.ray((corner + Vec2::new(jx, jy)) / size, Vec2::new(lx, ly));
-    let range = if scene.clip.is_none() {
-        Some((0.0, f32::INFINITY))
-    } else {
-        scene.clip.interval(&lens, o, d)
-    };
-    if let Some((t_min, t_max)) = range {
-        trace(scene, Ray::new(o, d, t_max, time).between(t_min, t_max), s);
-    }
-}
-
-/// What one region's light samples showed.
-#[derive(Clone, Copy, Debug, Default)]
-struct Moments {
-    /// Per root lane, the sum over the samples that took it of value² × its share: the second
-    /// moment of the estimate that lane alone would make, times the sample count.
-    root: [f64; WIDTH],
-    /// The same for each root lane's child lanes.
-    second: [[f64; WIDTH]; WIDTH],
-    /// Sums of the tree's shares at every sample's point.
-    root_share: [f64; WIDTH],
-    second_share: [[f64; WIDTH]; WIDTH],
-    /// The same for the split between the environment and the emitters: the second moments
-    /// of each side's own estimate, and the sum of the environment's estimated share.
-    sky: f64,
-    emitters: f64,
-    sky_share: f64,
-    samples: f64,
-}
-
-impl Moments {
-    /// Adds a sample whose point the tree gives `shares`, which took the lanes `lanes` (none
-    /// for the environment or no light) and brought `value`.
-    fn add(&mut self, shares: &PerLane, lanes: Option<(usize, Option<usize>)>, value: f64) {
-        for j in 0..WIDTH {
-            self.root_share[j] += shares.root[j] as f64;
-            for k in 0..WIDTH {
-                self.second_share[j][k] += shares.second[j][k] as f64;
-            }
-        }
-        let Some((j, second)) = lanes else {
-            return;
-        };
-        // The lane's own estimate is the sample's over its share; weighing the square by the
-        // probability of taking the lane gives its second moment.
-        let root_share = shares.root[j] as f64;
-        self.root[j] += value * value * root_share;
-        if let Some(k) = second {
-            self.second[j][k] += value * value * root_share * shares.second[j][k] as f64;
-        }
-    }
-
-    /// Adds a sample to the split: the environment's estimated share at its point, whether it
-    /// took the environment (`Some(true)`) or an emitter (`Some(false)`), and what it brought.
-    fn add_split(&mut self, sky_share: f64, took_sky: Option<bool>, value: f64) {
-        self.samples += 1.0;
-        self.sky_share += sky_share;
-        match took_sky {
-            Some(true) => self.sky += value * value * sky_share,
-            Some(false) => self.emitters += value * value * (1.0 - sky_share),
-            None => {}
-        }
-    }
-
-    /// The factor of the environment's weight that takes its mean estimated share to the
-    /// root of its second moment's share, blended like the lanes'.
-    fn sky_factor(&self) -> f32 {
-        let mean = self.sky_share / self.samples.max(1.0);
-        let [sky, emitters] = [self.sky, self.emitters].map(|m| m.max(0.0).sqrt());
-        if !(sky + emitters > 0.0 && (sky + emitters).is_finite() && mean > 0.0 && mean < 1.0) {
-            return 1.0;
-        }
-        let learned = sky / (sky + emitters);
-        let blended = (1.0 - TREE_SHARE) * learned + TREE_SHARE * mean;
-        // The weight ratio that turns the mean share into the blended one.
-        let factor = blended * (1.0 - mean) / ((1.0 - blended) * mean);
-        factor.clamp(1.0 / MAX_FACTOR, MAX_FACTOR) as f32
-    }
-
-    /// The factors that take the tree's shares to the learned ones, for lanes whose samples
-    /// cost `costs`.
-    fn factors(&self, costs: &PerLane) -> PerLane {
-        PerLane {
-            root: lane_factors(&self.root, &self.root_share, &costs.root),
-            second: std::array::from_fn(|j| {
-                lane_factors(&self.second[j], &self.second_share[j], &costs.second[j])
-            }),
-        }
-    }
-}
-
-/// Factors that turn lanes' mean shares (`share_sums`, summed over the samples) into shares in
-/// proportion to the root of their second moments (`moment_sums`) over their samples' `costs`
-/// (the most efficient one-sample choice), blended with the tree's own by [`TREE_SHARE`]; all
-/// 1 when the lanes brought nothing.
-fn lane_factors(
-    moment_sums: &[f64; WIDTH],
-    share_sums: &[f64; WIDTH],
-    costs: &[f32; WIDTH],
-) -> [f32; WIDTH] {
-    let roots: [f64; WIDTH] =
-        std::array::from_fn(|k| (moment_sums[k].max(0.0) / costs[k].max(1e-6) as f64).sqrt());
-    let (root_total, share_total) = (roots.iter().sum::<f64>(), share_sums.iter().sum::<f64>());
-    if !(root_total > 0.0 && share_total > 0.0 && root_total.is_finite()) {
-        return [1.0; WIDTH];
-    }
-    std::array::from_fn(|k| {
-        let tree = share_sums[k] / share_total;
-        if tree <= 0.0 {
-            return 1.0;
-        }
-        let learned = roots[k] / root_total;
-        let factor = ((1.0 - TREE_SHARE) * learned + TREE_SHARE * tree) / tree;
-        factor.min(MAX_FACTOR) as f32
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn factors_move_shares_towards_the_root_of_second_moments_over_costs() {
-        let even = [0.25f64; WIDTH];
-        let ones = [1.0f32; WIDTH];
-        // What the tree gives is what was seen: nothing moves.
-        let f = lane_factors(&[1.0, 1.0, 1.0, 1.0], &even, &ones);
-        assert!(f.iter().all(|&f| (f - 1.0).abs() < 1e-6), "{f:?}");
-        // A lane that never brought light keeps only the tree's share of it.
-        let f = lane_factors(&[1.0, 1.0, 1.0, 0.0], &even, &ones);
-        assert!((f[3] - TREE_SHARE as f32).abs() < 1e-6, "{f:?}");
-        // Second moments 16:4:1:1 want shares 4:2:1:1; a lane costing four times as much
-        // wants half the share.
-        let f = lane_factors(&[16.0, 4.0, 1.0, 1.0], &even, &ones);
-        let g = lane_factors(&[16.0, 4.0, 1.0, 1.0], &even, &[4.0, 1.0, 1.0, 1.0]);
-        let shares = |f: [f32; WIDTH]| {
-            let total: f32 = f.iter().sum();
-            f.map(|f| f / total)
-        };
-        let blend = |learned: f32| (1.0 - TREE_SHARE as f32) * learned + TREE_SHARE as f32 * 0.25;
-        let (s, t) = (shares(f), shares(g));
-        assert!(
-            (s[0] - blend(0.5)).abs() < 1e-5 && (s[1] - blend(0.25)).abs() < 1e-5,
-            "{s:?}"
-        );
-        assert!((t[0] - blend(2.0 / 6.0)).abs() < 1e-5, "{t:?}");
-        // Nothing seen at all: no change.
-        assert_eq!(lane_factors(&[0.0; WIDTH], &even, &ones), [1.0; WIDTH]);
-    }
+    use crate::sampling::hash32;
 
     /// A k-d tree over `[lower, upper]` halved at the middle of the longest side, as training
     /// halves it, to an uneven depth (up to 16 levels), each leaf its own factors.

@@ -8,7 +8,7 @@ pub mod guide;
 pub mod strand_exposure;
 pub mod tree;
 
-pub use emitters::{Emitter, LightSample, LightSelection, Lights, Receiver, luminance};
+pub use emitters::{Emitter, LightSample, LightSampler, LightSelection, Lights, Receiver};
 pub use environment::Environment;
 pub use guide::LightGuide;
 pub use tree::LightTree;

@@ -3,6 +3,6 @@
 
 pub mod bsdf;
 pub mod microfacet;
-pub mod multiscatter;
 
+pub use bsdf::multiscatter::Multiscatter;
 pub use bsdf::{Bsdf, Material, Side};

@@ -11,18 +11,18 @@
 //! mean is the estimate. It only moves samples between strategies: a poor measurement costs
 //! noise, never bias.
 
-use crate::geometry::offset_origin;
-use crate::geometry::ray::Ray;
+use crate::geometry::{Ray, offset_origin};
 use crate::integrator::probe_light;
-use crate::lights::emitters::Receiver;
+use crate::lights::Receiver;
 use crate::sampling::SampleStream;
 use crate::scene::Scene;
+use crate::through::ExitLight;
 use glam::{DVec2, DVec3, Vec2};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
 /// Light samples traced from each exit; fewer in fuzz builds, as for
-/// [`crate::through::light_visibility`]'s grid.
+/// [`crate::prepare::visibility`]'s grid.
 const PROBES: u32 = if cfg!(fuzzing) { 256 } else { 4096 };
 /// The measured estimate never falls below this share of the tree's: a few probes that all
 /// missed a small bright light leave its opening some samples.
@@ -31,16 +31,6 @@ const FLOOR: f32 = 1e-3;
 /// Rays traced between an exit and an opening in front of it before walls are taken to stand
 /// between them.
 const WALL_RAYS: u32 = 16;
-
-/// One opening's exit, measured.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ExitLight {
-    /// About π times the mean irradiance over the exit from the side rays leave into (the light
-    /// tree's units, so it weighs against ordinary light sampling's estimate).
-    pub light: f32,
-    /// The share of `light` that comes from the environment.
-    pub sky_share: f32,
-}
 
 /// Measures the exit of every opening of `scene`.
 pub fn measure(scene: &Scene) -> Vec<ExitLight> {
@@ -56,7 +46,7 @@ pub fn measure(scene: &Scene) -> Vec<ExitLight> {
         .collect()
 }
 
-/// The pairs (from, to) of `pairs` ([`crate::through::strategies::Apertures::facing_pairs`]) that no
+/// The pairs (from, to) of `pairs` ([`crate::through::facing_pairs`]) that no
 /// ray from `from`'s exit to `to`'s bounding disk passes, at the middle of the ray times: the
 /// walls of the rooms between. Light sampling then does not search chains through `from` for
 /// `to` beyond it; a pair a few rays missed costs noise, never bias (BSDF sampling still finds

@@ -4,9 +4,9 @@
 use super::schema::{MaterialKind, MaterialSection, ShadowingKind};
 use super::{metals, optional, parse};
 use crate::error::{RenderError, key_error};
+use crate::material::bsdf::multiscatter::Multiscatter;
 use crate::material::bsdf::{Bsdf, Material};
 use crate::material::microfacet::{ConductorFresnel, Ggx, Shadowing};
-use crate::material::multiscatter::Multiscatter;
 use glam::Vec3;
 use rift_fx::Invalid;
 use rift_fx::shot::check;

@@ -27,7 +27,6 @@ use crate::lights::environment::{Environment, LatLong};
 use crate::material::bsdf::Material;
 use crate::portals::openings::Portals;
 use crate::portals::visibility::{Flags, RayClass, Visibility};
-use crate::through::light_visibility::LightVisibility;
 use glam::Vec3;
 use materials::color;
 use rift_fx::rig::{AnimatedTransform, Camera};
@@ -169,7 +168,8 @@ impl SceneHit {
     }
 }
 
-/// Everything the integrator needs.
+/// A frame's scene as the shot describes it: geometry, materials, lights, openings, media, the
+/// camera and the render settings.
 pub struct Scene {
     /// Static triangles (world space) first, then each moving object's (object space).
     pub triangles: Vec<Triangle>,
@@ -190,13 +190,6 @@ pub struct Scene {
     pub stereo: Option<Stereo>,
     /// Portal openings (none: the integrator never tests for them).
     pub portals: Portals,
-    /// The openings as light sampling through them sees them.
-    pub apertures: crate::through::strategies::Apertures,
-    /// How much of ordinary light sampling is unblocked where (empty unless openings may
-    /// bring light).
-    pub light_visibility: crate::through::light_visibility::LightVisibility,
-    /// Where many openings compete, the ones a shading point's search tries.
-    pub opening_candidates: Option<crate::through::candidates::OpeningCandidates>,
     /// Per-object visibility flags and cull volumes.
     pub visibility: Visibility,
     /// The participating media and where they are.
@@ -268,13 +261,15 @@ pub(crate) fn parse<T: DeserializeOwned>(
 }
 
 impl Scene {
-    /// Builds the scene of `shot` at `frame`.
-    pub fn build(shot: &Shot, frame: i64) -> Result<Self, RenderError> {
-        Self::build_with(shot, frame, &Overrides::default())
+    /// Loads the scene of `shot` at `frame`.
+    pub fn load(shot: &Shot, frame: i64) -> Result<Self, RenderError> {
+        Self::load_with(shot, frame, &Overrides::default())
     }
 
-    /// Builds the scene of `shot` at `frame`, with `overrides` replacing the shot's settings.
-    pub fn build_with(shot: &Shot, frame: i64, overrides: &Overrides) -> Result<Self, RenderError> {
+    /// Loads the scene of `shot` at `frame`, with `overrides` replacing the shot's settings.
+    /// It is complete: what rendering it also needs measured comes from
+    /// [`crate::prepare::Prepared`].
+    pub fn load_with(shot: &Shot, frame: i64, overrides: &Overrides) -> Result<Self, RenderError> {
         let file = &shot.source;
         let base = file.parent().unwrap_or(Path::new("."));
         let sections = &shot.render;
@@ -379,7 +374,6 @@ impl Scene {
         let static_triangles = g.static_count;
         let still = &g.triangles[..static_triangles];
         let accel = Accel::build(still, g.instances);
-        let bounds = static_bounds(still);
         let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let object_placement = std::mem::take(&mut g.placements);
         let id_names: Vec<String> = names
@@ -400,11 +394,7 @@ impl Scene {
             portals.moving(),
             times[0],
         );
-        let apertures = crate::through::strategies::Apertures::new(&portals);
-        let mut scene = Self {
-            apertures,
-            light_visibility: Default::default(),
-            opening_candidates: None,
+        Ok(Self {
             triangles: g.triangles,
             static_triangles,
             normals,
@@ -431,26 +421,7 @@ impl Scene {
             environment_group,
             frame,
             shutter,
-        };
-        if scene.light_through_openings_possible() {
-            scene.light_visibility = LightVisibility::new(&scene, bounds, times);
-            let exits = crate::prepare::exits::measure(&scene);
-            let pairs = scene.apertures.facing_pairs();
-            let walled_off = crate::prepare::exits::walled_off(&scene, &pairs);
-            scene.apertures.set_exits(exits, &walled_off);
-            let worth = LightVisibility::measure_worth(&scene, times);
-            scene.light_visibility.set_worth(worth);
-            scene.opening_candidates = crate::through::candidates::OpeningCandidates::new(&scene);
-        }
-        if light_selection == LightSelection::Learned {
-            let started = std::time::Instant::now();
-            scene.lights.set_training(true);
-            let guide = crate::lights::guide::train(&scene);
-            scene
-                .lights
-                .set_guide(guide, started.elapsed().as_secs_f64());
-        }
-        Ok(scene)
+        })
     }
 
     /// True when light sampling may look through openings: the shot allows it, and there are
@@ -749,19 +720,6 @@ fn environment(
                 degrees as f32,
             )))
         }
-    }
-}
-
-/// The lower and upper corners of the static triangles (a unit box around the origin when
-/// there are none).
-fn static_bounds(triangles: &[Triangle]) -> [Vec3; 2] {
-    let corners = triangles.iter().flat_map(|t| t.v);
-    let lower = corners.clone().fold(Vec3::INFINITY, Vec3::min);
-    let upper = corners.fold(Vec3::NEG_INFINITY, Vec3::max);
-    if lower.cmple(upper).all() {
-        [lower, upper]
-    } else {
-        [Vec3::splat(-0.5), Vec3::splat(0.5)]
     }
 }
 

@@ -14,8 +14,9 @@
 //! sampling, as light through any opening that light sampling does not look through is. A poor
 //! list costs noise, never bias.
 
-use crate::lights::emitters::Receiver;
-use crate::scene::Scene;
+use crate::lights::Receiver;
+use crate::through::View;
+use crate::through::apertures::Apertures;
 use crate::through::light_visibility::Cells;
 use crate::through::strategies::Strategies;
 use glam::Vec3;
@@ -44,16 +45,17 @@ pub struct OpeningCandidates {
 }
 
 impl OpeningCandidates {
-    /// For `scene`, whose grid and openings' exits are measured; `None` where there is no
-    /// grid or no more than [`MAX_LISTED`] still openings.
-    pub fn new(scene: &Scene) -> Option<Self> {
-        if scene.apertures.still_count() <= MAX_LISTED {
+    /// For the openings of `apertures` on the grid of `cells` (none without a grid), the
+    /// search looking at `time`; `None` where there is no grid or no more than [`MAX_LISTED`]
+    /// still openings.
+    pub fn new(apertures: &Apertures, cells: Option<&Cells>, time: f64) -> Option<Self> {
+        if apertures.still_count() <= MAX_LISTED {
             return None;
         }
-        let cells = *scene.light_visibility.cells()?;
+        let cells = *cells?;
         Some(Self {
             cells,
-            time: scene.portals.times()[0],
+            time,
             lists: (0..cells.count() * FACINGS)
                 .map(|_| OnceLock::new())
                 .collect(),
@@ -61,36 +63,35 @@ impl OpeningCandidates {
     }
 
     /// The still openings a chain's first opening is taken from at `at`.
-    pub fn at(&self, scene: &Scene, at: &Receiver) -> &[u16] {
+    pub fn at(&self, view: &View, at: &Receiver) -> &[u16] {
         let (cell, facing) = (self.cells.of(at.p), facing(at.n));
         let list = self.lists[cell * FACINGS + facing]
-            .get_or_init(|| self.build(scene, cell as u32, facing));
+            .get_or_init(|| self.build(view, cell as u32, facing));
         &list.openings[..list.len as usize]
     }
 
     /// The list of `cell` for `facing`: the still openings that begin the chains a whole
     /// search keeps at the cell's corners (with each of the facing's normals), by the largest
     /// share any of them gets there.
-    fn build(&self, scene: &Scene, cell: u32, facing: usize) -> Listed {
+    fn build(&self, view: &View, cell: u32, facing: usize) -> Listed {
         let (corner, size) = (self.cells.corner(cell), self.cells.size());
         let corners =
             (0..8u32).map(|k| Vec3::new((k & 1) as f32, (k >> 1 & 1) as f32, (k >> 2) as f32));
         let mut best: Vec<(u16, f32)> = Vec::new();
         let mut strategies = None;
         let normals = facing_normals(facing);
-        let depth = scene.settings.max_portal_depth;
         for (place, normal) in corners.flat_map(|c| normals.iter().map(move |&n| (c, n))) {
             let receiver = Receiver {
                 p: corner + size * place,
                 n: normal,
                 time: self.time,
             };
-            Strategies::search(&mut strategies, scene, &receiver, depth, None);
+            Strategies::search(&mut strategies, view, &receiver, None);
             for (chain, share) in strategies.iter().flat_map(Strategies::chains) {
                 let Some(first) = chain.openings().next() else {
                     continue;
                 };
-                if !scene.apertures.stands_still(first) {
+                if !view.survey.apertures.stands_still(first) {
                     continue;
                 }
                 match best.iter_mut().find(|(i, _)| *i as usize == first) {

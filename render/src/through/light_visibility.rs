@@ -1,6 +1,7 @@
 //! How much of ordinary light sampling's estimate is not blocked, on a coarse grid over the
 //! scene, to weigh it against light through openings; and, on the same cells, what light
 //! sampling through the openings is worth there, which tells where searching them pays.
+//! [`crate::prepare::visibility`] measures both.
 //!
 //! The light tree's estimate ignores occlusion: inside a closed room lit through a window, it
 //! still counts the sky and the lamps behind the walls, and light sampling through the window
@@ -22,22 +23,14 @@
 //! BSDF sampling then weighs what it finds through openings fully, as where light sampling
 //! does not look through them at all.
 
-use crate::integrator::probe_light;
-use crate::lights::emitters::Receiver;
-use crate::sampling::SampleStream;
-use crate::scene::Scene;
-use crate::through::strategies::Strategies;
-use glam::{UVec3, Vec2, Vec3};
-use rayon::prelude::*;
+#[cfg(doc)]
+use crate::through::Strategies;
+use glam::{UVec3, Vec3};
 
 /// Cells in the grid (about; its shape follows the scene's bounds). Fuzz builds, where
 /// sanitizers make each probe some thirty times dearer, probe a coarse grid: the same code
 /// runs, and an input no longer takes the fuzzer's whole timeout.
 const CELLS: f32 = if cfg!(fuzzing) { 64.0 } else { 8192.0 };
-/// Light samples traced from each cell.
-const PROBES: u32 = 32;
-/// The least share any cell reports.
-const FLOOR: f32 = 0.01;
 /// What light sampling through the openings must be worth in a cell (the mean
 /// [`Strategies::worth`] at its probe points) for shading points there to search them. On
 /// the room lit through a window (`rift bench through`) a tenth keeps the error as it was,
@@ -57,7 +50,7 @@ pub struct Cells {
 impl Cells {
     /// About [`CELLS`] cells over `bounds` (lower and upper corner); `None` for an infinite
     /// box.
-    fn new(bounds: [Vec3; 2]) -> Option<Self> {
+    pub fn new(bounds: [Vec3; 2]) -> Option<Self> {
         let [lower, upper] = bounds;
         let extent = (upper - lower).max(Vec3::splat(1e-3));
         let dims = grid_shape(extent)?;
@@ -105,25 +98,33 @@ pub struct LightVisibility {
     cells: Cells,
     share: Vec<f32>,
     /// Per cell, the mean [`Strategies::worth`] at its probe points; empty until measured
-    /// ([`Self::measure_worth`]).
+    /// ([`Self::with_worth`]).
     worth: Vec<f32>,
 }
 
 impl LightVisibility {
-    /// Probes `scene` over `bounds` (lower and upper corner), at times in `times`.
-    pub fn new(scene: &Scene, bounds: [Vec3; 2], times: [f64; 2]) -> Self {
-        let Some(cells) = Cells::new(bounds) else {
-            return Self::default();
-        };
-        let share = (0..cells.count() as u32)
-            .into_par_iter()
-            .map(|i| probe(scene, cells.corner(i), cells.size, times, i))
-            .collect();
+    /// The grid over `cells` with the unblocked `share` of each (numbered as
+    /// [`Cells::corner`] numbers them); every point searches the openings until
+    /// [`Self::with_worth`] says where that pays.
+    pub fn new(cells: Cells, share: Vec<f32>) -> Self {
+        debug_assert_eq!(share.len(), cells.count());
         Self {
             cells,
             share,
             worth: Vec::new(),
         }
+    }
+
+    /// No grid: ordinary light sampling counts in full everywhere, and every point searches.
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    /// The grid with what light sampling through the openings is worth in each cell (the mean
+    /// [`Strategies::worth`] at its probe points).
+    pub fn with_worth(self, worth: Vec<f32>) -> Self {
+        debug_assert_eq!(worth.len(), self.share.len());
+        Self { worth, ..self }
     }
 
     /// The grid's cells; `None` where there is no grid (an empty or infinite scene, or one
@@ -147,39 +148,6 @@ impl LightVisibility {
     pub fn worth_searching(&self, p: Vec3) -> bool {
         self.worth.is_empty() || self.worth[self.cells.of(p)] >= SEARCH_WORTH
     }
-
-    /// Measures, per cell, the mean [`Strategies::worth`] at its probe points in `scene`
-    /// (whose grid this is, with its openings' exits measured), over `times`. Until it is
-    /// set ([`Self::set_worth`]) every point searches.
-    pub fn measure_worth(scene: &Scene, times: [f64; 2]) -> Vec<f32> {
-        let grid = &scene.light_visibility;
-        let count = grid.share.len() as u32;
-        (0..count)
-            .into_par_iter()
-            .map(|i| grid.cell_worth(scene, i, times))
-            .collect()
-    }
-
-    /// Takes what [`Self::measure_worth`] measured.
-    pub fn set_worth(&mut self, worth: Vec<f32>) {
-        debug_assert_eq!(worth.len(), self.share.len());
-        self.worth = worth;
-    }
-
-    /// The mean [`Strategies::worth`] at [`PROBES`] points of cell `i` (no surface: every
-    /// opening in front of a point counts).
-    fn cell_worth(&self, scene: &Scene, i: u32, times: [f64; 2]) -> f32 {
-        let corner = self.cells.corner(i);
-        let mut stream = SampleStream::new(i, 0x0be5_ea7c);
-        let mut strategies = None;
-        let mut sum = 0.0f32;
-        for _ in 0..PROBES {
-            let receiver = random_point(&mut stream, corner, self.cells.size, times);
-            Strategies::update(&mut strategies, scene, &receiver);
-            sum += strategies.as_ref().map_or(0.0, Strategies::worth);
-        }
-        sum / PROBES as f32
-    }
 }
 
 /// Cells along each axis for a box of `extent`: about [`CELLS`] of them, as near cubes as
@@ -197,38 +165,6 @@ fn grid_shape(extent: Vec3) -> Option<UVec3> {
         side *= 1.25;
     }
     Some(count(side).as_uvec3())
-}
-
-/// The unblocked share of [`PROBES`] light samples from random points of the cell at
-/// `corner` with sides `size` (1 when none of them brings light).
-fn probe(scene: &Scene, corner: Vec3, size: Vec3, times: [f64; 2], cell: u32) -> f32 {
-    let mut stream = SampleStream::new(cell, 0x7153_11b5);
-    let (mut all, mut unblocked) = (0.0f64, 0.0f64);
-    for _ in 0..PROBES {
-        let receiver = random_point(&mut stream, corner, size, times);
-        let [u, v, _, _] = stream.uniform_4d();
-        // Ordinary light sampling, as next-event estimation draws it, and its shadow ray.
-        if let Some(probe) = probe_light(scene, &receiver, Vec2::new(u, v)) {
-            all += probe.weight;
-            unblocked += probe.weight * probe.transmitted;
-        }
-    }
-    if all > 0.0 {
-        ((unblocked / all) as f32).max(FLOOR)
-    } else {
-        1.0
-    }
-}
-
-/// A probe point drawn from `stream`: uniform in the cell at `corner` with sides `size`, at a
-/// uniform time in `times`, with no surface.
-fn random_point(stream: &mut SampleStream, corner: Vec3, size: Vec3, times: [f64; 2]) -> Receiver {
-    let [x, y, z, t] = stream.uniform_4d();
-    Receiver {
-        p: corner + size * Vec3::new(x, y, z),
-        n: None,
-        time: times[0] + (times[1] - times[0]) * t as f64,
-    }
 }
 
 #[cfg(test)]
@@ -259,7 +195,7 @@ mod tests {
 
     #[test]
     fn points_search_where_their_cell_is_worth_it_or_nothing_was_measured() {
-        let mut grid = LightVisibility {
+        let grid = LightVisibility {
             cells: Cells {
                 lower: Vec3::ZERO,
                 size: Vec3::ONE,
@@ -270,7 +206,7 @@ mod tests {
         };
         let (cell_0, cell_1) = (Vec3::splat(0.5), Vec3::new(1.5, 0.5, 0.5));
         assert!(grid.worth_searching(cell_0) && grid.worth_searching(cell_1));
-        grid.set_worth(vec![0.5 * SEARCH_WORTH, SEARCH_WORTH]);
+        let grid = grid.with_worth(vec![0.5 * SEARCH_WORTH, SEARCH_WORTH]);
         assert!(!grid.worth_searching(cell_0));
         assert!(grid.worth_searching(cell_1));
         // Beyond the grid, the nearest cell decides.

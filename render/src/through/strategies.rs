@@ -43,7 +43,7 @@
 //! alone, with full weight, as before.
 //!
 //! A chain's strategy draws most of its samples for the sky beyond on its first opening
-//! ([`crate::through::aperture`]) rather than on the sky, when the sky brings much of the light there:
+//! ([`crate::through::aperture_sampling`]) rather than on the sky, when the sky brings much of the light there:
 //! a window is a small part of the sky, so few of the sky's own samples pass it. The two are
 //! one strategy with a mixture density.
 //!
@@ -53,15 +53,13 @@
 //! teleport, 1 − opacity per opening passed). Estimates may be poor without bias: every path is
 //! still counted once.
 
-use crate::lights::emitters::{Receiver, luminance};
-use crate::portals::openings::Portals;
-use crate::prepare::exits::ExitLight;
-use crate::scene::Scene;
-use crate::through::aperture;
-use crate::through::aperture_tree::{ApertureTree, Bounds, Placed, Visitor};
+use crate::lights::Receiver;
+use crate::portals::Portals;
+use crate::through::View;
+use crate::through::aperture_sampling;
+use crate::through::aperture_tree::{Bounds, Visitor};
+use crate::through::apertures::{Aperture, Exit};
 use glam::{DQuat, DVec3, Vec3};
-use rift_fx::rig::Similarity;
-use std::borrow::Cow;
 use std::f64::consts::PI;
 
 /// The most openings in a row that light sampling looks through. Longer chains (a corridor of
@@ -124,7 +122,7 @@ pub struct Space {
     /// can only come from that side) and the time after the chain's offsets.
     pub receiver: Receiver,
     /// Probability that the strategy draws a point on the chain's first opening, for the sky
-    /// beyond ([`crate::through::aperture`]), rather than a light sample there: the sky's share of the
+    /// beyond ([`crate::through::aperture_sampling`]), rather than a light sample there: the sky's share of the
     /// light at the last exit, less where the openings fill much of the point's view (there
     /// the sky's own sampling finds them as often), and never above `MAX_APERTURE_SHARE`, so
     /// a sun behind a window is still sampled as a light.
@@ -158,7 +156,8 @@ impl Space {
     ) -> f32 {
         match sky {
             Some((at, dir)) if self.aperture > 0.0 => {
-                let aperture_pdf = aperture::pdf(portals, self.first(), at.time, at.p, dir);
+                let aperture_pdf =
+                    aperture_sampling::pdf(portals, self.first(), at.time, at.p, dir);
                 self.mixture(light_pdf, aperture_pdf)
             }
             _ => (1.0 - self.aperture) * light_pdf,
@@ -200,22 +199,22 @@ struct Kept {
 }
 
 impl Strategies {
-    /// Sets `slot` to the strategies at `at` (world space, at its time); `None` when there is
-    /// only ordinary light sampling: the scene turns light through openings off, has no
-    /// opening or no light, allows no teleport, light sampling through the openings is worth
-    /// too little around the point to search them
-    /// ([`crate::through::light_visibility::LightVisibility::worth_searching`]), or no opening can
-    /// bring light to the point. Where many openings compete, the first opening of a chain
+    /// Sets `slot` to the strategies at `at` (world space, at its time) in a scene whose
+    /// openings may bring light (`view`); `None` when there is only ordinary light sampling:
+    /// light sampling through the openings is worth too little around the point to search them
+    /// ([`crate::through::light_visibility::LightVisibility::worth_searching`]), or no opening
+    /// can bring light to the point. Where many openings compete, the first opening of a chain
     /// is one of the point's candidates ([`crate::through::candidates`]).
     ///
     /// It fills the caller's slot rather than returning the table because the compiler copies
     /// a returned table even when it is `None` (when the table held whole spaces, half a
     /// kilobyte, that was 10% of the Cornell box's render time).
     #[inline]
-    pub fn update(slot: &mut Option<Self>, scene: &Scene, at: &Receiver) {
-        if scene.light_through_openings_possible() && scene.light_visibility.worth_searching(at.p) {
-            let listed = scene.opening_candidates.as_ref().map(|c| c.at(scene, at));
-            Self::search(slot, scene, at, scene.settings.max_portal_depth, listed);
+    pub fn update(slot: &mut Option<Self>, view: &View, at: &Receiver) {
+        let survey = view.survey;
+        if survey.visibility.worth_searching(at.p) {
+            let listed = survey.candidates.as_ref().map(|c| c.at(view, at));
+            Self::search(slot, view, at, listed);
         } else {
             *slot = None;
         }
@@ -225,9 +224,8 @@ impl Strategies {
     /// the chains' first openings among `listed` (and the moving ones) when given, else all.
     pub(crate) fn search(
         slot: &mut Option<Self>,
-        scene: &Scene,
+        view: &View,
         at: &Receiver,
-        max_depth: u32,
         listed: Option<&[u16]>,
     ) {
         let table = slot.insert(Self {
@@ -235,9 +233,9 @@ impl Strategies {
             at: *at,
             kept: [None; MAX_SPACES],
         });
-        let depth = CHAIN_DEPTH.min(max_depth as usize);
-        let direct = scene.lights.importance(at) * scene.light_visibility.at(at.p);
-        table.extend(scene, &Reach::start(at), depth, direct, listed);
+        let depth = CHAIN_DEPTH.min(view.max_depth as usize);
+        let direct = view.lights.importance(at) * view.survey.visibility.at(at.p);
+        table.extend(view, &Reach::start(at), depth, direct, listed);
         if !table.normalise(direct) {
             *slot = None;
         }
@@ -245,13 +243,13 @@ impl Strategies {
 
     /// Keeps the chains that extend `from` by one opening, and by up to `depth` − 1 more
     /// where they may bring enough beside the point's `direct` estimate ([`DEEPER_SHARE`]).
-    /// The openings come through [`ApertureTree`], which skips those whose bounds show they
+    /// The openings come through [`crate::through::aperture_tree::ApertureTree`], which skips those whose bounds show they
     /// could not change what is kept. The longer chains are searched once this level's are
     /// kept, the most promising first, so that their searches skip what cannot beat those.
     /// With `listed`, this level takes those still openings rather than the tree's.
     fn extend(
         &mut self,
-        scene: &Scene,
+        view: &View,
         from: &Reach,
         depth: usize,
         direct: f32,
@@ -264,7 +262,7 @@ impl Strategies {
             .map(|exit| ExitCone::new(exit, from.point));
         let mut search = Search {
             table: self,
-            scene,
+            view,
             from,
             cone: cone.as_ref(),
             depth,
@@ -272,19 +270,19 @@ impl Strategies {
             deeper: [None; MAX_SPACES],
         };
         match listed {
-            Some(listed) => scene.apertures.tree.visit_listed(listed, &mut search),
-            None => scene.apertures.tree.visit(&mut search),
+            Some(listed) => view.survey.apertures.tree.visit_listed(listed, &mut search),
+            None => view.survey.apertures.tree.visit(&mut search),
         }
         let deeper = search.deeper;
         for (bound, i, solid_angle) in deeper.into_iter().flatten() {
             if !self.would_keep(bound, direct) {
                 continue;
             }
-            let (portals, apertures) = (&scene.portals, &scene.apertures);
+            let (portals, apertures) = (view.portals, &view.survey.apertures);
             let aperture = apertures.get(portals, i as usize, from.time);
             let exit_time = portals.exit_time(i as usize, from.time);
             let reach = from.beyond(&aperture, i as usize, exit_time, solid_angle);
-            self.extend(scene, &reach, depth - 1, direct, None);
+            self.extend(view, &reach, depth - 1, direct, None);
         }
     }
 
@@ -354,7 +352,7 @@ impl Strategies {
 
     /// Picks a strategy with `u` in [0, 1): `None` is ordinary light sampling, else the space
     /// beyond the chain picked. Returns its probability too.
-    pub fn pick(&self, scene: &Scene, u: f32) -> (Option<Space>, f32) {
+    pub fn pick(&self, view: &View, u: f32) -> (Option<Space>, f32) {
         let mut below = self.direct;
         if u < below || self.kept[0].is_none() {
             return (None, self.direct);
@@ -368,14 +366,14 @@ impl Strategies {
             }
         }
         match last {
-            Some((kept, q)) => (Some(self.space(scene, kept)), q),
+            Some((kept, q)) => (Some(self.space(view, kept)), q),
             None => (None, self.direct),
         }
     }
 
     /// The probability of the strategy that samples light through `chain` (ordinary light
     /// sampling for an empty chain), with its space; 0 when no strategy does.
-    pub fn find(&self, scene: &Scene, chain: &Chain) -> (f32, Option<Space>) {
+    pub fn find(&self, view: &View, chain: &Chain) -> (f32, Option<Space>) {
         if *chain == Chain::default() {
             return (self.direct, None);
         }
@@ -383,13 +381,13 @@ impl Strategies {
             .iter()
             .flatten()
             .find(|(kept, _)| kept.chain == *chain)
-            .map_or((0.0, None), |(kept, q)| (*q, Some(self.space(scene, kept))))
+            .map_or((0.0, None), |(kept, q)| (*q, Some(self.space(view, kept))))
     }
 
     /// The space beyond a kept chain: the shading point taken through its openings as a
     /// teleport takes it, at each opening's time.
-    fn space(&self, scene: &Scene, kept: &Kept) -> Space {
-        let (portals, apertures) = (&scene.portals, &scene.apertures);
+    fn space(&self, view: &View, kept: &Kept) -> Space {
+        let (portals, apertures) = (view.portals, &view.survey.apertures);
         let mut reach = Reach::start(&self.at);
         for i in kept.chain.openings() {
             let aperture = apertures.get(portals, i, reach.time);
@@ -410,10 +408,10 @@ impl Strategies {
 }
 
 /// One level of the strategy search: the chains that extend `from` by one opening, taken
-/// from the [`ApertureTree`] into `table`.
+/// from the [`crate::through::aperture_tree::ApertureTree`] into `table`.
 struct Search<'a> {
     table: &'a mut Strategies,
-    scene: &'a Scene,
+    view: &'a View<'a>,
     from: &'a Reach,
     cone: Option<&'a ExitCone>,
     depth: usize,
@@ -490,14 +488,14 @@ impl Visitor for Search<'_> {
     /// beyond it where longer chains could bring enough and be kept.
     fn opening(&mut self, i: usize) {
         let Self {
-            scene,
+            view,
             from,
             cone,
             depth,
             direct,
             ..
         } = *self;
-        let (portals, apertures) = (&scene.portals, &scene.apertures);
+        let (portals, apertures) = (view.portals, &view.survey.apertures);
         let aperture = apertures.get(portals, i, from.time);
         let Some(solid_angle) = from.sees(&aperture, cone) else {
             return;
@@ -623,16 +621,6 @@ impl Reach {
     }
 }
 
-/// Where rays leave the last opening of a chain.
-#[derive(Clone, Copy)]
-struct Exit {
-    centre: DVec3,
-    /// Bounding radius of its mask.
-    radius: f64,
-    /// Unit direction rays leave in.
-    leaving: DVec3,
-}
-
 /// The directions from a point through an exit's bounding sphere: a cone.
 struct ExitCone {
     exit: Exit,
@@ -670,228 +658,5 @@ impl ExitCone {
         let sin_b = radius / d;
         let cos_b = (1.0 - sin_b * sin_b).sqrt();
         axis.dot(to) / d >= cos_a * cos_b - sin_a * sin_b
-    }
-}
-
-/// The openings as the strategy search sees them, built once per scene.
-pub struct Apertures {
-    /// Per opening that stands still (a moving one's is built at each ray's time).
-    still: Vec<Option<Aperture>>,
-    /// What each opening's exit passes on, measured once the scene is built
-    /// ([`crate::prepare::exits`]); until then nothing, so no chain is weighed.
-    exits: Vec<ExitLight>,
-    /// Each opening's opacity × luminance of tint (0 where light sampling does not look
-    /// through it).
-    factors: Vec<f32>,
-    /// Per opening, the most light (times their factor) that the exit of any opening a ray
-    /// can meet beyond it passes on: what bounds the chains that one more opening would add
-    /// ([`brightest_beyond`]).
-    beyond: Vec<f32>,
-    /// The usable openings as the search visits them.
-    tree: ApertureTree,
-}
-
-impl Apertures {
-    pub fn new(portals: &Portals) -> Self {
-        let times = portals.times();
-        let still: Vec<Option<Aperture>> = (0..portals.len())
-            .map(|i| (!portals.opening_moves(i)).then(|| Aperture::new(portals, i, times[0])))
-            .collect();
-        let factors: Vec<f32> = (0..portals.len())
-            .map(|i| light_factor(portals, i))
-            .collect();
-        let usable = (0..portals.len()).filter(|&i| factors[i] > 0.0);
-        let (placed, moving) =
-            usable.fold((Vec::new(), Vec::new()), |(mut placed, mut moving), i| {
-                match &still[i] {
-                    Some(a) => placed.push(Placed {
-                        opening: i as u32,
-                        centre: a.centre,
-                        radius: a.radius,
-                        area: a.area,
-                    }),
-                    None => moving.push(i as u32),
-                }
-                (placed, moving)
-            });
-        let nothing = ExitLight {
-            light: 0.0,
-            sky_share: 0.0,
-        };
-        Self {
-            still,
-            exits: vec![nothing; portals.len()],
-            factors,
-            beyond: vec![0.0; portals.len()],
-            tree: ApertureTree::new(placed, moving),
-        }
-    }
-
-    /// Makes the strategy search walk every opening, without the tree's bounds: what the
-    /// bounds must not change (for tests).
-    #[doc(hidden)]
-    pub fn search_every_opening(&mut self) {
-        self.tree = self.tree.flattened();
-    }
-
-    /// True when opening `i` stands still.
-    pub fn stands_still(&self, i: usize) -> bool {
-        self.still.get(i).is_some_and(Option::is_some)
-    }
-
-    /// How many openings stand still and can be sampled through.
-    pub fn still_count(&self) -> usize {
-        self.tree.still_count()
-    }
-
-    /// What each opening's exit passes on, as the strategy search weighs it.
-    pub fn exits(&self) -> &[ExitLight] {
-        &self.exits
-    }
-
-    /// The pairs of usable still openings (from, to) placed so that a ray leaving `from`'s
-    /// exit could meet `to` (see [`brightest_beyond`]), for rays to test whether walls stand
-    /// between ([`crate::prepare::exits::walled_off`]); none past [`WALL_TEST_PAIRS`] pairs.
-    pub fn facing_pairs(&self) -> Vec<(u32, u32)> {
-        let n = self.still.len();
-        if n * n > WALL_TEST_PAIRS {
-            return Vec::new();
-        }
-        let usable = |i: usize| self.factors[i] > 0.0;
-        let mut pairs = Vec::new();
-        for (i, from) in self.still.iter().enumerate().filter(|&(i, _)| usable(i)) {
-            let Some(from) = from else {
-                continue;
-            };
-            for (j, to) in self.still.iter().enumerate().filter(|&(j, _)| usable(j)) {
-                if to.as_ref().is_some_and(|to| can_meet(from, to)) {
-                    pairs.push((i as u32, j as u32));
-                }
-            }
-        }
-        pairs
-    }
-
-    /// Takes each opening's exit as measured ([`crate::prepare::exits::measure`]), and the pairs
-    /// of [`Self::facing_pairs`] that rays found walled off.
-    pub fn set_exits(&mut self, exits: Vec<ExitLight>, walled_off: &[(u32, u32)]) {
-        debug_assert_eq!(exits.len(), self.exits.len());
-        let light: Vec<f32> = (0..exits.len())
-            .map(|i| exits[i].light * self.factors[i])
-            .collect();
-        self.beyond = brightest_beyond(&self.still, &light, walled_off);
-        self.tree
-            .set_light(|i| (light[i], self.factors[i] * self.beyond[i]));
-        self.exits = exits;
-    }
-
-    /// Opening `i` at `time`, borrowed where it stands still (copying it costs more
-    /// than the test that reads it).
-    #[inline]
-    fn get(&self, portals: &Portals, i: usize, time: f64) -> Cow<'_, Aperture> {
-        match &self.still[i] {
-            Some(still) => Cow::Borrowed(still),
-            None => Cow::Owned(Aperture::new(portals, i, time)),
-        }
-    }
-}
-
-/// Per opening, the most of `light` (each opening's factor × what its exit passes on) among
-/// the openings a ray leaving its exit could meet: those whose disk reaches in front of the
-/// exit ([`can_meet`]) and that rays did not find `walled_off` from it. An opening in the
-/// exit's own wall cannot be met (rays leave that plane), so a room's windows do not promise
-/// each other's light, nor the windows of a room beyond walls. Openings that move promise
-/// theirs to all, and past [`BEYOND_PAIRS`] pairs every opening promises the brightest exit.
-fn brightest_beyond(
-    still: &[Option<Aperture>],
-    light: &[f32],
-    walled_off: &[(u32, u32)],
-) -> Vec<f32> {
-    let brightest = light.iter().copied().fold(0.0, f32::max);
-    if still.len() * still.len() > BEYOND_PAIRS {
-        return vec![brightest; still.len()];
-    }
-    let walled_off: std::collections::HashSet<(u32, u32)> = walled_off.iter().copied().collect();
-    let reachable = |i: usize, from: &Aperture, j: usize, to: &Option<Aperture>| match to {
-        None => true,
-        Some(to) => can_meet(from, to) && !walled_off.contains(&(i as u32, j as u32)),
-    };
-    (still.iter().enumerate())
-        .map(|(i, from)| match from {
-            None => brightest,
-            Some(from) => (still.iter().zip(light).enumerate())
-                .filter(|(j, (to, _))| reachable(i, from, *j, to))
-                .fold(0.0f32, |most, (_, (_, &l))| most.max(l)),
-        })
-        .collect()
-}
-
-/// True when `to`'s disk reaches in front of `from`'s exit, where a ray leaving the exit
-/// could meet it.
-fn can_meet(from: &Aperture, to: &Aperture) -> bool {
-    let exit = &from.exit;
-    let tilt = (1.0 - to.front.dot(exit.leaving).powi(2)).max(0.0).sqrt();
-    let offset = to.centre - exit.centre;
-    // Openings in the exit's plane up to rounding count as in it.
-    offset.dot(exit.leaving) + to.radius * tilt > 1e-9 * (offset.length() + to.radius)
-}
-
-/// The most pairs of openings tested with rays for walls between them
-/// ([`Apertures::facing_pairs`]): 256 openings.
-const WALL_TEST_PAIRS: usize = 1 << 16;
-
-/// The most pairs of openings [`brightest_beyond`] tests.
-const BEYOND_PAIRS: usize = 1 << 24;
-
-/// One opening at one time: what deciding whether light can come through it needs.
-#[derive(Clone)]
-struct Aperture {
-    /// Opacity × luminance of tint; 0 when light sampling does not look through it (an ior
-    /// other than 1, opaque or black).
-    factor: f32,
-    centre: DVec3,
-    /// Unit normal of the front (rays going against it teleport).
-    front: DVec3,
-    /// Bounding radius and area of the teleport region, in world units.
-    radius: f64,
-    area: f64,
-    /// The teleport of rays that meet it (to the exit time).
-    teleport: Similarity,
-    exit: Exit,
-}
-
-/// Opacity × luminance of tint of opening `i`; 0 when light sampling does not look through it
-/// (an ior other than 1, opaque or black).
-fn light_factor(portals: &Portals, i: usize) -> f32 {
-    let look = portals.look(i);
-    let usable = look.ior == 1.0 && look.opacity > 0.0 && look.tint != Vec3::ZERO;
-    if usable {
-        look.opacity * luminance(look.tint)
-    } else {
-        0.0
-    }
-}
-
-impl Aperture {
-    fn new(portals: &Portals, i: usize, time: f64) -> Self {
-        // Each frame evaluated once (a moving opening interpolates its keys for each): the
-        // teleport is P_T at the exit time ∘ P_H⁻¹.
-        let here = portals.here(i, time);
-        let there = portals.there(i, portals.exit_time(i, time));
-        let teleport = there.compose(&here.inverse());
-        let mask = portals.mask(i);
-        Self {
-            factor: light_factor(portals, i),
-            centre: here.translation,
-            front: here.transform_direction(DVec3::Z),
-            radius: mask.bounding_radius() * here.scale,
-            area: mask.area() * here.scale * here.scale,
-            teleport,
-            exit: Exit {
-                centre: there.translation,
-                radius: mask.bounding_radius() * there.scale,
-                leaving: there.transform_direction(-DVec3::Z),
-            },
-        }
     }
 }

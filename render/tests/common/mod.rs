@@ -4,7 +4,8 @@
 use glam::{DVec3, Vec3, Vec4};
 use rift_render::Scene;
 use rift_render::frame::film::{Image, relative_mse};
-use rift_render::frame::passes::{RenderOptions, render};
+use rift_render::frame::{RenderOptions, render};
+use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use std::path::Path;
 
@@ -18,11 +19,11 @@ pub fn render_shot_with(dir: &Path, name: &str, text: &str, spp: u32, seed: Opti
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, text).unwrap();
     let shot = Shot::load(&path).unwrap();
-    let mut scene = Scene::build(&shot, 1).unwrap();
+    let mut scene = Scene::load(&shot, 1).unwrap();
     if let Some(seed) = seed {
         scene.settings.seed = seed;
     }
-    render(&scene, &RenderOptions::new(spp))
+    render(&Prepared::new(scene), &RenderOptions::new(spp))
 }
 
 /// A square facing +Z at depth `z`, half size `h`, as OBJ text.
@@ -172,12 +173,12 @@ pub fn equivalence(variant: &str, adjust: impl Fn(&mut Shot)) {
     );
     let spp = 32;
     let render_with = |shot: &Shot, seed: u32, clip: bool| {
-        let mut scene = Scene::build(shot, frame).unwrap();
+        let mut scene = Scene::load(shot, frame).unwrap();
         scene.settings.seed = seed;
         if clip {
             scene.clip.world_planes.push(keep_front);
         }
-        render(&scene, &RenderOptions::new(spp))
+        render(&Prepared::new(scene), &RenderOptions::new(spp))
     };
     let through = render_with(&shot, 0, false);
     let through_again = render_with(&shot, 3, false);

@@ -2,10 +2,12 @@
 //! shading normal turned towards the outgoing direction, so wo.z > 0 always; which side of the
 //! surface that is ([`Side`]) sets the relative index of refraction.
 
+pub mod multiscatter;
+
+use crate::material::bsdf::multiscatter::Multiscatter;
 use crate::material::microfacet::{
     ConductorFresnel, Ggx, SMOOTH_ALPHA, fresnel_dielectric, reflect, refract,
 };
-use crate::material::multiscatter::Multiscatter;
 use crate::media::homogeneous::{henyey_greenstein, sample_henyey_greenstein};
 use crate::sampling::cosine_hemisphere;
 use glam::{Vec2, Vec3};
@@ -534,7 +536,7 @@ mod tests {
     /// roughness, and a coloured one keeps more than without it.
     #[test]
     fn compensated_conductors_keep_their_energy() {
-        use crate::material::multiscatter::directional_albedo;
+        use crate::material::bsdf::multiscatter::directional_albedo;
         for roughness in [0.2f32, 0.5, 0.8, 1.0] {
             let fresnel = ConductorFresnel::Schlick(Vec3::ONE);
             let ggx = Ggx::from_roughness(roughness);
