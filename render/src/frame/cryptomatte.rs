@@ -16,7 +16,7 @@ pub const RANKS: usize = 6;
 /// The layer's name; its key is the first seven hex digits of its hash.
 const LAYER: &str = "CryptoObject";
 /// No object (the sky, a medium, an opening at the depth limit).
-pub const NONE: u32 = u32::MAX;
+pub const NONE: u32 = crate::scene::NO_OBJECT;
 
 /// MurmurHash3, x86, 32 bits.
 pub fn murmur3_32(bytes: &[u8], seed: u32) -> u32 {

@@ -142,6 +142,10 @@ pub fn scene_bytes(triangles: usize) -> u64 {
     (triangles as u64).saturating_mul(PER_TRIANGLE)
 }
 
+/// The object index of no object (the sky, a medium, an opening at the depth limit), beside
+/// the indices of [`Scene::id_names`].
+pub const NO_OBJECT: u32 = u32::MAX;
+
 /// What a ray met: a triangle or a ring's strand.
 #[derive(Clone, Copy, Debug)]
 pub enum SceneHit {

@@ -1,0 +1,302 @@
+//! Next-event estimation: one light sample for a shading point, drawn by ordinary light
+//! sampling or in the space beyond a chain of openings ([`crate::through`]), its shadow ray
+//! traced ([`super::shadow`]), weighed against BSDF sampling by MIS.
+
+use super::shadow::{ShadowEnd, plain_shadow, shadow};
+use super::{Context, LightRecord, Recorder};
+use crate::geometry::{offset_origin, offset_target};
+use crate::lights::emitters::{LightPlace, LightSample, LightSource, Receiver};
+use crate::material::bsdf::{Bsdf, Side};
+use crate::portals::visibility::RayClass;
+use crate::sampling::{Frame, power_heuristic};
+use crate::scene::Scene;
+use crate::through::aperture_sampling;
+use crate::through::{Chain, Space};
+use glam::Vec3;
+
+/// A surface point being shaded, as next-event estimation needs it.
+pub(super) struct Shading<'a> {
+    /// The point, with its normal when it only reflects.
+    pub(super) receiver: &'a Receiver,
+    /// Geometric normal.
+    pub(super) ng: Vec3,
+    /// Shading frame (around the normal on the side the path arrived from).
+    pub(super) frame: &'a Frame,
+    /// Direction towards where the path came from, local.
+    pub(super) wo: Vec3,
+    pub(super) bsdf: &'a Bsdf,
+    pub(super) side: Side,
+}
+
+/// Next-event estimation: light arriving at `at` (at its time) from one sample drawn with `u`
+/// and `u_technique`, in the space beyond the openings of `space` (`None`: ordinary light
+/// sampling), the strategy picked with probability `q`; MIS weighted against BSDF sampling
+/// (power heuristic), before the path throughput. `FULL` as for [`scatter_at`].
+pub(super) fn next_event<const FULL: bool, R: Recorder>(
+    ctx: &Context,
+    at: &Shading,
+    space: Option<&Space>,
+    q: f32,
+    u: glam::Vec2,
+    u_technique: f32,
+    recorder: &mut R,
+) -> (Vec3, u8) {
+    const NONE: (Vec3, u8) = (Vec3::ZERO, 0);
+    if q <= 0.0 {
+        return NONE;
+    }
+    // Training paths record every light sample (see `crate::prepare::training`), out of line:
+    // the emitter a sample took is found again from `u` (none for a point on an opening's
+    // aperture).
+    let mut learn = |value: f32| {
+        if FULL && R::RECORDS {
+            let on_aperture = space.is_some_and(|s| u_technique < s.aperture);
+            let receiver = space.map_or(at.receiver, |s| &s.receiver);
+            record_light_sample(ctx, receiver, (!on_aperture).then_some(u), value, recorder);
+        }
+    };
+    let Some(incoming) = incoming(ctx, at.receiver, space, u, u_technique) else {
+        learn(0.0);
+        return NONE;
+    };
+    let wi = at.frame.to_local(incoming.dir);
+    let f = at.bsdf.eval(at.wo, wi, at.side);
+    if f == Vec3::ZERO {
+        learn(0.0);
+        return NONE;
+    }
+    // The shadow ray leaves from the side of the surface it goes to.
+    let ng = at.ng;
+    let dir = incoming.dir;
+    let from = offset_origin(at.receiver.p, if dir.dot(ng) > 0.0 { ng } else { -ng });
+    let visible = if FULL {
+        let chain = space.map_or(Chain::default(), |s| s.chain);
+        shadow(ctx, &chain, from, dir, incoming.end, at.receiver.time)
+    } else {
+        plain_shadow(ctx, from, dir, incoming.end, at.receiver.time)
+    };
+    let Some((tint, coins)) = visible else {
+        learn(0.0);
+        return NONE;
+    };
+    let pdf_light = q * incoming.pdf;
+    let weight = if incoming.bsdf_can_find {
+        power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side) * coins)
+    } else {
+        1.0
+    };
+    if FULL && R::RECORDS {
+        // What light sampling must bring: its MIS weight leaves out what BSDF sampling finds
+        // well (a wide sky, a big lamp close by).
+        let brought = f * incoming.radiance * tint * (weight * coins / incoming.pdf);
+        learn(crate::color::luminance(brought));
+    }
+    let light = f * incoming.radiance * tint * (weight * coins / pdf_light);
+    (light, incoming.group)
+}
+
+/// One sample of light that may reach a point, before its shadow ray.
+pub(crate) struct Incoming {
+    /// Unit direction at the point.
+    pub dir: Vec3,
+    pub radiance: Vec3,
+    /// Where the shadow ray must reach (off the emitter's surface, beyond the openings).
+    pub end: ShadowEnd,
+    /// Solid-angle pdf (of all the strategy's techniques that could draw it).
+    pub pdf: f32,
+    /// False when rays that scatter cannot see the emitter, so BSDF sampling cannot find it.
+    bsdf_can_find: bool,
+    /// The light group of the emitter.
+    pub group: u8,
+}
+
+/// Records a training path's light sample at `receiver` (where light selection saw it), drawn
+/// with `u` from the light sampler (`None`: on an opening's aperture), which brought `value`
+/// (luminance over its density, shadow ray included).
+#[cold]
+#[inline(never)]
+fn record_light_sample<R: Recorder>(
+    ctx: &Context,
+    receiver: &Receiver,
+    u: Option<glam::Vec2>,
+    value: f32,
+    recorder: &mut R,
+) {
+    let lights = &ctx.lights;
+    recorder.light_sample(LightRecord {
+        receiver: *receiver,
+        took: u.and_then(|u| lights.picked(u, receiver, &ctx.scene.strands)),
+        value,
+    });
+}
+
+/// Draws light for `at` with the strategy of `space` (`None`: ordinary light sampling): a
+/// point on its first opening for the sky beyond when `u_technique` falls in its aperture
+/// share, else a light sample as seen from `at`'s image beyond the chain.
+#[inline]
+pub(crate) fn incoming(
+    ctx: &Context,
+    at: &Receiver,
+    space: Option<&Space>,
+    u: glam::Vec2,
+    u_technique: f32,
+) -> Option<Incoming> {
+    if let Some(space) = space
+        && u_technique < space.aperture
+    {
+        return sky_through_aperture(ctx, at, space, u);
+    }
+    // The point light selection sees: the shading point, or its image beyond the openings.
+    let receiver = space.map_or(at, |s| &s.receiver);
+    let time = receiver.time;
+    let light = ctx.lights.sample(
+        u,
+        receiver,
+        |e| ctx.scene.world_triangle(e.triangle, e.instance, time),
+        &ctx.scene.strands,
+    )?;
+    let arrival = arrival(ctx, &light, receiver)?;
+    match space {
+        None => Some(arrival),
+        Some(space) => Some(brought_back(ctx, at, space, arrival)),
+    }
+}
+
+/// One ordinary light sample for `at`, traced with its shadow ray, as the scene's
+/// measurements draw them ([`crate::through::light_visibility`], [`crate::prepare::exits`]); `None` when
+/// it brings nothing.
+pub fn probe_light(scene: &Scene, at: &Receiver, u: glam::Vec2) -> Option<Probe> {
+    let ctx = &Context::plain(scene);
+    let light = incoming(ctx, at, None, u, 0.0)?;
+    let weight = (crate::color::luminance(light.radiance) / light.pdf) as f64;
+    if !weight.is_finite() || weight <= 0.0 {
+        return None;
+    }
+    let none = Chain::default();
+    let transmitted = shadow(ctx, &none, at.p, light.dir, light.end, at.time)
+        .map_or(0.0, |(_, coins)| coins as f64);
+    Some(Probe {
+        dir: light.dir,
+        weight,
+        transmitted,
+        sky: light.end.target.is_none(),
+    })
+}
+
+/// What [`probe_light`] found.
+pub struct Probe {
+    /// Unit direction at the point.
+    pub dir: Vec3,
+    /// Luminance over solid-angle pdf.
+    pub weight: f64,
+    /// The share of it the shadow ray lets through (0 when blocked).
+    pub transmitted: f64,
+    /// It came from the environment.
+    pub sky: bool,
+}
+
+/// A light sample drawn beyond the chain of `space`, as it arrives at the shading point `at`.
+/// Kept out of line, with [`sky_through_aperture`]: scenes without openings never run them,
+/// and inlined they slowed the Cornell box by 2%.
+#[inline(never)]
+fn brought_back(ctx: &Context, at: &Receiver, space: &Space, arrival: Incoming) -> Incoming {
+    let dir = space.direction_back(arrival.dir);
+    let sky = arrival.end.target.is_none().then_some((at, dir));
+    Incoming {
+        dir,
+        pdf: space.density(&ctx.scene.portals, arrival.pdf, sky),
+        ..arrival
+    }
+}
+
+/// The sky beyond the chain of `space`, in the direction of a uniform point on its first
+/// opening.
+#[inline(never)]
+fn sky_through_aperture(
+    ctx: &Context,
+    at: &Receiver,
+    space: &Space,
+    u: glam::Vec2,
+) -> Option<Incoming> {
+    let sky = ctx.scene.lights.environment.as_ref()?;
+    let (dir, pdf_aperture) =
+        aperture_sampling::sample(&ctx.scene.portals, space.first(), at.time, at.p, u)?;
+    let beyond = space.direction_beyond(dir);
+    let pdf_light = ctx.lights.pdf_environment(beyond, &space.receiver);
+    Some(Incoming {
+        dir,
+        radiance: sky.radiance(beyond),
+        end: ShadowEnd::SKY,
+        pdf: space.mixture(pdf_light, pdf_aperture),
+        bsdf_can_find: true,
+        group: ctx.scene.environment_group,
+    })
+}
+
+/// How `light` reaches `at`: its direction, target and solid-angle pdf there; `None` when it
+/// sends nothing that way (its back, or culled).
+#[inline]
+fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming> {
+    let time = at.time;
+    let (bsdf_can_find, group) = match light.place {
+        LightPlace::Point {
+            source: LightSource::Triangle(triangle),
+            ..
+        } => (
+            ctx.scene.visibility.sees(triangle, RayClass::Indirect),
+            ctx.scene.triangle_light_group(triangle),
+        ),
+        LightPlace::Point {
+            source: LightSource::Strand(segment),
+            ..
+        } => (
+            ctx.scene.strand_sees(segment, RayClass::Indirect),
+            ctx.scene.strand_light_group(segment),
+        ),
+        LightPlace::Direction(_) => (true, ctx.scene.environment_group),
+    };
+    match light.place {
+        LightPlace::Direction(dir) => Some(Incoming {
+            dir,
+            radiance: light.radiance,
+            end: ShadowEnd::SKY,
+            pdf: light.pdf,
+            bsdf_can_find,
+            group,
+        }),
+        LightPlace::Point {
+            point,
+            normal,
+            two_sided,
+            source,
+        } => {
+            if let LightSource::Triangle(triangle) = source
+                && ctx.scene.visibility.culled(triangle, point, time)
+            {
+                return None;
+            }
+            let cos_raw = (at.p - point).dot(normal);
+            if !(cos_raw > 0.0 || (two_sided && cos_raw < 0.0)) {
+                return None;
+            }
+            let light_side = if cos_raw > 0.0 { normal } else { -normal };
+            let to = point - at.p;
+            let dist2 = to.length_squared();
+            let dir = to / dist2.sqrt();
+            Some(Incoming {
+                dir,
+                radiance: light.radiance,
+                end: ShadowEnd {
+                    target: Some(offset_target(point, light_side)),
+                    strand: match source {
+                        LightSource::Strand(segment) => Some(segment),
+                        LightSource::Triangle(_) => None,
+                    },
+                },
+                pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
+                bsdf_can_find,
+                group,
+            })
+        }
+    }
+}
