@@ -13,7 +13,7 @@ mod common;
 
 use common::{rift, root, stderr};
 use glam::{DVec3, Vec3};
-use rift_render::frame::film::read_exr_rgb;
+use rift_render::texture::read_exr_rgb;
 use serde::Deserialize;
 use std::path::Path;
 

@@ -55,7 +55,7 @@ fn same_seed_gives_identical_pixels_for_any_thread_count() {
         );
         assert!(r.status.success(), "{}", stderr(&r));
         images.push(
-            rift_render::frame::film::read_exr_rgb(&dir.path().join(out))
+            rift_render::texture::read_exr_rgb(&dir.path().join(out))
                 .unwrap()
                 .2,
         );
@@ -76,7 +76,7 @@ fn same_seed_gives_identical_pixels_for_any_thread_count() {
         ],
     );
     assert!(r.status.success());
-    let other = rift_render::frame::film::read_exr_rgb(&dir.path().join("other.exr"))
+    let other = rift_render::texture::read_exr_rgb(&dir.path().join("other.exr"))
         .unwrap()
         .2;
     assert!(other != images[0]);
@@ -193,8 +193,7 @@ fn resolution_override_and_png_preview() {
         ],
     );
     assert!(r.status.success(), "{}", stderr(&r));
-    let (w, h, _) =
-        rift_render::frame::film::read_exr_rgb(&dir.path().join("img.0001.exr")).unwrap();
+    let (w, h, _) = rift_render::texture::read_exr_rgb(&dir.path().join("img.0001.exr")).unwrap();
     assert_eq!((w, h), (40, 30));
     let png = std::fs::read(dir.path().join("img.0001.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
@@ -716,8 +715,7 @@ fn a_stereo_shot_renders_both_eyes_in_one_command() {
     };
     assert_eq!(view("img.left.0001.exr").as_deref(), Some("left"));
     assert_eq!(view("img.right.0001.exr").as_deref(), Some("right"));
-    let read =
-        |name: &str| rift_render::frame::film::read_exr_rgb(&dir.path().join("out").join(name));
+    let read = |name: &str| rift_render::texture::read_exr_rgb(&dir.path().join("out").join(name));
     assert_ne!(
         read("img.left.0001.exr").unwrap().2,
         read("img.right.0001.exr").unwrap().2
@@ -789,8 +787,7 @@ fn ring_point_clouds_render_as_their_cache_does() {
         let r = render(rings, out);
         assert!(r.status.success(), "{rings}: {}", stderr(&r));
     }
-    let read =
-        |name: &str| rift_render::frame::film::read_exr_rgb(&dir.path().join("out").join(name));
+    let read = |name: &str| rift_render::texture::read_exr_rgb(&dir.path().join("out").join(name));
     let (cache, ply) = (read("cache.exr").unwrap().2, read("ply.exr").unwrap().2);
     assert_eq!(
         cache, ply,

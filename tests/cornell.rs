@@ -6,7 +6,8 @@ mod common;
 
 use common::{cornell_dir, rift, root, stderr};
 use glam::DVec3;
-use rift_render::frame::film::{channel_mean, read_exr_rgb, relative_mse};
+use rift_render::frame::film::{channel_mean, relative_mse};
+use rift_render::texture::read_exr_rgb;
 use std::path::PathBuf;
 
 fn reference() -> PathBuf {

@@ -10,6 +10,7 @@
 //! - [`platform`]: processor features, huge pages, cache prefetch; [`color`]: luminance.
 //! - [`sampling`]: sample numbers (Sobol, hashing) and warps.
 //! - [`geometry`]: rays, triangles, round curves, BVHs, motion.
+//! - [`texture`]: images read within bounds.
 //! - [`material`], [`media`]: BSDFs; participating media and density grids.
 //! - [`portals`]: openings, their masks and teleports, visibility and cull volumes.
 //! - [`lights`]: emitters, the light tree, learned selection, the environment.
@@ -33,6 +34,7 @@ pub mod portals;
 pub mod prepare;
 pub mod sampling;
 pub mod scene;
+pub mod texture;
 pub mod through;
 pub mod untrusted;
 

@@ -75,9 +75,9 @@ pub fn ring_cache(bytes: &[u8]) {
 }
 
 /// An EXR environment map, of at most 2^20 pixels: the real limit
-/// ([`crate::frame::film::MAX_EXR_PIXELS`]) takes gigabytes to reach, which only slows the fuzzer.
+/// ([`crate::texture::MAX_EXR_PIXELS`]) takes gigabytes to reach, which only slows the fuzzer.
 pub fn exr(bytes: &[u8]) {
-    let _ = crate::frame::film::decode_exr_rgb(bytes, 1 << 20);
+    let _ = crate::texture::decode_exr_rgb(bytes, 1 << 20);
 }
 
 /// An EXR read whole with every channel, as `rift merge` reads its parts, of at most 2^20

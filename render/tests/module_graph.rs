@@ -523,6 +523,47 @@ fn no_file_of_the_renderer_imports_another_in_a_circle() {
     assert!(found.is_empty(), "{}", report.join("\n"));
 }
 
+/// The layers of `render/src`, bottom first: a folder (or root file) may use the layers below
+/// its own and itself, never one above. `ARCHITECTURE.md` draws the same.
+const LAYERS: &[&[&str]] = &[
+    &["error", "color", "platform"],
+    &["sampling"],
+    &["geometry", "texture", "camera"],
+    &["media"],
+    &["material"],
+    &["portals"],
+    &["lights"],
+    &["through"],
+    &["scene"],
+    &["integrator"],
+    &["prepare"],
+    &["frame"],
+    &["untrusted", "lib"],
+];
+
+/// The layer of the folder (or root file) holding `module`.
+fn layer(module: &[String]) -> usize {
+    let top = module.first().map_or("lib", String::as_str);
+    LAYERS
+        .iter()
+        .position(|layer| layer.contains(&top))
+        .unwrap_or_else(|| panic!("{top} is in no layer of LAYERS: add it where it belongs"))
+}
+
+#[test]
+fn each_folder_uses_only_the_layers_below_it() {
+    let graph = graph();
+    let upward: Vec<String> = graph
+        .iter()
+        .flat_map(|(module, deps)| {
+            deps.iter()
+                .filter(|d| layer(d) > layer(module))
+                .map(move |d| format!("{} -> {}", name(module), name(d)))
+        })
+        .collect();
+    assert!(upward.is_empty(), "imports of a higher layer:\n{}", upward.join("\n"));
+}
+
 #[test]
 fn the_graph_reader_resolves_uses_reexports_and_inline_paths() {
     let tree = expand_use("crate::a::{self, b::{C, d as e}, f::*}");

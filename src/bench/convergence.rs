@@ -29,7 +29,7 @@ pub struct ConvergenceArgs {
 
 pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
     let shot = Shot::load(&args.shot)?;
-    let (rw, rh, reference) = rift_render::frame::film::read_exr_rgb(&args.reference)?;
+    let (rw, rh, reference) = rift_render::texture::read_exr_rgb(&args.reference)?;
     let [w, h] = shot.camera.projection.resolution;
     anyhow::ensure!(
         (w as usize, h as usize) == (rw, rh),

@@ -8,9 +8,10 @@
 //! of being mixed in.
 
 use crate::error::RenderError;
-use crate::frame::film::{ExrExtras, Image, MAX_EXR_PIXELS, Window};
+use crate::frame::film::{ExrExtras, Image, Window};
 use crate::frame::passes::{Pixel, Sums};
 use crate::scene::light_groups::MAX_LIGHT_GROUPS;
+use crate::texture::exr::{MAX_EXR_PIXELS, check_exr_size, threads_for};
 use exr::meta::attribute::AttributeValue;
 use exr::prelude::{AnyChannel, FlatSamples, Text};
 use glam::{DVec3, Vec3};
@@ -166,14 +167,14 @@ impl Checkpoint {
     /// A checkpoint from EXR bytes of at most `max_pixels` (the reader the fuzz target drives).
     pub fn decode(bytes: &[u8], max_pixels: usize) -> Result<Self, String> {
         use exr::prelude::*;
-        crate::frame::film::check_exr_size(bytes, max_pixels)?;
+        check_exr_size(bytes, max_pixels)?;
         let reader = read()
             .no_deep_data()
             .largest_resolution_level()
             .all_channels()
             .first_valid_layer()
             .all_attributes();
-        let reader = crate::frame::film::threads_for(reader, bytes.len());
+        let reader = threads_for(reader, bytes.len());
         let image = reader
             .from_buffered(std::io::Cursor::new(bytes))
             .map_err(|e| e.to_string())?;

@@ -769,8 +769,8 @@ fn continue_path(
 mod tests {
     use super::*;
     use crate::rift_fx::Shot;
-    use crate::scene::Scene;
     use crate::sampling::hash32;
+    use crate::scene::Scene;
 
     /// The Cornell box of `examples/`, with `materials` added to (or replacing) its own.
     fn cornell_box(dir: &std::path::Path, materials: &str) -> Scene {

@@ -700,7 +700,7 @@ fn environment(
             })
             .map_err(invalid)?;
             let path = base.join(map);
-            let (w, h, texels) = crate::frame::film::read_exr_rgb(&path)
+            let (w, h, texels) = crate::texture::read_exr_rgb(&path)
                 .map_err(|cause| key_error(file, "environment.map", format!("{map:?}: {cause}")))?;
             if let Some(bad) = texels
                 .iter()
