@@ -149,7 +149,7 @@ pub(crate) fn alternate<const N: usize>(
             let prepared = build(k, seed)?;
             let t = Instant::now();
             let image =
-                crate::with_threads(threads, || render(&prepared, &RenderOptions::new(spp)))?;
+                crate::cli::with_threads(threads, || render(&prepared, &RenderOptions::new(spp)))?;
             // Learning light selection is part of what a variant costs.
             let training = prepared.training_seconds;
             seconds[k].push(t.elapsed().as_secs_f64() + training);

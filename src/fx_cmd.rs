@@ -1,13 +1,14 @@
 //! `rift fx`: generate a shot's rings frame by frame, in parallel, and export them.
 
+use crate::cli::prepare_output_dir;
 use crate::progress::Progress;
-use anyhow::{Context, bail};
+use anyhow::bail;
 use clap::Args;
 use rayon::prelude::*;
 use rift_fx::export::{self, Format};
 use rift_fx::ring::RingGenerator;
 use rift_fx::{FrameRange, Shot};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// Arguments of `rift fx`.
@@ -46,7 +47,7 @@ pub struct FxArgs {
 pub fn run(args: FxArgs) -> anyhow::Result<()> {
     let mut shot = Shot::load(&args.shot)?;
     if let Some(res) = &args.res {
-        shot.camera.projection.resolution = crate::render_cmd::parse_res(res)?;
+        shot.camera.projection.resolution = crate::cli::parse_res(res)?;
     }
     let frames = match &args.frames {
         Some(text) => FrameRange::parse(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
@@ -63,7 +64,7 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
 
     let started = Instant::now();
     let generator = RingGenerator::new(&shot, frames);
-    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
+    let threads = crate::cli::with_threads(args.threads, rayon::current_num_threads)?;
     crate::memory::ensure_fits(
         &format!("baking {threads} frames at once"),
         generator
@@ -74,7 +75,7 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
     )?;
     let progress = Progress::new("rift fx", frames.len());
     let frame_list: Vec<i64> = frames.iter().collect();
-    let outcome = crate::with_threads(args.threads, || {
+    let outcome = crate::cli::with_threads(args.threads, || {
         frame_list
             .par_iter()
             .map(|&frame| {
@@ -133,16 +134,5 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
             m.max, m.max_relative, m.fastest_strand_relative
         );
     }
-    Ok(())
-}
-
-/// Creates `dir` and checks that files can be created in it, before any work starts.
-pub fn prepare_output_dir(dir: &Path) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
-    let probe = dir.join(format!(".rift-write-test-{}", std::process::id()));
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("{}: the output directory is not writable", dir.display()))?;
-    let _ = std::fs::remove_file(probe);
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! everything else lives in the library crates.
 
 mod bench;
+mod cli;
 mod farm;
 mod fx_cmd;
 mod layout;
@@ -71,17 +72,4 @@ fn main() -> ExitCode {
             }
         },
     }
-}
-
-/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
-pub fn with_threads<T: Send>(
-    threads: Option<usize>,
-    f: impl FnOnce() -> T + Send,
-) -> anyhow::Result<T> {
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = threads {
-        anyhow::ensure!(n > 0, "--threads: expected a positive number");
-        builder = builder.num_threads(n);
-    }
-    Ok(builder.build()?.install(f))
 }

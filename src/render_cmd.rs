@@ -1,6 +1,6 @@
 //! `rift render`: render frames of a shot to EXR (both eyes of a stereo shot).
 
-use crate::fx_cmd::prepare_output_dir;
+use crate::cli::{parse_res, prepare_output_dir};
 use crate::progress::Progress;
 use anyhow::bail;
 use clap::{Args, ValueEnum};
@@ -299,14 +299,6 @@ fn seconds(flag: &str, value: Option<f64>) -> anyhow::Result<Option<Duration>> {
     }
 }
 
-/// `--res W H`, checked.
-pub fn parse_res(res: &[u32]) -> anyhow::Result<[u32; 2]> {
-    match res {
-        &[w, h] if (1..=65536).contains(&w) && (1..=65536).contains(&h) => Ok([w, h]),
-        _ => bail!("--res: expected a width and height from 1 to 65536 pixels"),
-    }
-}
-
 /// `--samples A-B` as [A, B]: 0 ≤ A < B ≤ 65536.
 fn parse_samples(text: &str) -> anyhow::Result<[u32; 2]> {
     let range = text
@@ -453,7 +445,7 @@ fn render_one(
         stop: run.stop,
         cryptomatte: args.cryptomatte,
     };
-    let rendered = crate::with_threads(args.threads, || {
+    let rendered = crate::cli::with_threads(args.threads, || {
         rift_render::frame::render_resumable(prepared, &options)
     })?;
     progress.finish();

@@ -51,7 +51,7 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
         })?;
     let frame = shot.frames.first;
     let prepared = rift_render::prepare::Prepared::build(&shot, frame, &Default::default())?;
-    let threads = crate::with_threads(args.threads.threads, rayon::current_num_threads)?;
+    let threads = crate::cli::with_threads(args.threads.threads, rayon::current_num_threads)?;
     println!(
         "rift bench convergence: {} against {}, {w}x{h}, {threads} threads",
         args.shot.display(),
@@ -65,7 +65,7 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
     let mut points = Vec::new();
     for spp in counts {
         let t = Instant::now();
-        let image = crate::with_threads(args.threads.threads, || {
+        let image = crate::cli::with_threads(args.threads.threads, || {
             rift_render::frame::render(&prepared, &rift_render::frame::RenderOptions::new(spp))
         })?;
         let seconds = t.elapsed().as_secs_f64();
@@ -78,7 +78,7 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
     }
     for path in [&args.csv, &args.plot] {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            crate::fx_cmd::prepare_output_dir(dir)?;
+            crate::cli::prepare_output_dir(dir)?;
         }
     }
     rift_fx::export::atomic::write(&args.csv, |w| w.write_all(csv.as_bytes()))?;

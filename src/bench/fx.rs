@@ -31,14 +31,14 @@ pub fn run(args: FxBenchArgs) -> anyhow::Result<()> {
     let shot = Shot::load(&args.shot)?;
     let generator = RingGenerator::new(&shot, shot.frames);
     let frames: Vec<i64> = shot.frames.iter().collect();
-    let threads = crate::with_threads(args.timing.threads, rayon::current_num_threads)?;
+    let threads = crate::cli::with_threads(args.timing.threads, rayon::current_num_threads)?;
 
     // Generation without export: every frame, results dropped as soon as they are counted.
     let mut gen_times = Vec::new();
     let mut vertices = 0usize;
     for _ in 0..args.timing.repeats {
         let t = Instant::now();
-        vertices = crate::with_threads(args.timing.threads, || {
+        vertices = crate::cli::with_threads(args.timing.threads, || {
             frames
                 .par_iter()
                 .map(|&f| generator.frame(f).vertex_count())
@@ -62,7 +62,7 @@ pub fn run(args: FxBenchArgs) -> anyhow::Result<()> {
         let mut bytes = 0u64;
         for _ in 0..args.timing.repeats {
             let t = Instant::now();
-            let written = crate::with_threads(args.timing.threads, || {
+            let written = crate::cli::with_threads(args.timing.threads, || {
                 kept.par_iter()
                     .map(|f| export::write_frame(dir.path(), &shot.name, f, &[format]))
                     .collect::<Result<Vec<_>, _>>()

@@ -62,10 +62,10 @@ pub fn run(args: LightsArgs) -> anyhow::Result<()> {
         }
         Ok(Prepared::new(scene))
     };
-    let threads = crate::with_threads(args.threads.threads, rayon::current_num_threads)?;
+    let threads = crate::cli::with_threads(args.threads.threads, rayon::current_num_threads)?;
     let t = Instant::now();
     let reference_scene = build(LightSelection::Tree, 9_999)?;
-    let reference = crate::with_threads(args.threads.threads, || {
+    let reference = crate::cli::with_threads(args.threads.threads, || {
         render(&reference_scene, &RenderOptions::new(args.reference_spp))
     })?;
     let emitters = build(LightSelection::Tree, 0)?.scene.strands.segments.len();

@@ -45,7 +45,7 @@ pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
         "{}: the shot has no opening",
         args.shot.display()
     );
-    let threads = crate::with_threads(args.timing.threads, rayon::current_num_threads)?;
+    let threads = crate::cli::with_threads(args.timing.threads, rayon::current_num_threads)?;
 
     // One teleport: finding the opening along a camera ray, then moving the ray through it.
     // Camera rays over the image, kept where they meet an opening.
@@ -127,7 +127,7 @@ pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
         let mut image = None;
         for _ in 0..args.timing.repeats {
             let t = Instant::now();
-            image = Some(crate::with_threads(args.timing.threads, || {
+            image = Some(crate::cli::with_threads(args.timing.threads, || {
                 render(&prepared, &RenderOptions::new(args.spp))
             })?);
             times.push(t.elapsed().as_secs_f64());

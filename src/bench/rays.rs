@@ -50,13 +50,13 @@ pub fn rays(args: RaysArgs) -> anyhow::Result<()> {
     let t = Instant::now();
     let accel = TriangleBvh::build(&tris, 0);
     let build = t.elapsed().as_secs_f64();
-    let threads = crate::with_threads(args.threads, rayon::current_num_threads)?;
+    let threads = crate::cli::with_threads(args.threads, rayon::current_num_threads)?;
     let mut closest = Vec::new();
     let mut occlusion = Vec::new();
     let mut hits = 0;
     for _ in 0..args.repeats {
         let t = Instant::now();
-        hits = crate::with_threads(args.threads, || {
+        hits = crate::cli::with_threads(args.threads, || {
             rays.par_iter()
                 .filter(|&&(o, d)| {
                     accel
@@ -67,7 +67,7 @@ pub fn rays(args: RaysArgs) -> anyhow::Result<()> {
         })?;
         closest.push(t.elapsed().as_secs_f64());
         let t = Instant::now();
-        let blocked = crate::with_threads(args.threads, || {
+        let blocked = crate::cli::with_threads(args.threads, || {
             rays.par_iter()
                 .filter(|&&(o, d)| accel.occluded(o, d, OCCLUSION_DISTANCE, &every_triangle))
                 .count()

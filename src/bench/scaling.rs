@@ -149,7 +149,7 @@ fn measure_render(
         let t = Instant::now();
         let mut renders = 0;
         while renders == 0 || t.elapsed().as_secs_f64() < LEAST_SAMPLE_SECONDS {
-            crate::with_threads(args.timing.threads, || {
+            crate::cli::with_threads(args.timing.threads, || {
                 render(&prepared, &RenderOptions::new(args.spp))
             })?;
             renders += 1;
@@ -242,7 +242,7 @@ fn measure_strands(segments: usize, timing: &Timing) -> anyhow::Result<Point> {
     let mut times = Vec::new();
     for _ in 0..timing.repeats {
         let t = Instant::now();
-        crate::with_threads(timing.threads, || {
+        crate::cli::with_threads(timing.threads, || {
             (0..rays)
                 .into_par_iter()
                 .filter(|&i| {

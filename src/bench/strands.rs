@@ -79,7 +79,7 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
     let fixed = || RingFrame::fixed(Similarity::IDENTITY);
     // Shutter of half a frame at 24 fps around the frame.
     let shutter = [-1.0 / 96.0, 1.0 / 96.0];
-    let threads = crate::with_threads(args.timing.threads, rayon::current_num_threads)?;
+    let threads = crate::cli::with_threads(args.timing.threads, rayon::current_num_threads)?;
     let ray = |i: usize| band_ray(i, shutter);
     println!(
         "rift bench strands: {} segments ({} strands), {} rays aimed at the band, {threads} threads, median of {}",
@@ -106,7 +106,7 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
         let mut hits = 0;
         for _ in 0..args.timing.repeats {
             let t = Instant::now();
-            hits = crate::with_threads(args.timing.threads, || {
+            hits = crate::cli::with_threads(args.timing.threads, || {
                 (0..args.rays)
                     .into_par_iter()
                     .filter(|&i| {
@@ -118,7 +118,7 @@ pub fn run(args: StrandsArgs) -> anyhow::Result<()> {
             })?;
             closest.push(t.elapsed().as_secs_f64());
             let t = Instant::now();
-            let blocked = crate::with_threads(args.timing.threads, || {
+            let blocked = crate::cli::with_threads(args.timing.threads, || {
                 (0..args.rays)
                     .into_par_iter()
                     .filter(|&i| {
@@ -174,7 +174,7 @@ fn light_tree_cost(
     let (mut pick, mut pmf) = (Vec::new(), Vec::new());
     for _ in 0..args.timing.repeats {
         let t = Instant::now();
-        let picked = crate::with_threads(args.timing.threads, || {
+        let picked = crate::cli::with_threads(args.timing.threads, || {
             (0..args.rays)
                 .into_par_iter()
                 .filter(|&i| {
@@ -186,7 +186,7 @@ fn light_tree_cost(
         pick.push(t.elapsed().as_secs_f64());
         anyhow::ensure!(picked > 0, "the light tree picked nothing");
         let t = Instant::now();
-        let total = crate::with_threads(args.timing.threads, || {
+        let total = crate::cli::with_threads(args.timing.threads, || {
             (0..args.rays)
                 .into_par_iter()
                 .map(|i| {

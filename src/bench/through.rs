@@ -54,10 +54,10 @@ pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
             },
         )
     };
-    let threads = crate::with_threads(args.timing.threads, rayon::current_num_threads)?;
+    let threads = crate::cli::with_threads(args.timing.threads, rayon::current_num_threads)?;
     let t = Instant::now();
     let reference_scene = build(true, 9_999)?;
-    let reference = crate::with_threads(args.timing.threads, || {
+    let reference = crate::cli::with_threads(args.timing.threads, || {
         render(&reference_scene, &RenderOptions::new(args.reference_spp))
     })?;
     let room = |i: usize| reference.portal_depth[i] == 0.0;

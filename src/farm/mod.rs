@@ -105,7 +105,7 @@ pub fn run(command: FarmCommand) -> anyhow::Result<()> {
         }
     };
     if let Some(dir) = args.job_file.parent().filter(|d| !d.as_os_str().is_empty()) {
-        crate::fx_cmd::prepare_output_dir(dir)?;
+        crate::cli::prepare_output_dir(dir)?;
     }
     rift_fx::export::atomic::write(&args.job_file, |out| out.write_all(text.as_bytes()))?;
     if matches!(args.job_file.extension(), Some(e) if e == "sh") {
@@ -174,11 +174,7 @@ impl Plan {
         };
         let settings = Settings::read(&shot, &overrides)?;
         let chunks = sample_chunks(settings.spp, args.sample_chunks)?;
-        let res = args
-            .res
-            .as_deref()
-            .map(crate::render_cmd::parse_res)
-            .transpose()?;
+        let res = args.res.as_deref().map(crate::cli::parse_res).transpose()?;
         if args.checkpoint == 0 {
             bail!("--checkpoint: expected a positive number of seconds");
         }

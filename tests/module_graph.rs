@@ -1,4 +1,4 @@
-//! The layering of `render/src`: no file imports another in a circle, except a parent module
+//! The layering of the renderer (`render/src`): no file imports another in a circle, except a parent module
 //! and its own children. A reader can then understand the crate bottom-up, one folder at a time.
 //!
 //! The graph is read from the sources: every `use` and every path written out in code
@@ -9,13 +9,15 @@
 //! re-exports their types) are left out too, so the circle a child's `super::…` closes is
 //! allowed.
 //!
-//! `cargo test --release -p rift-render --test module_graph -- --nocapture` prints the graph.
+//! The same holds, without layers, for the effects crate (`fx/src`) and the program (`src`).
+//!
+//! `cargo test --release --test module_graph -- --nocapture` prints the graphs.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-/// The crate's module path of each file: `lib.rs` is the root, `a/mod.rs` is `a`, `a/b.rs`
-/// is `a::b`.
+/// The crate's module path of each file: `lib.rs` (or `main.rs`) is the root, `a/mod.rs` is
+/// `a`, `a/b.rs` is `a::b`.
 fn module_files(src: &Path) -> BTreeMap<Vec<String>, PathBuf> {
     let mut files = BTreeMap::new();
     let mut stack = vec![src.to_path_buf()];
@@ -34,7 +36,8 @@ fn module_files(src: &Path) -> BTreeMap<Vec<String>, PathBuf> {
                 .iter()
                 .map(|p| p.to_string_lossy().trim_end_matches(".rs").to_owned())
                 .collect();
-            if matches!(module.last().map(String::as_str), Some("mod" | "lib")) {
+            let root = module.len() == 1 && matches!(module[0].as_str(), "lib" | "main");
+            if root || module.last().is_some_and(|m| m == "mod") {
                 module.pop();
             }
             files.insert(module, path);
@@ -487,8 +490,9 @@ fn name(module: &[String]) -> String {
     }
 }
 
-fn graph() -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
-    let krate = Crate::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"));
+/// The import graph of the crate whose sources are in `src` (relative to the repository).
+fn graph_of(src: &str) -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
+    let krate = Crate::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join(src));
     krate
         .files
         .keys()
@@ -496,14 +500,29 @@ fn graph() -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
         .collect()
 }
 
+/// The renderer's graph.
+fn graph() -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
+    graph_of("render/src")
+}
+
 #[test]
 fn no_file_of_the_renderer_imports_another_in_a_circle() {
-    let graph = graph();
-    for (module, deps) in &graph {
+    assert_no_circle(&graph());
+}
+
+#[test]
+fn no_file_of_the_effects_crate_or_the_program_imports_another_in_a_circle() {
+    assert_no_circle(&graph_of("fx/src"));
+    assert_no_circle(&graph_of("src"));
+}
+
+/// Prints `graph` and fails naming each circle of files and the imports that close it.
+fn assert_no_circle(graph: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>) {
+    for (module, deps) in graph {
         let deps: Vec<String> = deps.iter().map(|d| name(d)).collect();
         println!("{} -> {}", name(module), deps.join(", "));
     }
-    let found = circles(&graph);
+    let found = circles(graph);
     let report: Vec<String> = found
         .iter()
         .map(|c| {
@@ -561,7 +580,11 @@ fn each_folder_uses_only_the_layers_below_it() {
                 .map(move |d| format!("{} -> {}", name(module), name(d)))
         })
         .collect();
-    assert!(upward.is_empty(), "imports of a higher layer:\n{}", upward.join("\n"));
+    assert!(
+        upward.is_empty(),
+        "imports of a higher layer:\n{}",
+        upward.join("\n")
+    );
 }
 
 #[test]
