@@ -152,14 +152,72 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if let Some(res) = &args.res {
         shot.camera.projection.resolution = parse_res(res)?;
     }
-    let frames = match (&args.frames, args.frame) {
+    let frames = frames(&args, &shot)?;
+    let samples = sample_range(&args)?;
+    let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
+    let crop = match &args.crop {
+        Some(text) => {
+            Some(Window::from_fractions(text, w, h).map_err(|e| anyhow::anyhow!("--crop: {e}"))?)
+        }
+        None => None,
+    };
+    let (film, budget) = ensure_film_fits(&args, &shot, frames, crop)?;
+    if let Some(e) = args.target_error
+        && !(e.is_finite() && e > 0.0)
+    {
+        bail!("--target-error: expected a positive relative error such as 0.01, got {e}");
+    }
+    let time_limit = seconds("--time-limit", args.time_limit)?;
+    let checkpoint_every = seconds("--checkpoint", args.checkpoint)?;
+    let plan = Plan {
+        several_frames: frames.len() > 1,
+        part: Part {
+            crop,
+            first_sample: samples.map_or(0, |[start, _]| start),
+            shot_id: shot_id(&shot.name),
+        },
+        time_limit,
+        checkpoint_every,
+        stop: match checkpoint_every {
+            Some(_) => Some(crate::resume::stop_on_signals()?),
+            None => None,
+        },
+        overrides: Overrides {
+            spp: samples.map(|[_, end]| end).or(args.spp),
+            seed: args.seed,
+            max_portal_depth: args.max_portal_depth,
+            light_through_openings: args.no_light_through_openings.then_some(false),
+            rings: args.rings.clone(),
+            light_selection: args.light_selection.map(Into::into),
+            memory_budget: budget.map(|b| b.saturating_sub(film)),
+        },
+    };
+    for frame in frames.iter() {
+        if crate::resume::stop_requested() {
+            return Err(crate::resume::Interrupted {
+                message: format!("stopped by a signal before frame {frame}"),
+            }
+            .into());
+        }
+        render_frame(&args, &shot, frame, &plan)?;
+    }
+    Ok(())
+}
+
+/// The frames `--frames` or `--frame` ask for, or the shot's first.
+fn frames(args: &RenderArgs, shot: &Shot) -> anyhow::Result<FrameRange> {
+    Ok(match (&args.frames, args.frame) {
         (Some(text), _) => FrameRange::parse(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
         (None, Some(f)) => FrameRange { first: f, last: f },
         (None, None) => FrameRange {
             first: shot.frames.first,
             last: shot.frames.first,
         },
-    };
+    })
+}
+
+/// `--samples` checked against `--spp` and the flags that cannot split a render by samples.
+fn sample_range(args: &RenderArgs) -> anyhow::Result<Option<[u32; 2]>> {
     if args.spp == Some(0) || args.spp.is_some_and(|s| s > 1 << 16) {
         bail!("--spp: expected 1 to 65536 samples per pixel");
     }
@@ -176,83 +234,65 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
              split by --samples or saved in --checkpoint / --resume state"
         );
     }
-    let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
-    let crop = match &args.crop {
-        Some(text) => {
-            Some(Window::from_fractions(text, w, h).map_err(|e| anyhow::anyhow!("--crop: {e}"))?)
-        }
-        None => None,
+    Ok(samples)
+}
+
+/// What every frame of a `rift render` run shares.
+struct Plan {
+    several_frames: bool,
+    /// The part of each image rendered.
+    part: Part,
+    time_limit: Option<Duration>,
+    checkpoint_every: Option<Duration>,
+    stop: Option<&'static AtomicBool>,
+    overrides: Overrides,
+}
+
+/// Loads, prepares and renders `frame` of `shot`: each eye of a stereo camera, or the one
+/// `--eye` names.
+fn render_frame(args: &RenderArgs, shot: &Shot, frame: i64, plan: &Plan) -> anyhow::Result<()> {
+    let prepared = Prepared::build(shot, frame, &plan.overrides)?;
+    let scene = &prepared.scene;
+    let eyes: Vec<Option<Eye>> = match (&scene.stereo, args.eye) {
+        (None, Some(_)) => bail!("--eye: {} has no [camera.stereo]", args.shot.display()),
+        (None, None) => vec![None],
+        (Some(_), Some(eye)) => vec![Some(eye.into())],
+        (Some(_), None) => Eye::BOTH.map(Some).to_vec(),
     };
-    let (film, budget) = ensure_film_fits(&args, &shot, frames, crop)?;
-    if let Some(e) = args.target_error
-        && !(e.is_finite() && e > 0.0)
-    {
-        bail!("--target-error: expected a positive relative error such as 0.01, got {e}");
+    let pattern = args
+        .output
+        .clone()
+        .unwrap_or_else(|| scene.settings.output.clone());
+    if plan.several_frames && !pattern.contains('#') {
+        bail!("{pattern}: several frames need a `#` frame token in the output name");
     }
-    let time_limit = seconds("--time-limit", args.time_limit)?;
-    let checkpoint_every = seconds("--checkpoint", args.checkpoint)?;
-    let stop = match checkpoint_every {
-        Some(_) => Some(crate::resume::stop_on_signals()?),
-        None => None,
-    };
-    let overrides = Overrides {
-        spp: samples.map(|[_, end]| end).or(args.spp),
-        seed: args.seed,
-        max_portal_depth: args.max_portal_depth,
-        light_through_openings: args.no_light_through_openings.then_some(false),
-        rings: args.rings.clone(),
-        light_selection: args.light_selection.map(Into::into),
-        memory_budget: budget.map(|b| b.saturating_sub(film)),
-    };
-    for frame in frames.iter() {
-        if crate::resume::stop_requested() {
-            return Err(crate::resume::Interrupted {
-                message: format!("stopped by a signal before frame {frame}"),
-            }
-            .into());
-        }
-        let prepared = Prepared::build(&shot, frame, &overrides)?;
-        let scene = &prepared.scene;
-        let eyes: Vec<Option<Eye>> = match (&scene.stereo, args.eye) {
-            (None, Some(_)) => bail!("--eye: {} has no [camera.stereo]", args.shot.display()),
-            (None, None) => vec![None],
-            (Some(_), Some(eye)) => vec![Some(eye.into())],
-            (Some(_), None) => Eye::BOTH.map(Some).to_vec(),
+    for eye in eyes {
+        let pattern = match eye {
+            Some(eye) => eye_path(&pattern, eye.name()),
+            None => pattern.clone(),
         };
-        let pattern = args
-            .output
-            .clone()
-            .unwrap_or_else(|| scene.settings.output.clone());
-        if frames.len() > 1 && !pattern.contains('#') {
-            bail!("{pattern}: several frames need a `#` frame token in the output name");
-        }
-        for eye in eyes {
-            let pattern = match eye {
-                Some(eye) => eye_path(&pattern, eye.name()),
-                None => pattern.clone(),
-            };
-            let path = PathBuf::from(frame_path(&pattern, frame));
-            let part = Part {
-                crop,
-                first_sample: samples.map_or(0, |[start, _]| start),
-                shot_id: shot_id(&shot.name),
-            };
-            let run = Run {
-                time_limit,
-                checkpoint_every,
-                resume: args.resume,
-                stop,
-                // Hashing the shot file and the program is done only where a checkpoint
-                // is written or read.
-                key: match checkpoint_every.is_some() || args.resume {
-                    true => Some(checkpoint_key(
-                        &args, &shot.name, scene, &overrides, eye, part,
-                    )?),
-                    false => None,
-                },
-            };
-            render_one(&prepared, &args, eye, part, &run, frame, &path)?;
-        }
+        let path = PathBuf::from(frame_path(&pattern, frame));
+        let part = plan.part;
+        let run = Run {
+            time_limit: plan.time_limit,
+            checkpoint_every: plan.checkpoint_every,
+            resume: args.resume,
+            stop: plan.stop,
+            // Hashing the shot file and the program is done only where a checkpoint is
+            // written or read.
+            key: match plan.checkpoint_every.is_some() || args.resume {
+                true => Some(checkpoint_key(
+                    args,
+                    &shot.name,
+                    scene,
+                    &plan.overrides,
+                    eye,
+                    part,
+                )?),
+                false => None,
+            },
+        };
+        render_one(&prepared, args, eye, part, &run, frame, &path)?;
     }
     Ok(())
 }
@@ -450,20 +490,12 @@ fn render_one(
     })?;
     progress.finish();
     if !rendered.complete {
-        let message = match save_error.into_inner().unwrap_or_else(|e| e.into_inner()) {
-            None => format!(
-                "{label}: stopped by a signal; its state is saved in {} (a partial image); run \
-                 the same command with --resume to finish it",
-                checkpoint_file.display()
-            ),
-            Some(e) => format!("{label}: stopped by a signal, and its checkpoint failed: {e}"),
-        };
-        return Err(crate::resume::Interrupted { message }.into());
+        let failed = save_error.into_inner().unwrap_or_else(|e| e.into_inner());
+        return Err(stopped(&label, failed, &checkpoint_file));
     }
     let mut image = rendered.image;
     image.metadata.shot_id = part.shot_id;
     let seconds = started.elapsed().as_secs_f64();
-    let samples: u64 = image.spp.iter().map(|&n| n as u64).sum();
     image.write_exr(path)?;
     if args.png {
         image.write_png(&path.with_extension("png"))?;
@@ -471,6 +503,30 @@ fn render_one(
     if run.checkpoint_every.is_some() || resumed.is_some() {
         remove_checkpoint(&checkpoint_file)?;
     }
+    report(&image, &label, spp, seconds, path);
+    Ok(())
+}
+
+/// The error of a render a signal stopped: where its state was saved, or why it was not.
+fn stopped(
+    label: &str,
+    checkpoint_failed: Option<rift_render::RenderError>,
+    checkpoint_file: &Path,
+) -> anyhow::Error {
+    let message = match checkpoint_failed {
+        None => format!(
+            "{label}: stopped by a signal; its state is saved in {} (a partial image); run the \
+             same command with --resume to finish it",
+            checkpoint_file.display()
+        ),
+        Some(e) => format!("{label}: stopped by a signal, and its checkpoint failed: {e}"),
+    };
+    crate::resume::Interrupted { message }.into()
+}
+
+/// Prints what was rendered: size, samples, time, speed and where it went.
+fn report(image: &Image, label: &str, spp: u32, seconds: f64, path: &Path) {
+    let samples: u64 = image.spp.iter().map(|&n| n as u64).sum();
     eprintln!(
         "rift render: {label}: {}x{} at {:.1} spp (mean; at most {spp}) in {seconds:.2} s ({:.2} Mpaths/s) -> {}{}",
         image.window.width(),
@@ -484,7 +540,6 @@ fn render_one(
             String::new()
         }
     );
-    Ok(())
 }
 
 /// The checkpoint at `file` when there is one that continues this render (`key`, `window`);

@@ -4,9 +4,9 @@ use super::{Timing, median};
 use anyhow::Context;
 use clap::Args;
 use rift_fx::Shot;
-use rift_render::Ray;
 use rift_render::portals::visibility::RayClass;
 use rift_render::prepare::Prepared;
+use rift_render::{Ray, Scene};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -26,8 +26,9 @@ pub struct PortalsArgs {
     timing: Timing,
 }
 
+/// Runs `rift bench portals`: the cost of a teleport against a ray, then render time against
+/// the depth limit.
 pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
-    use rift_render::frame::passes::{RenderOptions, render};
     anyhow::ensure!(
         args.timing.repeats > 0 && args.spp > 0,
         "expected positive counts"
@@ -39,17 +40,21 @@ pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
         .collect::<Result<_, _>>()
         .context("--depths: expected comma-separated integers")?;
     let shot = Shot::load(&args.shot)?;
-    let scene = rift_render::Scene::load(&shot, shot.frames.first)?;
+    let scene = Scene::load(&shot, shot.frames.first)?;
     anyhow::ensure!(
         !scene.portals.is_empty(),
         "{}: the shot has no opening",
         args.shot.display()
     );
-    let threads = crate::cli::with_threads(args.timing.threads, rayon::current_num_threads)?;
+    teleport_cost(&args, &scene)?;
+    render_time_by_depth(&args, &shot, depths)
+}
 
-    // One teleport: finding the opening along a camera ray, then moving the ray through it.
-    // Camera rays over the image, kept where they meet an opening.
-    let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
+/// Times one teleport (finding the opening along a camera ray, then moving the ray through it)
+/// and one closest-hit ray, over camera rays that meet an opening, on one thread.
+fn teleport_cost(args: &PortalsArgs, scene: &Scene) -> anyhow::Result<()> {
+    let threads = crate::cli::with_threads(args.timing.threads, rayon::current_num_threads)?;
+    let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
     let time = scene.shutter[0];
     let lens = rift_render::camera::Lens::at(&scene.camera, time);
     let rays: Vec<_> = (0..w * h)
@@ -109,8 +114,13 @@ pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
     println!(
         "one teleport (find the opening + move the ray, one thread): {teleport_ns:.1} ns; one closest-hit ray in this scene: {ray_ns:.1} ns"
     );
+    Ok(())
+}
 
-    // Render time against the depth limit.
+/// Prints the render time at each depth limit of `depths`, with the mean portal level the
+/// camera's paths reached, and the time each further level costs.
+fn render_time_by_depth(args: &PortalsArgs, shot: &Shot, depths: Vec<u32>) -> anyhow::Result<()> {
+    use rift_render::frame::{RenderOptions, render};
     println!(
         "{:>6} {:>10} {:>12} {:>16}",
         "depth", "seconds", "mean level", "s per level"
@@ -122,7 +132,7 @@ pub fn run(args: PortalsArgs) -> anyhow::Result<()> {
             max_portal_depth: Some(depth),
             ..Default::default()
         };
-        let prepared = Prepared::build(&shot, shot.frames.first, &overrides)?;
+        let prepared = Prepared::build(shot, shot.frames.first, &overrides)?;
         let mut times = Vec::new();
         let mut image = None;
         for _ in 0..args.timing.repeats {

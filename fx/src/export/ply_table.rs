@@ -164,6 +164,33 @@ const MAX_LIST: f64 = 1e6;
 
 /// Parses a PLY file; the message of an error says where it went wrong.
 pub fn parse(bytes: &[u8]) -> Result<Table, String> {
+    let (header, body_start) = split_header(bytes)?;
+    let Header {
+        format,
+        comments,
+        declared,
+    } = parse_header(header)?;
+    let rest = &bytes[body_start.min(bytes.len())..];
+    let text = if format == Format::Ascii {
+        std::str::from_utf8(rest).map_err(|_| "the ASCII body is not text")?
+    } else {
+        ""
+    };
+    let mut body = Body {
+        bytes: rest,
+        at: 0,
+        format,
+        tokens: text.split_ascii_whitespace(),
+    };
+    let elements = declared
+        .into_iter()
+        .map(|(name, count, properties)| read_element(&mut body, name, count, properties))
+        .collect::<Result<_, _>>()?;
+    Ok(Table { comments, elements })
+}
+
+/// The header's text (up to `end_header`) and where the body starts.
+fn split_header(bytes: &[u8]) -> Result<(&str, usize), String> {
     const END: &[u8] = b"end_header";
     let end = bytes
         .windows(END.len())
@@ -174,8 +201,20 @@ pub fn parse(bytes: &[u8]) -> Result<Table, String> {
     while body_start < bytes.len() && bytes[body_start] != b'\n' {
         body_start += 1;
     }
-    body_start += 1;
     let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "the header is not text")?;
+    Ok((header, body_start + 1))
+}
+
+/// What a PLY header declares.
+struct Header {
+    format: Format,
+    comments: Vec<String>,
+    /// Each element's name, item count and properties, in file order.
+    declared: Vec<(String, usize, Vec<Property>)>,
+}
+
+/// The header's lines (after the magic `ply`), each checked.
+fn parse_header(header: &str) -> Result<Header, String> {
     let mut lines = header.lines().map(str::trim);
     if lines.next() != Some("ply") {
         return Err("the file does not start with `ply`".into());
@@ -206,96 +245,94 @@ pub fn parse(bytes: &[u8]) -> Result<Table, String> {
                     .map_err(|_| at(&format!("bad element count {count:?}")))?,
                 Vec::new(),
             )),
-            ["property", rest @ ..] => {
-                let scalar =
-                    |t: &str| Scalar::parse(t).ok_or_else(|| at(&format!("unknown type {t:?}")));
-                let property = match rest {
-                    ["list", count, value, name] => Property {
-                        name: (*name).to_owned(),
-                        count: Some(scalar(count)?),
-                        value: scalar(value)?,
-                    },
-                    [value, name] => Property {
-                        name: (*name).to_owned(),
-                        count: None,
-                        value: scalar(value)?,
-                    },
-                    _ => return Err(at(&format!("cannot read {line:?}"))),
-                };
-                declared
-                    .last_mut()
-                    .ok_or_else(|| at("property before any element"))?
-                    .2
-                    .push(property);
-            }
+            ["property", rest @ ..] => declared
+                .last_mut()
+                .ok_or_else(|| at("property before any element"))?
+                .2
+                .push(property(rest, line, &at)?),
             _ => return Err(at(&format!("cannot read {line:?}"))),
         }
     }
-    let format = format.ok_or("no format line")?;
-    let rest = &bytes[body_start.min(bytes.len())..];
-    let text = if format == Format::Ascii {
-        std::str::from_utf8(rest).map_err(|_| "the ASCII body is not text")?
-    } else {
-        ""
-    };
-    let mut body = Body {
-        bytes: rest,
-        at: 0,
-        format,
-        tokens: text.split_ascii_whitespace(),
-    };
-    let mut elements = Vec::with_capacity(declared.len());
-    for (name, count, properties) in declared {
-        // Items are stored property after property, so the columns fill row by row.
-        let reserve = count.min(1 << 20);
-        let mut columns: Vec<Column> = properties
-            .iter()
-            .map(|p| match p.count {
-                None => Column::Scalar(Vec::with_capacity(reserve)),
-                Some(_) => Column::List(Vec::with_capacity(reserve)),
-            })
-            .collect();
-        // Trust no count before the bytes for it are there; an element without properties
-        // holds no bytes at all, however many items it declares.
-        let least: usize = properties.iter().map(|p| body.least_bytes(p)).sum();
-        if count.saturating_mul(least).saturating_sub(1) > body.remaining() {
-            return Err(format!(
-                "the header declares {count} {name} items, which need at least {} bytes, but \
-                 only {} follow",
-                count.saturating_mul(least),
-                body.remaining()
-            ));
-        }
-        let items = if properties.is_empty() { 0 } else { count };
-        for item in 0..items {
-            for (property, column) in properties.iter().zip(&mut columns) {
-                match (property.count, column) {
-                    (None, Column::Scalar(values)) => values.push(body.read(property.value)?),
-                    (Some(count_type), Column::List(lists)) => {
-                        let n = body.read(count_type)?;
-                        if !(0.0..=MAX_LIST).contains(&n) {
-                            return Err(format!("{name} {item}: list length {n}"));
-                        }
-                        let list = (0..n as usize)
-                            .map(|_| body.read(property.value))
-                            .collect::<Result<_, _>>()?;
-                        lists.push(list);
+    Ok(Header {
+        format: format.ok_or("no format line")?,
+        comments,
+        declared,
+    })
+}
+
+/// A `property` line's words after `property` (`at` names the line in errors).
+fn property(rest: &[&str], line: &str, at: &dyn Fn(&str) -> String) -> Result<Property, String> {
+    let scalar = |t: &str| Scalar::parse(t).ok_or_else(|| at(&format!("unknown type {t:?}")));
+    match rest {
+        ["list", count, value, name] => Ok(Property {
+            name: (*name).to_owned(),
+            count: Some(scalar(count)?),
+            value: scalar(value)?,
+        }),
+        [value, name] => Ok(Property {
+            name: (*name).to_owned(),
+            count: None,
+            value: scalar(value)?,
+        }),
+        _ => Err(at(&format!("cannot read {line:?}"))),
+    }
+}
+
+/// The `count` items of element `name` from `body`, property after property.
+fn read_element(
+    body: &mut Body,
+    name: String,
+    count: usize,
+    properties: Vec<Property>,
+) -> Result<Element, String> {
+    // Items are stored property after property, so the columns fill row by row.
+    let reserve = count.min(1 << 20);
+    let mut columns: Vec<Column> = properties
+        .iter()
+        .map(|p| match p.count {
+            None => Column::Scalar(Vec::with_capacity(reserve)),
+            Some(_) => Column::List(Vec::with_capacity(reserve)),
+        })
+        .collect();
+    // Trust no count before the bytes for it are there; an element without properties
+    // holds no bytes at all, however many items it declares.
+    let least: usize = properties.iter().map(|p| body.least_bytes(p)).sum();
+    if count.saturating_mul(least).saturating_sub(1) > body.remaining() {
+        return Err(format!(
+            "the header declares {count} {name} items, which need at least {} bytes, but \
+             only {} follow",
+            count.saturating_mul(least),
+            body.remaining()
+        ));
+    }
+    let items = if properties.is_empty() { 0 } else { count };
+    for item in 0..items {
+        for (property, column) in properties.iter().zip(&mut columns) {
+            match (property.count, column) {
+                (None, Column::Scalar(values)) => values.push(body.read(property.value)?),
+                (Some(count_type), Column::List(lists)) => {
+                    let n = body.read(count_type)?;
+                    if !(0.0..=MAX_LIST).contains(&n) {
+                        return Err(format!("{name} {item}: list length {n}"));
                     }
-                    _ => unreachable!("columns are made to match their properties"),
+                    let list = (0..n as usize)
+                        .map(|_| body.read(property.value))
+                        .collect::<Result<_, _>>()?;
+                    lists.push(list);
                 }
+                _ => unreachable!("columns are made to match their properties"),
             }
         }
-        elements.push(Element {
-            name,
-            count,
-            columns: properties
-                .into_iter()
-                .map(|p| p.name)
-                .zip(columns)
-                .collect(),
-        });
     }
-    Ok(Table { comments, elements })
+    Ok(Element {
+        name,
+        count,
+        columns: properties
+            .into_iter()
+            .map(|p| p.name)
+            .zip(columns)
+            .collect(),
+    })
 }
 
 #[cfg(test)]

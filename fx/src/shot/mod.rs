@@ -9,9 +9,12 @@ pub mod schema;
 
 use crate::error::{FxError, Invalid};
 use crate::rig::{Camera, Opening, Projection, Rig, ThereFrame};
+use crate::ring::look::{ColorLook, NoiseLook, SpeedLook};
 use crate::ring::{ColorRamp, RingLook};
 use pose::Facing;
-use schema::{FovAxis, PortalSection, RingSection, ShotFile};
+use schema::{
+    ColorSection, FovAxis, NoiseSection, PortalSection, RingSection, ShotFile, SpeedSection,
+};
 use std::path::{Path, PathBuf};
 
 /// An inclusive range of whole frames.
@@ -477,10 +480,40 @@ fn instability(key: &str, r: &RingSection, look: &mut RingLook) -> Result<(), In
     Ok(())
 }
 
+/// A `[portal.ring]` section (at `key`) as a ring look: its preset (or the defaults), every key
+/// given over it, and a check that the strands stay clear of the centre.
 fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
     let k = |name: &str| format!("{key}.{name}");
+    let mut look = base_look(key, r)?;
+    if let Some(strands) = r.strands {
+        look.strands = check::integer(&k("strands"), strands, 1, 100_000, "a positive integer")?;
+    }
+    instability(&k("instability"), r, &mut look)?;
+    shape_keys(key, r, &mut look)?;
+    noise_keys(&k("noise"), &r.noise, &mut look.noise)?;
+    speed_keys(&k("speed"), &r.speed, &mut look.speed)?;
+    color_keys(&k("color"), &r.color, &mut look.color)?;
+    // The strands must stay clear of the centre whatever the noise does.
+    let inner = look.min_radius() - 0.5 * look.width * (1.0 + look.width_variation);
+    if inner <= 0.0 {
+        return Err(Invalid::new(
+            k("radius"),
+            format!(
+                "the ring would cross its centre: radius {} is not larger than band/2 + noise.amplitude + width ({:.4})",
+                look.radius,
+                look.radius - inner
+            ),
+        ));
+    }
+    Ok(look)
+}
+
+/// The look the section's keys apply over: its `preset`, scaled to its radius, or the defaults
+/// (which need `strands`).
+fn base_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
+    let k = |name: &str| format!("{key}.{name}");
     let radius = check::positive_length(&k("radius"), r.radius)?;
-    let mut look = match &r.preset {
+    match &r.preset {
         Some(name) => crate::ring::presets::preset(name, radius).ok_or_else(|| {
             Invalid::new(
                 k("preset"),
@@ -489,23 +522,24 @@ fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
                     crate::ring::presets::NAMES.join(", ")
                 ),
             )
-        })?,
-        None if r.strands.is_none() => {
-            return Err(Invalid::new(
-                k("strands"),
-                "missing: give `strands`, or a `preset` that sets it",
-            ));
-        }
-        None => RingLook::with_defaults(radius, 1),
-    };
-    if let Some(strands) = r.strands {
-        look.strands = check::integer(&k("strands"), strands, 1, 100_000, "a positive integer")?;
+        }),
+        None if r.strands.is_none() => Err(Invalid::new(
+            k("strands"),
+            "missing: give `strands`, or a `preset` that sets it",
+        )),
+        None => Ok(RingLook::with_defaults(radius, 1)),
     }
-    instability(&k("instability"), r, &mut look)?;
-    let unit = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, false);
-    let unit_open = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, true);
-    let roughness = |key: &str, v: f64| check::within(key, v, 1e-6, 1.0, false);
+}
 
+/// A number in [0, 1] at `key`.
+fn unit(key: &str, v: f64) -> Result<f64, Invalid> {
+    check::within(key, v, 0.0, 1.0, false)
+}
+
+/// The band, counter-rotation, width and its variation, speed variation and seed.
+fn shape_keys(key: &str, r: &RingSection, look: &mut RingLook) -> Result<(), Invalid> {
+    let k = |name: &str| format!("{key}.{name}");
+    let unit_open = |key: &str, v: f64| check::within(key, v, 0.0, 1.0, true);
     set(
         &mut look.band,
         r.band,
@@ -539,111 +573,111 @@ fn ring_look(key: &str, r: &RingSection) -> Result<RingLook, Invalid> {
     if let Some(seed) = r.seed {
         look.seed = check::integer(&k("seed"), seed, 0, u32::MAX as i64, "an integer ≥ 0")?;
     }
+    Ok(())
+}
 
-    let (n, noise) = (&r.noise, &mut look.noise);
+/// `[portal.ring.noise]` (at `key`) over `noise`.
+fn noise_keys(key: &str, n: &NoiseSection, noise: &mut NoiseLook) -> Result<(), Invalid> {
+    let k = |name: &str| format!("{key}.{name}");
+    let roughness = |key: &str, v: f64| check::within(key, v, 1e-6, 1.0, false);
+    let amplitude = k("amplitude");
     set(
         &mut noise.amplitude,
         n.amplitude,
-        &k("noise.amplitude"),
+        &amplitude,
         check::non_negative_length,
     )?;
-    set(
-        &mut noise.depth,
-        n.depth,
-        &k("noise.depth"),
-        check::non_negative,
-    )?;
+    set(&mut noise.depth, n.depth, &k("depth"), check::non_negative)?;
     set(
         &mut noise.frequency,
         n.frequency,
-        &k("noise.frequency"),
+        &k("frequency"),
         check::positive,
     )?;
     if let Some(o) = n.octaves {
-        noise.octaves = check::integer(&k("noise.octaves"), o, 1, 12, "an integer from 1")?;
+        noise.octaves = check::integer(&k("octaves"), o, 1, 12, "an integer from 1")?;
     }
     set(
         &mut noise.roughness,
         n.roughness,
-        &k("noise.roughness"),
+        &k("roughness"),
         roughness,
     )?;
     set(
         &mut noise.evolution,
         n.evolution,
-        &k("noise.evolution"),
+        &k("evolution"),
         check::non_negative,
     )?;
+    let compensation = k("size_compensation");
     set(
         &mut noise.size_compensation,
         n.size_compensation,
-        &k("noise.size_compensation"),
+        &compensation,
         unit,
-    )?;
+    )
+}
 
-    let (s, speed) = (&r.speed, &mut look.speed);
+/// `[portal.ring.speed]` (at `key`) over `speed`.
+fn speed_keys(key: &str, s: &SpeedSection, speed: &mut SpeedLook) -> Result<(), Invalid> {
+    let k = |name: &str| format!("{key}.{name}");
+    let turns = k("turns_per_second");
     set(
         &mut speed.turns_per_second,
         s.turns_per_second,
-        &k("speed.turns_per_second"),
+        &turns,
         check::finite,
     )?;
+    let size = k("reference_size");
     set(
         &mut speed.reference_size,
         s.reference_size,
-        &k("speed.reference_size"),
+        &size,
         check::positive,
     )?;
+    let compensation = k("size_compensation");
     set(
         &mut speed.size_compensation,
         s.size_compensation,
-        &k("speed.size_compensation"),
+        &compensation,
         unit,
     )?;
+    let least = k("min_visible_turn");
     set(
         &mut speed.min_visible_turn,
         s.min_visible_turn,
-        &k("speed.min_visible_turn"),
+        &least,
         check::non_negative,
-    )?;
+    )
+}
 
-    let (c, color) = (&r.color, &mut look.color);
+/// `[portal.ring.color]` (at `key`) over `color`.
+fn color_keys(key: &str, c: &ColorSection, color: &mut ColorLook) -> Result<(), Invalid> {
+    let k = |name: &str| format!("{key}.{name}");
     if let Some(stops) = &c.ramp {
-        color.ramp = ramp(&k("color.ramp"), stops)?;
+        color.ramp = ramp(&k("ramp"), stops)?;
     }
     set(
         &mut color.intensity,
         c.intensity,
-        &k("color.intensity"),
+        &k("intensity"),
         check::non_negative,
     )?;
+    let variation = k("intensity_variation");
     set(
         &mut color.intensity_variation,
         c.intensity_variation,
-        &k("color.intensity_variation"),
+        &variation,
         unit,
     )?;
-    set(&mut color.flicker, c.flicker, &k("color.flicker"), unit)?;
+    set(&mut color.flicker, c.flicker, &k("flicker"), unit)?;
+    let rate = k("flicker_rate");
     set(
         &mut color.flicker_rate,
         c.flicker_rate,
-        &k("color.flicker_rate"),
+        &rate,
         check::non_negative,
-    )?;
-
-    // The strands must stay clear of the centre whatever the noise does.
-    let inner = look.min_radius() - 0.5 * look.width * (1.0 + look.width_variation);
-    if inner <= 0.0 {
-        return Err(Invalid::new(
-            k("radius"),
-            format!(
-                "the ring would cross its centre: radius {} is not larger than band/2 + noise.amplitude + width ({:.4})",
-                look.radius,
-                look.radius - inner
-            ),
-        ));
-    }
-    Ok(look)
+    )
 }
 
 /// Overwrites `target` (holding its default) with `value` when given, after `valid` accepts it.

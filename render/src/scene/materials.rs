@@ -79,6 +79,8 @@ pub(super) fn color(key: &str, v: Option<[f64; 3]>, default: Vec3) -> Result<Vec
     v.map_or(Ok(default), |c| check::color(key, c).map(|c| c.as_vec3()))
 }
 
+/// One `[[material]]` section (at `key`) as a material. Keys every kind checks come first, so a
+/// value out of range is named before a key its kind does not take.
 fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
     let reflectance = color(
         &format!("{key}.reflectance"),
@@ -98,81 +100,10 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         Some(ShadowingKind::HeightCorrelated) | None => Shadowing::HeightCorrelated,
         Some(ShadowingKind::Separable) => Shadowing::Separable,
     });
-    let unused = |field: &str, what: &str| {
-        Invalid::new(
-            format!("{key}.{field}"),
-            format!("a {what} material has no {field}"),
-        )
-    };
     let bsdf = match m.kind {
-        MaterialKind::Diffuse | MaterialKind::Dielectric
-            if m.eta.is_some() || m.k.is_some() || m.metal.is_some() =>
-        {
-            let field = if m.metal.is_some() {
-                "metal"
-            } else if m.eta.is_some() {
-                "eta"
-            } else {
-                "k"
-            };
-            let what = if m.kind == MaterialKind::Diffuse {
-                "diffuse"
-            } else {
-                "dielectric"
-            };
-            return Err(unused(field, what));
-        }
-        MaterialKind::Diffuse => {
-            if m.roughness.is_some() {
-                return Err(unused("roughness", "diffuse"));
-            }
-            if m.shadowing.is_some() {
-                return Err(unused("shadowing", "diffuse"));
-            }
-            if m.multiscatter.is_some() {
-                return Err(unused("multiscatter", "diffuse"));
-            }
-            if m.ior.is_some() {
-                return Err(unused("ior", "diffuse"));
-            }
-            Bsdf::Diffuse { reflectance }
-        }
-        MaterialKind::Conductor => {
-            if m.ior.is_some() {
-                return Err(unused("ior", "conductor"));
-            }
-            let fresnel = conductor_fresnel(key, m)?;
-            let multiscatter = match m.multiscatter {
-                Some(true) => Multiscatter::new(&fresnel, ggx),
-                _ => None,
-            };
-            Bsdf::Conductor {
-                fresnel,
-                ggx,
-                multiscatter,
-            }
-        }
-        MaterialKind::Dielectric => {
-            if m.reflectance.is_some() {
-                return Err(unused("reflectance", "dielectric"));
-            }
-            if m.one_sided == Some(true) {
-                return Err(Invalid::new(
-                    format!("{key}.one_sided"),
-                    "a dielectric lets light through from both sides; it cannot be one-sided",
-                ));
-            }
-            if m.multiscatter.is_some() {
-                return Err(Invalid::new(
-                    format!("{key}.multiscatter"),
-                    "energy compensation is for conductors only (dielectrics: not yet)",
-                ));
-            }
-            let ior = optional(m.ior, 1.5, |v| {
-                check::within(&format!("{key}.ior"), v, 1e-3, 1e3, false)
-            })? as f32;
-            Bsdf::Dielectric { ior, ggx }
-        }
+        MaterialKind::Diffuse => diffuse(key, m, reflectance)?,
+        MaterialKind::Conductor => conductor(key, m, ggx)?,
+        MaterialKind::Dielectric => dielectric(key, m, ggx)?,
     };
     Ok(Material {
         name: m.name.clone(),
@@ -181,6 +112,82 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         two_sided_emission: m.two_sided_emission.unwrap_or(false),
         one_sided: m.one_sided.unwrap_or(false),
     })
+}
+
+/// The error for `field`, which a `what` material does not take.
+fn unused(key: &str, field: &str, what: &str) -> Invalid {
+    Invalid::new(
+        format!("{key}.{field}"),
+        format!("a {what} material has no {field}"),
+    )
+}
+
+/// Refuses a conductor's complex index or named metal on a `what` material.
+fn no_metal_keys(key: &str, m: &MaterialSection, what: &str) -> Result<(), Invalid> {
+    let field = [
+        ("metal", m.metal.is_some()),
+        ("eta", m.eta.is_some()),
+        ("k", m.k.is_some()),
+    ]
+    .into_iter()
+    .find_map(|(field, given)| given.then_some(field));
+    field.map_or(Ok(()), |field| Err(unused(key, field, what)))
+}
+
+/// A Lambertian BSDF of `reflectance`; rough-surface keys are refused.
+fn diffuse(key: &str, m: &MaterialSection, reflectance: Vec3) -> Result<Bsdf, Invalid> {
+    no_metal_keys(key, m, "diffuse")?;
+    let given = [
+        ("roughness", m.roughness.is_some()),
+        ("shadowing", m.shadowing.is_some()),
+        ("multiscatter", m.multiscatter.is_some()),
+        ("ior", m.ior.is_some()),
+    ];
+    if let Some((field, _)) = given.into_iter().find(|(_, given)| *given) {
+        return Err(unused(key, field, "diffuse"));
+    }
+    Ok(Bsdf::Diffuse { reflectance })
+}
+
+/// A GGX conductor, with the energy lost between facets added back when `multiscatter` asks.
+fn conductor(key: &str, m: &MaterialSection, ggx: Ggx) -> Result<Bsdf, Invalid> {
+    if m.ior.is_some() {
+        return Err(unused(key, "ior", "conductor"));
+    }
+    let fresnel = conductor_fresnel(key, m)?;
+    let multiscatter = match m.multiscatter {
+        Some(true) => Multiscatter::new(&fresnel, ggx),
+        _ => None,
+    };
+    Ok(Bsdf::Conductor {
+        fresnel,
+        ggx,
+        multiscatter,
+    })
+}
+
+/// A smooth or rough (GGX) dielectric of index `ior` (default 1.5).
+fn dielectric(key: &str, m: &MaterialSection, ggx: Ggx) -> Result<Bsdf, Invalid> {
+    no_metal_keys(key, m, "dielectric")?;
+    if m.reflectance.is_some() {
+        return Err(unused(key, "reflectance", "dielectric"));
+    }
+    if m.one_sided == Some(true) {
+        return Err(Invalid::new(
+            format!("{key}.one_sided"),
+            "a dielectric lets light through from both sides; it cannot be one-sided",
+        ));
+    }
+    if m.multiscatter.is_some() {
+        return Err(Invalid::new(
+            format!("{key}.multiscatter"),
+            "energy compensation is for conductors only (dielectrics: not yet)",
+        ));
+    }
+    let ior = optional(m.ior, 1.5, |v| {
+        check::within(&format!("{key}.ior"), v, 1e-3, 1e3, false)
+    })? as f32;
+    Ok(Bsdf::Dielectric { ior, ggx })
 }
 
 /// A conductor's Fresnel term: Schlick's from `reflectance` (the default, white), or the exact

@@ -1,0 +1,99 @@
+//! The `[environment]` section: a constant radiance or a lat-long EXR map, with its intensity,
+//! rotation and light group.
+
+use super::light_groups::LightGroups;
+use super::materials::color;
+use super::schema::EnvironmentSection;
+use super::{optional, parse};
+use crate::error::{RenderError, key_error};
+use crate::lights::environment::{Environment, LatLong};
+use glam::Vec3;
+use rift_fx::Invalid;
+use rift_fx::shot::check;
+use std::path::Path;
+
+/// The `[environment]` section's light, when the shot has one, and its light group.
+pub(super) fn environment_section(
+    file: &Path,
+    base: &Path,
+    table: Option<&toml::Table>,
+    groups: &mut LightGroups,
+) -> Result<(Option<Environment>, u8), RenderError> {
+    let Some(t) = table else {
+        return Ok((None, 0));
+    };
+    let section = parse::<EnvironmentSection>(file, "environment", t)?;
+    let group = groups.index(
+        file,
+        "environment.light_group",
+        section.light_group.as_deref(),
+    )?;
+    Ok((Some(environment(file, base, &section)?), group))
+}
+
+/// The environment light of `[environment]`: a constant or a lat-long map.
+fn environment(
+    file: &Path,
+    base: &Path,
+    e: &EnvironmentSection,
+) -> Result<Environment, RenderError> {
+    let invalid = |e: Invalid| RenderError::Shot(e.in_file(file));
+    match (&e.radiance, &e.map) {
+        (Some(_), Some(_)) => Err(key_error(
+            file,
+            "environment.map",
+            "give either `radiance` or `map`, not both",
+        )),
+        (None, None) => Err(key_error(
+            file,
+            "environment",
+            "expected `radiance = [r, g, b]` or `map = \"file.exr\"`",
+        )),
+        (Some(radiance), None) => {
+            if e.intensity.is_some() || e.rotation_degrees.is_some() {
+                return Err(key_error(
+                    file,
+                    "environment",
+                    "`intensity` and `rotation_degrees` apply to a `map` only",
+                ));
+            }
+            Ok(Environment::Constant(
+                color("environment.radiance", Some(*radiance), Vec3::ZERO).map_err(invalid)?,
+            ))
+        }
+        (None, Some(map)) => {
+            let intensity = optional(e.intensity, 1.0, |v| {
+                check::non_negative("environment.intensity", v)
+            })
+            .map_err(invalid)?;
+            let degrees = optional(e.rotation_degrees, 0.0, |v| {
+                check::finite("environment.rotation_degrees", v)
+            })
+            .map_err(invalid)?;
+            let path = base.join(map);
+            let (w, h, texels) = crate::texture::read_exr_rgb(&path)
+                .map_err(|cause| key_error(file, "environment.map", format!("{map:?}: {cause}")))?;
+            if let Some(bad) = texels
+                .iter()
+                .position(|c| !c.is_finite() || c.min_element() < 0.0)
+            {
+                return Err(key_error(
+                    file,
+                    "environment.map",
+                    format!(
+                        "{map:?}: texel ({}, {}) is negative or not finite",
+                        bad % w,
+                        bad / w
+                    ),
+                ));
+            }
+            Ok(Environment::LatLong(LatLong::new(
+                w,
+                h,
+                texels,
+                intensity as f32,
+                degrees as f32,
+            )))
+        }
+    }
+}

@@ -1,0 +1,279 @@
+//! Loading a shot's frame into a [`Scene`]: every section the renderer reads is checked first
+//! ([`Sections::read`]), so a mistake is reported before any mesh is loaded; then the meshes and
+//! density grids are read within the memory budget, and the geometry, media, lights and
+//! ray-query structure are built from them.
+
+use super::light_groups::LightGroups;
+use super::media::MediaSections;
+use super::objects::{Geometry, Loader, Part};
+use super::portals::StrandLook;
+use super::rings::RingSource;
+use super::schema::ObjectSection;
+use super::settings::{Overrides, Settings};
+use super::{Scene, camera, environment, grids, materials, media, objects, portals, rings};
+use crate::camera::{Clip, Stereo};
+use crate::error::RenderError;
+use crate::geometry::{Accel, Triangle};
+use crate::lights::{Environment, Lights};
+use crate::material::Material;
+use crate::media::grid::GridMedia;
+use crate::portals::Portals;
+use crate::portals::visibility::{CullVolume, Flags, Visibility};
+use glam::Vec3;
+use rift_fx::Shot;
+use rift_fx::ring::RingFrame;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Bytes a scene of `triangles` triangles takes at its peak while it is built: the triangles
+/// as loaded, baked and stored with their normals and indices, and the BVH builder's working
+/// set (about 280 bytes a triangle, measured on 0.5 to 4 million).
+pub fn scene_bytes(triangles: usize) -> u64 {
+    const PER_TRIANGLE: u64 = 400;
+    (triangles as u64).saturating_mul(PER_TRIANGLE)
+}
+
+/// Every section of the shot the renderer reads, checked.
+struct Sections {
+    settings: Settings,
+    media: MediaSections,
+    materials: Vec<Material>,
+    /// Shutter open and close, seconds.
+    shutter: [f64; 2],
+    rings: Option<RingFrame>,
+    groups: LightGroups,
+    environment: Option<Environment>,
+    environment_group: u8,
+    portals: Portals,
+    strand_looks: Vec<StrandLook>,
+    objects: Vec<ObjectSection>,
+    cull_volumes: Vec<CullVolume>,
+    clip: Clip,
+    stereo: Option<Stereo>,
+}
+
+impl Sections {
+    /// The sections of `shot` at `frame`, with `overrides` applied, in the order their
+    /// mistakes are reported.
+    fn read(shot: &Shot, frame: i64, overrides: &Overrides) -> Result<Self, RenderError> {
+        let file = &shot.source;
+        let base = file.parent().unwrap_or(Path::new("."));
+        let sections = &shot.render;
+        let settings = Settings::read(shot, overrides)?;
+        let media = media::sections(file, &sections.media)?;
+        let materials = materials::materials(file, &sections.materials)?;
+        let shutter = shot
+            .shutter_seconds()
+            .map(|s| s + shot.time_of(frame as f64));
+        let rings = rings::load(shot, frame, &ring_source(shot, &settings, overrides))?;
+        let mut groups = LightGroups::new();
+        let (environment, environment_group) = environment::environment_section(
+            file,
+            base,
+            sections.environment.as_ref(),
+            &mut groups,
+        )?;
+        let (portals, strand_looks) = portals::portals(
+            shot,
+            shutter,
+            settings.max_portal_depth,
+            rings.as_ref(),
+            &mut groups,
+        )?;
+        let objects = objects::object_sections(file, &sections.objects)?;
+        let names: Vec<&str> = objects.iter().map(|o| o.name.as_str()).collect();
+        Ok(Self {
+            cull_volumes: portals::cull_volumes(shot, &names)?,
+            clip: camera::clip(file, sections.camera_clip.as_ref())?,
+            stereo: camera::stereo(file, sections.camera_stereo.as_ref())?,
+            settings,
+            media,
+            materials,
+            shutter,
+            rings,
+            groups,
+            environment,
+            environment_group,
+            portals,
+            strand_looks,
+            objects,
+        })
+    }
+}
+
+/// Where the frame's rings come from: `--rings`, else the shot's `[render] rings` or its
+/// generated rings.
+fn ring_source(shot: &Shot, settings: &Settings, overrides: &Overrides) -> RingSource {
+    match &overrides.rings {
+        Some(pattern) => RingSource::Cache {
+            pattern: pattern.clone(),
+            key: None,
+        },
+        None => rings::shot_source(shot, settings.rings.as_deref()),
+    }
+}
+
+impl Scene {
+    /// Loads the scene of `shot` at `frame`.
+    pub fn load(shot: &Shot, frame: i64) -> Result<Self, RenderError> {
+        Self::load_with(shot, frame, &Overrides::default())
+    }
+
+    /// Loads the scene of `shot` at `frame`, with `overrides` replacing the shot's settings.
+    /// It is complete: what rendering it also needs measured comes from
+    /// [`crate::prepare::Prepared`].
+    pub fn load_with(shot: &Shot, frame: i64, overrides: &Overrides) -> Result<Self, RenderError> {
+        let file = &shot.source;
+        let mut s = Sections::read(shot, frame, overrides)?;
+        // Every time a ray can have: objects that move within it are blurred, the rest baked.
+        let times = s.portals.times();
+        let rig = Arc::new(shot.rig.clone());
+        let loader = Loader {
+            shot,
+            base: file.parent().unwrap_or(Path::new(".")),
+            times,
+            rig: &rig,
+            portals: &s.portals,
+            media: &s.media,
+        };
+        let (parts, flags) = loader.parts(&s.objects, &mut s.materials, &mut s.groups)?;
+        let grids = grids::load(&loader, &s.media.grids, frame, overrides.memory_budget)?;
+        let triangles = objects::triangle_count(&parts);
+        check_memory(
+            file,
+            triangles,
+            grids.bytes() as u64,
+            overrides.memory_budget,
+        )?;
+        let selection = overrides.light_selection.unwrap_or_default();
+        Self::assemble(shot, frame, s, (parts, flags), grids, rig, selection)
+    }
+
+    /// The scene of `shot` at `frame` from its checked sections, its objects' `parts` and
+    /// visibility flags, and its density grids; lights picked by `selection`.
+    fn assemble(
+        shot: &Shot,
+        frame: i64,
+        s: Sections,
+        (parts, flags): (Vec<Part>, Vec<Flags>),
+        grids: GridMedia,
+        rig: Arc<rift_fx::rig::Rig>,
+        selection: crate::lights::LightSelection,
+    ) -> Result<Self, RenderError> {
+        let file = &shot.source;
+        let times = s.portals.times();
+        let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+        let mut g = Geometry::assemble(parts, names.len(), times);
+        let media = media::volumes(
+            file,
+            s.media,
+            &names,
+            &g.moving,
+            &g.triangles,
+            &g.triangle_object,
+            grids,
+        )?;
+        let normals = unit_normals(&g.triangles);
+        let emitters = objects::emitters(&g, &normals, &s.materials);
+        let (strands, ring_looks) =
+            rings::strands(shot, s.rings.as_ref(), &s.strand_looks, times, &rig);
+        let lights = Lights::new(
+            emitters,
+            g.triangles.len(),
+            &strands,
+            times,
+            &g.instances,
+            s.environment,
+            selection,
+        );
+        let accel = Accel::build(&g.triangles[..g.static_count], g.instances);
+        let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
+        let visibility = Visibility::new(
+            triangle_object.clone(),
+            flags,
+            s.cull_volumes,
+            rig,
+            s.portals.moving(),
+            times[0],
+        );
+        let light_groups = s.groups.names();
+        let grouped = |v: Vec<u8>| {
+            if light_groups.is_empty() {
+                Vec::new()
+            } else {
+                v
+            }
+        };
+        Ok(Self {
+            id_names: id_names(&names, s.rings.as_ref()),
+            object_count: names.len() as u32,
+            static_triangles: g.static_count,
+            triangles: g.triangles,
+            normals,
+            triangle_material: g.triangle_material,
+            materials: s.materials,
+            accel,
+            lights,
+            settings: s.settings,
+            camera: shot.camera.clone(),
+            clip: s.clip,
+            stereo: s.stereo,
+            portals: s.portals,
+            visibility,
+            media,
+            triangle_object,
+            object_placement: g.placements,
+            strands,
+            strand_flags: ring_looks.iter().map(|l| l.flags).collect(),
+            strand_group: grouped(ring_looks.iter().map(|l| l.group).collect()),
+            triangle_group: grouped(g.triangle_group),
+            light_groups,
+            environment_group: s.environment_group,
+            frame,
+            shutter: s.shutter,
+        })
+    }
+}
+
+/// Refuses a scene of `triangles` triangles and `grid_bytes` of density grids that would not
+/// fit in `budget` bytes, before any BVH is built.
+fn check_memory(
+    file: &Path,
+    triangles: usize,
+    grid_bytes: u64,
+    budget: Option<u64>,
+) -> Result<(), RenderError> {
+    match budget {
+        Some(budget) if scene_bytes(triangles) + grid_bytes > budget => {
+            Err(RenderError::Settings(format!(
+                "{}: its meshes hold {triangles} triangles, which need about {} MiB to render \
+                 (their BVH included), beside {} MiB of density grids: more than the {} MiB \
+                 available; use lighter meshes, or give more with --max-memory where the \
+                 machine has it",
+                file.display(),
+                scene_bytes(triangles) >> 20,
+                grid_bytes >> 20,
+                budget >> 20
+            )))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The unit geometric normal of each triangle (zero for a degenerate one).
+fn unit_normals(triangles: &[Triangle]) -> Vec<Vec3> {
+    triangles
+        .iter()
+        .map(|t| t.normal().normalize_or_zero())
+        .collect()
+}
+
+/// The names object IDs index: the objects', then each ring's (`"<opening>/ring"`).
+fn id_names(objects: &[&str], rings: Option<&RingFrame>) -> Vec<String> {
+    let rings = rings.iter().flat_map(|f| &f.rings);
+    objects
+        .iter()
+        .map(|n| n.to_string())
+        .chain(rings.map(|c| format!("{}/ring", c.opening)))
+        .collect()
+}
