@@ -37,44 +37,28 @@ fn links(text: &str) -> Vec<String> {
     out
 }
 
+/// The lines of `text` outside fenced code blocks.
+fn unfenced(text: &str) -> impl Iterator<Item = &str> {
+    let mut fenced = false;
+    text.lines().filter(move |line| {
+        let fence = line.trim_start().starts_with("```");
+        fenced ^= fence;
+        !fence && !fenced
+    })
+}
+
 /// The lines of `text` outside fenced code blocks, with inline code removed.
 fn prose_lines(text: &str) -> Vec<String> {
-    let mut fenced = false;
-    let mut out = Vec::new();
-    for line in text.lines() {
-        if line.trim_start().starts_with("```") {
-            fenced = !fenced;
-            continue;
-        }
-        if !fenced {
-            let parts: Vec<&str> = line.split('`').collect();
-            out.push(
-                parts
-                    .iter()
-                    .step_by(2)
-                    .copied()
-                    .collect::<Vec<_>>()
-                    .join(""),
-            );
-        }
-    }
-    out
+    unfenced(text)
+        .map(|line| line.split('`').step_by(2).collect::<Vec<_>>().join(""))
+        .collect()
 }
 
 /// What `text` puts in inline backticks, outside fenced code blocks.
 fn inline_code(text: &str) -> Vec<String> {
-    let mut fenced = false;
-    let mut out = Vec::new();
-    for line in text.lines() {
-        if line.trim_start().starts_with("```") {
-            fenced = !fenced;
-            continue;
-        }
-        if !fenced {
-            out.extend(line.split('`').skip(1).step_by(2).map(str::to_owned));
-        }
-    }
-    out
+    unfenced(text)
+        .flat_map(|line| line.split('`').skip(1).step_by(2).map(str::to_owned))
+        .collect()
 }
 
 /// GitHub's anchor of a heading: lower case, punctuation dropped, spaces as hyphens.
