@@ -155,7 +155,16 @@ fn light_tree_cost(
 ) -> anyhow::Result<()> {
     use rift_render::lights::emitters::{LightSelection, Lights, Receiver};
     let t = Instant::now();
-    let lights = Lights::new(Vec::new(), 0, set, times, &[], None, LightSelection::Tree);
+    let lights = Lights::new(
+        Vec::new(),
+        0,
+        set,
+        Vec::new(),
+        times,
+        &[],
+        None,
+        LightSelection::Tree,
+    );
     let build = t.elapsed().as_secs_f64();
     let receiver = |i: usize| {
         let h = |k: u32| super::hashed(i, 4, k);

@@ -5,6 +5,7 @@
 use super::shadow::{ShadowEnd, plain_shadow, shadow};
 use super::{Context, LightRecord, Recorder};
 use crate::geometry::{offset_origin, offset_target};
+use crate::lights::SkyPart;
 use crate::lights::emitters::{LightPlace, LightSample, LightSource, Receiver};
 use crate::material::bsdf::{Bsdf, Side};
 use crate::portals::visibility::RayClass;
@@ -31,7 +32,11 @@ pub(super) struct Shading<'a> {
 /// Next-event estimation: light arriving at `at` (at its time) from one sample drawn with `u`
 /// and `u_technique`, in the space beyond the openings of `space` (`None`: ordinary light
 /// sampling), the strategy picked with probability `q`; MIS weighted against BSDF sampling
-/// (power heuristic), before the path throughput. `FULL` as for [`scatter_at`].
+/// (power heuristic), before the path throughput, handed to `gather` with its light group
+/// (part by part where the sky's parts belong to several). `FULL` as for
+/// [`super::path`]'s `scatter_at`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub(super) fn next_event<const FULL: bool, R: Recorder>(
     ctx: &Context,
     at: &Shading,
@@ -40,10 +45,10 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
     u: glam::Vec2,
     u_technique: f32,
     recorder: &mut R,
-) -> (Vec3, u8) {
-    const NONE: (Vec3, u8) = (Vec3::ZERO, 0);
+    mut gather: impl FnMut(Vec3, u8),
+) {
     if q <= 0.0 {
-        return NONE;
+        return;
     }
     // Training paths record every light sample (see `crate::prepare::training`), out of line:
     // the emitter a sample took is found again from `u` (none for a point on an opening's
@@ -57,13 +62,13 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
     };
     let Some(incoming) = incoming(ctx, at.receiver, space, u, u_technique) else {
         learn(0.0);
-        return NONE;
+        return;
     };
     let wi = at.frame.to_local(incoming.dir);
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
         learn(0.0);
-        return NONE;
+        return;
     }
     // The shadow ray leaves from the side of the surface it goes to.
     let ng = at.ng;
@@ -77,7 +82,7 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
     };
     let Some((tint, coins)) = visible else {
         learn(0.0);
-        return NONE;
+        return;
     };
     let pdf_light = q * incoming.pdf;
     let weight = if incoming.bsdf_can_find {
@@ -91,8 +96,42 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
         let brought = f * incoming.radiance * tint * (weight * coins / incoming.pdf);
         learn(crate::color::luminance(brought));
     }
-    let light = f * incoming.radiance * tint * (weight * coins / pdf_light);
-    (light, incoming.group)
+    let k = weight * coins / pdf_light;
+    match incoming.sky {
+        Some((dir, time))
+            if FULL
+                && ctx
+                    .scene
+                    .lights
+                    .sky
+                    .as_ref()
+                    .is_some_and(|s| !s.dome_only()) =>
+        {
+            sky_parts(ctx, dir, time, |light, group| {
+                gather(f * light * tint * k, group)
+            })
+        }
+        _ => gather(f * incoming.radiance * tint * k, incoming.group),
+    }
+}
+
+/// Hands `gather` the radiance each part of the sky sends from `dir` at `time`, with the
+/// part's light group.
+#[inline(never)]
+fn sky_parts(ctx: &Context, dir: Vec3, time: f64, mut gather: impl FnMut(Vec3, u8)) {
+    if let Some(sky) = &ctx.scene.lights.sky {
+        sky.each_part(dir, time, RayClass::Indirect, |light, part| {
+            gather(light, sky_group(ctx, part))
+        });
+    }
+}
+
+/// The light group of a part of the sky.
+pub(super) fn sky_group(ctx: &Context, part: SkyPart) -> u8 {
+    match (part, &ctx.scene.lights.sky) {
+        (SkyPart::Sun(i), Some(sky)) => sky.suns[i as usize].group,
+        _ => ctx.scene.environment_group,
+    }
 }
 
 /// One sample of light that may reach a point, before its shadow ray.
@@ -108,6 +147,9 @@ pub(crate) struct Incoming {
     bsdf_can_find: bool,
     /// The light group of the emitter.
     pub group: u8,
+    /// For a sample of the sky that rays can find (not a single direction): the direction it
+    /// was looked up in (beyond any openings) and the time, for its parts' light groups.
+    sky: Option<(Vec3, f64)>,
 }
 
 /// Records a training path's light sample at `receiver` (where light selection saw it), drawn
@@ -201,7 +243,7 @@ pub struct Probe {
 #[inline(never)]
 fn brought_back(ctx: &Context, at: &Receiver, space: &Space, arrival: Incoming) -> Incoming {
     let dir = space.direction_back(arrival.dir);
-    let sky = arrival.end.target.is_none().then_some((at, dir));
+    let sky = arrival.sky.is_some().then_some((at, dir));
     Incoming {
         dir,
         pdf: space.density(&ctx.scene.portals, arrival.pdf, sky),
@@ -218,18 +260,20 @@ fn sky_through_aperture(
     space: &Space,
     u: glam::Vec2,
 ) -> Option<Incoming> {
-    let sky = ctx.scene.lights.environment.as_ref()?;
+    let sky = ctx.scene.lights.sky.as_ref()?;
     let (dir, pdf_aperture) =
         aperture_sampling::sample(&ctx.scene.portals, space.first(), at.time, at.p, u)?;
     let beyond = space.direction_beyond(dir);
+    let time = space.receiver.time;
     let pdf_light = ctx.lights.pdf_environment(beyond, &space.receiver);
     Some(Incoming {
         dir,
-        radiance: sky.radiance(beyond),
+        radiance: sky.radiance(beyond, time),
         end: ShadowEnd::SKY,
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
         group: ctx.scene.environment_group,
+        sky: Some((beyond, time)),
     })
 }
 
@@ -238,32 +282,32 @@ fn sky_through_aperture(
 #[inline]
 fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming> {
     let time = at.time;
-    let (bsdf_can_find, group) = match light.place {
-        LightPlace::Point {
-            source: LightSource::Triangle(triangle),
-            ..
-        } => (
-            ctx.scene.visibility.sees(triangle, RayClass::Indirect),
-            ctx.scene.triangle_light_group(triangle),
-        ),
-        LightPlace::Point {
-            source: LightSource::Strand(segment),
-            ..
-        } => (
-            ctx.scene.strand_sees(segment, RayClass::Indirect),
-            ctx.scene.strand_light_group(segment),
-        ),
-        LightPlace::Direction(_) => (true, ctx.scene.environment_group),
-    };
     match light.place {
-        LightPlace::Direction(dir) => Some(Incoming {
+        LightPlace::Direction { dir, part, delta } => Some(Incoming {
             dir,
             radiance: light.radiance,
             end: ShadowEnd::SKY,
             pdf: light.pdf,
-            bsdf_can_find,
-            group,
+            bsdf_can_find: !delta,
+            group: sky_group(ctx, part),
+            sky: (!delta).then_some((dir, time)),
         }),
+        LightPlace::Punctual { point, source } => {
+            let to = point - at.p;
+            let dist2 = to.length_squared();
+            (dist2 > 0.0).then(|| Incoming {
+                dir: to / dist2.sqrt(),
+                radiance: light.radiance / dist2,
+                end: ShadowEnd {
+                    target: Some(point),
+                    strand: None,
+                },
+                pdf: light.pdf,
+                bsdf_can_find: false,
+                group: source_group(ctx, source),
+                sky: None,
+            })
+        }
         LightPlace::Point {
             point,
             normal,
@@ -290,13 +334,39 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
                     target: Some(offset_target(point, light_side)),
                     strand: match source {
                         LightSource::Strand(segment) => Some(segment),
-                        LightSource::Triangle(_) => None,
+                        _ => None,
                     },
                 },
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
-                bsdf_can_find,
-                group,
+                bsdf_can_find: bsdf_can_find(ctx, source),
+                group: source_group(ctx, source),
+                sky: None,
             })
         }
+    }
+}
+
+/// True when rays that scatter can find `source`, so BSDF sampling may draw its light. Shape
+/// lights are found along rays only where no medium could have stopped them first.
+#[inline]
+fn bsdf_can_find(ctx: &Context, source: LightSource) -> bool {
+    let scene = ctx.scene;
+    match source {
+        LightSource::Triangle(triangle) => scene.visibility.sees(triangle, RayClass::Indirect),
+        LightSource::Strand(segment) => scene.strand_sees(segment, RayClass::Indirect),
+        LightSource::Shape(k) => {
+            let light = &scene.lights.shapes[k as usize];
+            !light.is_point() && scene.media.is_empty() && light.flags.sees(RayClass::Indirect)
+        }
+    }
+}
+
+/// The light group of the emitter `source`.
+#[inline]
+fn source_group(ctx: &Context, source: LightSource) -> u8 {
+    match source {
+        LightSource::Triangle(triangle) => ctx.scene.triangle_light_group(triangle),
+        LightSource::Strand(segment) => ctx.scene.strand_light_group(segment),
+        LightSource::Shape(k) => ctx.scene.lights.shapes[k as usize].group,
     }
 }

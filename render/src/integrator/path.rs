@@ -2,7 +2,7 @@
 //! its emission found by BSDF sampling with MIS weights, light sampling at each scattering
 //! event ([`super::direct`]), the BSDF sample that continues it, and roulette.
 
-use super::direct::{Shading, next_event};
+use super::direct::{Shading, next_event, sky_group};
 use super::{Context, FirstHit, NoRecorder, PORTAL_TIE, PathSample, Recorder};
 use crate::geometry::{Hit, Ray, offset_origin};
 use crate::lights::emitters::{Found, Receiver};
@@ -180,8 +180,9 @@ enum Crossing {
     Passed,
     /// It teleported at this distance along the old ray: the path continues along the new one.
     Teleported(f32),
-    /// The path ends at an opening (the depth limit, or total reflection at its exit).
-    Ended,
+    /// The path ends at an opening at this distance (the depth limit, or total reflection at
+    /// its exit).
+    Ended(f32),
     /// A density grid stopped the path before the hit (or the next opening).
     InGrid(Tracked),
 }
@@ -222,11 +223,11 @@ fn cross_openings(
         }
         if path.chain.teleports() >= ctx.scene.settings.max_portal_depth {
             path.first_hit(out, ph.t, -ray.dir, Vec3::ZERO, NO_OBJECT);
-            return Crossing::Ended;
+            return Crossing::Ended(ph.t);
         }
         let time = portals.exit_time(ph.opening, ray.time);
         let Some(next) = portals.teleport(&ph, ray.dir, time) else {
-            return Crossing::Ended;
+            return Crossing::Ended(ph.t);
         };
         path.beta *= look.tint;
         path.chain.push(ph.opening);
@@ -295,7 +296,7 @@ fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &
     }
 }
 
-/// Follows `path` to its end, in the loop that [`trace`] chose for the ctx.scene.
+/// Follows `path` to its end, in the loop that [`trace`] chose for the scene.
 fn follow<const FULL: bool, R: Recorder>(
     ctx: &Context,
     path: PathState,
@@ -311,7 +312,7 @@ fn follow<const FULL: bool, R: Recorder>(
     }
 }
 
-/// [`trace`] in any ctx.scene.
+/// [`trace`] in any scene.
 pub(super) fn trace_full<R: Recorder>(
     ctx: &Context,
     camera_ray: Ray,
@@ -335,7 +336,7 @@ fn grid_rng(s: &mut SampleStream) -> Rng {
     Rng::new(crate::sampling::hash32(s.uniform().to_bits()))
 }
 
-/// Follows `path` to its end in any ctx.scene. `strategies` is how light sampling chose at its
+/// Follows `path` to its end in any scene. `strategies` is how light sampling chose at its
 /// last scattering point (`None`: ordinary light sampling only), kept beside the path state,
 /// which stays small where no opening can matter.
 fn follow_full<R: Recorder>(
@@ -354,7 +355,19 @@ fn follow_full<R: Recorder>(
         // Where the path scatters next: a collision in a grid or in its medium, or the
         // surface it hit.
         let mut collided = None;
-        match cross_openings(ctx, &mut path, collision.or(hit_t), s, out) {
+        // Shape lights are transparent: what the ray passes on the way is gathered, with the
+        // path as it was before any opening changed it.
+        let before =
+            (!ctx.scene.lights.shapes.is_empty() && ctx.scene.media.is_empty()).then_some(path);
+        let crossing = cross_openings(ctx, &mut path, collision.or(hit_t), s, out);
+        if let Some(before) = &before {
+            let end = match crossing {
+                Crossing::Teleported(at) | Crossing::Ended(at) => at,
+                _ => hit_t.unwrap_or(before.ray.t_max),
+            };
+            shape_lights_along(ctx, before, strategies.as_ref(), end, out);
+        }
+        match crossing {
             Crossing::Passed => {}
             Crossing::Teleported(at) => {
                 if let Some(m) = medium {
@@ -363,7 +376,7 @@ fn follow_full<R: Recorder>(
                 path.inside = ctx.scene.media.at_point(path.ray.origin);
                 continue;
             }
-            Crossing::Ended | Crossing::InGrid(Tracked::Absorbed { .. }) => break,
+            Crossing::Ended(_) | Crossing::InGrid(Tracked::Absorbed { .. }) => break,
             Crossing::InGrid(Tracked::Scattered {
                 at,
                 anisotropy,
@@ -426,6 +439,44 @@ enum Event<'a> {
     },
 }
 
+/// Gathers the shape lights the path's ray passes before `end` that rays of its class see,
+/// each weighed against light sampling at the last scattering point (a point light is found
+/// by light sampling alone).
+#[inline(never)]
+fn shape_lights_along(
+    ctx: &Context,
+    path: &PathState,
+    strategies: Option<&Strategies>,
+    end: f32,
+    out: &mut PathSample,
+) {
+    let class = path.class();
+    let ray = Ray {
+        t_max: end,
+        ..path.ray
+    };
+    for (k, light) in ctx.scene.lights.shapes.iter().enumerate() {
+        if !light.flags.sees(class) {
+            continue;
+        }
+        let Some((t, found)) = light.intersect(&ray) else {
+            continue;
+        };
+        let point = found.point;
+        let kind = Found::Shape {
+            light: k as u32,
+            point,
+            normal: found.normal,
+        };
+        let weight = path.emission_weight(ctx, strategies, kind, t, Some(point));
+        out.gather(
+            path.beta * found.radiance * weight,
+            path.lit_through,
+            light.group,
+        );
+    }
+}
+
 /// The end of a path that met no surface to scatter at: the sky it escapes to, or the strand
 /// it hits (strands glow and absorb: their emission ends the path).
 fn finish(
@@ -437,11 +488,14 @@ fn finish(
 ) {
     let dir = path.ray.dir;
     let Some(hit) = hit else {
-        if let Some(env) = &ctx.scene.lights.environment {
+        if let Some(sky) = &ctx.scene.lights.sky {
             let weight =
                 path.emission_weight(ctx, strategies, Found::Environment, f32::INFINITY, None);
-            let light = path.beta * env.radiance(dir) * weight;
-            out.gather(light, path.lit_through, ctx.scene.environment_group);
+            let (class, time) = (path.class(), path.ray.time);
+            sky.each_part(dir, time, class, |radiance, part| {
+                let light = path.beta * radiance * weight;
+                out.gather(light, path.lit_through, sky_group(ctx, part));
+            });
         }
         return;
     };
@@ -670,9 +724,18 @@ fn scatter_at<const FULL: bool, R: Recorder>(
         };
         let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
         let space = space.as_ref();
-        let (light, group) =
-            next_event::<FULL, R>(ctx, &shading, space, q, u_light, u_technique, recorder);
-        out.gather(path.beta * light, through, group);
+        let beta = path.beta;
+        let gather = |light, group| out.gather(beta * light, through, group);
+        next_event::<FULL, R>(
+            ctx,
+            &shading,
+            space,
+            q,
+            u_light,
+            u_technique,
+            recorder,
+            gather,
+        );
         let branches = ctx.scene.settings.indirect_samples;
         if path.bounce == 0 && branches > 1 && !R::RECORDS {
             split::<FULL, R>(ctx, path, strategies, &shading, branches, s, out, recorder);

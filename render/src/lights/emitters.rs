@@ -1,21 +1,25 @@
-//! Emitters and how next-event estimation picks them. Emitters are emissive triangles and the
-//! rings' strand segments; a light BVH ([`LightTree`]) picks one in proportion to what it can
-//! send to the shading point (or, for comparison, an alias table in proportion to power alone),
-//! then a point on it: uniform on a triangle; on a strand segment, uniform along its length and
-//! cosine-distributed around the half of its circumference that faces the point. The
-//! environment is sampled by its own distribution; when it and emitters both exist, the tree
-//! gives it a share of the samples at each point by its estimate against the emitters' (see
-//! `EnvironmentSplit`), and selection by power gives it half.
+//! Emitters and how next-event estimation picks them. Emitters are emissive triangles, the
+//! rings' strand segments and the lights a lighter places ([`ShapeLight`]); a light BVH
+//! ([`LightTree`]) picks one in proportion to what it can send to the shading point (or, for
+//! comparison, an alias table in proportion to power alone), then a point on it: uniform on a
+//! triangle; on a strand segment, uniform along its length and cosine-distributed around the
+//! half of its circumference that faces the point; on a shape light, as its shape samples. The
+//! sky (the environment and distant lights, [`Sky`]) is sampled by its own distribution; when it
+//! and emitters both exist, the tree gives it a share of the samples at each point by its
+//! estimate against the emitters' (see `EnvironmentSplit`), and selection by power gives it
+//! half.
 
 use crate::color::luminance;
 use crate::geometry::{MovingInstance, RoundCone, STATIC, Strands, Triangle};
-use crate::lights::environment::Environment;
 use crate::lights::guide::LightGuide;
+use crate::lights::shapes::ShapeLight;
+use crate::lights::sky::{Sky, SkyPart};
 use crate::lights::strand_exposure;
 use crate::lights::tree::{LightBounds, LightTree, Path, PerLane};
 use crate::sampling::{AliasTable, uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
+use std::ops::Range;
 
 /// How next-event estimation picks an emitter.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -48,6 +52,8 @@ pub enum LightSource {
     Triangle(u32),
     /// A strand segment.
     Strand(u32),
+    /// A shape light (`[[light]]`), by its index among them.
+    Shape(u32),
 }
 
 /// What a light sample took (see [`LightSampler::picked`]).
@@ -81,7 +87,13 @@ pub enum Found {
     },
     /// A point on a strand segment, at position `s` along it.
     Strand { segment: u32, s: f32, normal: Vec3 },
-    /// The environment, in the ray's direction.
+    /// A point on a shape light.
+    Shape {
+        light: u32,
+        point: Vec3,
+        normal: Vec3,
+    },
+    /// The sky, in the ray's direction.
     Environment,
 }
 
@@ -112,8 +124,15 @@ pub enum LightPlace {
         two_sided: bool,
         source: LightSource,
     },
-    /// A direction towards the environment, infinitely far.
-    Direction(Vec3),
+    /// A point light: no surface; the sample's radiance is its intensity towards the point.
+    Punctual { point: Vec3, source: LightSource },
+    /// A direction towards the sky, infinitely far, from its `part`; a `delta` one is a
+    /// single direction (no ray finds it), whose radiance is the illuminance it gives.
+    Direction {
+        dir: Vec3,
+        part: SkyPart,
+        delta: bool,
+    },
 }
 
 /// A sampled light.
@@ -139,7 +158,7 @@ impl Default for Picker {
 }
 
 /// All emitters of a scene. Emitter indices run over the triangles first, then the strand
-/// segments in scene order.
+/// segments in scene order, then the shape lights.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
     pub emitters: Vec<Emitter>,
@@ -153,12 +172,12 @@ pub struct Lights {
     /// random outgrows the cache (for a single area light, fetching ahead was a fifth of the
     /// pick's instructions).
     fetch_ahead: bool,
-    /// Mean luminance of the environment over the sphere (0 without one).
-    environment_luminance: f32,
     /// Emitter index per scene triangle (u32::MAX: not an emitter).
     by_triangle: Vec<u32>,
-    /// Light from where rays escape, if any.
-    pub environment: Option<Environment>,
+    /// The lights a lighter placed, other than distant ones.
+    pub shapes: Vec<ShapeLight>,
+    /// Light from where rays escape (the environment and distant lights), if any.
+    pub sky: Option<Sky>,
     /// How light sampling shares its samples between the environment and the emitters.
     environment_split: EnvironmentSplit,
     /// The times rays can have, which the tree's moving bounds span.
@@ -317,13 +336,15 @@ impl Lights {
     /// Collects emitters: emissive triangles (`triangle_count` is the scene's triangle count;
     /// those of moving objects are placed by `instances`) and every strand segment that emits;
     /// rays have times in `times`.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         emitters: Vec<Emitter>,
         triangle_count: usize,
         strands: &Strands,
+        shapes: Vec<ShapeLight>,
         times: [f64; 2],
         instances: &[MovingInstance],
-        environment: Option<Environment>,
+        sky: Option<Sky>,
         selection: LightSelection,
     ) -> Self {
         let mut bounds: Vec<LightBounds> = emitters
@@ -332,6 +353,7 @@ impl Lights {
             .collect();
         let strand_count = strands.segments.len();
         bounds.extend((0..strand_count as u32).map(|i| segment_bounds(strands, i, times)));
+        bounds.extend(shapes.iter().map(|l| l.bounds(times)));
         if selection.by_tree() {
             // The tree weighs emitters by the most light they send one way, and strands by
             // what gets out of the rings; power alone stays the plain comparison.
@@ -342,7 +364,8 @@ impl Lights {
             }
             let middle = 0.5 * (times[0] + times[1]);
             let exposure = strand_exposure::exposure(strands, middle);
-            for (b, e) in bounds[emitters.len()..].iter_mut().zip(exposure) {
+            let segments = emitters.len()..emitters.len() + strand_count;
+            for (b, e) in bounds[segments].iter_mut().zip(exposure) {
                 b.power *= ROUND_PEAK_SHARE * e.sqrt();
             }
         }
@@ -362,9 +385,11 @@ impl Lights {
         let kinds: Vec<u32> = (0..emitters.len())
             .map(|_| 0)
             .chain(strands.segment_ring.iter().map(|r| r + 1))
+            .chain(shapes.iter().map(|_| 0))
             .collect();
         let tree = LightTree::with_kinds(&bounds, &kinds);
-        let lane_costs = lane_costs(&tree, &bounds, emitters.len());
+        let strand_range = emitters.len()..emitters.len() + strand_count;
+        let lane_costs = lane_costs(&tree, &bounds, strand_range);
         let fetch_ahead = crate::geometry::wide_bvh::worth_fetching_ahead(
             tree.bytes()
                 + std::mem::size_of_val(emitters.as_slice())
@@ -374,8 +399,7 @@ impl Lights {
         for (i, e) in emitters.iter().enumerate() {
             by_triangle[e.triangle as usize] = i as u32;
         }
-        let environment = environment.filter(|e| !e.is_black());
-        let environment_split = match (environment.is_some(), bounds.is_empty(), selection) {
+        let environment_split = match (sky.is_some(), bounds.is_empty(), selection) {
             (false, ..) => EnvironmentSplit::Fixed(0.0),
             (true, true, _) => EnvironmentSplit::Fixed(1.0),
             (true, false, LightSelection::Power) => EnvironmentSplit::Fixed(0.5),
@@ -387,11 +411,9 @@ impl Lights {
             picker,
             tree,
             fetch_ahead,
-            environment_luminance: environment
-                .as_ref()
-                .map_or(0.0, Environment::mean_luminance),
             by_triangle,
-            environment,
+            shapes,
+            sky,
             environment_split,
             times,
             selection,
@@ -459,7 +481,10 @@ impl Lights {
 
     /// True when there is nothing to sample.
     pub fn is_empty(&self) -> bool {
-        self.emitters.is_empty() && self.strand_count == 0 && self.environment.is_none()
+        self.emitters.is_empty()
+            && self.strand_count == 0
+            && self.shapes.is_empty()
+            && self.sky.is_none()
     }
 
     /// Where `time` lies through the time range, 0 at its start and 1 at its end.
@@ -479,10 +504,15 @@ impl Lights {
         self.tree.importance(at.p, at.n, self.tau(at.time)) + self.sky_importance()
     }
 
-    /// The environment's part of [`Self::importance`]: π times its mean radiance, what it
-    /// sends a surface open to all of it.
+    /// The sky's part of [`Self::importance`]: what it sends a surface open to all of it.
     fn sky_importance(&self) -> f32 {
-        PI * self.environment_luminance
+        self.sky.as_ref().map_or(0.0, Sky::importance)
+    }
+
+    /// The index among the shape lights of emitter `i`, if it is one.
+    #[inline]
+    fn shape_of(&self, i: usize) -> Option<usize> {
+        i.checked_sub(self.emitters.len() + self.strand_count)
     }
 
     /// Asks the cache for what [`LightSampler::sample`] reads of emitter `i` once it is
@@ -491,7 +521,8 @@ impl Lights {
     fn fetch(&self, i: usize, strands: &Strands) {
         match i.checked_sub(self.emitters.len()) {
             None => crate::platform::prefetch::prefetch(std::slice::from_ref(&self.emitters[i])),
-            Some(segment) => strands.prefetch(segment),
+            Some(segment) if segment < self.strand_count => strands.prefetch(segment),
+            Some(_) => {}
         }
     }
 }
@@ -596,7 +627,7 @@ impl LightSampler<'_> {
     /// emitter (that cost the Cornell box 2.5%).
     pub fn picked(&self, u: Vec2, at: &Receiver, strands: &Strands) -> Option<Picked> {
         let (_, on_environment, u_point) = self.split(u, at);
-        if on_environment && self.lights.environment.is_some() {
+        if on_environment && self.lights.sky.is_some() {
             return Some(Picked::Environment);
         }
         self.pick(u_point.x, at, strands)
@@ -617,10 +648,14 @@ impl LightSampler<'_> {
         strands: &Strands,
     ) -> Option<LightSample> {
         let (p_env, on_environment, u_point) = self.split(u, at);
-        if let Some(env) = self.lights.environment.as_ref().filter(|_| on_environment) {
-            let s = env.sample(u_point);
+        if let Some(sky) = self.lights.sky.as_ref().filter(|_| on_environment) {
+            let s = sky.sample(u_point, at.time)?;
             return (s.pdf > 0.0).then_some(LightSample {
-                place: LightPlace::Direction(s.direction),
+                place: LightPlace::Direction {
+                    dir: s.direction,
+                    part: s.part,
+                    delta: s.delta,
+                },
                 radiance: s.radiance,
                 pdf: p_env * s.pdf,
             });
@@ -629,6 +664,9 @@ impl LightSampler<'_> {
         let u_point = Vec2::new(u_rest, u_point.y);
         let pick = (1.0 - p_env) * pmf;
         if i >= self.lights.emitters.len() {
+            if let Some(k) = self.lights.shape_of(i) {
+                return sample_shape(&self.lights.shapes[k], k as u32, at, u_point, pick);
+            }
             let segment = (i - self.lights.emitters.len()) as u32;
             return sample_segment(strands, segment, at, u_point, pick);
         }
@@ -675,6 +713,11 @@ impl LightSampler<'_> {
             Found::Strand { segment, s, normal } => {
                 (self.pdf_strand(segment, s, normal, at, strands), normal)
             }
+            Found::Shape {
+                light,
+                point,
+                normal,
+            } => (self.pdf_shape(light, point, normal, at), normal),
         };
         pdf_area * distance * distance / normal.dot(dir).abs()
     }
@@ -682,10 +725,24 @@ impl LightSampler<'_> {
     /// Solid-angle pdf with which [`LightSampler::sample`], called for `at`, picks environment
     /// direction `dir`.
     pub fn pdf_environment(&self, dir: Vec3, at: &Receiver) -> f32 {
-        self.lights
-            .environment
-            .as_ref()
-            .map_or(0.0, |env| self.environment_probability(at) * env.pdf(dir))
+        self.lights.sky.as_ref().map_or(0.0, |sky| {
+            self.environment_probability(at) * sky.pdf(dir, at.time)
+        })
+    }
+
+    /// Area-measure pdf with which [`LightSampler::sample`] picks `point` (with unit `normal`)
+    /// on shape light `light` for `at`.
+    pub fn pdf_shape(&self, light: u32, point: Vec3, normal: Vec3, at: &Receiver) -> f32 {
+        let lights = self.lights;
+        let Some(shape) = lights.shapes.get(light as usize) else {
+            return 0.0;
+        };
+        let i = lights.emitters.len() + lights.strand_count + light as usize;
+        let pick = (1.0 - self.environment_probability(at)) * self.pick_pmf(i, at);
+        if pick == 0.0 {
+            return 0.0;
+        }
+        pick * shape.pdf(at.p, point, normal, at.time)
     }
 
     /// Area-measure pdf with which [`LightSampler::sample`] picks a point on `triangle` for `at`,
@@ -774,17 +831,18 @@ impl Cylinder {
 }
 
 /// The mean cost of a light sample in each lane of `tree`'s top two levels over `bounds` (the
-/// first `triangles` of them lamps, the rest strands), weighed as the tree weighs emitters.
-fn lane_costs(tree: &LightTree, bounds: &[LightBounds], triangles: usize) -> PerLane {
+/// strand segments among them at `strands`, every other one a lamp), weighed as the tree
+/// weighs emitters.
+fn lane_costs(tree: &LightTree, bounds: &[LightBounds], strands: Range<usize>) -> PerLane {
     let (mut cost, mut weight) = (PerLane::splat(0.0), PerLane::splat(0.0));
     for (i, b) in bounds.iter().enumerate() {
         let Some((j, second)) = tree.top_lanes(i) else {
             continue;
         };
-        let c = if i < triangles {
-            1.0
-        } else {
+        let c = if strands.contains(&i) {
             STRAND_SAMPLE_COST
+        } else {
+            1.0
         };
         cost.root[j] += b.power * c;
         weight.root[j] += b.power;
@@ -831,6 +889,37 @@ fn one_lamp(emitters: &[LightBounds]) -> bool {
     }
 }
 
+/// A point on shape light `light` (index `k`) for the shading point `at`, picked with
+/// probability `pick`.
+fn sample_shape(
+    light: &ShapeLight,
+    k: u32,
+    at: &Receiver,
+    u: Vec2,
+    pick: f32,
+) -> Option<LightSample> {
+    let s = light.sample(at.p, at.time, u)?;
+    let source = LightSource::Shape(k);
+    let place = if light.is_point() {
+        LightPlace::Punctual {
+            point: s.point,
+            source,
+        }
+    } else {
+        LightPlace::Point {
+            point: s.point,
+            normal: s.normal,
+            two_sided: false,
+            source,
+        }
+    };
+    Some(LightSample {
+        place,
+        radiance: s.radiance,
+        pdf: pick * s.pdf,
+    })
+}
+
 /// A point on strand `segment` (world, at the receiver's time) for the shading point `at`,
 /// picked with probability `pick`.
 fn sample_segment(
@@ -865,6 +954,8 @@ fn sample_segment(
 mod tests {
     use super::*;
     use crate::geometry::{ObjectMotion, RingFrame};
+    use crate::lights::environment::Environment;
+    use crate::lights::shapes::Shape;
     use glam::{DQuat, DVec3};
     use rift_fx::rig::{AnimatedTransform, Interpolation, Similarity, TransformKey};
     use rift_fx::ring::RingCurves;
@@ -929,11 +1020,39 @@ mod tests {
         MovingInstance::new(&[tri], 2, motion, [0.0, 1.0])
     }
 
+    /// Shape lights facing the receiver of the test below: a 1 × 0.5 rectangle, a disk of
+    /// radius 0.4, and a sphere of radius 0.3 (whose samples cover the cap the receiver sees).
+    fn shape_lights() -> Vec<ShapeLight> {
+        let at = |p: DVec3| AnimatedTransform::constant(Similarity::from_translation(p));
+        let light = |shape, p| ShapeLight {
+            name: String::new(),
+            shape,
+            base: Vec3::splat(2.0),
+            normalize: false,
+            cone: None,
+            placement: at(p),
+            flags: crate::portals::Flags::ALL,
+            group: 0,
+        };
+        vec![
+            light(
+                Shape::Rect {
+                    width: 1.0,
+                    height: 0.5,
+                },
+                DVec3::new(0.0, 1.0, 6.0),
+            ),
+            light(Shape::Disk { radius: 0.4 }, DVec3::new(-1.0, 0.0, 7.0)),
+            light(Shape::Sphere { radius: 0.3 }, DVec3::new(1.5, 0.5, 5.5)),
+        ]
+    }
+
     /// Every emitter kind; for each sample, the pdf the sampler reports must equal the pdf
     /// evaluated at the sampled point, and Σ g/pdf over the samples that land on an emitter,
-    /// divided by the sample count, must integrate g over its area. g is 1 on triangles (the
-    /// area itself); on a strand, whose points are cos φ-distributed around the facing half,
-    /// 1/pdf has unbounded variance, so g is cos²φ there, which integrates to π·r·length/2.
+    /// divided by the sample count, must integrate g over its area. g is 1 on triangles and
+    /// shape lights (the area itself; for a sphere, the cap the receiver sees); on a strand,
+    /// whose points are cos φ-distributed around the facing half, 1/pdf has unbounded
+    /// variance, so g is cos²φ there, which integrates to π·r·length/2.
     #[test]
     fn sampled_pdfs_match_evaluated_pdfs_and_integrate_each_area() {
         let strands = square_ring();
@@ -955,6 +1074,7 @@ mod tests {
                 vec![still_a, still_b, moving],
                 3,
                 &strands,
+                shape_lights(),
                 [0.0, 1.0],
                 &instances,
                 None,
@@ -1001,6 +1121,10 @@ mod tests {
                             (cos_phi * cos_phi) as f64,
                         )
                     }
+                    LightSource::Shape(k) => {
+                        let pdf = lights.sampler(None).pdf_shape(k, point, normal, &at);
+                        (pdf, 1.0)
+                    }
                 };
                 assert!(
                     (evaluated - sample.pdf).abs() <= 2e-3 * sample.pdf,
@@ -1021,9 +1145,16 @@ mod tests {
                             * (seg.radius_a + seg.radius_b) as f64
                             * seg.a.distance(seg.b) as f64
                     }
+                    LightSource::Shape(0) => 0.5,
+                    LightSource::Shape(1) => std::f64::consts::PI * 0.16,
+                    LightSource::Shape(_) => {
+                        // The cap a point d away sees of a sphere of radius r: 2πr²(1 − r/d).
+                        let d = Vec3::new(1.5, 0.5, 5.5).distance(at.p) as f64;
+                        2.0 * std::f64::consts::PI * 0.09 * (1.0 - 0.3 / d)
+                    }
                 }
             };
-            assert_eq!(integral.len(), 3 + strands.segments.len(), "{selection:?}");
+            assert_eq!(integral.len(), 6 + strands.segments.len(), "{selection:?}");
             for (source, sum) in integral {
                 let (got, want) = (sum / SAMPLES as f64, area(source));
                 assert!(
@@ -1073,6 +1204,7 @@ mod tests {
                 lamp(two_sided),
                 2,
                 &strands,
+                Vec::new(),
                 [0.0, 1.0],
                 &[],
                 None,
@@ -1114,9 +1246,10 @@ mod tests {
                 lamp.clone(),
                 2,
                 &none,
+                Vec::new(),
                 [0.0, 1.0],
                 &[],
-                Some(Environment::Constant(Vec3::ONE)),
+                Sky::new(Some(Environment::Constant(Vec3::ONE)), Vec::new()),
                 selection,
             )
         };
@@ -1153,7 +1286,7 @@ mod tests {
                     .sample(u, &at, |e| e.vertices, &none)
                     .unwrap();
                 let evaluated = match s.place {
-                    LightPlace::Direction(dir) => {
+                    LightPlace::Direction { dir, .. } => {
                         sky += 1;
                         lights.sampler(None).pdf_environment(dir, &at)
                     }
@@ -1197,6 +1330,7 @@ mod tests {
                 emitters,
                 count,
                 &none,
+                Vec::new(),
                 [0.0, 1.0],
                 &[],
                 None,

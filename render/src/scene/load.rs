@@ -10,11 +10,11 @@ use super::portals::StrandLook;
 use super::rings::RingSource;
 use super::schema::ObjectSection;
 use super::settings::{Overrides, Settings};
-use super::{Scene, camera, environment, grids, materials, media, objects, portals, rings};
+use super::{Scene, camera, environment, grids, lights, materials, media, objects, portals, rings};
 use crate::camera::{Clip, Stereo};
 use crate::error::RenderError;
 use crate::geometry::{Accel, Triangle};
-use crate::lights::{Environment, Lights};
+use crate::lights::{Environment, Lights, ShapeLight, Sky, Sun};
 use crate::material::Material;
 use crate::media::grid::GridMedia;
 use crate::portals::Portals;
@@ -44,6 +44,8 @@ struct Sections {
     groups: LightGroups,
     environment: Option<Environment>,
     environment_group: u8,
+    shape_lights: Vec<ShapeLight>,
+    suns: Vec<Sun>,
     portals: Portals,
     strand_looks: Vec<StrandLook>,
     objects: Vec<ObjectSection>,
@@ -73,6 +75,7 @@ impl Sections {
             sections.environment.as_ref(),
             &mut groups,
         )?;
+        let (shape_lights, suns) = lights::lights(shot, &mut groups)?;
         let (portals, strand_looks) = portals::portals(
             shot,
             shutter,
@@ -94,6 +97,8 @@ impl Sections {
             groups,
             environment,
             environment_group,
+            shape_lights,
+            suns,
             portals,
             strand_looks,
             objects,
@@ -181,9 +186,10 @@ impl Scene {
             emitters,
             g.triangles.len(),
             &strands,
+            s.shape_lights,
             times,
             &g.instances,
-            s.environment,
+            Sky::new(s.environment, s.suns),
             selection,
         );
         let accel = Accel::build(&g.triangles[..g.static_count], g.instances);

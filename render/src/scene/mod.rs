@@ -7,6 +7,7 @@ pub mod camera;
 mod environment;
 pub mod grids;
 pub mod light_groups;
+mod lights;
 mod load;
 mod materials;
 pub mod media;
@@ -173,14 +174,15 @@ impl Scene {
             && self.settings.max_portal_depth > 0
     }
 
-    /// True when the scene holds only surfaces and lamps: no openings, media, strands, sky or
-    /// hidden objects. Its paths then take the integrator's plain loop, which leaves out the
+    /// True when the scene holds only surfaces and lamps: no openings, media, strands, sky,
+    /// shape lights or hidden objects. Its paths then take the integrator's plain loop, which leaves out the
     /// tests for all of those.
     pub fn only_surfaces_and_lamps(&self) -> bool {
         self.portals.is_empty()
             && self.media.is_empty()
             && self.strands.is_empty()
-            && self.lights.environment.is_none()
+            && self.lights.sky.is_none()
+            && self.lights.shapes.is_empty()
             && !self.visibility.hides_anything()
     }
 

@@ -72,6 +72,30 @@
 //! transform = { position = [0.0, 0.0, -3.0], scale = 0.5 }  # keyed like an object's (optional)
 //! # through = "door"            # carried through this opening by the solver, like an object
 //!
+//! [[light]]                     # a light as a lighter places it, in UsdLux's units
+//! name = "key"
+//! type = "rect"                 # "point" (a sphere: `radius`, 0 for a point), "spot" (a point
+//!                               # or sphere with a cone), "rect", "disk" or "distant" (a sun)
+//! color = [1.0, 0.9, 0.8]       # linear Rec. 709 (default white)
+//! intensity = 10.0              # radiance: color × intensity × 2^exposure (default 1; a
+//! exposure = 0.0                # distant light's default is 50000)
+//! normalize = false             # true: divide by the emitting area (power stays as the size
+//!                               # changes); a distant light's value is then its illuminance.
+//!                               # A point (radius 0) or a sun of angle 0 is always normalised
+//! width = 1.0                   # rect: along its local X (default 1)
+//! height = 0.5                  # rect: along its local Y (default 1)
+//! # radius = 0.05               # point or spot: the sphere's (default 0); disk (default 0.5)
+//! # angle = 0.53                # distant: angular diameter in degrees (default 0.53)
+//! # cone_angle = 30.0           # spot (or any point, disk or rect light): degrees from its −Z
+//! # cone_softness = 0.2         # share of the cone over which emission fades (default 0)
+//! transform = { position = [0.0, 2.9, 0.0], rotation_degrees = [-90.0, 0.0, 0.0] }
+//!                               # rect, disk and spot lights emit along their local −Z, a sun
+//!                               # shines along it; `look_at` aims it; keys move and blur it
+//! visibility = { camera = false }  # which rays see it: camera and through_portal default to
+//!                               # false (lights light the scene, the camera does not see
+//!                               # them), indirect to true; no light blocks any ray
+//! # light_group = "key"         # its light in the EXR layer lightgroup.key
+//!
 //! [environment]                # light from every direction where rays escape:
 //! radiance = [0.2, 0.25, 0.3]   # a constant radiance, or
 //! # map = "sky.exr"             # a lat-long EXR (RGB), relative to the shot file; top row up,
@@ -243,6 +267,39 @@ pub struct VisibilitySection {
     pub through_portal: Option<bool>,
     pub indirect: Option<bool>,
     pub shadow: Option<bool>,
+}
+
+/// One `[[light]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightSection {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub kind: LightKind,
+    pub color: Option<[f64; 3]>,
+    pub intensity: Option<f64>,
+    pub exposure: Option<f64>,
+    pub normalize: Option<bool>,
+    pub radius: Option<f64>,
+    pub width: Option<f64>,
+    pub height: Option<f64>,
+    pub angle: Option<f64>,
+    pub cone_angle: Option<f64>,
+    pub cone_softness: Option<f64>,
+    pub transform: Option<rift_fx::shot::schema::PoseSpec>,
+    pub visibility: Option<VisibilitySection>,
+    pub light_group: Option<String>,
+}
+
+/// The kinds of `[[light]]`.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum LightKind {
+    Point,
+    Spot,
+    Rect,
+    Disk,
+    Distant,
 }
 
 /// One `[[portal.cull]]`.
