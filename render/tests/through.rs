@@ -379,6 +379,74 @@ pair = "ringed"
 }
 
 #[test]
+fn each_kind_of_light_lights_the_dark_room_through_the_window() {
+    let dir = tempfile::tempdir().unwrap();
+    // A light of each kind with a surface in the lamp room, facing the window on its +X wall.
+    let aim = "transform = { position = [29.0, 1.5, 0.2], rotation_degrees = [0.0, -90.0, 0.0] }";
+    let lights = [
+        (
+            "sphere light",
+            "type = \"point\"\nintensity = 40.0\nradius = 0.2",
+        ),
+        (
+            "rect light",
+            "type = \"rect\"\nintensity = 20.0\nwidth = 0.6\nheight = 0.6",
+        ),
+        (
+            "disk light",
+            "type = \"disk\"\nintensity = 20.0\nradius = 0.3",
+        ),
+        (
+            "soft spot light",
+            "type = \"spot\"\nintensity = 40.0\nradius = 0.2\ncone_angle = 50.0\ncone_softness = 0.4",
+        ),
+    ];
+    for (name, keys) in lights {
+        let light = format!("[[light]]\nname = \"light\"\n{keys}\n{aim}\n");
+        let shot = two_rooms(dir.path(), RECTANGLE, RECTANGLE, &light, "");
+        same_estimate(dir.path(), name, &shot, 128, false, beauty);
+    }
+    // A point has no surface: only light sampling through the window finds it, so it is
+    // checked against a normalised sphere of 2 cm, which gives the same light.
+    let point = format!(
+        "[[light]]\nname = \"light\"\ntype = \"spot\"\nintensity = 40.0\ncone_angle = 60.0\n{aim}\n"
+    );
+    let sphere = point.replace(
+        "intensity = 40.0",
+        "intensity = 40.0\nradius = 0.02\nnormalize = true",
+    );
+    let [a, b] = [point, sphere].map(|light| {
+        let shot = two_rooms(dir.path(), RECTANGLE, RECTANGLE, &light, "");
+        [1, 2].map(|seed| render_at(dir.path(), "point", &shot, 64, seed))
+    });
+    common::assert_statistically_equal(
+        [&a[0].rgb, &a[1].rgb],
+        [&b[0].rgb, &b[1].rgb],
+        "a point through the window against a small sphere",
+    );
+    // A sun shining into the far room through its open side and on through the window.
+    std::fs::write(
+        dir.path().join("open_room.obj"),
+        box_obj([-2.0, 0.0, -2.0], [2.0, 3.0, 2.0], &["-z"]),
+    )
+    .unwrap();
+    let sun = r#"
+[[light]]
+name = "sun"
+type = "distant"
+intensity = 3.0
+angle = 5.0
+normalize = true
+transform = { rotation_degrees = [0.0, -135.0, 0.0] }
+"#;
+    let open = two_rooms(dir.path(), RECTANGLE, RECTANGLE, "", sun).replace(
+        "mesh = \"room.obj\"\nmaterial = \"soot\"",
+        "mesh = \"open_room.obj\"\nmaterial = \"soot\"",
+    );
+    same_estimate(dir.path(), "sun", &open, 256, false, beauty);
+}
+
+#[test]
 fn chains_of_two_openings_are_searched_only_where_they_may_matter() {
     let dir = tempfile::tempdir().unwrap();
     // The chains light sampling may take at a floor point of the dark room, as their lengths,

@@ -388,3 +388,84 @@ fn intersect_plane(placed: &Placed, ray: &Ray) -> Option<(f32, Vec2)> {
     let offset = ray.at(t) - placed.centre;
     Some((t, Vec2::new(offset.dot(placed.x), offset.dot(placed.y))))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn light(shape: Shape, normalize: bool, cone: Option<Cone>) -> ShapeLight {
+        ShapeLight {
+            name: String::new(),
+            shape,
+            base: Vec3::splat(4.0),
+            normalize,
+            cone,
+            placement: AnimatedTransform::constant(Similarity::IDENTITY),
+            flags: Flags::ALL,
+            group: 0,
+        }
+    }
+
+    #[test]
+    fn a_cone_is_whole_inside_its_soft_start_and_dark_beyond_its_angle() {
+        let hard = Cone::new(30.0, 0.0);
+        assert_eq!(hard.factor(29f32.to_radians()), 1.0);
+        assert_eq!(hard.factor(31f32.to_radians()), 0.0);
+        let soft = Cone::new(40.0, 0.5);
+        assert_eq!(soft.factor(19f32.to_radians()), 1.0);
+        assert!((soft.factor(30f32.to_radians()) - 0.5).abs() < 1e-5);
+        assert_eq!(soft.factor(41f32.to_radians()), 0.0);
+    }
+
+    #[test]
+    fn normalising_divides_by_the_world_area_and_a_point_sends_a_quarter() {
+        let placed = Placed::new(&Similarity::new(glam::DQuat::IDENTITY, DVec3::ZERO, 2.0));
+        let rect = light(
+            Shape::Rect {
+                width: 1.0,
+                height: 0.5,
+            },
+            true,
+            None,
+        );
+        assert_eq!(rect.radiance(&placed, -Vec3::Z), Vec3::splat(4.0 / 2.0));
+        let plain = light(
+            Shape::Rect {
+                width: 1.0,
+                height: 0.5,
+            },
+            false,
+            None,
+        );
+        assert_eq!(plain.radiance(&placed, -Vec3::Z), Vec3::splat(4.0));
+        let point = light(Shape::Sphere { radius: 0.0 }, true, None);
+        assert_eq!(point.radiance(&placed, Vec3::X), Vec3::splat(1.0));
+        // A spot sends nothing behind it.
+        let spot = light(
+            Shape::Sphere { radius: 0.0 },
+            true,
+            Some(Cone::new(45.0, 0.0)),
+        );
+        assert_eq!(spot.radiance(&placed, Vec3::Z), Vec3::ZERO);
+    }
+
+    #[test]
+    fn a_sphere_sends_nothing_inside_itself_and_rays_meet_its_outside_only() {
+        let sphere = light(Shape::Sphere { radius: 1.0 }, false, None);
+        assert!(
+            sphere
+                .sample(Vec3::new(0.2, 0.0, 0.0), 0.0, Vec2::splat(0.5))
+                .is_none()
+        );
+        let inside = Ray::new(Vec3::ZERO, Vec3::X, f32::INFINITY, 0.0);
+        assert!(sphere.intersect(&inside).is_none());
+        let outside = Ray::new(Vec3::new(-3.0, 0.0, 0.0), Vec3::X, f32::INFINITY, 0.0);
+        let (t, p) = sphere.intersect(&outside).unwrap();
+        assert!((t - 2.0).abs() < 1e-6 && (p.normal + Vec3::X).length() < 1e-6);
+        // A disk is met from its emitting side only.
+        let disk = light(Shape::Disk { radius: 1.0 }, false, None);
+        let towards = Ray::new(Vec3::new(0.0, 0.0, -2.0), Vec3::Z, f32::INFINITY, 0.0);
+        let behind = Ray::new(Vec3::new(0.0, 0.0, 2.0), -Vec3::Z, f32::INFINITY, 0.0);
+        assert!(disk.intersect(&towards).is_some() && disk.intersect(&behind).is_none());
+    }
+}

@@ -272,3 +272,78 @@ impl Sky {
         self.suns.is_empty()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rift_fx::rig::Similarity;
+
+    fn sun(angle: f32, normalize: bool, rotation_y: f64) -> Sun {
+        let turn = glam::DQuat::from_rotation_y(rotation_y.to_radians());
+        let frame = Similarity::new(turn, DVec3::ZERO, 1.0);
+        Sun::new(
+            String::new(),
+            angle,
+            Vec3::splat(2.0),
+            normalize,
+            AnimatedTransform::constant(frame),
+            Flags::ALL,
+            0,
+        )
+    }
+
+    /// Sampled densities match evaluated ones, and Σ L/pdf over the samples integrates the
+    /// sky's radiance: 4π times the dome's, plus each disk's L·Ω; a single direction comes
+    /// with its probability and its illuminance.
+    #[test]
+    fn sampling_matches_its_pdf_and_integrates_the_radiance() {
+        let suns = vec![
+            sun(8.0, false, 0.0),
+            sun(3.0, true, 90.0),
+            sun(0.0, true, 200.0),
+        ];
+        let sky = Sky::new(Some(Environment::Constant(Vec3::splat(0.1))), suns).unwrap();
+        let (n, mut integral, mut deltas) = (200_000u32, 0.0f64, 0u32);
+        for k in 0..n {
+            let u = Vec2::new(
+                (k as f32 + 0.5) / n as f32,
+                k.reverse_bits() as f32 / 2f32.powi(32),
+            );
+            let Some(s) = sky.sample(u, 0.0) else {
+                continue;
+            };
+            if s.delta {
+                deltas += 1;
+                assert_eq!(s.radiance, Vec3::splat(2.0));
+                continue;
+            }
+            let evaluated = sky.pdf(s.direction, 0.0);
+            assert!(
+                (s.pdf - evaluated).abs() <= 1e-4 * evaluated,
+                "{} {evaluated}",
+                s.pdf
+            );
+            integral += (s.radiance.x / s.pdf) as f64;
+        }
+        let solid = |deg: f32| 2.0 * PI * (1.0 - (0.5 * deg.to_radians()).cos());
+        let normalised = 2.0 / (PI * (1.5f32.to_radians().sin().powi(2)));
+        let want = 4.0 * PI * 0.1 + 2.0 * solid(8.0) + normalised * solid(3.0);
+        let got = integral / n as f64;
+        assert!(
+            (got - want as f64).abs() < 0.01 * want as f64,
+            "{got} against {want}"
+        );
+        let expected_deltas = sky.shares[3] * n as f32;
+        assert!((deltas as f32 - expected_deltas).abs() <= 2.0, "{deltas}");
+    }
+
+    /// A normalised sun gives its value as illuminance on a surface facing it.
+    #[test]
+    fn a_normalised_sun_gives_its_value_as_illuminance() {
+        let s = sun(10.0, true, 0.0);
+        let half = 5f32.to_radians();
+        let e = s.radiance.x * PI * half.sin().powi(2);
+        assert!((e - 2.0).abs() < 1e-5, "{e}");
+        assert!(Sky::new(None, Vec::new()).is_none());
+    }
+}
