@@ -1,5 +1,8 @@
 //! Light from infinitely far away where rays escape: a constant radiance, or a lat-long
-//! (equirectangular) image sampled in proportion to its brightness.
+//! (equirectangular) image, filtered bilinearly between texel centres (wrapping round in
+//! longitude), and sampled in proportion to its brightness: each texel weighs as the brightest
+//! of itself and its eight neighbours, the texels the filter blends into it, so every direction
+//! that sends light can be drawn.
 //!
 //! Lat-long convention: +Y up; the image's top row looks straight up, its middle column looks
 //! down −Z (the default camera direction), and columns run towards +X as u grows, so the map
@@ -107,6 +110,7 @@ impl LatLong {
         degrees: f32,
     ) -> Self {
         let texels: Vec<Vec3> = texels.into_iter().map(|c| c * intensity).collect();
+        let brightest = neighbourhood_maxima(width, height, &texels);
         let mut rows = Vec::with_capacity(height + 1);
         let mut columns = Vec::with_capacity(height * (width + 1));
         rows.push(0.0);
@@ -115,8 +119,7 @@ impl LatLong {
             let start = columns.len();
             columns.push(0.0);
             for x in 0..width {
-                let c = texels[y * width + x];
-                let w = (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z).max(0.0) * sin_theta;
+                let w = brightest[y * width + x] * sin_theta;
                 columns.push(columns[start + x] + w);
             }
             rows.push(rows[y] + columns[start + width]);
@@ -156,8 +159,24 @@ impl LatLong {
     }
 
     fn radiance(&self, dir: Vec3) -> Vec3 {
-        let (x, y) = self.texel(self.uv(dir));
-        self.texels[y * self.width + x]
+        self.filtered(self.uv(dir))
+    }
+
+    /// The map at `uv`, bilinear between the four nearest texel centres (wrapping round in
+    /// longitude, clamped at the poles).
+    fn filtered(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width, self.height);
+        let px = uv.x * w as f32 - 0.5;
+        let py = (uv.y * h as f32 - 0.5).clamp(0.0, (h - 1) as f32);
+        let (fx, fy) = (px - px.floor(), py - py.floor());
+        let x0 = (px.floor() as isize).rem_euclid(w as isize) as usize;
+        let x1 = (x0 + 1) % w;
+        let y0 = (py as usize).min(h - 1);
+        let y1 = (y0 + 1).min(h - 1);
+        let at = |x: usize, y: usize| self.texels[y * w + x];
+        let top = at(x0, y0) * (1.0 - fx) + at(x1, y0) * fx;
+        let bottom = at(x0, y1) * (1.0 - fx) + at(x1, y1) * fx;
+        top * (1.0 - fy) + bottom * fy
     }
 
     fn sample(&self, u: Vec2) -> EnvironmentSample {
@@ -179,7 +198,7 @@ impl LatLong {
         let direction = self.direction(uv);
         EnvironmentSample {
             direction,
-            radiance: self.texels[y * self.width + x],
+            radiance: self.filtered(uv),
             pdf: self.pdf_texel(x, y, uv.y),
         }
     }
@@ -205,6 +224,32 @@ impl LatLong {
         }
         density / (2.0 * PI * PI * sin_theta)
     }
+}
+
+/// Per texel, the largest luminance of it and its eight neighbours (wrapping round in
+/// longitude, clamped at the poles), never below zero.
+fn neighbourhood_maxima(width: usize, height: usize, texels: &[Vec3]) -> Vec<f32> {
+    let lum: Vec<f32> = texels.iter().map(|&c| luminance(c).max(0.0)).collect();
+    let across: Vec<f32> = (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            let left = (x + width - 1) % width;
+            let right = (x + 1) % width;
+            lum[y * width + left]
+                .max(lum[i])
+                .max(lum[y * width + right])
+        })
+        .collect();
+    (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            let up = y.saturating_sub(1);
+            let down = (y + 1).min(height - 1);
+            across[up * width + x]
+                .max(across[i])
+                .max(across[down * width + x])
+        })
+        .collect()
 }
 
 /// Finds the cell of a cumulative table holding `target` and the fraction within it.
@@ -245,6 +290,24 @@ mod tests {
     }
 
     #[test]
+    fn the_map_is_bilinear_between_texel_centres_and_wraps_in_longitude() {
+        let mut texels = vec![Vec3::ZERO; 8];
+        texels[0] = Vec3::ONE; // top row, first column
+        let map = LatLong::new(4, 2, texels, 1.0, 0.0);
+        // At the texel's centre, its value; halfway to the next centre, half.
+        assert!((map.filtered(Vec2::new(0.125, 0.25)).x - 1.0).abs() < 1e-6);
+        assert!((map.filtered(Vec2::new(0.25, 0.25)).x - 0.5).abs() < 1e-6);
+        // Across the seam: halfway between the last column's centre and the first's.
+        assert!((map.filtered(Vec2::new(0.0, 0.25)).x - 0.5).abs() < 1e-6);
+        // Every texel the filter blends the lit one into can be drawn: its neighbours too.
+        let env = Environment::LatLong(map.clone());
+        for x in [0.0, 0.2, 0.3, 0.9] {
+            let d = map.direction(Vec2::new(x, 0.3));
+            assert!(env.radiance(d).x == 0.0 || env.pdf(d) > 0.0, "{x}");
+        }
+    }
+
+    #[test]
     fn directions_and_image_coordinates_round_trip() {
         let map = spot_map();
         for i in 0..1000 {
@@ -281,7 +344,11 @@ mod tests {
                 "pdf {pdf} vs sampled {}",
                 s.pdf
             );
-            assert_eq!(env.radiance(s.direction), s.radiance);
+            let looked_up = env.radiance(s.direction);
+            assert!(
+                (looked_up - s.radiance).abs().max_element()
+                    <= 1e-3 * s.radiance.max_element().max(1.0)
+            );
             importance_sum += s.radiance / s.pdf;
         }
         let (a, b) = (uniform_sum / n as f32, importance_sum / n as f32);
