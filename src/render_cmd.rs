@@ -253,6 +253,9 @@ struct Plan {
 fn render_frame(args: &RenderArgs, shot: &Shot, frame: i64, plan: &Plan) -> anyhow::Result<()> {
     let prepared = Prepared::build(shot, frame, &plan.overrides)?;
     let scene = &prepared.scene;
+    for warning in &scene.warnings {
+        eprintln!("rift render: warning: {warning}");
+    }
     let eyes: Vec<Option<Eye>> = match (&scene.stereo, args.eye) {
         (None, Some(_)) => bail!("--eye: {} has no [camera.stereo]", args.shot.display()),
         (None, None) => vec![None],

@@ -20,7 +20,7 @@ const MAX_FUZZED_OPENINGS: usize = 16;
 pub type Reader = fn(&[u8]);
 
 /// The readers, by the name of their fuzz target.
-pub const TARGETS: [(&str, Reader); 9] = [
+pub const TARGETS: [(&str, Reader); 10] = [
     ("shot", shot),
     ("obj", obj),
     ("ply_mesh", ply_mesh),
@@ -30,6 +30,7 @@ pub const TARGETS: [(&str, Reader); 9] = [
     ("exr_layer", exr_layer),
     ("checkpoint", checkpoint),
     ("vdb", vdb),
+    ("texture", texture),
 ];
 
 /// A shot file: parsed, validated and, when it is small (few strands and openings), built into
@@ -95,4 +96,13 @@ pub fn checkpoint(bytes: &[u8]) {
 /// size is legitimate work that only slows the fuzzer down).
 pub fn vdb(bytes: &[u8]) {
     let _ = crate::media::vdb::read_grid(bytes, "density", 8 << 20);
+}
+
+/// A texture image (PNG, JPEG or EXR) with its mipmaps, within 64 MiB: decoding a larger image
+/// is legitimate work that only slows the fuzzer down.
+pub fn texture(bytes: &[u8]) {
+    if let Ok(picture) = crate::texture::image::decode(bytes, 64 << 20) {
+        let texture = crate::texture::Texture::new(picture, crate::texture::ColorSpace::Srgb);
+        let _ = texture.lookup(glam::Vec2::new(0.3, 0.7), 0.01);
+    }
 }

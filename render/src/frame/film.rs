@@ -335,18 +335,14 @@ pub fn encode_srgb_png(width: usize, height: usize, rgb: &[Vec3]) -> Result<Vec<
     Ok(encoded)
 }
 
-/// The sRGB transfer function, for values clipped to [0, 1].
+/// The sRGB transfer function, for values clipped to [0, 1] (anything not finite is black).
 fn srgb_encode(linear: f32) -> f32 {
     let v = if linear.is_finite() {
         linear.clamp(0.0, 1.0)
     } else {
         0.0
     };
-    if v <= 0.003_130_8 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    }
+    crate::texture::mipmap::linear_to_srgb(v)
 }
 
 /// Mean of each channel over an image, in f64.

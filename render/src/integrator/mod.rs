@@ -59,6 +59,9 @@ pub struct Context<'a> {
     /// Light sampling through openings; `None` where it cannot bring light (no opening, no
     /// light, no teleport allowed) or the shot turns it off: ordinary light sampling only.
     pub through: Option<View<'a>>,
+    /// The angle a pixel spans at the image's centre: how fast a camera ray's footprint grows,
+    /// for texture filtering.
+    pub pixel_spread: f32,
 }
 
 impl<'a> Context<'a> {
@@ -73,6 +76,7 @@ impl<'a> Context<'a> {
             scene,
             lights: scene.lights.sampler(guide),
             through: survey.map(|survey| through_view(scene, survey)),
+            pixel_spread: (1.0 / scene.camera.projection.focal_pixels()) as f32,
         }
     }
 

@@ -6,16 +6,19 @@ use super::direct::{Shading, next_event, sky_group};
 use super::{Context, FirstHit, NoRecorder, PORTAL_TIE, PathSample, Recorder};
 use crate::geometry::{Hit, Ray, offset_origin};
 use crate::lights::emitters::{Found, Receiver};
+use crate::material::Lookup;
 use crate::material::bsdf::{Bsdf, Material, Side};
 use crate::media::grid::{Rng, Tracked};
 use crate::media::homogeneous::{Flight, Medium};
 use crate::media::volumes::Inside;
 use crate::portals::visibility::RayClass;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
+use crate::scene::SurfacePoint;
 use crate::scene::light_groups::MAX_LIGHT_GROUPS;
 use crate::scene::{NO_OBJECT, SceneHit};
 use crate::through::{Chain, Strategies};
 use glam::Vec3;
+use std::borrow::Cow;
 
 /// Roulette starts after this many bounces.
 const ROULETTE_AFTER: u32 = 3;
@@ -67,10 +70,24 @@ struct PathState {
     /// Draws for tracking through density grids (seeded from the sample stream when the
     /// scene has grids).
     rng: Rng,
+    /// The ray cone's width where the path last scattered (world units) and its spread
+    /// (radians): the footprint textures are filtered over (kept only where there are
+    /// textures).
+    width: f32,
+    spread: f32,
 }
 
+/// The least spread a ray cone takes after scattering off a surface that is not a mirror:
+/// rough bounces spread the light they gather, so their textures are read blurred (as pbrt's
+/// and other renderers' ray cones and differentials do after the first bounce).
+const ROUGH_SPREAD: f32 = 0.1;
+
+/// The smallest cosine a footprint is stretched by at grazing angles.
+const GRAZING_COS: f32 = 0.05;
+
 impl PathState {
-    fn camera(ray: Ray) -> Self {
+    /// A camera path along `ray`, whose cone spreads `spread` radians (a pixel's angle).
+    fn camera(ray: Ray, spread: f32) -> Self {
         Self {
             ray,
             beta: Vec3::ONE,
@@ -91,6 +108,18 @@ impl PathState {
             travelled: 0.0,
             crossings: 0,
             rng: Rng::new(0),
+            width: 0.0,
+            spread,
+        }
+    }
+
+    /// Widens the ray cone to the scattering point `p` the path reached and, after a bounce
+    /// that is not a mirror's, to at least [`ROUGH_SPREAD`].
+    fn widen_cone(&mut self, p: Vec3, delta: bool) {
+        let distance = self.travelled + (p - self.ray.origin).length();
+        self.width += self.spread * distance;
+        if !delta {
+            self.spread = self.spread.max(ROUGH_SPREAD);
         }
     }
 
@@ -277,7 +306,8 @@ fn track_grids(
 /// the tests for openings, media, strands, the sky and hidden objects, none of which it holds.
 pub(super) fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
     let mut out = PathSample::default();
-    follow_plain(ctx, PathState::camera(camera_ray), s, &mut out);
+    let path = PathState::camera(camera_ray, ctx.pixel_spread);
+    follow_plain(ctx, path, s, &mut out);
     out
 }
 
@@ -285,12 +315,11 @@ pub(super) fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) 
 fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &mut PathSample) {
     let mut strategies = None;
     while let Some(hit) = ctx.scene.intersect_surfaces(&path.ray) {
-        let Some((p, ng, material)) = surface_emission(ctx, &path, &strategies, &hit, out) else {
+        let Some((p, ng, bsdf)) = surface_emission(ctx, &path, &strategies, &hit, out) else {
             break;
         };
-        let bsdf = &material.bsdf;
         let plain = &mut NoRecorder;
-        if !scatter_at::<false, _>(ctx, &mut path, &mut strategies, p, ng, bsdf, s, out, plain) {
+        if !scatter_at::<false, _>(ctx, &mut path, &mut strategies, p, ng, &bsdf, s, out, plain) {
             break;
         }
     }
@@ -320,7 +349,7 @@ pub(super) fn trace_full<R: Recorder>(
     recorder: &mut R,
 ) -> PathSample {
     let mut out = PathSample::default();
-    let mut path = PathState::camera(camera_ray);
+    let mut path = PathState::camera(camera_ray, ctx.pixel_spread);
     if !ctx.scene.media.bounded.is_empty() {
         path.inside = ctx.scene.media.at_point(camera_ray.origin);
     }
@@ -537,31 +566,30 @@ fn scatter<R: Recorder>(
     out: &mut PathSample,
     recorder: &mut R,
 ) -> bool {
-    let phase;
     let (p, ng, bsdf) = match event {
         Event::Surface(hit) => {
-            let Some((p, ng, material)) = surface_emission(ctx, path, strategies, &hit, out) else {
+            let Some(scattering) = surface_emission(ctx, path, strategies, &hit, out) else {
                 return false;
             };
-            (p, ng, &material.bsdf)
+            scattering
         }
         Event::Collision { medium, at } => {
             let (emitted, scattered) = medium.collision(at);
             out.gather(path.beta * emitted, path.lit_through, 0);
             path.beta *= scattered;
-            phase = medium_vertex(path, out, at, medium.anisotropy, medium.albedo());
-            (path.ray.at(at), -path.ray.dir, &phase)
+            let phase = medium_vertex(path, out, at, medium.anisotropy, medium.albedo());
+            (path.ray.at(at), -path.ray.dir, Cow::Owned(phase))
         }
         Event::Scattered {
             at,
             anisotropy,
             albedo,
         } => {
-            phase = medium_vertex(path, out, at, anisotropy, albedo);
-            (path.ray.at(at), -path.ray.dir, &phase)
+            let phase = medium_vertex(path, out, at, anisotropy, albedo);
+            (path.ray.at(at), -path.ray.dir, Cow::Owned(phase))
         }
     };
-    scatter_at::<true, R>(ctx, path, strategies, p, ng, bsdf, s, out, recorder)
+    scatter_at::<true, R>(ctx, path, strategies, p, ng, &bsdf, s, out, recorder)
 }
 
 /// A scattering point `at` along the path's ray in a medium: recorded for the AOVs; its
@@ -573,30 +601,27 @@ fn medium_vertex(path: &PathState, out: &mut PathSample, at: f32, g: f32, albedo
 }
 
 /// The surface `hit` of the path's ray: records it for the AOVs and gathers its emission;
-/// returns its point, geometric normal and material, or `None` when the path met the black
-/// back of a one-sided material, where it ends.
+/// returns its point, geometric normal and BSDF (with its textures read), or `None` when the
+/// path met the black back of a one-sided material, where it ends.
 fn surface_emission<'a>(
     ctx: &Context<'a>,
     path: &PathState,
     strategies: &Option<Strategies>,
     hit: &Hit,
     out: &mut PathSample,
-) -> Option<(Vec3, Vec3, &'a Material)> {
+) -> Option<(Vec3, Vec3, Cow<'a, Bsdf>)> {
     let (dir, time) = (path.ray.dir, path.ray.time);
     let surface = ctx.scene.surface(hit, time);
     let (p, ng) = (surface.p, surface.ng);
     let material = ctx.scene.material(hit.triangle);
     let cos_o = -dir.dot(ng);
     let black = material.black_from(cos_o);
+    let bsdf = surface_bsdf(ctx, path, hit, &surface, material);
     // Checked here too, so later bounces skip the albedo and object lookups.
     if path.bounce == 0 {
         let facing = if cos_o >= 0.0 { ng } else { -ng };
         let object = ctx.scene.object_of(hit.triangle);
-        let albedo = if black {
-            Vec3::ZERO
-        } else {
-            material.bsdf.albedo()
-        };
+        let albedo = if black { Vec3::ZERO } else { bsdf.albedo() };
         path.first_hit(out, hit.t, facing, albedo, object);
     }
     if material.emits() {
@@ -612,7 +637,32 @@ fn surface_emission<'a>(
             out.gather(path.beta * le * weight, path.lit_through, group);
         }
     }
-    (!black).then_some((p, ng, material))
+    (!black).then_some((p, ng, bsdf))
+}
+
+/// The BSDF of `material` where the path's ray met `hit` (at `surface`): its own, or with
+/// its textures read at the hit's UV over the ray cone's footprint there.
+#[inline]
+fn surface_bsdf<'a>(
+    ctx: &Context<'a>,
+    path: &PathState,
+    hit: &Hit,
+    surface: &SurfacePoint,
+    material: &'a Material,
+) -> Cow<'a, Bsdf> {
+    if !material.textured() {
+        return Cow::Borrowed(&material.bsdf);
+    }
+    let Some((uv, per_metre)) = ctx.scene.uv_at(hit, surface.area_scale) else {
+        return Cow::Borrowed(&material.bsdf);
+    };
+    let cos = path.ray.dir.dot(surface.ng).abs().max(GRAZING_COS);
+    let footprint = path.width + path.spread * (path.travelled + hit.t);
+    let at = Lookup {
+        uv,
+        width: footprint * per_metre / cos,
+    };
+    Cow::Owned(material.bsdf_at(ctx.scene.textures.list(), &at))
 }
 
 /// A free-flight distance through `medium` for the path's ray, whose surface lies at `hit_t`
@@ -685,6 +735,9 @@ fn scatter_at<const FULL: bool, R: Recorder>(
         .is_some_and(|m| path.bounce >= m)
     {
         return false;
+    }
+    if ctx.scene.textures.has_any() {
+        path.widen_cone(p, bsdf.is_delta());
     }
 
     // Shade on the side the path arrived from.

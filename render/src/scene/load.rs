@@ -4,6 +4,7 @@
 //! ray-query structure are built from them.
 
 use super::light_groups::LightGroups;
+use super::materials::TextureReader;
 use super::media::MediaSections;
 use super::objects::{Geometry, Loader, Part};
 use super::portals::StrandLook;
@@ -19,6 +20,7 @@ use crate::material::Material;
 use crate::media::grid::GridMedia;
 use crate::portals::Portals;
 use crate::portals::visibility::{CullVolume, Flags, Visibility};
+use crate::texture::Textures;
 use glam::Vec3;
 use rift_fx::Shot;
 use rift_fx::ring::RingFrame;
@@ -38,6 +40,8 @@ struct Sections {
     settings: Settings,
     media: MediaSections,
     materials: Vec<Material>,
+    /// The materials' textures.
+    textures: Textures,
     /// Shutter open and close, seconds.
     shutter: [f64; 2],
     rings: Option<RingFrame>,
@@ -63,7 +67,13 @@ impl Sections {
         let sections = &shot.render;
         let settings = Settings::read(shot, overrides)?;
         let media = media::sections(file, &sections.media)?;
-        let materials = materials::materials(file, &sections.materials)?;
+        let mut textures = Textures::default();
+        let mut reader = TextureReader {
+            file,
+            textures: &mut textures,
+            budget: overrides.memory_budget,
+        };
+        let materials = materials::materials(&sections.materials, &mut reader)?;
         let shutter = shot
             .shutter_seconds()
             .map(|s| s + shot.time_of(frame as f64));
@@ -92,6 +102,7 @@ impl Sections {
             settings,
             media,
             materials,
+            textures,
             shutter,
             rings,
             groups,
@@ -141,15 +152,17 @@ impl Scene {
             portals: &s.portals,
             media: &s.media,
         };
-        let (parts, flags) = loader.parts(&s.objects, &mut s.materials, &mut s.groups)?;
+        let mut reader = TextureReader {
+            file,
+            textures: &mut s.textures,
+            budget: overrides.memory_budget,
+        };
+        let (parts, flags) =
+            loader.parts(&s.objects, &mut s.materials, &mut s.groups, &mut reader)?;
         let grids = grids::load(&loader, &s.media.grids, frame, overrides.memory_budget)?;
         let triangles = objects::triangle_count(&parts);
-        check_memory(
-            file,
-            triangles,
-            grids.bytes() as u64,
-            overrides.memory_budget,
-        )?;
+        let other_bytes = grids.bytes() as u64 + s.textures.bytes();
+        check_memory(file, triangles, other_bytes, overrides.memory_budget)?;
         let selection = overrides.light_selection.unwrap_or_default();
         Self::assemble(shot, frame, s, (parts, flags), grids, rig, selection)
     }
@@ -168,6 +181,7 @@ impl Scene {
         let file = &shot.source;
         let times = s.portals.times();
         let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+        let warnings = parts.iter().flat_map(|p| p.warnings.clone()).collect();
         let mut g = Geometry::assemble(parts, names.len(), times);
         let media = media::volumes(
             file,
@@ -215,6 +229,9 @@ impl Scene {
             object_count: names.len() as u32,
             static_triangles: g.static_count,
             triangles: g.triangles,
+            triangle_uvs: g.triangle_uvs,
+            textures: s.textures,
+            warnings,
             normals,
             triangle_material: g.triangle_material,
             materials: s.materials,
@@ -241,24 +258,24 @@ impl Scene {
     }
 }
 
-/// Refuses a scene of `triangles` triangles and `grid_bytes` of density grids that would not
-/// fit in `budget` bytes, before any BVH is built.
+/// Refuses a scene of `triangles` triangles and `other_bytes` of density grids and textures
+/// that would not fit in `budget` bytes, before any BVH is built.
 fn check_memory(
     file: &Path,
     triangles: usize,
-    grid_bytes: u64,
+    other_bytes: u64,
     budget: Option<u64>,
 ) -> Result<(), RenderError> {
     match budget {
-        Some(budget) if scene_bytes(triangles) + grid_bytes > budget => {
+        Some(budget) if scene_bytes(triangles) + other_bytes > budget => {
             Err(RenderError::Settings(format!(
                 "{}: its meshes hold {triangles} triangles, which need about {} MiB to render \
-                 (their BVH included), beside {} MiB of density grids: more than the {} MiB \
-                 available; use lighter meshes, or give more with --max-memory where the \
-                 machine has it",
+                 (their BVH included), beside {} MiB of density grids and textures: more than \
+                 the {} MiB available; use lighter meshes, or give more with --max-memory \
+                 where the machine has it",
                 file.display(),
                 scene_bytes(triangles) >> 20,
-                grid_bytes >> 20,
+                other_bytes >> 20,
                 budget >> 20
             )))
         }

@@ -1,12 +1,18 @@
 //! `[[material]]` sections into materials, and which material each part of a mesh takes: its
-//! object's, its MTL's (an OBJ's own materials), or the unseen boundary of a medium.
+//! object's, its MTL's (an OBJ's own materials, with their map_Kd and map_Pr textures), or the
+//! unseen boundary of a medium. A material's reflectance and roughness may be textures, read
+//! once per file for every material that uses them.
 
-use super::schema::{MaterialKind, MaterialSection, ShadowingKind};
+use super::schema::{
+    MaterialKind, MaterialSection, ShadowingKind, TextureColorSpace, TextureSection,
+};
 use super::{metals, optional, parse};
 use crate::error::{RenderError, key_error};
 use crate::material::bsdf::multiscatter::Multiscatter;
 use crate::material::bsdf::{Bsdf, Material};
 use crate::material::microfacet::{ConductorFresnel, Ggx, Shadowing};
+use crate::material::{ColorInput, Inputs, ScalarInput};
+use crate::texture::{ColorSpace, Textures};
 use glam::Vec3;
 use rift_fx::Invalid;
 use rift_fx::shot::check;
@@ -15,12 +21,45 @@ use std::path::Path;
 /// The material given to a medium's boundary when its object names none.
 pub(super) const BOUNDARY_MATERIAL: &str = "(medium boundary)";
 
-/// The `[[material]]` sections, with names checked unique.
-pub(super) fn materials(file: &Path, tables: &[toml::Table]) -> Result<Vec<Material>, RenderError> {
+/// The keys whose value may be a texture.
+const TEXTURED_KEYS: [&str; 2] = ["reflectance", "roughness"];
+
+/// Where materials' textures are read from and kept.
+pub(super) struct TextureReader<'a> {
+    /// The shot file (for messages), whose folder texture paths are relative to.
+    pub file: &'a Path,
+    pub textures: &'a mut Textures,
+    /// Bytes the scene may take (`None`: no limit).
+    pub budget: Option<u64>,
+}
+
+impl TextureReader<'_> {
+    /// The texture of the image at `path` (named `shown` in messages) read in `color_space`,
+    /// for the key `key`.
+    fn load(
+        &mut self,
+        key: &str,
+        path: &Path,
+        shown: &str,
+        color_space: ColorSpace,
+    ) -> Result<u32, RenderError> {
+        self.textures
+            .load(path, color_space, self.budget)
+            .map_err(|e| key_error(self.file, key, format!("{shown:?}: {e}")))
+    }
+}
+
+/// The `[[material]]` sections, with names checked unique and their textures read.
+pub(super) fn materials(
+    tables: &[toml::Table],
+    reader: &mut TextureReader,
+) -> Result<Vec<Material>, RenderError> {
+    let file = reader.file;
     let mut materials: Vec<Material> = Vec::new();
     for (i, table) in tables.iter().enumerate() {
         let key = format!("material[{i}]");
-        let m: MaterialSection = parse(file, &key, table)?;
+        let (plain, textured) = split_textures(file, &key, table)?;
+        let m: MaterialSection = parse(file, &key, &plain)?;
         if materials.iter().any(|x| x.name == m.name) {
             return Err(key_error(
                 file,
@@ -28,9 +67,180 @@ pub(super) fn materials(file: &Path, tables: &[toml::Table]) -> Result<Vec<Mater
                 format!("another material is already called {:?}", m.name),
             ));
         }
-        materials.push(material(&key, &m).map_err(|e| RenderError::Shot(e.in_file(file)))?);
+        let mut material = material(&key, &m).map_err(|e| RenderError::Shot(e.in_file(file)))?;
+        material.inputs = inputs(&key, &m, &textured, reader)?;
+        materials.push(material);
     }
     Ok(materials)
+}
+
+/// `table` without its texture inputs, and those inputs by key; a texture on a key that cannot
+/// take one is refused.
+fn split_textures(
+    file: &Path,
+    key: &str,
+    table: &toml::Table,
+) -> Result<(toml::Table, Vec<(String, TextureSection)>), RenderError> {
+    let mut plain = table.clone();
+    let mut textured = Vec::new();
+    for (name, value) in table {
+        let Some(inner) = value.as_table() else {
+            continue;
+        };
+        let full = format!("{key}.{name}");
+        if !TEXTURED_KEYS.contains(&name.as_str()) {
+            if inner.contains_key("texture") {
+                return Err(key_error(
+                    file,
+                    full,
+                    format!(
+                        "cannot take a texture (textures work on {})",
+                        TEXTURED_KEYS.join(" and ")
+                    ),
+                ));
+            }
+            continue;
+        }
+        plain.remove(name);
+        textured.push((name.clone(), parse(file, &full, inner)?));
+    }
+    Ok((plain, textured))
+}
+
+/// The textured inputs of material section `m` (at `key`): each texture read, checked against
+/// what the material's kind takes.
+fn inputs(
+    key: &str,
+    m: &MaterialSection,
+    textured: &[(String, TextureSection)],
+    reader: &mut TextureReader,
+) -> Result<Option<Box<Inputs>>, RenderError> {
+    let file = reader.file;
+    let mut inputs = Inputs::default();
+    for (name, spec) in textured {
+        let full = format!("{key}.{name}");
+        let refuse = |what: &str| Err(key_error(file, &full, what.to_owned()));
+        match (name.as_str(), m.kind) {
+            ("reflectance", MaterialKind::Dielectric) => {
+                return refuse("a dielectric material has no reflectance");
+            }
+            ("reflectance", MaterialKind::Conductor)
+                if m.eta.is_some() || m.k.is_some() || m.metal.is_some() =>
+            {
+                return refuse("a texture gives Schlick's colour: give it without eta, k or metal");
+            }
+            ("roughness", MaterialKind::Diffuse) => {
+                return refuse("a diffuse material has no roughness");
+            }
+            _ => {}
+        }
+        let base = file.parent().unwrap_or(Path::new("."));
+        if name == "reflectance" {
+            inputs.reflectance = Some(color_input(&full, spec, base, reader)?);
+        } else {
+            inputs.roughness = Some(scalar_input(&full, spec, base, reader)?);
+        }
+    }
+    Ok((inputs != Inputs::default()).then(|| Box::new(inputs)))
+}
+
+/// A colour texture input at `key`.
+fn color_input(
+    key: &str,
+    spec: &TextureSection,
+    base: &Path,
+    reader: &mut TextureReader,
+) -> Result<ColorInput, RenderError> {
+    let file = reader.file;
+    let color_space = color_space(spec.colorspace, ColorSpace::Srgb);
+    let texture = reader.load(
+        &format!("{key}.texture"),
+        &base.join(&spec.texture),
+        &spec.texture,
+        color_space,
+    )?;
+    let three = |name: &str, v: &Option<toml::Value>, default: f64| -> Result<Vec3, RenderError> {
+        let k = format!("{key}.{name}");
+        match v {
+            None => Ok(Vec3::splat(default as f32)),
+            Some(v) => number_or_color(v)
+                .ok_or_else(|| key_error(file, &k, "expected a number or [r, g, b]")),
+        }
+    };
+    Ok(ColorInput {
+        texture,
+        scale: three("scale", &spec.scale, 1.0)?,
+        offset: three("offset", &spec.offset, 0.0)?,
+    })
+}
+
+/// A number texture input at `key`.
+fn scalar_input(
+    key: &str,
+    spec: &TextureSection,
+    base: &Path,
+    reader: &mut TextureReader,
+) -> Result<ScalarInput, RenderError> {
+    let file = reader.file;
+    let channel = match spec.channel.as_deref() {
+        None | Some("r") => 0,
+        Some("g") => 1,
+        Some("b") => 2,
+        Some("a") => 3,
+        Some(other) => {
+            return Err(key_error(
+                file,
+                format!("{key}.channel"),
+                format!("expected \"r\", \"g\", \"b\" or \"a\", got {other:?}"),
+            ));
+        }
+    };
+    let color_space = color_space(spec.colorspace, ColorSpace::Linear);
+    let texture = reader.load(
+        &format!("{key}.texture"),
+        &base.join(&spec.texture),
+        &spec.texture,
+        color_space,
+    )?;
+    let one = |name: &str, v: &Option<toml::Value>, default: f32| -> Result<f32, RenderError> {
+        match v {
+            None => Ok(default),
+            Some(v) => number(v)
+                .ok_or_else(|| key_error(file, format!("{key}.{name}"), "expected a number")),
+        }
+    };
+    Ok(ScalarInput {
+        texture,
+        channel,
+        scale: one("scale", &spec.scale, 1.0)?,
+        offset: one("offset", &spec.offset, 0.0)?,
+    })
+}
+
+/// The colour space a texture's `colorspace` key names, or `default`.
+fn color_space(given: Option<TextureColorSpace>, default: ColorSpace) -> ColorSpace {
+    match given {
+        Some(TextureColorSpace::Srgb) => ColorSpace::Srgb,
+        Some(TextureColorSpace::Linear) => ColorSpace::Linear,
+        None => default,
+    }
+}
+
+/// A finite TOML number.
+fn number(v: &toml::Value) -> Option<f32> {
+    let x = v.as_float().or_else(|| v.as_integer().map(|i| i as f64))?;
+    (x.is_finite() && x.abs() < 1e6).then_some(x as f32)
+}
+
+/// A number (the same on every channel) or an [r, g, b] of numbers.
+fn number_or_color(v: &toml::Value) -> Option<Vec3> {
+    if let Some(x) = number(v) {
+        return Some(Vec3::splat(x));
+    }
+    match v.as_array()?.as_slice() {
+        [r, g, b] => Some(Vec3::new(number(r)?, number(g)?, number(b)?)),
+        _ => None,
+    }
 }
 
 /// The index of the material called `name`, adding it with `make` when there is none yet.
@@ -45,17 +255,42 @@ pub(super) fn find_or_add(
     })
 }
 
-/// A material from an MTL entry: Kd as diffuse reflectance, Ke as one-sided emission.
-pub(super) fn from_mtl(name: &str, diffuse: Option<Vec3>, emission: Option<Vec3>) -> Material {
-    Material {
-        name: name.to_owned(),
+/// A material from an MTL entry: Kd (or its map_Kd, an sRGB colour texture scaled by Kd when
+/// both are given) as diffuse reflectance, Ke as one-sided emission. The map's path is
+/// relative to `folder`, the mesh's; `key` names the object in messages.
+pub(super) fn from_mtl(
+    mtl: &super::mesh::MtlMaterial,
+    folder: &Path,
+    key: &str,
+    reader: &mut TextureReader,
+) -> Result<Material, RenderError> {
+    let diffuse = mtl.diffuse.unwrap_or(Vec3::splat(0.8));
+    let reflectance = match &mtl.diffuse_map {
+        None => None,
+        Some(map) => {
+            let texture = reader.load(key, &folder.join(map), map, ColorSpace::Srgb)?;
+            Some(ColorInput {
+                texture,
+                scale: mtl.diffuse.unwrap_or(Vec3::ONE),
+                offset: Vec3::ZERO,
+            })
+        }
+    };
+    Ok(Material {
+        name: mtl.name.clone(),
         bsdf: Bsdf::Diffuse {
-            reflectance: diffuse.unwrap_or(Vec3::splat(0.8)),
+            reflectance: diffuse,
         },
-        emission: emission.unwrap_or(Vec3::ZERO),
+        emission: mtl.emission.unwrap_or(Vec3::ZERO),
         two_sided_emission: false,
         one_sided: false,
-    }
+        inputs: reflectance.map(|r| {
+            Box::new(Inputs {
+                reflectance: Some(r),
+                roughness: None,
+            })
+        }),
+    })
 }
 
 /// The material of a medium's boundary (never shaded; it still needs an index).
@@ -68,6 +303,7 @@ pub(super) fn boundary() -> Material {
         emission: Vec3::ZERO,
         two_sided_emission: false,
         one_sided: false,
+        inputs: None,
     }
 }
 
@@ -111,6 +347,7 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         emission: color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?,
         two_sided_emission: m.two_sided_emission.unwrap_or(false),
         one_sided: m.one_sided.unwrap_or(false),
+        inputs: None,
     })
 }
 

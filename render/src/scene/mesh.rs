@@ -3,7 +3,7 @@
 
 use super::within_single_precision;
 use crate::error::RenderError;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::path::Path;
 
 /// The material a part's `usemtl` names, with the values its MTL gives.
@@ -12,6 +12,10 @@ pub struct MtlMaterial {
     pub name: String,
     pub diffuse: Option<Vec3>,
     pub emission: Option<Vec3>,
+    /// `map_Kd`: the diffuse colour's texture, relative to the MTL's folder.
+    pub diffuse_map: Option<String>,
+    /// The maps it names that rift does not read yet (`map_Ke`, `map_d`, `norm`, …).
+    pub unread_maps: Vec<String>,
     /// False when no MTL defines the name: only the shot's `[[material]]` can supply it.
     pub declared: bool,
 }
@@ -20,11 +24,14 @@ pub struct MtlMaterial {
 /// only the shot defines still reaches the part); real MTLs, read after it, override it.
 const USEMTL_NAMES: &str = "rift-usemtl-names.mtl";
 
-/// One part of a mesh file: triangles in the file's space and the material it names.
+/// One part of a mesh file: triangles in the file's space, their texture coordinates when the
+/// file gives them, and the material it names.
 #[derive(Clone, Debug)]
 pub struct MeshPart {
     pub name: String,
     pub triangles: Vec<[Vec3; 3]>,
+    /// Per triangle, its corners' UVs (v = 0 at an image's bottom row); empty without.
+    pub uvs: Vec<[Vec2; 3]>,
     pub material: Option<MtlMaterial>,
 }
 
@@ -105,6 +112,7 @@ pub fn parse_obj(
                 rift_fx::shot::check::MAX_LENGTH
             ));
         }
+        let uvs = part_uvs(&model)?;
         let mut triangles = Vec::with_capacity(m.indices.len() / 3);
         for (f, idx) in m.indices.chunks_exact(3).enumerate() {
             let get = |k: usize| {
@@ -122,15 +130,11 @@ pub fn parse_obj(
         let material = m
             .material_id
             .and_then(|id| materials.get(id))
-            .map(|mat| MtlMaterial {
-                name: mat.name.clone(),
-                diffuse: mat.diffuse.map(Vec3::from_array),
-                emission: mat.emissive.map(Vec3::from_array),
-                declared: declared.borrow().contains(&mat.name),
-            });
+            .map(|mat| mtl_material(mat, declared.borrow().contains(&mat.name)));
         parts.push(MeshPart {
             name: model.name,
             triangles,
+            uvs,
             material,
         });
     }
@@ -138,6 +142,75 @@ pub fn parse_obj(
         return Err("malformed OBJ: no faces".into());
     }
     Ok(parts)
+}
+
+/// The UVs of each triangle of `model` (its `vt`s by the faces' texture indices); none when
+/// its faces give no texture coordinates.
+fn part_uvs(model: &tobj::Model) -> Result<Vec<[Vec2; 3]>, String> {
+    let m = &model.mesh;
+    if m.texcoord_indices.is_empty() {
+        return Ok(Vec::new());
+    }
+    if m.texcoord_indices.len() != m.indices.len() {
+        return Err(format!(
+            "object {:?}: some faces give texture coordinates and others do not",
+            model.name
+        ));
+    }
+    let uv = |k: u32| -> Result<Vec2, String> {
+        let k = k as usize;
+        match m.texcoords.get(2 * k..2 * k + 2) {
+            Some(&[u, v]) if u.is_finite() && v.is_finite() => Ok(Vec2::new(u, v)),
+            Some(_) => Err(format!(
+                "object {:?}: texture coordinate {k} is not finite",
+                model.name
+            )),
+            None => Err(format!(
+                "object {:?}: a face uses texture coordinate {k} of {}",
+                model.name,
+                m.texcoords.len() / 2
+            )),
+        }
+    };
+    m.texcoord_indices
+        .chunks_exact(3)
+        .map(|t| Ok([uv(t[0])?, uv(t[1])?, uv(t[2])?]))
+        .collect()
+}
+
+/// A material of an MTL as rift reads it.
+fn mtl_material(mat: &tobj::Material, declared: bool) -> MtlMaterial {
+    let mut unread_maps: Vec<String> = [
+        ("map_Ka", &mat.ambient_texture),
+        ("map_Ks", &mat.specular_texture),
+        ("norm/map_Bump", &mat.normal_texture),
+        ("map_Ns", &mat.shininess_texture),
+        ("map_d", &mat.dissolve_texture),
+    ]
+    .iter()
+    .filter(|(_, map)| map.is_some())
+    .map(|(name, _)| name.to_string())
+    .collect();
+    let mut keys: Vec<&String> = mat.unknown_param.keys().collect();
+    keys.sort();
+    unread_maps.extend(
+        keys.into_iter()
+            .filter(|k| k.starts_with("map_") || k.as_str() == "bump")
+            .cloned(),
+    );
+    MtlMaterial {
+        name: mat.name.clone(),
+        diffuse: mat.diffuse.map(Vec3::from_array),
+        emission: mat.emissive.map(Vec3::from_array),
+        diffuse_map: mat.diffuse_texture.as_deref().map(map_file),
+        unread_maps,
+        declared,
+    }
+}
+
+/// The file of a map statement's value (its last word: options such as `-bm 1` come first).
+fn map_file(value: &str) -> String {
+    value.split_whitespace().last().unwrap_or("").to_owned()
 }
 
 /// The distinct `usemtl` names of an OBJ, in order of first use.
@@ -215,5 +288,26 @@ mod tests {
         let bare = b"usemtl glass\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
         let parts = parse_obj(bare, |_| None).unwrap();
         assert_eq!(parts[0].material.as_ref().unwrap().name, "glass");
+    }
+
+    #[test]
+    fn texture_coordinates_follow_each_face_corner_and_the_mtl_names_its_maps() {
+        let obj = b"mtllib a.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                    vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
+        let mtl = b"newmtl m\nmap_Kd -bm 1 wood.png\nmap_Bump bump.png\nmap_d leaf.png\n".to_vec();
+        let parts = parse_obj(obj, |_| Some(mtl.clone())).unwrap();
+        let uvs = &parts[0].uvs;
+        assert_eq!(uvs.len(), 2);
+        let (a, b, c, d) = (Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y);
+        assert_eq!(uvs[0], [a, b, c]);
+        assert_eq!(uvs[1], [a, c, d]);
+        let m = parts[0].material.as_ref().unwrap();
+        assert_eq!(m.diffuse_map.as_deref(), Some("wood.png"));
+        assert_eq!(m.unread_maps, ["norm/map_Bump", "map_d"]);
+        // Faces without texture coordinates give none; a face naming a missing one is refused.
+        let plain = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        assert!(parse_obj(plain, |_| None).unwrap()[0].uvs.is_empty());
+        let bad = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/7\n";
+        assert!(parse_obj(bad, |_| None).is_err());
     }
 }

@@ -33,6 +33,7 @@ use crate::lights::Lights;
 use crate::material::bsdf::Material;
 use crate::portals::openings::Portals;
 use crate::portals::visibility::{Flags, RayClass, Visibility};
+use crate::texture::Textures;
 use glam::Vec3;
 use rift_fx::Invalid;
 use rift_fx::rig::{AnimatedTransform, Camera};
@@ -77,6 +78,12 @@ impl SceneHit {
 pub struct Scene {
     /// Static triangles (world space) first, then each moving object's (object space).
     pub triangles: Vec<Triangle>,
+    /// Per triangle, its corners' UVs; empty when no mesh gives any.
+    pub triangle_uvs: Vec<[glam::Vec2; 3]>,
+    /// The materials' textures, by index.
+    pub textures: Textures,
+    /// What the shot asks for that rift does not do yet, rendered without (for the user).
+    pub warnings: Vec<String>,
     /// How many of [`Self::triangles`] are static.
     pub static_triangles: usize,
     /// Unit geometric normal per triangle, in the triangle's space.
@@ -266,6 +273,22 @@ impl Scene {
         };
         let aimed_at_strand = ends_on_strand.is_some();
         (aimed_at_strand && strands()) || surfaces() || (!aimed_at_strand && strands())
+    }
+
+    /// The texture coordinates of `hit` and how many UV units a metre of the surface spans
+    /// there (its triangle's world area is `area_scale` times its stored area); `None` when
+    /// no mesh gives UVs.
+    pub fn uv_at(&self, hit: &Hit, area_scale: f32) -> Option<(glam::Vec2, f32)> {
+        let [a, b, c] = *self.triangle_uvs.get(hit.triangle as usize)?;
+        let uv = a * (1.0 - hit.b1 - hit.b2) + b * hit.b1 + c * hit.b2;
+        let uv_area = 0.5 * (b - a).perp_dot(c - a).abs();
+        let world_area = self.triangles[hit.triangle as usize].area() * area_scale;
+        let per_metre = if world_area > 0.0 {
+            (uv_area / world_area).sqrt()
+        } else {
+            0.0
+        };
+        Some((uv, per_metre))
     }
 
     /// The world-space point and normal of `hit` at time `time`.

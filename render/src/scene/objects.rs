@@ -4,7 +4,7 @@
 //! all of them gathered, still ones first, into the arrays the scene holds.
 
 use super::light_groups::LightGroups;
-use super::materials::{self, BOUNDARY_MATERIAL};
+use super::materials::{self, BOUNDARY_MATERIAL, TextureReader};
 use super::media::MediaSections;
 use super::schema::ObjectSection;
 use super::{flags, mesh, parse, ply, within_single_precision};
@@ -14,7 +14,7 @@ use crate::lights::emitters::Emitter;
 use crate::material::bsdf::Material;
 use crate::portals::openings::Portals;
 use crate::portals::visibility::Flags;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rift_fx::rig::{AnimatedTransform, Rig, Similarity};
 use rift_fx::shot::check;
 use rift_fx::shot::pose::{self, Facing};
@@ -27,6 +27,8 @@ pub(super) struct Part {
     /// Index of the `[[object]]`.
     object: u32,
     triangles: Vec<Triangle>,
+    /// Per triangle, its corners' UVs; empty when no part of its mesh gives any.
+    uvs: Vec<[Vec2; 3]>,
     materials: Vec<u32>,
     /// Its placement over time.
     motion: ObjectMotion,
@@ -35,6 +37,8 @@ pub(super) struct Part {
     moves: bool,
     /// The light group of its emissive triangles.
     group: u8,
+    /// What its mesh asks for that rift does not do yet (rendered without).
+    pub warnings: Vec<String>,
 }
 
 /// The `[[object]]` sections, with names checked unique and each `copy_of` filled in from the
@@ -100,6 +104,7 @@ impl Loader<'_> {
         objects: &[ObjectSection],
         materials: &mut Vec<Material>,
         groups: &mut LightGroups,
+        reader: &mut TextureReader,
     ) -> Result<(Vec<Part>, Vec<Flags>), RenderError> {
         let mut parts = Vec::new();
         let mut flags = Vec::new();
@@ -110,7 +115,7 @@ impl Loader<'_> {
             } else {
                 self::flags(o.visibility)
             });
-            let mut part = self.part(i, o, materials)?;
+            let mut part = self.part(i, o, materials, reader)?;
             let key = format!("object[{i}].light_group");
             part.group = groups.index(&self.shot.source, &key, o.light_group.as_deref())?;
             parts.push(part);
@@ -132,6 +137,7 @@ impl Loader<'_> {
         i: usize,
         o: &ObjectSection,
         materials: &mut Vec<Material>,
+        reader: &mut TextureReader,
     ) -> Result<Part, RenderError> {
         let key = format!("object[{i}]");
         let motion = self.motion(&key, o)?;
@@ -160,13 +166,47 @@ impl Loader<'_> {
         let mut part = Part {
             object: i as u32,
             triangles: Vec::new(),
+            uvs: Vec::new(),
             materials: Vec::new(),
             motion,
             moves,
             group: 0,
+            warnings: Vec::new(),
         };
+        let any_uvs = mesh_parts.iter().any(|p| !p.uvs.is_empty());
+        let folder = mesh_path.parent().unwrap_or(Path::new("."));
         for mesh_part in mesh_parts {
-            let index = self.material_of(&key, o, mesh_name, &mesh_part, materials)?;
+            let index =
+                self.material_of(&key, o, (mesh_name, folder), &mesh_part, materials, reader)?;
+            if let Some(mtl) = mesh_part
+                .material
+                .as_ref()
+                .filter(|m| !m.unread_maps.is_empty())
+            {
+                part.warnings.push(format!(
+                    "{key}.mesh: material {:?} of {mesh_name} names {}, which rift does not \
+                     read yet; rendered without",
+                    mtl.name,
+                    mtl.unread_maps.join(", ")
+                ));
+            }
+            if materials[index].textured() && mesh_part.uvs.is_empty() {
+                return Err(self.error(
+                    format!("{key}.mesh"),
+                    format!(
+                        "material {:?} is textured, but {mesh_name} gives no texture \
+                         coordinates for its part {:?}",
+                        materials[index].name, mesh_part.name
+                    ),
+                ));
+            }
+            if any_uvs {
+                let n = mesh_part.triangles.len();
+                match mesh_part.uvs.is_empty() {
+                    true => part.uvs.extend(std::iter::repeat_n([Vec2::ZERO; 3], n)),
+                    false => part.uvs.extend_from_slice(&mesh_part.uvs),
+                }
+            }
             for tri in mesh_part.triangles {
                 let v = if moves {
                     tri
@@ -252,9 +292,10 @@ impl Loader<'_> {
         &self,
         key: &str,
         o: &ObjectSection,
-        mesh_name: &str,
+        (mesh_name, folder): (&str, &Path),
         mesh_part: &mesh::MeshPart,
         materials: &mut Vec<Material>,
+        reader: &mut TextureReader,
     ) -> Result<usize, RenderError> {
         match (&o.material, &mesh_part.material) {
             (Some(name), _) => materials::find(materials, name).ok_or_else(|| {
@@ -275,9 +316,14 @@ impl Loader<'_> {
                     ),
                 ))
             }
-            (None, Some(mtl)) => Ok(materials::find_or_add(materials, &mtl.name, || {
-                materials::from_mtl(&mtl.name, mtl.diffuse, mtl.emission)
-            })),
+            (None, Some(mtl)) => match materials::find(materials, &mtl.name) {
+                Some(i) => Ok(i),
+                None => {
+                    let map_key = format!("{key}.mesh");
+                    materials.push(materials::from_mtl(mtl, folder, &map_key, reader)?);
+                    Ok(materials.len() - 1)
+                }
+            },
             (None, None) if self.media.inside(&o.name).is_some() => Ok(materials::find_or_add(
                 materials,
                 BOUNDARY_MATERIAL,
@@ -303,6 +349,8 @@ pub(super) fn triangle_count(parts: &[Part]) -> usize {
 /// triangles take the indices the static BVH starts at, then one instance per moving part.
 pub(super) struct Geometry {
     pub triangles: Vec<Triangle>,
+    /// Per triangle, its corners' UVs; empty when no mesh gives any.
+    pub triangle_uvs: Vec<[Vec2; 3]>,
     pub triangle_material: Vec<u32>,
     pub triangle_instance: Vec<u32>,
     pub triangle_object: Vec<u32>,
@@ -320,8 +368,10 @@ pub(super) struct Geometry {
 impl Geometry {
     pub fn assemble(mut parts: Vec<Part>, objects: usize, times: [f64; 2]) -> Self {
         parts.sort_by_key(|p| p.moves);
+        let any_uvs = parts.iter().any(|p| !p.uvs.is_empty());
         let mut g = Geometry {
             triangles: Vec::new(),
+            triangle_uvs: Vec::new(),
             triangle_material: Vec::new(),
             triangle_instance: Vec::new(),
             triangle_object: Vec::new(),
@@ -351,6 +401,14 @@ impl Geometry {
             g.triangle_object
                 .extend(std::iter::repeat_n(part.object, n));
             g.triangle_group.extend(std::iter::repeat_n(part.group, n));
+            if any_uvs {
+                match part.uvs.is_empty() {
+                    true => g
+                        .triangle_uvs
+                        .extend(std::iter::repeat_n([Vec2::ZERO; 3], n)),
+                    false => g.triangle_uvs.extend(part.uvs),
+                }
+            }
             g.triangles.extend(part.triangles);
             g.triangle_material.extend(part.materials);
         }

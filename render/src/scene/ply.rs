@@ -1,10 +1,11 @@
 //! PLY polygon meshes (ASCII and binary, either byte order, read by fx's PLY table reader): the
-//! `vertex` element's x, y, z and the `face` element's index list, polygons split into triangle
-//! fans. Other elements and properties are ignored.
+//! `vertex` element's x, y, z (and texture coordinates `u v`, `s t` or `texture_u texture_v`
+//! when it has them) and the `face` element's index list, polygons split into triangle fans.
+//! Other elements and properties are ignored.
 
 use super::mesh::MeshPart;
 use crate::error::RenderError;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rift_fx::export::ply_table;
 use std::path::Path;
 
@@ -41,7 +42,9 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
             points
         }
     };
+    let texcoords = texcoords(&table)?;
     let mut triangles = Vec::new();
+    let mut uvs = Vec::new();
     if let Some(face) = table.element("face") {
         let faces = face
             .list("vertex_indices")
@@ -57,6 +60,10 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
             };
             for i in 1..list.len().saturating_sub(1) {
                 triangles.push([index(list[0])?, index(list[i])?, index(list[i + 1])?]);
+                if let Some(t) = &texcoords {
+                    let uv = |v: f64| t[v as usize];
+                    uvs.push([uv(list[0]), uv(list[i]), uv(list[i + 1])]);
+                }
             }
         }
     }
@@ -66,8 +73,35 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
     Ok(vec![MeshPart {
         name: "ply".into(),
         triangles,
+        uvs,
         material: None,
     }])
+}
+
+/// The vertices' texture coordinates, under whichever pair of names the file uses; `None`
+/// without.
+fn texcoords(table: &ply_table::Table) -> Result<Option<Vec<Vec2>>, String> {
+    let Some(vertex) = table.element("vertex") else {
+        return Ok(None);
+    };
+    let pairs = [("u", "v"), ("s", "t"), ("texture_u", "texture_v")];
+    let Some((u, v)) = pairs
+        .iter()
+        .find_map(|(a, b)| Some((vertex.scalar(a)?, vertex.scalar(b)?)))
+    else {
+        return Ok(None);
+    };
+    u.iter()
+        .zip(v)
+        .enumerate()
+        .map(|(item, (&u, &v))| {
+            let uv = Vec2::new(u as f32, v as f32);
+            uv.is_finite()
+                .then_some(uv)
+                .ok_or_else(|| format!("vertex {item}'s texture coordinates are not finite"))
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(Some)
 }
 
 #[cfg(test)]
@@ -88,6 +122,33 @@ mod tests {
                 [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)],
                 [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::Y]
             ]
+        );
+    }
+
+    #[test]
+    fn texture_coordinates_come_from_u_v_or_s_t() {
+        let with = |u: &str, v: &str| {
+            SQUARE
+                .replace(
+                    "property uchar red\n",
+                    &format!("property float {u}\nproperty float {v}\n"),
+                )
+                .replace("0 0 0 255\n", "0 0 0 0 0\n")
+                .replace("1 0 0 0\n", "1 0 0 1 0\n")
+                .replace("1 1 0 0\n", "1 1 0 1 1\n")
+                .replace("0 1 0 9\n", "0 1 0 0 1\n")
+        };
+        for (u, v) in [("u", "v"), ("s", "t"), ("texture_u", "texture_v")] {
+            let parts = parse(with(u, v).as_bytes()).unwrap();
+            assert_eq!(parts[0].uvs[0], [Vec2::ZERO, Vec2::X, Vec2::ONE], "{u} {v}");
+            assert_eq!(parts[0].uvs[1], [Vec2::ZERO, Vec2::ONE, Vec2::Y], "{u} {v}");
+        }
+        assert!(parse(SQUARE.as_bytes()).unwrap()[0].uvs.is_empty());
+        let nan = with("u", "v").replace("1 1 0 1 1\n", "1 1 0 nan 1\n");
+        assert!(
+            parse(nan.as_bytes())
+                .unwrap_err()
+                .contains("vertex 2's texture coordinates")
         );
     }
 

@@ -24,7 +24,13 @@
 //! [[material]]
 //! name = "white"
 //! type = "diffuse"              # "diffuse", "conductor" or "dielectric"
-//! reflectance = [0.8, 0.8, 0.8] # diffuse: albedo; conductor: colour at normal incidence
+//! reflectance = [0.8, 0.8, 0.8] # diffuse: albedo; conductor: colour at normal incidence; or a
+//!                               # texture: { texture = "wood.png", scale = 1.0, offset = 0.0,
+//!                               # colorspace = "srgb" } (PNG, JPEG or EXR, relative to the
+//!                               # shot file; 8-bit colours are sRGB unless "linear"; the mesh
+//!                               # must give UVs). `roughness` takes a texture too, read from
+//!                               # one `channel` ("r", "g", "b" or "a"; linear by default).
+//!                               # An OBJ's MTL brings map_Kd (colour) and map_Pr (roughness)
 //! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709
 //! two_sided_emission = false
 //! one_sided = false             # true: the back side (against the winding's normal) absorbs
@@ -183,6 +189,31 @@ pub struct RenderSection {
     pub light_through_openings: Option<bool>,
     pub output: Option<String>,
     pub rings: Option<String>,
+}
+
+/// A texture as a material's input: `reflectance = { texture = "wood.png" }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TextureSection {
+    /// The image, relative to the shot file.
+    pub texture: String,
+    /// A factor on its values: a number, or a colour for a colour input (default 1).
+    pub scale: Option<toml::Value>,
+    /// Added after the scale (default 0).
+    pub offset: Option<toml::Value>,
+    /// How 8-bit values are encoded: "srgb" (default for colours) or "linear" (default for
+    /// numbers); EXR is always linear.
+    pub colorspace: Option<TextureColorSpace>,
+    /// The channel a number is read from: "r" (default), "g", "b" or "a".
+    pub channel: Option<String>,
+}
+
+/// `colorspace` of a texture.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum TextureColorSpace {
+    Srgb,
+    Linear,
 }
 
 /// One `[[material]]`.

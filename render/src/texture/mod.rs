@@ -1,6 +1,66 @@
-//! Images read as textures: environment maps and, beside rift's own output, the EXR reading
-//! every part of the renderer shares.
+//! Images read as textures: PNG, JPEG and EXR files decoded within bounds ([`image`]), their
+//! mipmaps and footprint-filtered lookups ([`mipmap`]), each file read once for every
+//! material that uses it ([`Textures`]); and the EXR reading every part of the renderer shares
+//! ([`exr`]).
 
 pub mod exr;
+pub mod image;
+pub mod mipmap;
 
 pub use exr::{MAX_EXR_PIXELS, decode_exr_rgb, read_exr_rgb};
+pub use image::ColorSpace;
+pub use mipmap::Texture;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// The scene's textures, each file (in each colour space) read once.
+#[derive(Clone, Debug, Default)]
+pub struct Textures {
+    list: Vec<Texture>,
+    index: HashMap<(PathBuf, ColorSpace), u32>,
+    /// Bytes they take, mipmaps included.
+    bytes: u64,
+}
+
+impl Textures {
+    /// The index of the texture of the file at `path` read in `color_space`, reading it the
+    /// first time within `budget` bytes (`None`: no limit beyond the texel count's); the error
+    /// says what is wrong with the file.
+    pub fn load(
+        &mut self,
+        path: &Path,
+        color_space: ColorSpace,
+        budget: Option<u64>,
+    ) -> Result<u32, String> {
+        let key = (path.to_owned(), color_space);
+        if let Some(&i) = self.index.get(&key) {
+            return Ok(i);
+        }
+        let bytes = rift_fx::io::read(path).map_err(|e| format!("cannot read: {e}"))?;
+        let left = budget.map_or(u64::MAX, |b| b.saturating_sub(self.bytes));
+        let picture = image::decode(&bytes, left)?;
+        let texture = Texture::new(picture, color_space);
+        self.bytes += texture.bytes();
+        self.list.push(texture);
+        let i = self.list.len() as u32 - 1;
+        self.index.insert(key, i);
+        Ok(i)
+    }
+
+    /// True when the scene has any texture (paths then track their footprints).
+    #[inline]
+    pub fn has_any(&self) -> bool {
+        !self.list.is_empty()
+    }
+
+    /// The textures, by index.
+    pub fn list(&self) -> &[Texture] {
+        &self.list
+    }
+
+    /// Bytes they take, mipmaps included.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+}

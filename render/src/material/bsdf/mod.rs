@@ -5,11 +5,13 @@
 pub mod multiscatter;
 
 use crate::material::bsdf::multiscatter::Multiscatter;
+use crate::material::inputs::{Inputs, Lookup};
 use crate::material::microfacet::{
     ConductorFresnel, Ggx, SMOOTH_ALPHA, fresnel_dielectric, reflect, refract,
 };
 use crate::media::homogeneous::{henyey_greenstein, sample_henyey_greenstein};
 use crate::sampling::cosine_hemisphere;
+use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
@@ -73,9 +75,25 @@ pub struct Material {
     /// The back side (against the geometric normal) is black: a path that meets it ends there.
     /// Mitsuba's BSDFs are all one-sided; rift's reflect on both sides unless asked.
     pub one_sided: bool,
+    /// Inputs read from textures (`None`: the constants of `bsdf` everywhere).
+    pub inputs: Option<Box<Inputs>>,
 }
 
 impl Material {
+    /// True when some input comes from a texture (its meshes must give UVs).
+    pub fn textured(&self) -> bool {
+        self.inputs.is_some()
+    }
+
+    /// The BSDF at a point looked up at `at` in `textures` (the constant one when nothing is
+    /// textured).
+    pub fn bsdf_at(&self, textures: &[Texture], at: &Lookup) -> Bsdf {
+        match &self.inputs {
+            Some(inputs) => inputs.apply(&self.bsdf, textures, at),
+            None => self.bsdf.clone(),
+        }
+    }
+
     /// True when the material emits.
     pub fn emits(&self) -> bool {
         self.emission.max_element() > 0.0

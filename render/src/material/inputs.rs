@@ -1,0 +1,99 @@
+//! A material's textured inputs: a colour or a number read from a texture at the shaded
+//! point's UV, as `texture value × scale + offset`, over the footprint of the ray that found
+//! it. Inputs left untextured keep the material's own constants, at no cost.
+
+use crate::material::bsdf::Bsdf;
+use crate::material::bsdf::multiscatter::Multiscatter;
+use crate::material::microfacet::{ConductorFresnel, Ggx};
+use crate::texture::Texture;
+use glam::{Vec2, Vec3};
+
+/// A colour input read from a texture.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColorInput {
+    pub texture: u32,
+    pub scale: Vec3,
+    pub offset: Vec3,
+}
+
+/// A number read from one channel of a texture.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScalarInput {
+    pub texture: u32,
+    /// 0 to 3: red, green, blue, alpha.
+    pub channel: usize,
+    pub scale: f32,
+    pub offset: f32,
+}
+
+/// The inputs of a material that come from textures.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Inputs {
+    /// A diffuse material's albedo, or a conductor's colour at normal incidence.
+    pub reflectance: Option<ColorInput>,
+    /// A rough conductor's or dielectric's roughness.
+    pub roughness: Option<ScalarInput>,
+}
+
+/// Where a texture is looked up: the point's UV and the ray's footprint there, in UV units.
+#[derive(Clone, Copy, Debug)]
+pub struct Lookup {
+    pub uv: Vec2,
+    pub width: f32,
+}
+
+impl ColorInput {
+    fn at(&self, textures: &[Texture], at: &Lookup) -> Vec3 {
+        let t = textures[self.texture as usize].lookup(at.uv, at.width);
+        t.truncate() * self.scale + self.offset
+    }
+}
+
+impl ScalarInput {
+    fn at(&self, textures: &[Texture], at: &Lookup) -> f32 {
+        let t = textures[self.texture as usize].lookup(at.uv, at.width);
+        t[self.channel] * self.scale + self.offset
+    }
+}
+
+impl Inputs {
+    /// `bsdf` with these inputs read at `at`: reflectance kept within [0, 1], roughness within
+    /// [0, 1].
+    pub fn apply(&self, bsdf: &Bsdf, textures: &[Texture], at: &Lookup) -> Bsdf {
+        let reflectance = self
+            .reflectance
+            .map(|c| c.at(textures, at).clamp(Vec3::ZERO, Vec3::ONE));
+        let roughness = self.roughness.map(|r| r.at(textures, at).clamp(0.0, 1.0));
+        let rough = |ggx: &Ggx| match roughness {
+            Some(r) => Ggx::from_roughness(r).with_shadowing(ggx.shadowing),
+            None => *ggx,
+        };
+        match bsdf {
+            Bsdf::Diffuse { reflectance: own } => Bsdf::Diffuse {
+                reflectance: reflectance.unwrap_or(*own),
+            },
+            Bsdf::Conductor {
+                fresnel,
+                ggx,
+                multiscatter,
+            } => {
+                let fresnel = match (reflectance, fresnel) {
+                    (Some(c), ConductorFresnel::Schlick(_)) => ConductorFresnel::Schlick(c),
+                    _ => *fresnel,
+                };
+                let ggx = rough(ggx);
+                let multiscatter = multiscatter.and_then(|_| Multiscatter::new(&fresnel, ggx));
+                Bsdf::Conductor {
+                    fresnel,
+                    ggx,
+                    multiscatter,
+                }
+            }
+            Bsdf::Dielectric { ior, ggx } => Bsdf::Dielectric {
+                ior: *ior,
+                ggx: rough(ggx),
+            },
+            Bsdf::Phase { .. } => bsdf.clone(),
+        }
+    }
+}

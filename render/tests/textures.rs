@@ -1,0 +1,297 @@
+//! Textures against closed forms: a textured diffuse floor under a uniform sky has radiance
+//! albedo × sky at every point (the floor sees only sky), so what the camera sees is the
+//! texture's linear value there; a fine checker seen at grazing angles keeps its mean through
+//! the footprint filtering; a roughness map of one value is that roughness; an OBJ's map_Kd is
+//! the same texture as a `[[material]]`'s; and bad textures are refused by file and key.
+
+mod common;
+
+use common::render_at;
+use rift_render::Scene;
+use rift_render::rift_fx::Shot;
+use rift_render::texture::mipmap::srgb_to_linear;
+use std::path::Path;
+
+/// The sky's radiance.
+const SKY: f64 = 2.0;
+
+/// Writes an 8-bit RGB PNG of `width` × `height` (rows top first) to `path`.
+fn write_png(path: &Path, width: u32, height: u32, rgb: &[[u8; 3]]) {
+    let mut bytes = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut bytes, width, height);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        let mut writer = encoder.write_header().unwrap();
+        writer.write_image_data(rgb.as_flattened()).unwrap();
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// A 20 × 20 m floor at y = 0 facing up, its UVs running 0 to `repeat` over it, with a
+/// material named "floor" from `usemtl`.
+fn floor_obj(dir: &Path, repeat: f32) {
+    let r = repeat;
+    let obj = format!(
+        "v -10 0 10\nv 10 0 10\nv 10 0 -10\nv -10 0 -10\nvt 0 0\nvt {r} 0\nvt {r} {r}\nvt 0 {r}\n\
+         usemtl floor\nf 1/1 2/2 3/3 4/4\n"
+    );
+    std::fs::write(dir.join("floor.obj"), obj).unwrap();
+}
+
+/// A camera at `position` looking at `target` through a lens of `fov` degrees, over the floor
+/// under the sky; `material` is the floor's section body.
+fn floor_shot(position: [f32; 3], target: [f32; 3], fov: f32, material: &str) -> String {
+    format!(
+        r#"
+[shot]
+name = "textures"
+fps = 24.0
+frames = [1, 1]
+[camera]
+resolution = [24, 24]
+fov_degrees = {fov}
+[camera.transform]
+position = {position:?}
+look_at = {target:?}
+up = [0.0, 0.0, -1.0]
+[render]
+max_bounces = 1
+[environment]
+radiance = [{SKY}, {SKY}, {SKY}]
+[[material]]
+name = "floor"
+{material}
+[[object]]
+name = "floor"
+mesh = "floor.obj"
+"#
+    )
+}
+
+/// The mean radiance of the green channel over the image, two seeds.
+fn mean_of(dir: &Path, name: &str, shot: &str, spp: u32) -> [f64; 2] {
+    [1, 2].map(|seed| {
+        let image = render_at(dir, name, shot, spp, seed);
+        assert_eq!(image.discarded, 0);
+        image.rgb.iter().map(|c| c.y as f64).sum::<f64>() / image.rgb.len() as f64
+    })
+}
+
+/// Asserts two seeds' means of `name` within 0.5% plus three standard errors of `want`.
+fn assert_mean(name: &str, means: [f64; 2], want: f64) {
+    let got = 0.5 * (means[0] + means[1]);
+    let allowed = 0.005 * want + 3.0 * 0.5 * (means[0] - means[1]).abs();
+    eprintln!("{name}: {got:.5} against {want:.5} (±{allowed:.5})");
+    assert!(
+        (got - want).abs() <= allowed,
+        "{name}: mean {got} where the texture gives {want} (±{allowed})"
+    );
+}
+
+#[test]
+fn a_textured_floor_shows_each_texel_as_its_linear_albedo() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 1.0);
+    // The floor's −X half sRGB 60, its +X half sRGB 200 (eight texels each, so that the
+    // filter around the middle of either half blends equal texels).
+    let halves: Vec<[u8; 3]> = (0..16)
+        .map(|i| if i < 8 { [60; 3] } else { [200; 3] })
+        .collect();
+    write_png(&d.join("halves.png"), 16, 1, &halves);
+    let material = "type = \"diffuse\"\nreflectance = { texture = \"halves.png\" }";
+    let look_down = |x: f32| floor_shot([x, 3.0, 0.0], [x, 0.0, 0.0], 2.0, material);
+    for (x, value) in [(-5.0, 60u8), (5.0, 200)] {
+        let means = mean_of(d, "halves", &look_down(x), 16);
+        let albedo = srgb_to_linear(value as f32 / 255.0) as f64;
+        assert_mean(&format!("texel {value}"), means, albedo * SKY);
+    }
+    // Read as linear values, with a scale and an offset.
+    let linear = "type = \"diffuse\"\nreflectance = { texture = \"halves.png\", colorspace = \"linear\", scale = 0.5, offset = 0.1 }";
+    let shot = floor_shot([5.0, 3.0, 0.0], [5.0, 0.0, 0.0], 2.0, linear);
+    let means = mean_of(d, "linear", &shot, 16);
+    assert_mean("linear", means, (200.0 / 255.0 * 0.5 + 0.1) * SKY);
+}
+
+#[test]
+fn a_fine_checker_seen_at_grazing_angles_keeps_its_mean() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A 64 × 64 checker repeated 40 times over the floor: hundreds of squares per pixel far
+    // off, where the footprint picks coarse mipmap levels.
+    floor_obj(d, 40.0);
+    let texels: Vec<[u8; 3]> = (0..64 * 64)
+        .map(|i| {
+            if (i % 64 + i / 64) % 2 == 0 {
+                [230; 3]
+            } else {
+                [25; 3]
+            }
+        })
+        .collect();
+    write_png(&d.join("checker.png"), 64, 64, &texels);
+    let material = "type = \"diffuse\"\nreflectance = { texture = \"checker.png\" }";
+    // Low over the floor, looking far along it.
+    let shot = floor_shot([0.0, 0.4, 9.0], [0.0, 0.0, -10.0], 20.0, material);
+    let means = mean_of(d, "checker", &shot.replace("[24, 24]", "[32, 16]"), 64);
+    let mean_albedo = 0.5 * (srgb_to_linear(230.0 / 255.0) + srgb_to_linear(25.0 / 255.0));
+    // Part of the view above the horizon is sky; the floor's share is found by rendering the
+    // same view with a plain floor of the checker's mean albedo.
+    let plain =
+        format!("type = \"diffuse\"\nreflectance = [{mean_albedo}, {mean_albedo}, {mean_albedo}]");
+    let reference = floor_shot([0.0, 0.4, 9.0], [0.0, 0.0, -10.0], 20.0, &plain);
+    let want = mean_of(d, "plain", &reference.replace("[24, 24]", "[32, 16]"), 64);
+    assert_mean("grazing checker", means, 0.5 * (want[0] + want[1]));
+}
+
+#[test]
+fn a_roughness_map_of_one_value_is_that_roughness() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 1.0);
+    // Roughness 0.4 in the green channel of a data map (linear: 102/255 = 0.4).
+    write_png(&d.join("rough.png"), 2, 2, &[[0, 102, 255]; 4]);
+    let conductor = "type = \"conductor\"\nreflectance = [0.9, 0.8, 0.6]\n";
+    let mapped = format!("{conductor}roughness = {{ texture = \"rough.png\", channel = \"g\" }}");
+    let constant = format!("{conductor}roughness = 0.4");
+    let view = |m: &str| floor_shot([0.0, 2.0, 2.0], [0.0, 0.0, 0.0], 40.0, m);
+    let a = mean_of(d, "mapped", &view(&mapped), 32);
+    let b = mean_of(d, "constant", &view(&constant), 32);
+    assert_mean("roughness map", a, 0.5 * (b[0] + b[1]));
+}
+
+#[test]
+fn an_obj_materials_map_kd_is_the_same_texture() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 2.0);
+    write_png(&d.join("halves.png"), 2, 1, &[[60; 3], [200; 3]]);
+    let obj = std::fs::read_to_string(d.join("floor.obj")).unwrap();
+    std::fs::write(d.join("floor.obj"), format!("mtllib floor.mtl\n{obj}")).unwrap();
+    std::fs::write(
+        d.join("floor.mtl"),
+        "newmtl floor\nKd 1 1 1\nmap_Kd halves.png\n",
+    )
+    .unwrap();
+    let view = |material: &str| floor_shot([1.0, 6.0, 0.0], [1.0, 0.0, 0.0], 30.0, material);
+    // Without a [[material]] the MTL's map_Kd is used; the shot's section named like it wins.
+    let mtl = view("").replace("[[material]]\nname = \"floor\"\n", "");
+    let shot = view("type = \"diffuse\"\nreflectance = { texture = \"halves.png\" }");
+    let a = [1, 2].map(|seed| render_at(d, "mtl", &mtl, 16, seed));
+    let b = [1, 2].map(|seed| render_at(d, "section", &shot, 16, seed));
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.rgb, y.rgb, "the same texture, the same seeds");
+    }
+}
+
+/// The error the floor shot with `material` gives (after writing `files`).
+fn refusal(dir: &Path, material: &str) -> String {
+    let path = dir.join("bad.toml");
+    std::fs::write(
+        &path,
+        floor_shot([0.0, 3.0, 0.0], [0.0, 0.0, 0.0], 10.0, material),
+    )
+    .unwrap();
+    match Shot::load(&path) {
+        Err(e) => e.to_string(),
+        Ok(shot) => Scene::load(&shot, 1)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default(),
+    }
+}
+
+#[test]
+fn bad_textures_are_refused_by_file_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 1.0);
+    write_png(&d.join("ok.png"), 2, 2, &[[100; 3]; 4]);
+    // Truncated: the first half of a good PNG.
+    let good = std::fs::read(d.join("ok.png")).unwrap();
+    std::fs::write(d.join("cut.png"), &good[..good.len() / 2]).unwrap();
+    std::fs::write(d.join("junk.png"), b"not an image at all").unwrap();
+    // A PNG header declaring 40000 × 40000 pixels (1.6·10⁹) with no data behind it.
+    let mut huge = good[..33].to_vec();
+    huge[16..20].copy_from_slice(&40_000u32.to_be_bytes());
+    huge[20..24].copy_from_slice(&40_000u32.to_be_bytes());
+    let mut crc = flate2::Crc::new();
+    crc.update(&huge[12..29]);
+    huge[29..33].copy_from_slice(&crc.sum().to_be_bytes());
+    // An empty IDAT chunk after it: the header is all there is.
+    let mut idat = flate2::Crc::new();
+    idat.update(b"IDAT");
+    huge.extend([0, 0, 0, 0]);
+    huge.extend(b"IDAT");
+    huge.extend(idat.sum().to_be_bytes());
+    std::fs::write(d.join("huge.png"), huge).unwrap();
+    let diffuse =
+        |texture: &str| format!("type = \"diffuse\"\nreflectance = {{ texture = \"{texture}\" }}");
+    let cases = [
+        (
+            diffuse("missing.png"),
+            "material[0].reflectance.texture",
+            "missing.png",
+        ),
+        (
+            diffuse("cut.png"),
+            "material[0].reflectance.texture",
+            "cut.png",
+        ),
+        (
+            diffuse("junk.png"),
+            "material[0].reflectance.texture",
+            "not a PNG, JPEG or EXR",
+        ),
+        (
+            diffuse("huge.png"),
+            "material[0].reflectance.texture",
+            "40000 × 40000",
+        ),
+        (
+            "type = \"dielectric\"\nior = { texture = \"ok.png\" }".into(),
+            "material[0].ior",
+            "cannot take a texture",
+        ),
+        (
+            "type = \"diffuse\"\nroughness = { texture = \"ok.png\" }".into(),
+            "material[0].roughness",
+            "no roughness",
+        ),
+        (
+            "type = \"conductor\"\nroughness = { texture = \"ok.png\", channel = \"q\" }".into(),
+            "material[0].roughness.channel",
+            "\"q\"",
+        ),
+        (
+            "type = \"diffuse\"\nreflectance = { texture = \"ok.png\", colorspace = \"acescg\" }"
+                .into(),
+            "material[0].reflectance.colorspace",
+            "acescg",
+        ),
+        (
+            "type = \"diffuse\"\nreflectance = { texture = \"ok.png\", scale = [1, 2] }".into(),
+            "material[0].reflectance.scale",
+            "expected a number or [r, g, b]",
+        ),
+    ];
+    for (material, key, says) in cases {
+        let e = refusal(d, &material);
+        assert!(
+            e.contains(key) && e.contains(says) && e.contains("bad.toml"),
+            "{key}: expected an error naming it, {says:?} and the file, got {e:?}"
+        );
+    }
+    // A textured material on a mesh without texture coordinates.
+    std::fs::write(
+        d.join("floor.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl floor\nf 1 2 3\n",
+    )
+    .unwrap();
+    let e = refusal(d, &diffuse("ok.png"));
+    assert!(
+        e.contains("object[0].mesh") && e.contains("no texture coordinates"),
+        "{e}"
+    );
+}
