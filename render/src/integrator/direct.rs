@@ -97,21 +97,20 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
         learn(crate::color::luminance(brought));
     }
     let k = weight * coins / pdf_light;
-    match incoming.sky {
-        Some((dir, time))
-            if FULL
-                && ctx
-                    .scene
-                    .lights
-                    .sky
-                    .as_ref()
-                    .is_some_and(|s| !s.dome_only()) =>
-        {
-            sky_parts(ctx, dir, time, |light, group| {
-                gather(f * light * tint * k, group)
-            })
-        }
-        _ => gather(f * incoming.radiance * tint * k, incoming.group),
+    let split_sky = FULL
+        && incoming.sky
+        && ctx.scene.lights.sky.as_ref().is_some_and(|s| !s.dome_only());
+    if split_sky {
+        // The sky was looked up beyond the openings, at that side's time.
+        let (dir, time) = match space {
+            Some(space) => (space.direction_beyond(dir), space.receiver.time),
+            None => (dir, at.receiver.time),
+        };
+        sky_parts(ctx, dir, time, |light, group| {
+            gather(f * light * tint * k, group)
+        })
+    } else {
+        gather(f * incoming.radiance * tint * k, incoming.group)
     }
 }
 
@@ -147,9 +146,9 @@ pub(crate) struct Incoming {
     bsdf_can_find: bool,
     /// The light group of the emitter.
     pub group: u8,
-    /// For a sample of the sky that rays can find (not a single direction): the direction it
-    /// was looked up in (beyond any openings) and the time, for its parts' light groups.
-    sky: Option<(Vec3, f64)>,
+    /// A sample of the sky that rays can find (not a single direction), whose parts may
+    /// belong to several light groups.
+    sky: bool,
 }
 
 /// Records a training path's light sample at `receiver` (where light selection saw it), drawn
@@ -175,7 +174,7 @@ fn record_light_sample<R: Recorder>(
 /// Draws light for `at` with the strategy of `space` (`None`: ordinary light sampling): a
 /// point on its first opening for the sky beyond when `u_technique` falls in its aperture
 /// share, else a light sample as seen from `at`'s image beyond the chain.
-#[inline]
+#[inline(always)]
 pub(crate) fn incoming(
     ctx: &Context,
     at: &Receiver,
@@ -243,7 +242,7 @@ pub struct Probe {
 #[inline(never)]
 fn brought_back(ctx: &Context, at: &Receiver, space: &Space, arrival: Incoming) -> Incoming {
     let dir = space.direction_back(arrival.dir);
-    let sky = arrival.sky.is_some().then_some((at, dir));
+    let sky = arrival.sky.then_some((at, dir));
     Incoming {
         dir,
         pdf: space.density(&ctx.scene.portals, arrival.pdf, sky),
@@ -273,7 +272,7 @@ fn sky_through_aperture(
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
         group: ctx.scene.environment_group,
-        sky: Some((beyond, time)),
+        sky: true,
     })
 }
 
@@ -290,7 +289,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
             pdf: light.pdf,
             bsdf_can_find: !delta,
             group: sky_group(ctx, part),
-            sky: (!delta).then_some((dir, time)),
+            sky: !delta,
         }),
         LightPlace::Punctual { point, source } => {
             let to = point - at.p;
@@ -305,7 +304,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
                 pdf: light.pdf,
                 bsdf_can_find: false,
                 group: source_group(ctx, source),
-                sky: None,
+                sky: false,
             })
         }
         LightPlace::Point {
@@ -340,7 +339,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
                 pdf: light.pdf * dist2 / dir.dot(light_side).abs(),
                 bsdf_can_find: bsdf_can_find(ctx, source),
                 group: source_group(ctx, source),
-                sky: None,
+                sky: false,
             })
         }
     }
