@@ -99,7 +99,12 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
     let k = weight * coins / pdf_light;
     let split_sky = FULL
         && incoming.sky
-        && ctx.scene.lights.sky.as_ref().is_some_and(|s| !s.dome_only());
+        && ctx
+            .scene
+            .lights
+            .sky
+            .as_ref()
+            .is_some_and(|s| !s.dome_only());
     if split_sky {
         // The sky was looked up beyond the openings, at that side's time.
         let (dir, time) = match space {
