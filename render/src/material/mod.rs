@@ -4,7 +4,9 @@
 pub mod bsdf;
 pub mod inputs;
 pub mod microfacet;
+pub mod surface;
 
 pub use bsdf::multiscatter::Multiscatter;
-pub use bsdf::{Bsdf, Material, Side};
+pub use bsdf::{Bsdf, Side};
 pub use inputs::{ColorInput, Inputs, Lookup, ScalarInput};
+pub use surface::Material;

@@ -9,7 +9,8 @@ use super::schema::{
 use super::{metals, optional, parse};
 use crate::error::{RenderError, key_error};
 use crate::material::bsdf::multiscatter::Multiscatter;
-use crate::material::bsdf::{Bsdf, Material};
+use crate::material::bsdf::Bsdf;
+use crate::material::surface::Material;
 use crate::material::microfacet::{ConductorFresnel, Ggx, Shadowing};
 use crate::material::{ColorInput, Inputs, ScalarInput};
 use crate::texture::{ColorSpace, Textures};

@@ -30,7 +30,7 @@ use crate::geometry::{
     Accel, Hit, STATIC, StrandHit, Strands, Triangle, changes_during, every_triangle,
 };
 use crate::lights::Lights;
-use crate::material::bsdf::Material;
+use crate::material::surface::Material;
 use crate::portals::openings::Portals;
 use crate::portals::visibility::{Flags, RayClass, Visibility};
 use crate::texture::Textures;

@@ -11,7 +11,7 @@ use super::{flags, mesh, parse, ply, within_single_precision};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{MovingInstance, ObjectMotion, STATIC, Triangle};
 use crate::lights::emitters::Emitter;
-use crate::material::bsdf::Material;
+use crate::material::surface::Material;
 use crate::portals::openings::Portals;
 use crate::portals::visibility::Flags;
 use glam::{Vec2, Vec3};

@@ -1,17 +1,15 @@
-//! Materials: a BSDF plus optional emission. BSDFs work in a local shading frame whose +Z is the
+//! BSDFs: how a surface or a medium scatters light. They work in a local shading frame whose +Z is the
 //! shading normal turned towards the outgoing direction, so wo.z > 0 always; which side of the
 //! surface that is ([`Side`]) sets the relative index of refraction.
 
 pub mod multiscatter;
 
 use crate::material::bsdf::multiscatter::Multiscatter;
-use crate::material::inputs::{Inputs, Lookup};
 use crate::material::microfacet::{
     ConductorFresnel, Ggx, SMOOTH_ALPHA, fresnel_dielectric, reflect, refract,
 };
 use crate::media::homogeneous::{henyey_greenstein, sample_henyey_greenstein};
 use crate::sampling::cosine_hemisphere;
-use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
@@ -61,59 +59,6 @@ pub struct BsdfSample {
     pub delta: bool,
     /// Relative index of refraction crossed (1 for reflection): the weight carries 1/η².
     pub eta: f32,
-}
-
-/// A surface material.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Material {
-    pub name: String,
-    pub bsdf: Bsdf,
-    /// Emitted radiance.
-    pub emission: Vec3,
-    /// Emits from the back side too.
-    pub two_sided_emission: bool,
-    /// The back side (against the geometric normal) is black: a path that meets it ends there.
-    /// Mitsuba's BSDFs are all one-sided; rift's reflect on both sides unless asked.
-    pub one_sided: bool,
-    /// Inputs read from textures (`None`: the constants of `bsdf` everywhere).
-    pub inputs: Option<Box<Inputs>>,
-}
-
-impl Material {
-    /// True when some input comes from a texture (its meshes must give UVs).
-    pub fn textured(&self) -> bool {
-        self.inputs.is_some()
-    }
-
-    /// The BSDF at a point looked up at `at` in `textures` (the constant one when nothing is
-    /// textured).
-    pub fn bsdf_at(&self, textures: &[Texture], at: &Lookup) -> Bsdf {
-        match &self.inputs {
-            Some(inputs) => inputs.apply(&self.bsdf, textures, at),
-            None => self.bsdf.clone(),
-        }
-    }
-
-    /// True when the material emits.
-    pub fn emits(&self) -> bool {
-        self.emission.max_element() > 0.0
-    }
-
-    /// True when a path arriving from the side whose cosine with the geometric normal is
-    /// `cos` meets a black back side ([`Self::one_sided`]).
-    #[inline]
-    pub fn black_from(&self, cos: f32) -> bool {
-        self.one_sided && cos < 0.0
-    }
-
-    /// Emitted radiance towards a direction whose cosine with the geometric normal is `cos`.
-    pub fn emitted(&self, cos: f32) -> Vec3 {
-        if cos > 0.0 || (self.two_sided_emission && cos < 0.0) {
-            self.emission
-        } else {
-            Vec3::ZERO
-        }
-    }
 }
 
 impl Bsdf {

@@ -1,0 +1,59 @@
+//! A surface material: a BSDF, its emission, its sides, and the inputs it reads from textures.
+
+use crate::material::bsdf::Bsdf;
+use crate::material::inputs::{Inputs, Lookup};
+use crate::texture::Texture;
+use glam::Vec3;
+
+/// A surface material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub bsdf: Bsdf,
+    /// Emitted radiance.
+    pub emission: Vec3,
+    /// Emits from the back side too.
+    pub two_sided_emission: bool,
+    /// The back side (against the geometric normal) is black: a path that meets it ends there.
+    /// Mitsuba's BSDFs are all one-sided; rift's reflect on both sides unless asked.
+    pub one_sided: bool,
+    /// Inputs read from textures (`None`: the constants of `bsdf` everywhere).
+    pub inputs: Option<Box<Inputs>>,
+}
+
+impl Material {
+    /// True when some input comes from a texture (its meshes must give UVs).
+    pub fn textured(&self) -> bool {
+        self.inputs.is_some()
+    }
+
+    /// The BSDF at a point looked up at `at` in `textures` (the constant one when nothing is
+    /// textured).
+    pub fn bsdf_at(&self, textures: &[Texture], at: &Lookup) -> Bsdf {
+        match &self.inputs {
+            Some(inputs) => inputs.apply(&self.bsdf, textures, at),
+            None => self.bsdf.clone(),
+        }
+    }
+
+    /// True when the material emits.
+    pub fn emits(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+
+    /// True when a path arriving from the side whose cosine with the geometric normal is
+    /// `cos` meets a black back side ([`Self::one_sided`]).
+    #[inline]
+    pub fn black_from(&self, cos: f32) -> bool {
+        self.one_sided && cos < 0.0
+    }
+
+    /// Emitted radiance towards a direction whose cosine with the geometric normal is `cos`.
+    pub fn emitted(&self, cos: f32) -> Vec3 {
+        if cos > 0.0 || (self.two_sided_emission && cos < 0.0) {
+            self.emission
+        } else {
+            Vec3::ZERO
+        }
+    }
+}
