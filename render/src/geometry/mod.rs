@@ -3,6 +3,7 @@
 
 pub mod accel;
 pub mod build;
+pub mod contact;
 pub mod instance;
 pub mod motion;
 pub mod moving_bvh;
@@ -15,6 +16,7 @@ pub mod triangle_bvh;
 pub mod wide_bvh;
 
 pub use accel::{Accel, Hit, STATIC, every_triangle};
+pub use contact::Contacts;
 pub use instance::{MovingInstance, Placement};
 pub use motion::{ObjectMotion, changes_during};
 pub use offset::{offset_origin, offset_target};

@@ -83,6 +83,20 @@ fn offset_origin_sse2(p: Vec3, n: Vec3) -> Vec3 {
     Vec3::from(glam::Vec3A::from(moved))
 }
 
+/// The most [`offset_origin`] may move each coordinate of `p` per unit of the normal's
+/// component: the fixed step near the origin, 256 ULPs elsewhere.
+#[inline]
+pub fn offset_steps(p: Vec3) -> Vec3 {
+    (p.abs() * (INT_SCALE * f32::EPSILON)).max(Vec3::splat(FLOAT_SCALE))
+}
+
+/// How far [`offset_origin`] may move `p` along the unit normal `n`, at most: each
+/// coordinate moves by its step times the normal's component.
+#[inline]
+pub fn offset_reach(p: Vec3, n: Vec3) -> f32 {
+    (n * n).dot(offset_steps(p))
+}
+
 /// Moves the point `p` a light sampler chose on an emitter (geometric normal `n`, unit) off
 /// it towards `n`, as the end of a shadow ray: `TARGET_ULPS`, far less than
 /// [`offset_origin`].
@@ -110,6 +124,13 @@ mod tests {
             assert!(
                 (q - p).length() <= 1e-3 * (1.0 + p.abs().max_element()),
                 "scale {scale}: moved too far"
+            );
+            assert!(
+                // (Its own rounding aside.)
+                (q - p).dot(n) <= offset_reach(p, n) * (1.0 + 1e-5),
+                "scale {scale}: moved {} beyond its reach {}",
+                (q - p).dot(n),
+                offset_reach(p, n)
             );
             // The light end of a shadow ray moves off too, but far less.
             let target = offset_target(p, n);

@@ -16,7 +16,7 @@ use crate::portals::visibility::RayClass;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::SurfacePoint;
 use crate::scene::light_groups::MAX_LIGHT_GROUPS;
-use crate::scene::{NO_OBJECT, SceneHit};
+use crate::scene::{NO_OBJECT, Scene, SceneHit};
 use crate::through::{Chain, Strategies};
 use glam::Vec3;
 
@@ -75,7 +75,14 @@ struct PathState {
     /// textures).
     width: f32,
     spread: f32,
+    /// The static triangle the path last scattered at when it touches another object's
+    /// surface (see [`crate::geometry::Contacts`]), else [`NOT_TOUCHING`]: the next ray first
+    /// looks there.
+    touching: u32,
 }
+
+/// [`PathState::touching`] when the path did not leave a surface that touches another.
+const NOT_TOUCHING: u32 = u32::MAX;
 
 /// The least spread a ray cone takes after scattering off a surface that is not a mirror:
 /// rough bounces spread the light they gather, so their textures are read blurred (as pbrt's
@@ -110,6 +117,28 @@ impl PathState {
             rng: Rng::new(0),
             width: 0.0,
             spread,
+            touching: NOT_TOUCHING,
+        }
+    }
+
+    /// The surface the path's ray meets at once, as it leaves a surface that touches another
+    /// (see [`crate::geometry::Contacts`]): asked once per ray.
+    #[inline]
+    fn contact(&mut self, scene: &Scene) -> Option<Hit> {
+        if self.touching == NOT_TOUCHING {
+            return None;
+        }
+        let left = std::mem::replace(&mut self.touching, NOT_TOUCHING);
+        meet_touching(scene, left, self.prev_receiver.p, &self.ray, self.class())
+    }
+
+    /// `hit`, found by the path's ray, or the surface it touches that the ray meets before it
+    /// (see [`crate::geometry::Contacts::first_met`]).
+    #[inline(always)]
+    fn first_met(&self, scene: &Scene, hit: Hit) -> Hit {
+        match scene.contacts.touches(&hit) {
+            true => first_touching(scene, hit, &self.ray, self.class()),
+            false => hit,
         }
     }
 
@@ -302,6 +331,43 @@ fn track_grids(
     }
     (tracked != Tracked::Passed).then_some(Crossing::InGrid(tracked))
 }
+/// What the ray leaving the point `p` of triangle `left` meets at once (see
+/// [`PathState::contact`]), among the surfaces rays of `class` see.
+#[cold]
+#[inline(never)]
+fn meet_touching(scene: &Scene, left: u32, p: Vec3, ray: &Ray, class: RayClass) -> Option<Hit> {
+    let count = scene.static_triangles;
+    scene.contacts.meet(
+        &scene.triangles[..count],
+        &scene.normals[..count],
+        left,
+        p,
+        ray,
+        seen_by(scene, class, p, ray.time),
+    )
+}
+
+/// The surface of `hit` or one it touches, whichever `ray` meets first (see
+/// [`PathState::first_met`]).
+#[cold]
+#[inline(never)]
+fn first_touching(scene: &Scene, hit: Hit, ray: &Ray, class: RayClass) -> Hit {
+    let count = scene.static_triangles;
+    scene.contacts.first_met(
+        &scene.triangles[..count],
+        &scene.normals[..count],
+        hit,
+        ray,
+        seen_by(scene, class, ray.at(hit.t), ray.time),
+    )
+}
+
+/// Whether rays of `class` see a triangle near `p` at `time`.
+fn seen_by(scene: &Scene, class: RayClass, p: Vec3, time: f64) -> impl Fn(u32) -> bool + '_ {
+    let visibility = &scene.visibility;
+    move |b| !visibility.hides_anything() || visibility.admits(b, class, p, time)
+}
+
 /// [`trace`] in a scene of surfaces and lamps alone: the same path, sample for sample, without
 /// the tests for openings, media, strands, the sky and hidden objects, none of which it holds.
 pub(super) fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
@@ -314,10 +380,19 @@ pub(super) fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) 
 /// Follows `path` in a scene of surfaces and lamps alone to its end.
 fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &mut PathSample) {
     let mut strategies = None;
-    while let Some(hit) = ctx.scene.intersect_surfaces(&path.ray) {
+    loop {
+        let touching = path.contact(ctx.scene);
+        let found = || {
+            ctx.scene
+                .intersect_surfaces(&path.ray)
+                .map(|h| path.first_met(ctx.scene, h))
+        };
+        let Some(hit) = touching.or_else(found) else {
+            break;
+        };
         let mut textured = None;
         let Some((p, ng, bsdf)) =
-            surface_emission(ctx, &path, &strategies, &hit, &mut textured, out)
+            surface_emission(ctx, &mut path, &strategies, &hit, &mut textured, out)
         else {
             break;
         };
@@ -380,7 +455,13 @@ fn follow_full<R: Recorder>(
     recorder: &mut R,
 ) {
     loop {
-        let hit = ctx.scene.intersect(&path.ray, path.class());
+        let hit = match path.contact(ctx.scene) {
+            Some(touching) => Some(SceneHit::Surface(touching)),
+            None => match ctx.scene.intersect(&path.ray, path.class()) {
+                Some(SceneHit::Surface(h)) => Some(SceneHit::Surface(path.first_met(ctx.scene, h))),
+                other => other,
+            },
+        };
         let hit_t = hit.map(|h| h.t());
         let medium = ctx.scene.media.medium(path.inside);
         let collision = medium.and_then(|m| free_flight(m, hit_t, s));
@@ -615,7 +696,7 @@ fn medium_vertex(path: &PathState, out: &mut PathSample, at: f32, g: f32, albedo
 #[inline(always)]
 fn surface_emission<'b>(
     ctx: &'b Context,
-    path: &PathState,
+    path: &mut PathState,
     strategies: &Option<Strategies>,
     hit: &Hit,
     textured: &'b mut Option<Bsdf>,
@@ -627,6 +708,9 @@ fn surface_emission<'b>(
     let material = ctx.scene.material(hit.triangle);
     let cos_o = -dir.dot(ng);
     let black = material.black_from(cos_o);
+    if ctx.scene.contacts.touches(hit) {
+        path.touching = hit.triangle;
+    }
     let bsdf = match material.textured() {
         true => textured_bsdf(ctx, path, hit, &surface, material, textured),
         false => &material.bsdf,

@@ -14,7 +14,7 @@ use super::settings::{Overrides, Settings};
 use super::{Scene, camera, environment, grids, lights, materials, media, objects, portals, rings};
 use crate::camera::{Clip, Stereo};
 use crate::error::RenderError;
-use crate::geometry::{Accel, Triangle};
+use crate::geometry::{Accel, Contacts, Triangle};
 use crate::lights::{Environment, Lights, ShapeLight, Sky, Sun};
 use crate::material::Material;
 use crate::media::grid::GridMedia;
@@ -206,6 +206,7 @@ impl Scene {
             Sky::new(s.environment, s.suns),
             selection,
         );
+        let contacts = contacts(&g, &normals, &s.materials);
         let accel = Accel::build(&g.triangles[..g.static_count], g.instances);
         let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let visibility = Visibility::new(
@@ -236,6 +237,7 @@ impl Scene {
             triangle_material: g.triangle_material,
             materials: s.materials,
             accel,
+            contacts,
             lights,
             settings: s.settings,
             camera: shot.camera.clone(),
@@ -256,6 +258,21 @@ impl Scene {
             shutter: s.shutter,
         })
     }
+}
+
+/// Where the static triangles of different objects touch (see [`Contacts`]).
+fn contacts(g: &Geometry, normals: &[Vec3], materials: &[Material]) -> Contacts {
+    let count = g.static_count;
+    Contacts::find(
+        &g.triangles[..count],
+        &normals[..count],
+        &g.triangle_object[..count],
+        |t| {
+            materials[g.triangle_material[t as usize] as usize]
+                .bsdf
+                .transmits()
+        },
+    )
 }
 
 /// Refuses a scene of `triangles` triangles and `other_bytes` of density grids and textures

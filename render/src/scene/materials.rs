@@ -8,10 +8,10 @@ use super::schema::{
 };
 use super::{metals, optional, parse};
 use crate::error::{RenderError, key_error};
-use crate::material::bsdf::multiscatter::Multiscatter;
 use crate::material::bsdf::Bsdf;
-use crate::material::surface::Material;
+use crate::material::bsdf::multiscatter::Multiscatter;
 use crate::material::microfacet::{ConductorFresnel, Ggx, Shadowing};
+use crate::material::surface::Material;
 use crate::material::{ColorInput, Inputs, ScalarInput};
 use crate::texture::{ColorSpace, Textures};
 use glam::Vec3;

@@ -92,6 +92,8 @@ pub struct Scene {
     pub triangle_material: Vec<u32>,
     pub materials: Vec<Material>,
     pub accel: Accel,
+    /// Where static surfaces of different objects touch.
+    pub contacts: crate::geometry::Contacts,
     pub lights: Lights,
     pub settings: Settings,
     pub camera: Camera,
