@@ -168,7 +168,7 @@ fn white_furnace_and_half_albedo_sphere() {
 /// that neither absorbs nor emits is invisible. Smooth lobes are exact; rough GGX lobes lose
 /// the energy that single-scattering microfacet models drop (light that would scatter more than
 /// once between facets), about 2% over a sphere at roughness 0.3 (most at grazing angles) and more
-/// when rougher, unless `multiscatter` adds it back.
+/// when rougher, unless `multiscatter` adds it back. A white standard material loses nothing.
 #[test]
 fn white_furnace_for_every_bsdf() {
     let dir = tempfile::tempdir().unwrap();
@@ -185,6 +185,20 @@ fn white_furnace_for_every_bsdf() {
         (
             "type = \"conductor\"\nroughness = 1.0\nmultiscatter = true",
             0.985,
+        ),
+        // The standard layered material keeps its energy by tables of its layers' albedo.
+        (
+            "type = \"standard\"\nbase_color = [1.0, 1.0, 1.0]\nroughness = 0.0",
+            0.99,
+        ),
+        (
+            "type = \"standard\"\nbase_color = [1.0, 1.0, 1.0]\nroughness = 0.6",
+            0.99,
+        ),
+        (
+            "type = \"standard\"\nbase_color = [1.0, 1.0, 1.0]\nmetallic = 0.4\nroughness = 0.3\n\
+             coat = 1.0\ncoat_roughness = 0.1",
+            0.99,
         ),
     ] {
         let img = render(dir.path(), &sphere_with(body), 128);

@@ -29,10 +29,16 @@ pub struct ScalarInput {
 /// The inputs of a material that come from textures.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Inputs {
-    /// A diffuse material's albedo, or a conductor's colour at normal incidence.
+    /// A diffuse material's albedo, a conductor's colour at normal incidence, or a standard
+    /// material's base colour.
     pub reflectance: Option<ColorInput>,
-    /// A rough conductor's or dielectric's roughness.
+    /// A rough conductor's, dielectric's or standard material's roughness.
     pub roughness: Option<ScalarInput>,
+    /// A standard material's metallic, specular colour, coat and coat roughness.
+    pub metallic: Option<ScalarInput>,
+    pub specular_color: Option<ColorInput>,
+    pub coat: Option<ScalarInput>,
+    pub coat_roughness: Option<ScalarInput>,
 }
 
 /// Where a texture is looked up: the point's UV and the ray's footprint there, in UV units.
@@ -57,17 +63,19 @@ impl ScalarInput {
 }
 
 impl Inputs {
-    /// `bsdf` with these inputs read at `at`: reflectance kept within [0, 1], roughness within
+    /// `bsdf` with these inputs read at `at`: colours kept within [0, 1], and numbers within
     /// [0, 1].
     pub fn apply(&self, bsdf: &Bsdf, textures: &[Texture], at: &Lookup) -> Bsdf {
         let reflectance = self
             .reflectance
             .map(|c| c.at(textures, at).clamp(Vec3::ZERO, Vec3::ONE));
-        let roughness = self.roughness.map(|r| r.at(textures, at).clamp(0.0, 1.0));
-        let rough = |ggx: &Ggx| match roughness {
+        let unit = |input: Option<ScalarInput>| input.map(|r| r.at(textures, at).clamp(0.0, 1.0));
+        let roughness = unit(self.roughness);
+        let with_roughness = |ggx: &Ggx, roughness: Option<f32>| match roughness {
             Some(r) => Ggx::from_roughness(r).with_shadowing(ggx.shadowing),
             None => *ggx,
         };
+        let rough = |ggx: &Ggx| with_roughness(ggx, roughness);
         match bsdf {
             Bsdf::Diffuse { reflectance: own } => Bsdf::Diffuse {
                 reflectance: reflectance.unwrap_or(*own),
@@ -94,6 +102,19 @@ impl Inputs {
                 ggx: rough(ggx),
             },
             Bsdf::Phase { .. } => bsdf.clone(),
+            Bsdf::Standard(own) => {
+                let mut s = *own;
+                s.base_color = reflectance.unwrap_or(s.base_color);
+                s.ggx = rough(&s.ggx);
+                s.metallic = unit(self.metallic).unwrap_or(s.metallic);
+                if let Some(c) = self.specular_color {
+                    s.specular_color = c.at(textures, at).clamp(Vec3::ZERO, Vec3::ONE);
+                }
+                s.coat = unit(self.coat).unwrap_or(s.coat);
+                s.coat_ggx = with_roughness(&s.coat_ggx, unit(self.coat_roughness));
+                s.refresh();
+                Bsdf::Standard(s)
+            }
         }
     }
 }

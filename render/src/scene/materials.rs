@@ -9,7 +9,9 @@ use super::schema::{
 use super::{metals, optional, parse};
 use crate::error::{RenderError, key_error};
 use crate::material::bsdf::Bsdf;
+use crate::material::bsdf::albedo::MAX_IOR;
 use crate::material::bsdf::multiscatter::Multiscatter;
+use crate::material::bsdf::standard::Standard;
 use crate::material::microfacet::{ConductorFresnel, Ggx, Shadowing};
 use crate::material::surface::Material;
 use crate::material::{ColorInput, Inputs, ScalarInput};
@@ -23,7 +25,25 @@ use std::path::Path;
 pub(super) const BOUNDARY_MATERIAL: &str = "(medium boundary)";
 
 /// The keys whose value may be a texture.
-const TEXTURED_KEYS: [&str; 2] = ["reflectance", "roughness"];
+const TEXTURED_KEYS: [&str; 7] = [
+    "reflectance",
+    "roughness",
+    "base_color",
+    "metallic",
+    "specular_color",
+    "coat",
+    "coat_roughness",
+];
+
+/// The keys only the standard material takes.
+const STANDARD_KEYS: [&str; 6] = [
+    "base_color",
+    "metallic",
+    "specular_color",
+    "coat",
+    "coat_roughness",
+    "coat_ior",
+];
 
 /// Where materials' textures are read from and kept.
 pub(super) struct TextureReader<'a> {
@@ -96,7 +116,7 @@ fn split_textures(
                     full,
                     format!(
                         "cannot take a texture (textures work on {})",
-                        TEXTURED_KEYS.join(" and ")
+                        TEXTURED_KEYS.join(", ")
                     ),
                 ));
             }
@@ -133,13 +153,24 @@ fn inputs(
             ("roughness", MaterialKind::Diffuse) => {
                 return refuse("a diffuse material has no roughness");
             }
+            ("reflectance", MaterialKind::Standard) => {
+                return refuse("a standard material's colour is its base_color");
+            }
             _ => {}
         }
+        if STANDARD_KEYS.contains(&name.as_str()) && m.kind != MaterialKind::Standard {
+            return refuse(&format!("only a standard material has {name}"));
+        }
         let base = file.parent().unwrap_or(Path::new("."));
-        if name == "reflectance" {
-            inputs.reflectance = Some(color_input(&full, spec, base, reader)?);
-        } else {
-            inputs.roughness = Some(scalar_input(&full, spec, base, reader)?);
+        let color = |reader: &mut TextureReader| color_input(&full, spec, base, reader);
+        let scalar = |reader: &mut TextureReader| scalar_input(&full, spec, base, reader);
+        match name.as_str() {
+            "reflectance" | "base_color" => inputs.reflectance = Some(color(reader)?),
+            "specular_color" => inputs.specular_color = Some(color(reader)?),
+            "roughness" => inputs.roughness = Some(scalar(reader)?),
+            "metallic" => inputs.metallic = Some(scalar(reader)?),
+            "coat" => inputs.coat = Some(scalar(reader)?),
+            _ => inputs.coat_roughness = Some(scalar(reader)?),
         }
     }
     Ok((inputs != Inputs::default()).then(|| Box::new(inputs)))
@@ -288,7 +319,7 @@ pub(super) fn from_mtl(
         inputs: reflectance.map(|r| {
             Box::new(Inputs {
                 reflectance: Some(r),
-                roughness: None,
+                ..Inputs::default()
             })
         }),
     })
@@ -337,10 +368,14 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         Some(ShadowingKind::HeightCorrelated) | None => Shadowing::HeightCorrelated,
         Some(ShadowingKind::Separable) => Shadowing::Separable,
     });
+    if m.kind != MaterialKind::Standard {
+        no_standard_keys(key, m)?;
+    }
     let bsdf = match m.kind {
         MaterialKind::Diffuse => diffuse(key, m, reflectance)?,
         MaterialKind::Conductor => conductor(key, m, ggx)?,
         MaterialKind::Dielectric => dielectric(key, m, ggx)?,
+        MaterialKind::Standard => standard(key, m, ggx)?,
     };
     Ok(Material {
         name: m.name.clone(),
@@ -370,6 +405,80 @@ fn no_metal_keys(key: &str, m: &MaterialSection, what: &str) -> Result<(), Inval
     .into_iter()
     .find_map(|(field, given)| given.then_some(field));
     field.map_or(Ok(()), |field| Err(unused(key, field, what)))
+}
+
+/// Refuses the standard material's own keys on a material of another kind.
+fn no_standard_keys(key: &str, m: &MaterialSection) -> Result<(), Invalid> {
+    let given = [
+        m.base_color.is_some(),
+        m.metallic.is_some(),
+        m.specular_color.is_some(),
+        m.coat.is_some(),
+        m.coat_roughness.is_some(),
+        m.coat_ior.is_some(),
+    ];
+    match STANDARD_KEYS.iter().zip(given).find(|(_, given)| *given) {
+        Some((field, _)) => Err(Invalid::new(
+            format!("{key}.{field}"),
+            format!("only a standard material has {field} (type = \"standard\")"),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The standard layered material ([`Standard`]): every input checked within its range.
+fn standard(key: &str, m: &MaterialSection, ggx: Ggx) -> Result<Bsdf, Invalid> {
+    no_metal_keys(key, m, "standard")?;
+    if m.reflectance.is_some() {
+        return Err(Invalid::new(
+            format!("{key}.reflectance"),
+            "a standard material's colour is its base_color",
+        ));
+    }
+    if m.multiscatter.is_some() {
+        return Err(Invalid::new(
+            format!("{key}.multiscatter"),
+            "a standard material always keeps its energy: leave multiscatter out",
+        ));
+    }
+    let unit = |field: &str, v: Option<f64>, default: f64| {
+        optional(v, default, |x| {
+            check::within(&format!("{key}.{field}"), x, 0.0, 1.0, false)
+        })
+        .map(|x| x as f32)
+    };
+    let ior = |field: &str, v: Option<f64>| {
+        optional(v, 1.5, |x| {
+            check::within(&format!("{key}.{field}"), x, 1.0, MAX_IOR as f64, false)
+        })
+        .map(|x| x as f32)
+    };
+    let unit_color = |field: &str, v: Option<[f64; 3]>, default: f32| {
+        let c = color(&format!("{key}.{field}"), v, Vec3::splat(default))?;
+        match c.max_element() <= 1.0 {
+            true => Ok(c),
+            false => Err(Invalid::new(
+                format!("{key}.{field}"),
+                "a colour above 1 creates energy",
+            )),
+        }
+    };
+    let coat_roughness = unit("coat_roughness", m.coat_roughness, 0.0)?;
+    // UsdPreviewSurface's and the Principled BSDF's default roughness.
+    let ggx = match m.roughness {
+        Some(_) => ggx,
+        None => Ggx::from_roughness(0.5).with_shadowing(ggx.shadowing),
+    };
+    Ok(Bsdf::Standard(Standard::new(
+        unit_color("base_color", m.base_color, 0.8)?,
+        unit("metallic", m.metallic, 0.0)?,
+        unit_color("specular_color", m.specular_color, 1.0)?,
+        ior("ior", m.ior)?,
+        ggx,
+        unit("coat", m.coat, 0.0)?,
+        Ggx::from_roughness(coat_roughness).with_shadowing(ggx.shadowing),
+        ior("coat_ior", m.coat_ior)?,
+    )))
 }
 
 /// A Lambertian BSDF of `reflectance`; rough-surface keys are refused.

@@ -23,7 +23,7 @@
 //!
 //! [[material]]
 //! name = "white"
-//! type = "diffuse"              # "diffuse", "conductor" or "dielectric"
+//! type = "diffuse"              # "diffuse", "conductor", "dielectric" or "standard"
 //! reflectance = [0.8, 0.8, 0.8] # diffuse: albedo; conductor: colour at normal incidence; or a
 //!                               # texture: { texture = "wood.png", scale = 1.0, offset = 0.0,
 //!                               # colorspace = "srgb" } (PNG, JPEG or EXR, relative to the
@@ -54,6 +54,20 @@
 //! type = "dielectric"           # GGX reflection and refraction, exact Fresnel
 //! ior = 1.5                     # inside (behind the front face) over outside
 //! roughness = 0.0               # 0: a perfectly smooth interface
+//!
+//! [[material]]
+//! name = "lacquered_wood"
+//! type = "standard"             # a diffuse base under a dielectric specular layer, blended
+//!                               # with a metal, under an optional clear coat; energy-conserving
+//! base_color = [0.5, 0.3, 0.2]  # the diffuse albedo, and the metal's colour
+//! metallic = 0.0                # 0 dielectric to 1 metal
+//! roughness = 0.4               # the specular layer's and the metal's (default 0.5)
+//! ior = 1.5                     # the specular layer's, 1 to 3
+//! specular_color = [1.0, 1.0, 1.0]  # tints the specular layer's reflection
+//! coat = 0.0                    # the clear coat's weight, 0 to 1
+//! coat_roughness = 0.0
+//! coat_ior = 1.5
+//!                               # every input but the two iors takes a texture
 //!
 //! [[medium]]                    # a homogeneous medium: haze, fog, smoke, ink
 //! name = "haze"
@@ -234,6 +248,13 @@ pub struct MaterialSection {
     pub emission: Option<[f64; 3]>,
     pub two_sided_emission: Option<bool>,
     pub one_sided: Option<bool>,
+    /// The standard material's inputs.
+    pub base_color: Option<[f64; 3]>,
+    pub metallic: Option<f64>,
+    pub specular_color: Option<[f64; 3]>,
+    pub coat: Option<f64>,
+    pub coat_roughness: Option<f64>,
+    pub coat_ior: Option<f64>,
 }
 
 /// One `[[medium]]`.
@@ -273,6 +294,7 @@ pub enum MaterialKind {
     Diffuse,
     Conductor,
     Dielectric,
+    Standard,
 }
 
 /// One `[[object]]`.

@@ -21,7 +21,7 @@ use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
 
 /// Table resolution in μ and in roughness.
-const N: usize = 32;
+pub(super) const N: usize = 32;
 /// Strata per side of the sample square for each table entry.
 const STRATA: u32 = 48;
 
@@ -118,12 +118,12 @@ impl Table {
 }
 
 /// The table cosine at column `k` (cell centres: μ = 0 itself has no albedo).
-fn mu_at(k: usize) -> f32 {
+pub(super) fn mu_at(k: usize) -> f32 {
     (k as f32 + 0.5) / N as f32
 }
 
 /// The two table indices around a continuous coordinate, and the weight of the second.
-fn cell(x: f32) -> (usize, usize, f32) {
+pub(super) fn cell(x: f32) -> (usize, usize, f32) {
     let x = x.clamp(0.0, (N - 1) as f32);
     let i = (x as usize).min(N - 2);
     (i, i + 1, x - i as f32)
@@ -135,7 +135,7 @@ fn albedo_row(bsdf: &Bsdf, side: Side, strata: u32) -> [f32; N] {
 }
 
 /// 2∫E(μ)μ dμ from E at the table's cosines (the midpoint rule).
-fn cosine_weighted_mean(row: &[f32; N]) -> f32 {
+pub(super) fn cosine_weighted_mean(row: &[f32; N]) -> f32 {
     row.iter()
         .enumerate()
         .map(|(k, e)| 2.0 * e * mu_at(k))
