@@ -79,6 +79,31 @@ def cases(shadowing="separable"):
     return out
 
 
+def standard_cases(shadowing="separable"):
+    """rift's standard layered material against Mitsuba's nearest: `plastic`/`roughplastic`
+    for a dielectric base (Mitsuba's keeps the light the coat reflects back down inside the
+    layer, rift's scales the base by the coat's albedo, so colours differ by that model) and
+    `principled` for metals and blends (Disney's base, with Schlick's Fresnel for metals)."""
+    g = f'\nshadowing = "{shadowing}"'
+    base = [0.7, 0.5, 0.3]
+    rgb = lambda v: {"type": "rgb", "value": v}
+    out = []
+    for r in (0.0, 0.3, 0.7):
+        mitsuba = ({"type": "plastic", "diffuse_reflectance": rgb(base), "int_ior": 1.5,
+                    "nonlinear": False} if r == 0 else
+                   {"type": "roughplastic", "diffuse_reflectance": rgb(base), "int_ior": 1.5,
+                    "distribution": "ggx", "alpha": r * r, "nonlinear": False})
+        out.append((f"standard_plastic_r{r}",
+                    f'type = "standard"\nbase_color = {base}\nroughness = {r}{g}', mitsuba))
+    for metallic, r in ((1.0, 0.3), (0.5, 0.4), (0.0, 0.5)):
+        out.append((f"standard_metallic{metallic}_r{r}",
+                    f'type = "standard"\nbase_color = {base}\nmetallic = {metallic}\n'
+                    f'roughness = {r}{g}',
+                    {"type": "principled", "base_color": rgb(base), "metallic": metallic,
+                     "roughness": r, "specular": 0.5}))
+    return out
+
+
 def conductor(eta, k, r):
     rgb = lambda v: {"type": "rgb", "value": v}
     if r == 0:
@@ -295,10 +320,11 @@ def summarise(renders):
     return mean, regions(mean), sem, float(np.median([t for _, t in renders])), noise
 
 
-def write_shots(out, shadowing):
-    """The scene and every rift shot into `out` (cheap; both commands start here)."""
+def write_shots(out, shadowing, standard=False):
+    """The scene and every rift shot into `out` (cheap; both commands start here); with
+    `standard`, the standard material's too."""
     write_scene(out)
-    for name, material, _ in cases(shadowing):
+    for name, material, _ in cases(shadowing) + (standard_cases(shadowing) if standard else []):
         for lighting in ("lamp", "sky"):
             (out / f"{name}_{lighting}.toml").write_text(rift_shot(name, material, lighting))
 
@@ -332,10 +358,11 @@ def compare(args):
     worst_all = 0.0
     print(f"{'case':<28} {'light':<5} {'image %':>20} {'worst region %':>15} {'noise %':>8} "
           f"{'rift s':>7} {'mitsuba s':>9}")
-    selected = [c for c in cases() if not args.only or any(o in c[0] for o in args.only)]
+    every = cases() + (standard_cases() if args.standard else [])
+    selected = [c for c in every if not args.only or any(o in c[0] for o in args.only)]
     with tempfile.TemporaryDirectory() as tmp:
         data = Path(tmp)
-        write_shots(data, args.shadowing)
+        write_shots(data, args.shadowing, args.standard)
         for name, material, bsdf in selected:
             for lighting in ("lamp", "sky"):
                 shot = data / f"{name}_{lighting}.toml"
@@ -432,6 +459,8 @@ def main():
     c.add_argument("--seeds", type=int, default=4)
     c.add_argument("--variant", default="scalar_rgb")
     c.add_argument("--only", nargs="*", help="case names containing any of these")
+    c.add_argument("--standard", action="store_true",
+                   help="also the standard material against plastic, roughplastic, principled")
     c.add_argument("--shadowing", default="separable", choices=("separable", "height-correlated"),
                    help="rift's GGX masking-shadowing; Mitsuba's is separable")
     k = sub.add_parser("cornell")

@@ -185,6 +185,83 @@ fn an_obj_materials_map_kd_is_the_same_texture() {
     }
 }
 
+/// A constant tangent-space normal map tilted `degrees` towards +u (+x on the floor), as
+/// 8-bit linear RGB; returns the normal it decodes to, in world space (the floor faces +y).
+fn tilted_map(path: &Path, degrees: f64) -> [f64; 3] {
+    let (s, c) = degrees.to_radians().sin_cos();
+    let encode = |x: f64| ((x + 1.0) * 0.5 * 255.0).round() as u8;
+    let rgb = [encode(s), encode(0.0), encode(c)];
+    write_png(path, 2, 2, &[rgb; 4]);
+    let [x, y, z] = rgb.map(|v| 2.0 * v as f64 / 255.0 - 1.0);
+    let length = (x * x + y * y + z * z).sqrt();
+    // Tangent x is +u = +x; tangent y is +v, which runs towards −z on the floor.
+    [x / length, z / length, -y / length]
+}
+
+/// The floor shot lit by a sun alone (no sky), shining from `towards_sun`.
+fn sun_shot(material: &str, towards_sun: [f64; 3]) -> String {
+    let sun = format!(
+        "[[light]]\nname = \"sun\"\ntype = \"distant\"\nintensity = 3.0\nangle = 0.0\n\
+         transform = {{ position = {towards_sun:?}, look_at = [0.0, 0.0, 0.0] }}\n"
+    );
+    let sky = format!("[environment]\nradiance = [{SKY}, {SKY}, {SKY}]\n");
+    let shot = floor_shot([0.0, 6.0, 0.01], [0.0, 0.0, 0.0], 30.0, material);
+    assert!(shot.contains(&sky));
+    shot.replace(&sky, &sun)
+}
+
+/// Under a sun, a diffuse floor with a normal map tilted 30° towards the sun is lit by the
+/// cosine to the mapped normal: its radiance over the plain floor's is (n_mapped·l)/(n·l).
+#[test]
+fn a_normal_map_turns_the_surface_to_the_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 1.0);
+    let mapped = tilted_map(&d.join("tilt.png"), 30.0);
+    let diffuse = "type = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n";
+    let l = [1.0f64, 1.0, 0.0];
+    let norm = (2.0f64).sqrt();
+    let cos_mapped = (mapped[0] * l[0] + mapped[1] * l[1] + mapped[2] * l[2]) / norm;
+    let cos_plain = 1.0 / norm;
+    let plain = mean_of(d, "plain", &sun_shot(diffuse, l), 8);
+    let with_map = format!("{diffuse}normal_map = {{ texture = \"tilt.png\" }}");
+    let tilted = mean_of(d, "tilted", &sun_shot(&with_map, l), 8);
+    let want = 0.5 * (plain[0] + plain[1]) * cos_mapped / cos_plain;
+    assert_mean("normal map towards the sun", tilted, want);
+    // Strength 0 flattens the map.
+    let flat = format!("{diffuse}normal_map = {{ texture = \"tilt.png\", scale = 0.0 }}");
+    let flattened = mean_of(d, "flat", &sun_shot(&flat, l), 8);
+    assert_mean(
+        "normal map of strength 0",
+        flattened,
+        0.5 * (plain[0] + plain[1]),
+    );
+}
+
+/// A steep normal map lets no light through the surface and creates none: a sun below the
+/// floor leaves it black, and under a uniform sky the floor is no brighter than albedo × sky.
+#[test]
+fn a_normal_map_never_lets_light_through_or_creates_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 1.0);
+    tilted_map(&d.join("steep.png"), 70.0);
+    for body in [
+        "type = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n",
+        "type = \"standard\"\nbase_color = [0.5, 0.5, 0.5]\nroughness = 0.3\n",
+    ] {
+        let material = format!("{body}normal_map = {{ texture = \"steep.png\" }}");
+        let below = mean_of(d, "below", &sun_shot(&material, [1.0, -0.2, 0.0]), 8);
+        assert_eq!(below, [0.0, 0.0], "{body}: lit from below the floor");
+        let sky = floor_shot([0.0, 6.0, 0.01], [0.0, 0.0, 0.0], 30.0, &material);
+        let means = mean_of(d, "sky", &sky, 64);
+        let limit = if body.contains("standard") { 1.0 } else { 0.5 } * SKY;
+        for m in means {
+            assert!(m <= limit * 1.01, "{body}: {m} under a sky of {SKY}");
+        }
+    }
+}
+
 /// The error the floor shot with `material` gives (after writing `files`).
 fn refusal(dir: &Path, material: &str) -> String {
     let path = dir.join("bad.toml");

@@ -21,12 +21,30 @@ pub(super) struct Shading<'a> {
     pub(super) receiver: &'a Receiver,
     /// Geometric normal.
     pub(super) ng: Vec3,
-    /// Shading frame (around the normal on the side the path arrived from).
+    /// Shading frame (around the normal on the side the path arrived from, or a normal map's
+    /// normal bent towards it).
     pub(super) frame: &'a Frame,
+    /// The frame is a normal map's: directions must be checked against the geometric normal.
+    pub(super) bent: bool,
     /// Direction towards where the path came from, local.
     pub(super) wo: Vec3,
     pub(super) bsdf: &'a Bsdf,
     pub(super) side: Side,
+}
+
+impl Shading<'_> {
+    /// True when the direction `wi` (local) and `world` (world space) lie on different sides
+    /// of the surface in the shading frame and in the geometry: a normal map would carry light
+    /// through the surface or into it there, so none goes.
+    #[inline]
+    pub(super) fn crosses_wrongly(&self, wi: Vec3, world: Vec3) -> bool {
+        let n = if self.side == Side::Front {
+            self.ng
+        } else {
+            -self.ng
+        };
+        (wi.z > 0.0) != (world.dot(n) > 0.0)
+    }
 }
 
 /// Next-event estimation: light arriving at `at` (at its time) from one sample drawn with `u`
@@ -65,6 +83,10 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
         return;
     };
     let wi = at.frame.to_local(incoming.dir);
+    if at.bent && at.crosses_wrongly(wi, incoming.dir) {
+        learn(0.0);
+        return;
+    }
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
         learn(0.0);

@@ -79,6 +79,9 @@ struct PathState {
     /// surface (see [`crate::geometry::Contacts`]), else [`NOT_TOUCHING`]: the next ray first
     /// looks there.
     touching: u32,
+    /// The normal a normal map gave the surface just reached (world space, around its front
+    /// side's normal), for [`scatter_at`]'s shading frame; `None` without a map.
+    mapped_normal: Option<Vec3>,
 }
 
 /// [`PathState::touching`] when the path did not leave a surface that touches another.
@@ -118,6 +121,7 @@ impl PathState {
             width: 0.0,
             spread,
             touching: NOT_TOUCHING,
+            mapped_normal: None,
         }
     }
 
@@ -713,7 +717,10 @@ fn surface_emission<'b>(
     }
     let bsdf = match material.textured() {
         true => textured_bsdf(ctx, path, hit, &surface, material, textured),
-        false => &material.bsdf,
+        false => {
+            path.mapped_normal = None;
+            &material.bsdf
+        }
     };
     // Checked here too, so later bounces skip the albedo and object lookups.
     if path.bounce == 0 {
@@ -740,16 +747,18 @@ fn surface_emission<'b>(
 
 /// The BSDF of the textured `material` where the path's ray met `hit` (at `surface`), its
 /// textures read at the hit's UV over the ray cone's footprint there, made in `slot` (the
-/// material's own where the mesh has no UVs).
+/// material's own where the mesh has no UVs); its normal map's normal goes to
+/// [`PathState::mapped_normal`].
 #[inline(never)]
 fn textured_bsdf<'b>(
     ctx: &'b Context,
-    path: &PathState,
+    path: &mut PathState,
     hit: &Hit,
     surface: &SurfacePoint,
     material: &'b Material,
     slot: &'b mut Option<Bsdf>,
 ) -> &'b Bsdf {
+    path.mapped_normal = None;
     let Some((uv, per_metre)) = ctx.scene.uv_at(hit, surface.area_scale) else {
         return &material.bsdf;
     };
@@ -759,7 +768,49 @@ fn textured_bsdf<'b>(
         uv,
         width: footprint * per_metre / cos,
     };
-    slot.insert(material.bsdf_at(ctx.scene.textures.list(), &at))
+    let textures = ctx.scene.textures.list();
+    if let Some(local) = material.normal_at(textures, &at) {
+        let tangents = ctx.scene.tangents(hit, path.ray.time);
+        path.mapped_normal = tangents.and_then(|t| tangent_to_world(local, t, surface.ng));
+    }
+    slot.insert(material.bsdf_at(textures, &at))
+}
+
+/// The tangent-space normal `local` in world space, on the tangent frame of ∂p/∂u and ∂p/∂v
+/// made orthonormal around the unit normal `ng` (keeping its handedness); `None` where the
+/// derivatives are degenerate.
+fn tangent_to_world(local: Vec3, (dpdu, dpdv): (Vec3, Vec3), ng: Vec3) -> Option<Vec3> {
+    let t = (dpdu - ng * ng.dot(dpdu)).try_normalize()?;
+    let b = ng.cross(t);
+    let b = if b.dot(dpdv) < 0.0 { -b } else { b };
+    (t * local.x + b * local.y + ng * local.z).try_normalize()
+}
+
+/// The shading normal from a mapped normal `mapped` (turned to the side `n`, the geometric
+/// normal on the side the path arrived from): bent towards `n` as little as needed for the
+/// mirror reflection of `wo` (towards where the path came from) to leave above the surface,
+/// so a normal map never sends light into the surface or lets it through (Cycles does the
+/// same).
+fn bent_normal(mapped: Vec3, n: Vec3, wo: Vec3) -> Vec3 {
+    let floor = (0.9 * wo.dot(n)).min(0.01);
+    let leaves_above = |m: Vec3| {
+        let c = wo.dot(m);
+        c > 0.0 && (m * (2.0 * c) - wo).dot(n) >= floor
+    };
+    if leaves_above(mapped) {
+        return mapped;
+    }
+    let towards = |k: f32| mapped.lerp(n, k).normalize_or(n);
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    for _ in 0..12 {
+        let mid = 0.5 * (lo + hi);
+        if leaves_above(towards(mid)) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    towards(hi)
 }
 
 /// A free-flight distance through `medium` for the path's ray, whose surface lies at `hit_t`
@@ -843,7 +894,13 @@ fn scatter_at<const FULL: bool, R: Recorder>(
     } else {
         (-ng, Side::Back)
     };
-    let frame = Frame::new(n);
+    let (frame, bent) = match path.mapped_normal.take() {
+        None => (Frame::new(n), false),
+        Some(mapped) => {
+            let mapped = if side == Side::Front { mapped } else { -mapped };
+            (Frame::new(bent_normal(mapped, n, -dir)), true)
+        }
+    };
     let wo = frame.to_local(-dir);
     let receiver = Receiver {
         p,
@@ -855,6 +912,7 @@ fn scatter_at<const FULL: bool, R: Recorder>(
         receiver: &receiver,
         ng,
         frame: &frame,
+        bent,
         wo,
         bsdf,
         side,
@@ -959,6 +1017,9 @@ fn continue_path(
     // so the new origin does not wait on the square root.
     let (p, ng) = (at.receiver.p, at.ng);
     let towards = at.frame.to_world(bs.wi);
+    if at.bent && at.crosses_wrongly(bs.wi, towards) {
+        return false;
+    }
     let origin = offset_origin(p, if towards.dot(ng) > 0.0 { ng } else { -ng });
     let dir = towards.normalize();
     path.ray = Ray::new(origin, dir, f32::INFINITY, at.receiver.time);

@@ -39,6 +39,17 @@ pub struct Inputs {
     pub specular_color: Option<ColorInput>,
     pub coat: Option<ScalarInput>,
     pub coat_roughness: Option<ScalarInput>,
+    /// A tangent-space normal map: the texture's linear RGB as 2·value − 1, its x and y
+    /// scaled by [`NormalInput::strength`].
+    pub normal: Option<NormalInput>,
+}
+
+/// A tangent-space normal map.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalInput {
+    pub texture: u32,
+    /// Scales the map's slopes (0: flat, 1: as painted).
+    pub strength: f32,
 }
 
 /// Where a texture is looked up: the point's UV and the ray's footprint there, in UV units.
@@ -59,6 +70,17 @@ impl ScalarInput {
     fn at(&self, textures: &[Texture], at: &Lookup) -> f32 {
         let t = textures[self.texture as usize].lookup(at.uv, at.width);
         t[self.channel] * self.scale + self.offset
+    }
+}
+
+impl NormalInput {
+    /// The unit normal the map gives at `at`, in the tangent frame (x along +u, y along +v,
+    /// z the surface's normal), never below the surface.
+    pub fn at(&self, textures: &[Texture], at: &Lookup) -> Vec3 {
+        let t = textures[self.texture as usize].lookup(at.uv, at.width);
+        let m = t.truncate() * 2.0 - Vec3::ONE;
+        let bent = Vec3::new(m.x * self.strength, m.y * self.strength, m.z.max(1e-3));
+        bent.try_normalize().unwrap_or(Vec3::Z)
     }
 }
 

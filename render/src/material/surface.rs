@@ -36,6 +36,12 @@ impl Material {
         }
     }
 
+    /// The normal map's normal at `at` in the tangent frame, when the material has one.
+    pub fn normal_at(&self, textures: &[Texture], at: &Lookup) -> Option<Vec3> {
+        let map = self.inputs.as_ref()?.normal?;
+        Some(map.at(textures, at))
+    }
+
     /// True when the material emits.
     pub fn emits(&self) -> bool {
         self.emission.max_element() > 0.0

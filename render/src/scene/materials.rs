@@ -14,7 +14,7 @@ use crate::material::bsdf::multiscatter::Multiscatter;
 use crate::material::bsdf::standard::Standard;
 use crate::material::microfacet::{ConductorFresnel, Ggx, Shadowing};
 use crate::material::surface::Material;
-use crate::material::{ColorInput, Inputs, ScalarInput};
+use crate::material::{ColorInput, Inputs, NormalInput, ScalarInput};
 use crate::texture::{ColorSpace, Textures};
 use glam::Vec3;
 use rift_fx::Invalid;
@@ -25,7 +25,8 @@ use std::path::Path;
 pub(super) const BOUNDARY_MATERIAL: &str = "(medium boundary)";
 
 /// The keys whose value may be a texture.
-const TEXTURED_KEYS: [&str; 7] = [
+const TEXTURED_KEYS: [&str; 8] = [
+    "normal_map",
     "reflectance",
     "roughness",
     "base_color",
@@ -165,6 +166,7 @@ fn inputs(
         let color = |reader: &mut TextureReader| color_input(&full, spec, base, reader);
         let scalar = |reader: &mut TextureReader| scalar_input(&full, spec, base, reader);
         match name.as_str() {
+            "normal_map" => inputs.normal = Some(normal_input(&full, spec, base, reader)?),
             "reflectance" | "base_color" => inputs.reflectance = Some(color(reader)?),
             "specular_color" => inputs.specular_color = Some(color(reader)?),
             "roughness" => inputs.roughness = Some(scalar(reader)?),
@@ -204,6 +206,47 @@ fn color_input(
         scale: three("scale", &spec.scale, 1.0)?,
         offset: three("offset", &spec.offset, 0.0)?,
     })
+}
+
+/// A tangent-space normal map at `key`: linear unless `colorspace` says otherwise, its
+/// `scale` the strength of its slopes.
+fn normal_input(
+    key: &str,
+    spec: &TextureSection,
+    base: &Path,
+    reader: &mut TextureReader,
+) -> Result<NormalInput, RenderError> {
+    let file = reader.file;
+    for (field, given) in [
+        ("offset", spec.offset.is_some()),
+        ("channel", spec.channel.is_some()),
+    ] {
+        if given {
+            return Err(key_error(
+                file,
+                format!("{key}.{field}"),
+                "a normal map takes only texture, scale (its strength) and colorspace",
+            ));
+        }
+    }
+    let strength = match &spec.scale {
+        None => 1.0,
+        Some(v) => number(v).filter(|s| *s >= 0.0).ok_or_else(|| {
+            key_error(
+                file,
+                format!("{key}.scale"),
+                "expected a number ≥ 0 (the map's strength)",
+            )
+        })?,
+    };
+    let color_space = color_space(spec.colorspace, ColorSpace::Linear);
+    let texture = reader.load(
+        &format!("{key}.texture"),
+        &base.join(&spec.texture),
+        &spec.texture,
+        color_space,
+    )?;
+    Ok(NormalInput { texture, strength })
 }
 
 /// A number texture input at `key`.

@@ -293,6 +293,27 @@ impl Scene {
         Some((uv, per_metre))
     }
 
+    /// The surface's derivatives ∂p/∂u and ∂p/∂v on the triangle of `hit` (world space at
+    /// `time`), for a tangent frame; `None` without UVs or where the UVs are degenerate.
+    pub fn tangents(&self, hit: &Hit, time: f64) -> Option<(Vec3, Vec3)> {
+        let [a, b, c] = *self.triangle_uvs.get(hit.triangle as usize)?;
+        let tri = &self.triangles[hit.triangle as usize];
+        let (e1, e2) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
+        let (d1, d2) = (b - a, c - a);
+        let det = d1.perp_dot(d2);
+        if det.abs() < 1e-12 {
+            return None;
+        }
+        let dpdu = (e1 * d2.y - e2 * d1.y) / det;
+        let dpdv = (e2 * d1.x - e1 * d2.x) / det;
+        if hit.instance == STATIC {
+            return Some((dpdu, dpdv));
+        }
+        let placement = self.accel.placement(hit.instance, time);
+        let to_world = |v: Vec3| placement.to_world.transform_vector3(v);
+        Some((to_world(dpdu), to_world(dpdv)))
+    }
+
     /// The world-space point and normal of `hit` at time `time`.
     #[inline]
     pub fn surface(&self, hit: &Hit, time: f64) -> SurfacePoint {

@@ -124,7 +124,11 @@ mod tests {
             assert!((e - f).abs() < 0.01, "μ {mu}: {e} against Fresnel {f}");
             assert!(dielectric_albedo(1.0, Ggx::from_roughness(0.5), mu) < 1e-4);
         }
-        for (ior, roughness, mu) in [(1.45f32, 0.37f32, 0.61f32), (2.2, 0.73, 0.33), (1.33, 0.1, 0.8)] {
+        for (ior, roughness, mu) in [
+            (1.45f32, 0.37f32, 0.61f32),
+            (2.2, 0.73, 0.33),
+            (1.33, 0.1, 0.8),
+        ] {
             let ggx = Ggx::from_roughness(roughness);
             let table = dielectric_albedo(ior, ggx, mu);
             let fresh = sampled_albedo(ior, ggx, mu);

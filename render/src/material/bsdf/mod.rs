@@ -312,7 +312,12 @@ impl Bsdf {
 }
 
 /// A conductor's single-scattering GGX lobe, f·cos θi.
-pub(super) fn conductor_specular(fresnel: &ConductorFresnel, ggx: &Ggx, wo: Vec3, wi: Vec3) -> Vec3 {
+pub(super) fn conductor_specular(
+    fresnel: &ConductorFresnel,
+    ggx: &Ggx,
+    wo: Vec3,
+    wi: Vec3,
+) -> Vec3 {
     if wi.z <= 0.0 {
         return Vec3::ZERO;
     }

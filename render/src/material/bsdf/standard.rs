@@ -167,7 +167,9 @@ impl Standard {
     fn eval_with(&self, lobes: &Lobes, wo: Vec3, wi: Vec3) -> Vec3 {
         let mut f = Vec3::ZERO;
         if self.coat > 0.0 && self.coat_ggx.alpha > SMOOTH_ALPHA {
-            f += Vec3::splat(self.coat * dielectric_reflection(self.coat_ior, self.coat_ggx, wo, wi));
+            f += Vec3::splat(
+                self.coat * dielectric_reflection(self.coat_ior, self.coat_ggx, wo, wi),
+            );
         }
         let below = lobes.below;
         if self.metallic > 0.0 {
@@ -229,7 +231,11 @@ impl Standard {
             start += p[lobe];
             lobe += 1;
         }
-        let ggx = if lobe == COAT { self.coat_ggx } else { self.ggx };
+        let ggx = if lobe == COAT {
+            self.coat_ggx
+        } else {
+            self.ggx
+        };
         let smooth = ggx.alpha <= SMOOTH_ALPHA;
         if smooth && matches!(lobe, COAT | METAL | SPECULAR) {
             return self.sample_mirror(&lobes, wo);
