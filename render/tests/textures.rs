@@ -262,6 +262,39 @@ fn a_normal_map_never_lets_light_through_or_creates_it() {
     }
 }
 
+/// An MTL's PBR statements (Pm, map_Pr, norm with -bm) make the same standard material as the
+/// `[[material]]` section that says the same, image for image.
+#[test]
+fn an_mtls_pbr_maps_make_the_same_standard_material() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 2.0);
+    write_png(&d.join("rough.png"), 2, 1, &[[40; 3], [200; 3]]);
+    tilted_map(&d.join("tilt.png"), 25.0);
+    let obj = std::fs::read_to_string(d.join("floor.obj")).unwrap();
+    std::fs::write(d.join("floor.obj"), format!("mtllib floor.mtl\n{obj}")).unwrap();
+    std::fs::write(
+        d.join("floor.mtl"),
+        "newmtl floor\nKd 0.6 0.4 0.2\nPm 0.25\nmap_Pr rough.png\nnorm -bm 0.5 tilt.png\n",
+    )
+    .unwrap();
+    let view = |material: &str| floor_shot([1.0, 6.0, 0.5], [1.0, 0.0, 0.0], 30.0, material);
+    let mtl = view("").replace("[[material]]\nname = \"floor\"\n", "");
+    let shot = view(
+        "type = \"standard\"\nbase_color = [0.6, 0.4, 0.2]\nmetallic = 0.25\n\
+         roughness = { texture = \"rough.png\" }\n\
+         normal_map = { texture = \"tilt.png\", scale = 0.5 }",
+    );
+    let a = [1, 2].map(|seed| render_at(d, "mtl", &mtl, 16, seed));
+    let b = [1, 2].map(|seed| render_at(d, "section", &shot, 16, seed));
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.rgb, y.rgb, "the same material, the same seeds");
+    }
+    // And it is not the plain diffuse floor of Kd.
+    let plain = view("type = \"diffuse\"\nreflectance = [0.6, 0.4, 0.2]");
+    assert_ne!(render_at(d, "plain", &plain, 16, 1).rgb, a[0].rgb);
+}
+
 /// The error the floor shot with `material` gives (after writing `files`).
 fn refusal(dir: &Path, material: &str) -> String {
     let path = dir.join("bad.toml");
@@ -352,6 +385,46 @@ fn bad_textures_are_refused_by_file_and_key() {
             "material[0].reflectance.scale",
             "expected a number or [r, g, b]",
         ),
+        (
+            "type = \"diffuse\"\nnormal_map = { texture = \"ok.png\", offset = 0.5 }".into(),
+            "material[0].normal_map.offset",
+            "only texture, scale",
+        ),
+        (
+            "type = \"diffuse\"\nnormal_map = { texture = \"ok.png\", scale = -1.0 }".into(),
+            "material[0].normal_map.scale",
+            "≥ 0",
+        ),
+        (
+            "type = \"diffuse\"\nmetallic = { texture = \"ok.png\" }".into(),
+            "material[0].metallic",
+            "only a standard material",
+        ),
+        (
+            "type = \"conductor\"\ncoat = 0.5".into(),
+            "material[0].coat",
+            "only a standard material",
+        ),
+        (
+            "type = \"standard\"\nreflectance = [0.5, 0.5, 0.5]".into(),
+            "material[0].reflectance",
+            "base_color",
+        ),
+        (
+            "type = \"standard\"\nior = 4.0".into(),
+            "material[0].ior",
+            "4",
+        ),
+        (
+            "type = \"standard\"\nbase_color = [1.2, 0.5, 0.5]".into(),
+            "material[0].base_color",
+            "creates energy",
+        ),
+        (
+            "type = \"standard\"\ncoat_roughness = { texture = \"missing.png\" }".into(),
+            "material[0].coat_roughness.texture",
+            "missing.png",
+        ),
     ];
     for (material, key, says) in cases {
         let e = refusal(d, &material);
@@ -369,6 +442,25 @@ fn bad_textures_are_refused_by_file_and_key() {
     let e = refusal(d, &diffuse("ok.png"));
     assert!(
         e.contains("object[0].mesh") && e.contains("no texture coordinates"),
+        "{e}"
+    );
+    // An MTL's roughness that is not a number from 0 to 1.
+    std::fs::write(
+        d.join("floor.obj"),
+        "mtllib floor.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 1\nusemtl floor\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("floor.mtl"), "newmtl floor\nPr rough\n").unwrap();
+    let shot = floor_shot([0.0, 3.0, 0.0], [0.0, 0.0, 0.0], 10.0, "")
+        .replace("[[material]]\nname = \"floor\"\n", "");
+    let path = d.join("mtl.toml");
+    std::fs::write(&path, shot).unwrap();
+    let e = Scene::load(&Shot::load(&path).unwrap(), 1)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("Pr") && e.contains("\"rough\"") && e.contains("floor.obj"),
         "{e}"
     );
 }

@@ -1,7 +1,8 @@
 //! `[[material]]` sections into materials, and which material each part of a mesh takes: its
-//! object's, its MTL's (an OBJ's own materials, with their map_Kd and map_Pr textures), or the
-//! unseen boundary of a medium. A material's reflectance and roughness may be textures, read
-//! once per file for every material that uses them.
+//! object's, its MTL's (an OBJ's own materials, read as diffuse or standard ones with their
+//! maps), or the unseen boundary of a medium. A material's colours and numbers may be
+//! textures, and any material may take a normal map; each file is read once for every
+//! material that uses it.
 
 use super::schema::{
     MaterialKind, MaterialSection, ShadowingKind, TextureColorSpace, TextureSection,
@@ -331,8 +332,11 @@ pub(super) fn find_or_add(
 }
 
 /// A material from an MTL entry: Kd (or its map_Kd, an sRGB colour texture scaled by Kd when
-/// both are given) as diffuse reflectance, Ke as one-sided emission. The map's path is
-/// relative to `folder`, the mesh's; `key` names the object in messages.
+/// both are given) as diffuse reflectance, Ke as one-sided emission, `norm`/`map_Bump` as a
+/// normal map. With Ks, Ns, Pr, Pm or their maps it is a standard material, read as Blender
+/// writes them: roughness Pr (or 1 − √(Ns/1000)), metallic Pm, and Ks's mean as the specular
+/// level (0.5: ior 1.5). Maps' paths are relative to `folder`, the mesh's; `key` names the
+/// object in messages.
 pub(super) fn from_mtl(
     mtl: &super::mesh::MtlMaterial,
     folder: &Path,
@@ -340,32 +344,77 @@ pub(super) fn from_mtl(
     reader: &mut TextureReader,
 ) -> Result<Material, RenderError> {
     let diffuse = mtl.diffuse.unwrap_or(Vec3::splat(0.8));
-    let reflectance = match &mtl.diffuse_map {
-        None => None,
-        Some(map) => {
-            let texture = reader.load(key, &folder.join(map), map, ColorSpace::Srgb)?;
-            Some(ColorInput {
-                texture,
-                scale: mtl.diffuse.unwrap_or(Vec3::ONE),
-                offset: Vec3::ZERO,
-            })
-        }
+    let mut load = |map: &String, space| reader.load(key, &folder.join(map), map, space);
+    let scalar = |texture| ScalarInput {
+        texture,
+        channel: 0,
+        scale: 1.0,
+        offset: 0.0,
+    };
+    let mut inputs = Inputs::default();
+    if let Some(map) = &mtl.diffuse_map {
+        inputs.reflectance = Some(ColorInput {
+            texture: load(map, ColorSpace::Srgb)?,
+            scale: mtl.diffuse.unwrap_or(Vec3::ONE),
+            offset: Vec3::ZERO,
+        });
+    }
+    if let Some(map) = &mtl.roughness_map {
+        inputs.roughness = Some(scalar(load(map, ColorSpace::Linear)?));
+    }
+    if let Some(map) = &mtl.metallic_map {
+        inputs.metallic = Some(scalar(load(map, ColorSpace::Linear)?));
+    }
+    if let Some((map, strength)) = &mtl.normal_map {
+        let texture = load(map, ColorSpace::Linear)?;
+        inputs.normal = Some(NormalInput {
+            texture,
+            strength: *strength,
+        });
+    }
+    let standard = mtl.specular.is_some()
+        || mtl.shininess.is_some()
+        || mtl.roughness.is_some()
+        || mtl.metallic.is_some()
+        || inputs.roughness.is_some()
+        || inputs.metallic.is_some();
+    let bsdf = match standard {
+        true => Bsdf::Standard(mtl_standard(mtl, diffuse)),
+        false => Bsdf::Diffuse {
+            reflectance: diffuse,
+        },
     };
     Ok(Material {
         name: mtl.name.clone(),
-        bsdf: Bsdf::Diffuse {
-            reflectance: diffuse,
-        },
+        bsdf,
         emission: mtl.emission.unwrap_or(Vec3::ZERO),
         two_sided_emission: false,
         one_sided: false,
-        inputs: reflectance.map(|r| {
-            Box::new(Inputs {
-                reflectance: Some(r),
-                ..Inputs::default()
-            })
-        }),
+        inputs: (inputs != Inputs::default()).then(|| Box::new(inputs)),
     })
+}
+
+/// The standard material an MTL's Ks, Ns, Pr and Pm describe over the base colour `base`.
+fn mtl_standard(mtl: &super::mesh::MtlMaterial, base: Vec3) -> Standard {
+    let from_shininess = mtl
+        .shininess
+        .map(|ns| 1.0 - (ns.clamp(0.0, 1000.0) / 1000.0).sqrt());
+    let roughness = mtl.roughness.or(from_shininess).unwrap_or(0.5);
+    // The specular level as the Principled BSDF has it: F0 = 0.08 × level.
+    let f0 = mtl
+        .specular
+        .map_or(0.04, |ks| 0.08 * (ks.element_sum() / 3.0).clamp(0.0, 1.0));
+    let ior = ((1.0 + f0.sqrt()) / (1.0 - f0.sqrt())).min(MAX_IOR);
+    Standard::new(
+        base.clamp(Vec3::ZERO, Vec3::ONE),
+        mtl.metallic.unwrap_or(0.0),
+        Vec3::ONE,
+        ior,
+        Ggx::from_roughness(roughness),
+        0.0,
+        Ggx::from_roughness(0.0),
+        1.5,
+    )
 }
 
 /// The material of a medium's boundary (never shaded; it still needs an index).

@@ -14,7 +14,19 @@ pub struct MtlMaterial {
     pub emission: Option<Vec3>,
     /// `map_Kd`: the diffuse colour's texture, relative to the MTL's folder.
     pub diffuse_map: Option<String>,
-    /// The maps it names that rift does not read yet (`map_Ke`, `map_d`, `norm`, …).
+    /// `Ks`, `Ns`, and the PBR extension's `Pr` (roughness) and `Pm` (metallic): any of them
+    /// makes the material a standard one.
+    pub specular: Option<Vec3>,
+    pub shininess: Option<f32>,
+    pub roughness: Option<f32>,
+    pub metallic: Option<f32>,
+    /// `map_Pr` (or Blender's `map_Ns`): a roughness texture; `map_Pm`: a metallic one.
+    pub roughness_map: Option<String>,
+    pub metallic_map: Option<String>,
+    /// `norm` (or `map_Bump`/`bump`, as Blender writes normal maps): a tangent-space normal
+    /// map, with its `-bm` strength.
+    pub normal_map: Option<(String, f32)>,
+    /// The maps it names that rift does not read yet (`map_Ke`, `map_d`, …).
     pub unread_maps: Vec<String>,
     /// False when no MTL defines the name: only the shot's `[[material]]` can supply it.
     pub declared: bool,
@@ -130,7 +142,8 @@ pub fn parse_obj(
         let material = m
             .material_id
             .and_then(|id| materials.get(id))
-            .map(|mat| mtl_material(mat, declared.borrow().contains(&mat.name)));
+            .map(|mat| mtl_material(mat, declared.borrow().contains(&mat.name)))
+            .transpose()?;
         parts.push(MeshPart {
             name: model.name,
             triangles,
@@ -179,33 +192,65 @@ fn part_uvs(model: &tobj::Model) -> Result<Vec<[Vec2; 3]>, String> {
 }
 
 /// A material of an MTL as rift reads it.
-fn mtl_material(mat: &tobj::Material, declared: bool) -> MtlMaterial {
+fn mtl_material(mat: &tobj::Material, declared: bool) -> Result<MtlMaterial, String> {
+    let param = |key: &str| mat.unknown_param.get(key).map(String::as_str);
+    let number = |key: &str| -> Result<Option<f32>, String> {
+        let Some(text) = param(key) else {
+            return Ok(None);
+        };
+        match text.parse::<f32>() {
+            Ok(x) if (0.0..=1.0).contains(&x) => Ok(Some(x)),
+            _ => Err(format!(
+                "material {:?}: {key} {text:?} is not a number from 0 to 1",
+                mat.name
+            )),
+        }
+    };
+    let roughness_map = param("map_Pr").or(mat.shininess_texture.as_deref());
+    let normal = param("norm").or(mat.normal_texture.as_deref());
     let mut unread_maps: Vec<String> = [
         ("map_Ka", &mat.ambient_texture),
         ("map_Ks", &mat.specular_texture),
-        ("norm/map_Bump", &mat.normal_texture),
-        ("map_Ns", &mat.shininess_texture),
         ("map_d", &mat.dissolve_texture),
     ]
     .iter()
     .filter(|(_, map)| map.is_some())
     .map(|(name, _)| name.to_string())
     .collect();
+    let read = ["map_Pr", "map_Pm"];
     let mut keys: Vec<&String> = mat.unknown_param.keys().collect();
     keys.sort();
     unread_maps.extend(
         keys.into_iter()
-            .filter(|k| k.starts_with("map_") || k.as_str() == "bump")
+            .filter(|k| k.starts_with("map_") && !read.contains(&k.as_str()))
             .cloned(),
     );
-    MtlMaterial {
+    Ok(MtlMaterial {
         name: mat.name.clone(),
         diffuse: mat.diffuse.map(Vec3::from_array),
         emission: mat.emissive.map(Vec3::from_array),
         diffuse_map: mat.diffuse_texture.as_deref().map(map_file),
+        specular: mat.specular.map(Vec3::from_array),
+        shininess: mat.shininess.filter(|s| s.is_finite()),
+        roughness: number("Pr")?,
+        metallic: number("Pm")?,
+        roughness_map: roughness_map.map(map_file),
+        metallic_map: param("map_Pm").map(map_file),
+        normal_map: normal.map(|value| (map_file(value), bump_strength(value))),
         unread_maps,
         declared,
-    }
+    })
+}
+
+/// The `-bm` option of a map statement (1 without it).
+fn bump_strength(value: &str) -> f32 {
+    let words: Vec<&str> = value.split_whitespace().collect();
+    words
+        .windows(2)
+        .find(|w| w[0] == "-bm")
+        .and_then(|w| w[1].parse::<f32>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .unwrap_or(1.0)
 }
 
 /// The file of a map statement's value (its last word: options such as `-bm 1` come first).
@@ -303,7 +348,8 @@ mod tests {
         assert_eq!(uvs[1], [a, c, d]);
         let m = parts[0].material.as_ref().unwrap();
         assert_eq!(m.diffuse_map.as_deref(), Some("wood.png"));
-        assert_eq!(m.unread_maps, ["norm/map_Bump", "map_d"]);
+        assert_eq!(m.unread_maps, ["map_d"]);
+        assert_eq!(m.normal_map, Some(("bump.png".to_owned(), 1.0)));
         // Faces without texture coordinates give none; a face naming a missing one is refused.
         let plain = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
         assert!(parse_obj(plain, |_| None).unwrap()[0].uvs.is_empty());

@@ -30,9 +30,10 @@
 //!                               # shot file; 8-bit colours are sRGB unless "linear"; the mesh
 //!                               # must give UVs). `roughness` takes a texture too, read from
 //!                               # one `channel` ("r", "g", "b" or "a"; linear by default).
-//!                               # An OBJ's MTL brings map_Kd (colour) and map_Pr (roughness)
+//!                               # An OBJ's MTL brings map_Kd, map_Pr/map_Ns, map_Pm, norm
 //! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709
 //! two_sided_emission = false
+//! # normal_map = { texture = "n.png", scale = 1.0 }  # tangent-space, linear; scale: strength
 //! one_sided = false             # true: the back side (against the winding's normal) absorbs
 //!                               # all light, as Mitsuba's BSDFs do; the default reflects on both
 //!
