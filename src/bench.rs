@@ -10,6 +10,7 @@ mod rays;
 mod scaling;
 mod stability;
 mod strands;
+mod textures;
 mod through;
 
 use clap::{Args, Subcommand};
@@ -40,6 +41,9 @@ pub enum BenchCommand {
     /// How render cost grows with triangles, strand segments, openings and emitters: a table
     /// and a log-log plot.
     Scaling(scaling::ScalingArgs),
+    /// What textures cost: mipmap build time per megapixel, and a scene of a gigabyte of
+    /// 8-bit textures: its load time and peak memory.
+    Textures(textures::TexturesArgs),
 }
 
 /// How long a timed benchmark runs: repeats (the median is reported) and threads.
@@ -74,6 +78,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Stability(args) => stability::run(args),
         BenchCommand::Furnace(args) => furnace::run(args),
         BenchCommand::Scaling(args) => scaling::run(args),
+        BenchCommand::Textures(args) => textures::run(args),
     }
 }
 

@@ -442,7 +442,7 @@ fn write_csv(path: &Path, points: &[Point]) -> anyhow::Result<()> {
 
 /// Resets the kernel's peak-memory mark of this process (Linux); true when it took (some
 /// sandboxes refuse it, and a peak carried over from a larger scene would mislead).
-fn reset_peak_memory() -> bool {
+pub(super) fn reset_peak_memory() -> bool {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
     match (status_mib("VmHWM:"), status_mib("VmRSS:")) {
         (Some(peak), Some(now)) => peak <= now + 1.0,
@@ -451,7 +451,7 @@ fn reset_peak_memory() -> bool {
 }
 
 /// A memory figure of this process from /proc/self/status, MiB (Linux only).
-fn status_mib(key: &str) -> Option<f64> {
+pub(super) fn status_mib(key: &str) -> Option<f64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|l| l.starts_with(key))?;
     let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;

@@ -6,6 +6,7 @@
 
 use super::image::{ColorSpace, Picture, Texels};
 use glam::{Vec2, Vec4};
+use rayon::prelude::*;
 use std::sync::OnceLock;
 
 /// One level of the pyramid.
@@ -28,6 +29,42 @@ pub struct Texture {
 fn srgb_table() -> &'static [f32; 256] {
     static TABLE: OnceLock<[f32; 256]> = OnceLock::new();
     TABLE.get_or_init(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)))
+}
+
+/// The linear values halfway (in the encoding) between consecutive sRGB codes: code k + 1
+/// begins at midpoint k.
+fn srgb_midpoints() -> &'static [f32; 255] {
+    static TABLE: OnceLock<[f32; 255]> = OnceLock::new();
+    TABLE.get_or_init(|| std::array::from_fn(|k| srgb_to_linear((k as f32 + 0.5) / 255.0)))
+}
+
+/// Buckets of the linear range in [`srgb_guesses`].
+const GUESS_BUCKETS: usize = 4096;
+
+/// The sRGB code at the bottom of each of [`GUESS_BUCKETS`] equal steps of the linear range:
+/// where [`encode_srgb`] starts looking.
+fn srgb_guesses() -> &'static [u8; GUESS_BUCKETS] {
+    static TABLE: OnceLock<[u8; GUESS_BUCKETS]> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|i| {
+            let v = i as f32 / GUESS_BUCKETS as f32;
+            srgb_midpoints().partition_point(|&m| m <= v) as u8
+        })
+    })
+}
+
+/// The sRGB code nearest (in the encoding) to linear `v`: the first code whose upper midpoint
+/// lies above `v`, walked to from the bucket's guess (a step or two at most).
+#[inline]
+fn encode_srgb(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0);
+    let bucket = ((v * GUESS_BUCKETS as f32) as usize).min(GUESS_BUCKETS - 1);
+    let midpoints = srgb_midpoints();
+    let mut code = srgb_guesses()[bucket] as usize;
+    while code < 255 && midpoints[code] <= v {
+        code += 1;
+    }
+    code as u8
 }
 
 /// The sRGB transfer function, decoding.
@@ -117,32 +154,39 @@ impl Texture {
     }
 
     /// The level below `level`: each texel the mean of (up to) four of its texels, in linear
-    /// values, stored as `level` is.
+    /// values, stored as `level` is; rows in parallel.
     fn halve(&self, level: &Level) -> Level {
         let (w, h) = (
             level.width.div_ceil(2).max(1),
             level.height.div_ceil(2).max(1),
         );
-        let mut means = Vec::with_capacity(w * h);
-        for y in 0..h {
-            for x in 0..w {
-                let mut sum = Vec4::ZERO;
-                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                    let sx = (2 * x + dx).min(level.width - 1);
-                    let sy = (2 * y + dy).min(level.height - 1);
-                    sum += self.texel(level, sx, sy);
-                }
-                means.push(sum * 0.25);
-            }
-        }
+        let n = self.channels;
+        // Channel `c` of the mean of the (up to) four texels under texel (x, y) of the new level.
+        let mean = |x: usize, y: usize, c: usize| {
+            let (x0, x1) = (2 * x, (2 * x + 1).min(level.width - 1));
+            let (y0, y1) = (2 * y, (2 * y + 1).min(level.height - 1));
+            let at = |sx, sy| self.channel(level, sx, sy, c);
+            0.25 * (at(x0, y0) + at(x1, y0) + at(x0, y1) + at(x1, y1))
+        };
         let texels = match &level.texels {
-            Texels::Floats(_) => Texels::Floats(
-                means
-                    .iter()
-                    .flat_map(|m| m.to_array()[..self.channels].to_vec())
-                    .collect(),
-            ),
-            Texels::Bytes(_) => Texels::Bytes(means.iter().flat_map(|m| self.encode(*m)).collect()),
+            Texels::Floats(_) => {
+                let mut out = vec![0.0f32; w * h * n];
+                out.par_chunks_mut(w * n).enumerate().for_each(|(y, row)| {
+                    for (i, v) in row.iter_mut().enumerate() {
+                        *v = mean(i / n, y, i % n);
+                    }
+                });
+                Texels::Floats(out)
+            }
+            Texels::Bytes(_) => {
+                let mut out = vec![0u8; w * h * n];
+                out.par_chunks_mut(w * n).enumerate().for_each(|(y, row)| {
+                    for (i, v) in row.iter_mut().enumerate() {
+                        *v = self.encode(mean(i / n, y, i % n), i % n);
+                    }
+                });
+                Texels::Bytes(out)
+            }
         };
         Level {
             width: w,
@@ -151,25 +195,15 @@ impl Texture {
         }
     }
 
-    /// Linear RGBA `m` as this texture's 8-bit channels.
-    fn encode(&self, m: Vec4) -> Vec<u8> {
-        let byte = |v: f32, alpha: bool| {
-            let e = match self.color_space {
-                ColorSpace::Srgb if !alpha => linear_to_srgb(v),
-                _ => v,
-            };
-            (e.clamp(0.0, 1.0) * 255.0).round() as u8
-        };
-        match self.channels {
-            1 => vec![byte(m.x, false)],
-            2 => vec![byte(m.x, false), byte(m.w, true)],
-            3 => vec![byte(m.x, false), byte(m.y, false), byte(m.z, false)],
-            _ => vec![
-                byte(m.x, false),
-                byte(m.y, false),
-                byte(m.z, false),
-                byte(m.w, true),
-            ],
+    /// Linear value `v` of channel `c` as this texture's 8-bit value: sRGB-encoded colour
+    /// channels by the nearest of the 256 codes (found among the codes' midpoints, which gives
+    /// what rounding the encoded value gives, without its power), alpha and data linearly.
+    #[inline]
+    fn encode(&self, v: f32, c: usize) -> u8 {
+        let alpha = c == 3 || (self.channels == 2 && c == 1);
+        match self.color_space {
+            ColorSpace::Srgb if !alpha => encode_srgb(v),
+            _ => (v.clamp(0.0, 1.0) * 255.0).round() as u8,
         }
     }
 
@@ -215,6 +249,27 @@ impl Texture {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The table-guided sRGB encoding gives what rounding the encoded value gives, over the
+    /// whole range and at every code's boundaries.
+    #[test]
+    fn srgb_encoding_rounds_as_the_transfer_function_does() {
+        let exact = |v: f32| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round() as u8;
+        for i in 0..=200_000 {
+            let v = i as f32 / 200_000.0;
+            let (got, want) = (encode_srgb(v), exact(v));
+            assert!(got.abs_diff(want) <= 1, "{v}: {got} against {want}");
+        }
+        for (k, &m) in srgb_midpoints().iter().enumerate() {
+            assert_eq!(encode_srgb(m * 0.9999) as usize, k, "below midpoint {k}");
+            assert_eq!(
+                encode_srgb(m * 1.0001) as usize,
+                k + 1,
+                "above midpoint {k}"
+            );
+        }
+        assert_eq!((encode_srgb(-1.0), encode_srgb(2.0)), (0, 255));
+    }
 
     fn checker(n: usize, color_space: ColorSpace) -> Texture {
         let texels = (0..n * n)
