@@ -295,6 +295,50 @@ fn an_mtls_pbr_maps_make_the_same_standard_material() {
     assert_ne!(render_at(d, "plain", &plain, 16, 1).rgb, a[0].rgb);
 }
 
+/// `filter = "bilinear"` reads the full image whatever the footprint: on a checker far finer
+/// than the pixels the image keeps the trilinear mean, but its pixels scatter around it (the
+/// samples do the filtering) where the mipmap's are smooth.
+#[test]
+fn a_bilinear_texture_keeps_the_mean_without_the_mipmaps_blur() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 200.0);
+    write_png(
+        &d.join("fine.png"),
+        2,
+        2,
+        &[[0; 3], [255; 3], [255; 3], [0; 3]],
+    );
+    let view = |reflectance: &str| {
+        let material = format!("type = \"diffuse\"\nreflectance = {reflectance}");
+        floor_shot([0.0, 8.0, 0.01], [0.0, 0.0, 0.0], 60.0, &material)
+    };
+    let textured = |filter: &str| {
+        view(&format!(
+            "{{ texture = \"fine.png\", filter = \"{filter}\" }}"
+        ))
+    };
+    // Each image's mean and its pixels' spread around it, relative.
+    let spread = |rgb: &[glam::Vec3]| {
+        let mean = rgb.iter().map(|c| c.y as f64).sum::<f64>() / rgb.len() as f64;
+        let var = rgb.iter().map(|c| (c.y as f64 - mean).powi(2)).sum::<f64>() / rgb.len() as f64;
+        (mean, var.sqrt() / mean)
+    };
+    let render =
+        |name: &str, shot: &str| [1, 2].map(|seed| spread(&render_at(d, name, shot, 4, seed).rgb));
+    let trilinear = render("tri", &textured("trilinear"));
+    let bilinear = render("bi", &textured("bilinear"));
+    // The plain floor of the checker's mean albedo: the lighting's own noise.
+    let plain = render("plain", &view("[0.5, 0.5, 0.5]"));
+    // The mean albedo of a black-and-white checker: half of white's linear 1.
+    let want = 0.5 * SKY;
+    assert_mean("trilinear", trilinear.map(|(m, _)| m), want);
+    assert_mean("bilinear", bilinear.map(|(m, _)| m), want);
+    let (tri, bi, lighting) = (trilinear[0].1, bilinear[0].1, plain[0].1);
+    eprintln!("pixel spread: bilinear {bi:.3}, trilinear {tri:.3}, plain {lighting:.3}");
+    assert!(tri < 1.2 * lighting && bi > 1.5 * lighting);
+}
+
 /// The error the floor shot with `material` gives (after writing `files`).
 fn refusal(dir: &Path, material: &str) -> String {
     let path = dir.join("bad.toml");

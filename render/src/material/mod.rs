@@ -8,5 +8,5 @@ pub mod surface;
 
 pub use bsdf::multiscatter::Multiscatter;
 pub use bsdf::{Bsdf, Side};
-pub use inputs::{ColorInput, Inputs, Lookup, NormalInput, ScalarInput};
+pub use inputs::{ColorInput, Filter, Inputs, Lookup, NormalInput, ScalarInput};
 pub use surface::Material;

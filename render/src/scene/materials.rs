@@ -5,7 +5,7 @@
 //! material that uses it.
 
 use super::schema::{
-    MaterialKind, MaterialSection, ShadowingKind, TextureColorSpace, TextureSection,
+    MaterialKind, MaterialSection, ShadowingKind, TextureColorSpace, TextureFilter, TextureSection,
 };
 use super::{metals, optional, parse};
 use crate::error::{RenderError, key_error};
@@ -15,7 +15,7 @@ use crate::material::bsdf::multiscatter::Multiscatter;
 use crate::material::bsdf::standard::Standard;
 use crate::material::microfacet::{ConductorFresnel, Ggx, Shadowing};
 use crate::material::surface::Material;
-use crate::material::{ColorInput, Inputs, NormalInput, ScalarInput};
+use crate::material::{ColorInput, Filter, Inputs, NormalInput, ScalarInput};
 use crate::texture::{ColorSpace, Textures};
 use glam::Vec3;
 use rift_fx::Invalid;
@@ -206,6 +206,7 @@ fn color_input(
         texture,
         scale: three("scale", &spec.scale, 1.0)?,
         offset: three("offset", &spec.offset, 0.0)?,
+        filter: filter(spec.filter),
     })
 }
 
@@ -290,7 +291,16 @@ fn scalar_input(
         channel,
         scale: one("scale", &spec.scale, 1.0)?,
         offset: one("offset", &spec.offset, 0.0)?,
+        filter: filter(spec.filter),
     })
+}
+
+/// The filter a texture's `filter` key names (trilinear by default).
+fn filter(given: Option<TextureFilter>) -> Filter {
+    match given {
+        Some(TextureFilter::Bilinear) => Filter::Bilinear,
+        Some(TextureFilter::Trilinear) | None => Filter::Trilinear,
+    }
 }
 
 /// The colour space a texture's `colorspace` key names, or `default`.
@@ -350,6 +360,7 @@ pub(super) fn from_mtl(
         channel: 0,
         scale: 1.0,
         offset: 0.0,
+        filter: Filter::Trilinear,
     };
     let mut inputs = Inputs::default();
     if let Some(map) = &mtl.diffuse_map {
@@ -357,6 +368,7 @@ pub(super) fn from_mtl(
             texture: load(map, ColorSpace::Srgb)?,
             scale: mtl.diffuse.unwrap_or(Vec3::ONE),
             offset: Vec3::ZERO,
+            filter: Filter::Trilinear,
         });
     }
     if let Some(map) = &mtl.roughness_map {

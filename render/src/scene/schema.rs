@@ -26,8 +26,9 @@
 //! type = "diffuse"              # "diffuse", "conductor", "dielectric" or "standard"
 //! reflectance = [0.8, 0.8, 0.8] # diffuse: albedo; conductor: colour at normal incidence; or a
 //!                               # texture: { texture = "wood.png", scale = 1.0, offset = 0.0,
-//!                               # colorspace = "srgb" } (PNG, JPEG or EXR, relative to the
-//!                               # shot file; 8-bit colours are sRGB unless "linear"; the mesh
+//!                               # colorspace = "srgb", filter = "trilinear" } (PNG, JPEG or
+//!                               # EXR, relative to the shot file; 8-bit colours are sRGB
+//!                               # unless "linear"; "bilinear" skips the mipmaps; the mesh
 //!                               # must give UVs). `roughness` takes a texture too, read from
 //!                               # one `channel` ("r", "g", "b" or "a"; linear by default).
 //!                               # An OBJ's MTL brings map_Kd, map_Pr/map_Ns, map_Pm, norm
@@ -221,6 +222,17 @@ pub struct TextureSection {
     pub colorspace: Option<TextureColorSpace>,
     /// The channel a number is read from: "r" (default), "g", "b" or "a".
     pub channel: Option<String>,
+    /// "trilinear" (default: the mipmap level the ray's footprint picks) or "bilinear" (the
+    /// full image; the pixel's samples filter it).
+    pub filter: Option<TextureFilter>,
+}
+
+/// `filter` of a texture.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum TextureFilter {
+    Trilinear,
+    Bilinear,
 }
 
 /// `colorspace` of a texture.

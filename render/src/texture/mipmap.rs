@@ -5,6 +5,7 @@
 //! and v = 0 is the image's bottom row (OBJ and USD's convention).
 
 use super::image::{ColorSpace, Picture, Texels};
+use crate::sampling::hash32;
 use glam::{Vec2, Vec4};
 use rayon::prelude::*;
 use std::sync::OnceLock;
@@ -31,40 +32,59 @@ fn srgb_table() -> &'static [f32; 256] {
     TABLE.get_or_init(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)))
 }
 
-/// The linear values halfway (in the encoding) between consecutive sRGB codes: code k + 1
-/// begins at midpoint k.
-fn srgb_midpoints() -> &'static [f32; 255] {
-    static TABLE: OnceLock<[f32; 255]> = OnceLock::new();
-    TABLE.get_or_init(|| std::array::from_fn(|k| srgb_to_linear((k as f32 + 0.5) / 255.0)))
-}
+/// Levels of fewer texels are kept as floats: too few for their dither to average out (a
+/// 1 × 1 level would be off by up to half a code, 0.6% at mid-grey), and too small to matter.
+const FLOAT_LEVELS_BELOW: usize = 4096;
 
-/// Buckets of the linear range in [`srgb_guesses`].
+/// Buckets of the linear range in [`srgb_floors`].
 const GUESS_BUCKETS: usize = 4096;
 
-/// The sRGB code at the bottom of each of [`GUESS_BUCKETS`] equal steps of the linear range:
-/// where [`encode_srgb`] starts looking.
-fn srgb_guesses() -> &'static [u8; GUESS_BUCKETS] {
+/// The highest sRGB code whose linear value is at most the bottom of each of
+/// [`GUESS_BUCKETS`] equal steps of the linear range: where [`encode_srgb`] starts looking.
+fn srgb_floors() -> &'static [u8; GUESS_BUCKETS] {
     static TABLE: OnceLock<[u8; GUESS_BUCKETS]> = OnceLock::new();
     TABLE.get_or_init(|| {
         std::array::from_fn(|i| {
             let v = i as f32 / GUESS_BUCKETS as f32;
-            srgb_midpoints().partition_point(|&m| m <= v) as u8
+            (srgb_table().partition_point(|&d| d <= v) - 1) as u8
         })
     })
 }
 
-/// The sRGB code nearest (in the encoding) to linear `v`: the first code whose upper midpoint
-/// lies above `v`, walked to from the bucket's guess (a step or two at most).
+/// Linear `v` as an sRGB code: one of the two codes whose linear values bracket it, the upper
+/// with the probability that makes the expected linear value `v` (`dither`, uniform in [0, 1),
+/// decides). Rounding to the nearest code instead would bias a mipmap level: its texels are
+/// means of a few neighbours, which on a smooth gradient fall at the same place between codes
+/// texel after texel, and each level grew 0.5% brighter (or darker) than the one above.
 #[inline]
-fn encode_srgb(v: f32) -> u8 {
+fn encode_srgb(v: f32, dither: f32) -> u8 {
     let v = v.clamp(0.0, 1.0);
     let bucket = ((v * GUESS_BUCKETS as f32) as usize).min(GUESS_BUCKETS - 1);
-    let midpoints = srgb_midpoints();
-    let mut code = srgb_guesses()[bucket] as usize;
-    while code < 255 && midpoints[code] <= v {
+    let decoded = srgb_table();
+    let mut code = srgb_floors()[bucket] as usize;
+    while code < 255 && decoded[code + 1] <= v {
         code += 1;
     }
-    code as u8
+    if code == 255 {
+        return 255;
+    }
+    let t = (v - decoded[code]) / (decoded[code + 1] - decoded[code]);
+    code as u8 + (dither < t) as u8
+}
+
+/// Linear `v` as a linear 8-bit code, dithered as [`encode_srgb`] is.
+#[inline]
+fn encode_linear(v: f32, dither: f32) -> u8 {
+    let x = v.clamp(0.0, 1.0) * 255.0;
+    let below = x.floor();
+    (below as u8).saturating_add((dither < x - below) as u8)
+}
+
+/// A uniform number in [0, 1) for channel `c` of texel (x, y) of a level `depth` down.
+#[inline]
+fn dither(x: usize, y: usize, c: usize, depth: usize) -> f32 {
+    let h = hash32(x as u32 ^ hash32(y as u32 ^ hash32((c + 4 * depth) as u32)));
+    (h >> 8) as f32 / (1u32 << 24) as f32
 }
 
 /// The sRGB transfer function, decoding.
@@ -102,7 +122,7 @@ impl Texture {
         while let Some(last) = levels.last()
             && (last.width > 1 || last.height > 1)
         {
-            let next = texture.halve(last);
+            let next = texture.halve(last, levels.len());
             levels.push(next);
         }
         texture.levels = levels;
@@ -154,8 +174,9 @@ impl Texture {
     }
 
     /// The level below `level`: each texel the mean of (up to) four of its texels, in linear
-    /// values, stored as `level` is; rows in parallel.
-    fn halve(&self, level: &Level) -> Level {
+    /// values, stored as `level` is (the new level lies `depth` below the image); rows in
+    /// parallel.
+    fn halve(&self, level: &Level, depth: usize) -> Level {
         let (w, h) = (
             level.width.div_ceil(2).max(1),
             level.height.div_ceil(2).max(1),
@@ -168,8 +189,9 @@ impl Texture {
             let at = |sx, sy| self.channel(level, sx, sy, c);
             0.25 * (at(x0, y0) + at(x1, y0) + at(x0, y1) + at(x1, y1))
         };
-        let texels = match &level.texels {
-            Texels::Floats(_) => {
+        let exact = matches!(level.texels, Texels::Floats(_)) || w * h < FLOAT_LEVELS_BELOW;
+        let texels = match exact {
+            true => {
                 let mut out = vec![0.0f32; w * h * n];
                 out.par_chunks_mut(w * n).enumerate().for_each(|(y, row)| {
                     for (i, v) in row.iter_mut().enumerate() {
@@ -178,11 +200,12 @@ impl Texture {
                 });
                 Texels::Floats(out)
             }
-            Texels::Bytes(_) => {
+            false => {
                 let mut out = vec![0u8; w * h * n];
                 out.par_chunks_mut(w * n).enumerate().for_each(|(y, row)| {
                     for (i, v) in row.iter_mut().enumerate() {
-                        *v = self.encode(mean(i / n, y, i % n), i % n);
+                        let (x, c) = (i / n, i % n);
+                        *v = self.encode(mean(x, y, c), c, dither(x, y, c, depth));
                     }
                 });
                 Texels::Bytes(out)
@@ -196,14 +219,14 @@ impl Texture {
     }
 
     /// Linear value `v` of channel `c` as this texture's 8-bit value: sRGB-encoded colour
-    /// channels by the nearest of the 256 codes (found among the codes' midpoints, which gives
-    /// what rounding the encoded value gives, without its power), alpha and data linearly.
+    /// channels as sRGB codes ([`encode_srgb`]), alpha and data linearly, both dithered by
+    /// `dither` so the level keeps its mean.
     #[inline]
-    fn encode(&self, v: f32, c: usize) -> u8 {
+    fn encode(&self, v: f32, c: usize, dither: f32) -> u8 {
         let alpha = c == 3 || (self.channels == 2 && c == 1);
         match self.color_space {
-            ColorSpace::Srgb if !alpha => encode_srgb(v),
-            _ => (v.clamp(0.0, 1.0) * 255.0).round() as u8,
+            ColorSpace::Srgb if !alpha => encode_srgb(v, dither),
+            _ => encode_linear(v, dither),
         }
     }
 
@@ -250,25 +273,72 @@ impl Texture {
 mod tests {
     use super::*;
 
-    /// The table-guided sRGB encoding gives what rounding the encoded value gives, over the
-    /// whole range and at every code's boundaries.
+    /// The dithered encodings pick one of the two codes around a value, in proportions whose
+    /// mean is the value, over the whole range; and a smooth gradient keeps its mean through
+    /// the mipmap levels.
     #[test]
-    fn srgb_encoding_rounds_as_the_transfer_function_does() {
-        let exact = |v: f32| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round() as u8;
-        for i in 0..=200_000 {
-            let v = i as f32 / 200_000.0;
-            let (got, want) = (encode_srgb(v), exact(v));
-            assert!(got.abs_diff(want) <= 1, "{v}: {got} against {want}");
-        }
-        for (k, &m) in srgb_midpoints().iter().enumerate() {
-            assert_eq!(encode_srgb(m * 0.9999) as usize, k, "below midpoint {k}");
-            assert_eq!(
-                encode_srgb(m * 1.0001) as usize,
-                k + 1,
-                "above midpoint {k}"
+    fn dithered_encoding_keeps_values_and_level_means() {
+        let decoded: Vec<f32> = (0..256).map(|k| srgb_to_linear(k as f32 / 255.0)).collect();
+        for i in 0..=2000 {
+            let v = i as f32 / 2000.0;
+            let (mut srgb, mut linear) = (0.0f64, 0.0f64);
+            let n = 1000;
+            for k in 0..n {
+                let d = (k as f32 + 0.5) / n as f32;
+                let code = encode_srgb(v, d) as usize;
+                assert!(decoded[code.saturating_sub(1)] <= v && decoded[code.min(254) + 1] >= v);
+                srgb += decoded[code] as f64;
+                linear += encode_linear(v, d) as f64 / 255.0;
+            }
+            assert!(
+                (srgb / n as f64 - v as f64).abs() < 2e-5,
+                "{v}: sRGB mean {srgb}"
+            );
+            assert!(
+                (linear / n as f64 - v as f64).abs() < 2e-5,
+                "{v}: linear mean {linear}"
             );
         }
-        assert_eq!((encode_srgb(-1.0), encode_srgb(2.0)), (0, 255));
+        assert_eq!((encode_srgb(-1.0, 0.5), encode_srgb(2.0, 0.5)), (0, 255));
+        // A gradient under a coarse checker: each level's mean within 0.1% of the image's (nearest-
+        // code rounding drifted 0.5% a level).
+        let n = 128;
+        let bytes: Vec<u8> = (0..n * n * 3)
+            .map(|i| {
+                let (x, y, c) = ((i / 3) % n, i / 3 / n, i % 3);
+                let shade = if (x / 32 + y / 32) % 2 == 0 {
+                    0.55
+                } else {
+                    1.0
+                };
+                let ramp = [0.2 + 0.7 * x as f32 / 127.0, 0.3 + 0.5 * y as f32 / 127.0][c.min(1)];
+                (ramp * shade * 255.0).round() as u8
+            })
+            .collect();
+        let picture = Picture {
+            width: n,
+            height: n,
+            channels: 3,
+            texels: Texels::Bytes(bytes),
+        };
+        let texture = Texture::new(picture, ColorSpace::Srgb);
+        let mean = |level: &Level| {
+            let mut sum = Vec4::ZERO;
+            for y in 0..level.height {
+                for x in 0..level.width {
+                    sum += texture.texel(level, x, y);
+                }
+            }
+            sum / (level.width * level.height) as f32
+        };
+        let full = mean(&texture.levels[0]);
+        // Levels of 16 × 16 texels and more: smaller ones hold too few for their dither to
+        // average out.
+        for (k, level) in texture.levels.iter().enumerate().skip(1).take(3) {
+            let m = mean(level);
+            let off = ((m - full) / full).abs().max_element();
+            assert!(off < 1e-3, "level {k}: mean {m} against {full}");
+        }
     }
 
     fn checker(n: usize, color_space: ColorSpace) -> Texture {
