@@ -45,11 +45,17 @@ fn the_committed_set_is_what_the_script_makes() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     listed.sort();
-    assert_eq!(names, listed, "the files the script makes and the committed ones");
+    assert_eq!(
+        names, listed,
+        "the files the script makes and the committed ones"
+    );
     for name in names {
         let (a, b) = (fresh.path().join(&name), committed.join(&name));
         if name.ends_with(".png") {
-            assert!(texels(&a) == texels(&b), "{name}: other texels than the script's");
+            assert!(
+                texels(&a) == texels(&b),
+                "{name}: other texels than the script's"
+            );
         } else {
             assert!(
                 std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(),
@@ -64,8 +70,14 @@ fn the_textured_set_renders_through_its_opening() {
     let mut shot = Shot::load(&root().join("examples/shots/textured_set.toml")).unwrap();
     shot.camera.projection.resolution = [64, 36];
     let scene = Scene::load(&shot, 1).unwrap();
-    assert!(scene.textures.list().len() >= 5, "the set's textures are read");
-    assert!(scene.contacts.pairs() > 0, "the glass block touches the table");
+    assert!(
+        scene.textures.list().len() >= 5,
+        "the set's textures are read"
+    );
+    assert!(
+        scene.contacts.pairs() > 0,
+        "the glass block touches the table"
+    );
     let image = render(&Prepared::new(scene), &RenderOptions::new(8));
     assert_eq!(image.discarded, 0);
     // The middle of the frame sees through the opening into the lit study; it is neither

@@ -43,6 +43,7 @@ for shot in foggy_portal hall_of_mirrors lit_through ring_on_wall ring_wall; do
   render "examples/shots/$shot.toml" --res 240 135 --spp 8
 done
 render examples/shots/through_portal.toml --frame 12 --res 240 135 --spp 8
+render examples/shots/textured_set.toml --res 240 135 --spp 8
 render examples/shots/portal_pair.toml --frame 1001 --res 320 180 --spp 4
 render examples/shots/heavy_rings.toml --frame 1001 --res 320 180 --spp 2
 quietly "$rift" fx examples/shots/showcase.toml --frames 12 -o "$work/fx"

@@ -339,6 +339,101 @@ fn a_bilinear_texture_keeps_the_mean_without_the_mipmaps_blur() {
     assert!(tri < 1.2 * lighting && bi > 1.5 * lighting);
 }
 
+/// A black cut-out quad filling the view against a sky of radiance SKY: the camera sees the sky
+/// through it in proportion to 1 − opacity, a constant one or a texture's (a grey map of two
+/// halves, 0 and 1, giving half the sky).
+#[test]
+fn a_cut_out_lets_through_what_its_opacity_leaves() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The quad at y = 1, facing down, UVs 0 to 1 over it.
+    std::fs::write(
+        d.join("floor.obj"),
+        "v -10 1 -10\nv 10 1 -10\nv 10 1 10\nv -10 1 10\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         usemtl floor\nf 1/1 2/2 3/3 4/4\n",
+    )
+    .unwrap();
+    write_png(&d.join("halves.png"), 2, 1, &[[0; 3], [255; 3]]);
+    let look_up = |material: &str| {
+        floor_shot([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 20.0, material)
+            .replace("up = [0.0, 0.0, -1.0]", "up = [0.0, 0.0, -1.0]")
+    };
+    let black = "type = \"diffuse\"\nreflectance = [0.0, 0.0, 0.0]\n";
+    let constant = mean_of(
+        d,
+        "constant",
+        &look_up(&format!("{black}opacity = 0.3")),
+        16,
+    );
+    assert_mean("opacity 0.3", constant, 0.7 * SKY);
+    let mapped = format!("{black}opacity = {{ texture = \"halves.png\", filter = \"bilinear\" }}");
+    // The camera sees the middle of the quad, where the two halves meet: half of it each.
+    let halves = mean_of(d, "halves", &look_up(&mapped), 16);
+    assert_mean("opacity map of two halves", halves, 0.5 * SKY);
+}
+
+/// Shadow rays pass a cut-out as camera rays do: a floor under a leaf of opacity 0.3, lit by
+/// a sun alone, gets 0.7 of the light it gets without the leaf.
+#[test]
+fn a_cut_outs_shadow_lets_through_what_its_opacity_leaves() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 1.0);
+    std::fs::write(
+        d.join("leaf.obj"),
+        "v -10 2 -10\nv 10 2 -10\nv 10 2 10\nv -10 2 10\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    let diffuse = "type = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n";
+    let below = |extra: &str| {
+        let shot = sun_shot(diffuse, [0.3, 1.0, 0.2])
+            .replace("position = [0.0, 6.0, 0.01]", "position = [0.0, 1.0, 0.01]");
+        format!("{shot}{extra}")
+    };
+    let leaf = "[[material]]\nname = \"leaf\"\ntype = \"diffuse\"\nreflectance = [0.0, 0.0, 0.0]\n\
+                opacity = 0.3\n[[object]]\nname = \"leaf\"\nmesh = \"leaf.obj\"\nmaterial = \"leaf\"\n";
+    let open = mean_of(d, "open", &below(""), 64);
+    let shaded = mean_of(d, "shaded", &below(leaf), 64);
+    assert_mean(
+        "the sun through a leaf of opacity 0.3",
+        shaded,
+        0.7 * 0.5 * (open[0] + open[1]),
+    );
+}
+
+/// A cut-out on an object that moves is refused, naming the object.
+#[test]
+fn a_moving_cut_out_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 1.0);
+    let shot = floor_shot(
+        [0.0, 3.0, 0.0],
+        [0.0, 0.0, 0.0],
+        10.0,
+        "type = \"diffuse\"\nopacity = 0.5",
+    )
+    .replace(
+        "frames = [1, 1]",
+        "frames = [1, 1]\nshutter = [-0.25, 0.25]",
+    )
+    .replace(
+        "mesh = \"floor.obj\"\n",
+        "mesh = \"floor.obj\"\ntransform = { keys = [{ frame = 0, position = [0.0, 0.0, 0.0] }, \
+             { frame = 2, position = [1.0, 0.0, 0.0] }] }\n",
+    );
+    let path = d.join("moving.toml");
+    std::fs::write(&path, shot).unwrap();
+    let e = Scene::load(&Shot::load(&path).unwrap(), 1)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("object[0]") && e.contains("stand still") && e.contains("moving.toml"),
+        "{e}"
+    );
+}
+
 /// The error the floor shot with `material` gives (after writing `files`).
 fn refusal(dir: &Path, material: &str) -> String {
     let path = dir.join("bad.toml");
@@ -463,6 +558,16 @@ fn bad_textures_are_refused_by_file_and_key() {
             "type = \"standard\"\nbase_color = [1.2, 0.5, 0.5]".into(),
             "material[0].base_color",
             "creates energy",
+        ),
+        (
+            "type = \"diffuse\"\nopacity = 1.5".into(),
+            "material[0].opacity",
+            "1.5",
+        ),
+        (
+            "type = \"diffuse\"\nemission = [1.0, 1.0, 1.0]\nopacity = 0.5".into(),
+            "material[0].opacity",
+            "cannot cut out",
         ),
         (
             "type = \"standard\"\ncoat_roughness = { texture = \"missing.png\" }".into(),

@@ -69,6 +69,8 @@ pub struct Inputs {
     /// A tangent-space normal map: the texture's linear RGB as 2·value − 1, its x and y
     /// scaled by [`NormalInput::strength`].
     pub normal: Option<NormalInput>,
+    /// Opacity for cut-outs (leaves, fences): 0 lets rays through, 1 stops them.
+    pub opacity: Option<ScalarInput>,
 }
 
 /// A tangent-space normal map.
@@ -94,7 +96,8 @@ impl ColorInput {
 }
 
 impl ScalarInput {
-    fn at(&self, textures: &[Texture], at: &Lookup) -> f32 {
+    /// The input's value at `at`.
+    pub fn at(&self, textures: &[Texture], at: &Lookup) -> f32 {
         let t = textures[self.texture as usize].lookup(at.uv, self.filter.width(at.width));
         t[self.channel] * self.scale + self.offset
     }

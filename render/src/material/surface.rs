@@ -3,7 +3,7 @@
 use crate::material::bsdf::Bsdf;
 use crate::material::inputs::{Inputs, Lookup};
 use crate::texture::Texture;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// A surface material.
 #[derive(Clone, Debug, PartialEq)]
@@ -19,6 +19,9 @@ pub struct Material {
     pub one_sided: bool,
     /// Inputs read from textures (`None`: the constants of `bsdf` everywhere).
     pub inputs: Option<Box<Inputs>>,
+    /// The share of rays the surface stops where no opacity texture says otherwise: below 1
+    /// the surface is a cut-out, and rays pass it with the rest of the probability.
+    pub opacity: f32,
 }
 
 impl Material {
@@ -40,6 +43,22 @@ impl Material {
     pub fn normal_at(&self, textures: &[Texture], at: &Lookup) -> Option<Vec3> {
         let map = self.inputs.as_ref()?.normal?;
         Some(map.at(textures, at))
+    }
+
+    /// True when the material lets some rays through without meeting it (an opacity below
+    /// 1, or an opacity texture).
+    pub fn cuts_out(&self) -> bool {
+        self.opacity < 1.0 || self.inputs.as_ref().is_some_and(|i| i.opacity.is_some())
+    }
+
+    /// The opacity at UV `uv` (its texture read in the full image: a cut-out's edge should be
+    /// as sharp as the texture), or the constant one without UVs.
+    pub fn opacity_at(&self, textures: &[Texture], uv: Option<Vec2>) -> f32 {
+        let map = self.inputs.as_ref().and_then(|i| i.opacity);
+        match (map, uv) {
+            (Some(map), Some(uv)) => map.at(textures, &Lookup { uv, width: 0.0 }).clamp(0.0, 1.0),
+            _ => self.opacity,
+        }
     }
 
     /// True when the material emits.

@@ -13,7 +13,7 @@ use super::schema::ObjectSection;
 use super::settings::{Overrides, Settings};
 use super::{Scene, camera, environment, grids, lights, materials, media, objects, portals, rings};
 use crate::camera::{Clip, Stereo};
-use crate::error::RenderError;
+use crate::error::{RenderError, key_error};
 use crate::geometry::{Accel, Contacts, Triangle};
 use crate::lights::{Environment, Lights, ShapeLight, Sky, Sun};
 use crate::material::Material;
@@ -207,6 +207,7 @@ impl Scene {
             selection,
         );
         let contacts = contacts(&g, &normals, &s.materials);
+        let cut_out = cut_outs(file, &g, &s.materials, &names)?;
         let accel = Accel::build(&g.triangles[..g.static_count], g.instances);
         let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let visibility = Visibility::new(
@@ -238,6 +239,7 @@ impl Scene {
             materials: s.materials,
             accel,
             contacts,
+            cut_out,
             lights,
             settings: s.settings,
             camera: shot.camera.clone(),
@@ -273,6 +275,32 @@ fn contacts(g: &Geometry, normals: &[Vec3], materials: &[Material]) -> Contacts 
                 .transmits()
         },
     )
+}
+
+/// True when some static triangle's material is a cut-out; a moving or instanced object with
+/// one is refused (its rays meet its triangles in object space, where the alpha test has no
+/// point to read the opacity at), naming the object.
+fn cut_outs(
+    file: &Path,
+    g: &Geometry,
+    materials: &[Material],
+    names: &[&str],
+) -> Result<bool, RenderError> {
+    let cuts = |t: usize| materials[g.triangle_material[t] as usize].cuts_out();
+    if let Some(t) = (g.static_count..g.triangles.len()).find(|&t| cuts(t)) {
+        let object = g.triangle_object[t] as usize;
+        let material = &materials[g.triangle_material[t] as usize].name;
+        return Err(key_error(
+            file,
+            format!("object[{object}]"),
+            format!(
+                "object {:?} moves or is instanced, and its material {material:?} cuts out \
+                 (opacity): cut-outs work on objects that stand still",
+                names.get(object).copied().unwrap_or("?")
+            ),
+        ));
+    }
+    Ok((0..g.static_count).any(cuts))
 }
 
 /// Refuses a scene of `triangles` triangles and `other_bytes` of density grids and textures

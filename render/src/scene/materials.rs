@@ -26,8 +26,9 @@ use std::path::Path;
 pub(super) const BOUNDARY_MATERIAL: &str = "(medium boundary)";
 
 /// The keys whose value may be a texture.
-const TEXTURED_KEYS: [&str; 8] = [
+const TEXTURED_KEYS: [&str; 9] = [
     "normal_map",
+    "opacity",
     "reflectance",
     "roughness",
     "base_color",
@@ -160,6 +161,12 @@ fn inputs(
             }
             _ => {}
         }
+        let emits = m.emission.is_some_and(|e| e.iter().any(|&c| c > 0.0));
+        if name == "opacity" && emits {
+            return refuse(
+                "an emitting material cannot cut out (light would leave where nothing is)",
+            );
+        }
         if STANDARD_KEYS.contains(&name.as_str()) && m.kind != MaterialKind::Standard {
             return refuse(&format!("only a standard material has {name}"));
         }
@@ -172,6 +179,7 @@ fn inputs(
             "specular_color" => inputs.specular_color = Some(color(reader)?),
             "roughness" => inputs.roughness = Some(scalar(reader)?),
             "metallic" => inputs.metallic = Some(scalar(reader)?),
+            "opacity" => inputs.opacity = Some(scalar(reader)?),
             "coat" => inputs.coat = Some(scalar(reader)?),
             _ => inputs.coat_roughness = Some(scalar(reader)?),
         }
@@ -343,7 +351,7 @@ pub(super) fn find_or_add(
 
 /// A material from an MTL entry: Kd (or its map_Kd, an sRGB colour texture scaled by Kd when
 /// both are given) as diffuse reflectance, Ke as one-sided emission, `norm`/`map_Bump` as a
-/// normal map. With Ks, Ns, Pr, Pm or their maps it is a standard material, read as Blender
+/// normal map, `d`/`map_d` as opacity (cut-outs). With Ks, Ns, Pr, Pm or their maps it is a standard material, read as Blender
 /// writes them: roughness Pr (or 1 − √(Ns/1000)), metallic Pm, and Ks's mean as the specular
 /// level (0.5: ior 1.5). Maps' paths are relative to `folder`, the mesh's; `key` names the
 /// object in messages.
@@ -384,6 +392,20 @@ pub(super) fn from_mtl(
             strength: *strength,
         });
     }
+    if let Some(map) = &mtl.opacity_map {
+        let texture = load(map, ColorSpace::Linear)?;
+        // The alpha channel where the image has one, else its first.
+        let channels = reader.textures.list()[texture as usize].channels();
+        let channel = if channels == 2 || channels == 4 {
+            channels - 1
+        } else {
+            0
+        };
+        inputs.opacity = Some(ScalarInput {
+            channel: channel.min(3),
+            ..scalar(texture)
+        });
+    }
     let standard = mtl.specular.is_some()
         || mtl.shininess.is_some()
         || mtl.roughness.is_some()
@@ -403,6 +425,7 @@ pub(super) fn from_mtl(
         two_sided_emission: false,
         one_sided: false,
         inputs: (inputs != Inputs::default()).then(|| Box::new(inputs)),
+        opacity: mtl.opacity.unwrap_or(1.0),
     })
 }
 
@@ -440,6 +463,7 @@ pub(super) fn boundary() -> Material {
         two_sided_emission: false,
         one_sided: false,
         inputs: None,
+        opacity: 1.0,
     }
 }
 
@@ -481,13 +505,23 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         MaterialKind::Dielectric => dielectric(key, m, ggx)?,
         MaterialKind::Standard => standard(key, m, ggx)?,
     };
+    let emission = color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?;
+    if emission.max_element() > 0.0 && m.opacity.is_some() {
+        return Err(Invalid::new(
+            format!("{key}.opacity"),
+            "an emitting material cannot cut out (light would leave where nothing is)",
+        ));
+    }
     Ok(Material {
         name: m.name.clone(),
         bsdf,
-        emission: color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?,
+        emission,
         two_sided_emission: m.two_sided_emission.unwrap_or(false),
         one_sided: m.one_sided.unwrap_or(false),
         inputs: None,
+        opacity: optional(m.opacity, 1.0, |o| {
+            check::within(&format!("{key}.opacity"), o, 0.0, 1.0, false)
+        })? as f32,
     })
 }
 

@@ -26,6 +26,9 @@ pub struct MtlMaterial {
     /// `norm` (or `map_Bump`/`bump`, as Blender writes normal maps): a tangent-space normal
     /// map, with its `-bm` strength.
     pub normal_map: Option<(String, f32)>,
+    /// `d` and `map_d`: opacity (cut-outs), as Blender writes alpha.
+    pub opacity: Option<f32>,
+    pub opacity_map: Option<String>,
     /// The maps it names that rift does not read yet (`map_Ke`, `map_d`, …).
     pub unread_maps: Vec<String>,
     /// False when no MTL defines the name: only the shot's `[[material]]` can supply it.
@@ -211,7 +214,6 @@ fn mtl_material(mat: &tobj::Material, declared: bool) -> Result<MtlMaterial, Str
     let mut unread_maps: Vec<String> = [
         ("map_Ka", &mat.ambient_texture),
         ("map_Ks", &mat.specular_texture),
-        ("map_d", &mat.dissolve_texture),
     ]
     .iter()
     .filter(|(_, map)| map.is_some())
@@ -237,6 +239,8 @@ fn mtl_material(mat: &tobj::Material, declared: bool) -> Result<MtlMaterial, Str
         roughness_map: roughness_map.map(map_file),
         metallic_map: param("map_Pm").map(map_file),
         normal_map: normal.map(|value| (map_file(value), bump_strength(value))),
+        opacity: mat.dissolve.filter(|d| (0.0..=1.0).contains(d)),
+        opacity_map: mat.dissolve_texture.as_deref().map(map_file),
         unread_maps,
         declared,
     })
@@ -348,7 +352,8 @@ mod tests {
         assert_eq!(uvs[1], [a, c, d]);
         let m = parts[0].material.as_ref().unwrap();
         assert_eq!(m.diffuse_map.as_deref(), Some("wood.png"));
-        assert_eq!(m.unread_maps, ["map_d"]);
+        assert!(m.unread_maps.is_empty());
+        assert_eq!(m.opacity_map.as_deref(), Some("leaf.png"));
         assert_eq!(m.normal_map, Some(("bump.png".to_owned(), 1.0)));
         // Faces without texture coordinates give none; a face naming a missing one is refused.
         let plain = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";

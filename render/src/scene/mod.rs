@@ -94,6 +94,9 @@ pub struct Scene {
     pub accel: Accel,
     /// Where static surfaces of different objects touch.
     pub contacts: crate::geometry::Contacts,
+    /// Some static triangle's material is a cut-out ([`Material::cuts_out`]): rays test
+    /// opacity where they meet it.
+    pub cut_out: bool,
     pub lights: Lights,
     pub settings: Settings,
     pub camera: Camera,
@@ -193,6 +196,7 @@ impl Scene {
             && self.lights.sky.is_none()
             && self.lights.shapes.is_empty()
             && !self.visibility.hides_anything()
+            && !self.cut_out
     }
 
     /// The closest surface or strand a ray of `class` sees along `ray`. A ray whose range
@@ -226,10 +230,13 @@ impl Scene {
     /// [`Self::intersect`] for a ray whose range starts at its origin.
     #[inline]
     fn intersect_from_origin(&self, ray: &Ray, class: RayClass) -> Option<SceneHit> {
-        let surface = if !self.visibility.hides_anything() {
+        let surface = if !self.visibility.hides_anything() && !self.cut_out {
             self.accel.intersect(ray, &every_triangle)
         } else {
-            let admits = |triangle, t| self.visibility.admits(triangle, class, ray.at(t), ray.time);
+            let admits = |triangle, t| {
+                self.visibility.admits(triangle, class, ray.at(t), ray.time)
+                    && self.solid_at(triangle, ray, t)
+            };
             self.accel.intersect(ray, &admits)
         };
         if self.strands.is_empty() {
@@ -257,12 +264,13 @@ impl Scene {
     pub fn occluded(&self, ray: &Ray, ends_on_strand: Option<u32>) -> bool {
         debug_assert!(ray.t_min == 0.0);
         let surfaces = || {
-            if !self.visibility.hides_anything() {
+            if !self.visibility.hides_anything() && !self.cut_out {
                 self.accel.occluded(ray, &every_triangle)
             } else {
                 let admits = |triangle, t| {
                     self.visibility
                         .admits(triangle, RayClass::Shadow, ray.at(t), ray.time)
+                        && self.solid_at(triangle, ray, t)
                 };
                 self.accel.occluded(ray, &admits)
             }
@@ -275,6 +283,36 @@ impl Scene {
         };
         let aimed_at_strand = ends_on_strand.is_some();
         (aimed_at_strand && strands()) || surfaces() || (!aimed_at_strand && strands())
+    }
+
+    /// False where `ray` passes the cut-out triangle `triangle` at `t` without meeting it: the
+    /// material's opacity there against a number hashed from the ray and the triangle, so a
+    /// ray asked again gets the same answer, and over many rays the share that pass is
+    /// 1 − opacity (as pbrt's alpha test). Only static triangles cut out (load refuses the
+    /// others), so the point's barycentrics come from the world-space triangle.
+    #[inline(never)]
+    fn solid_at(&self, triangle: u32, ray: &Ray, t: f32) -> bool {
+        if triangle as usize >= self.static_triangles {
+            return true;
+        }
+        let material = self.material(triangle);
+        if !material.cuts_out() {
+            return true;
+        }
+        let tri = &self.triangles[triangle as usize];
+        let uv = self.triangle_uvs.get(triangle as usize).map(|[a, b, c]| {
+            let (b1, b2) = barycentrics(tri, ray.at(t));
+            *a * (1.0 - b1 - b2) + *b * b1 + *c * b2
+        });
+        let opacity = material.opacity_at(self.textures.list(), uv);
+        if opacity >= 1.0 {
+            return true;
+        }
+        let bits = [ray.origin.to_array(), ray.dir.to_array()]
+            .concat()
+            .iter()
+            .fold(triangle, |h, x| crate::sampling::hash32(h ^ x.to_bits()));
+        ((bits >> 8) as f32 / (1u32 << 24) as f32) < opacity
     }
 
     /// The texture coordinates of `hit` and how many UV units a metre of the surface spans
@@ -387,6 +425,18 @@ impl Scene {
     pub fn material(&self, triangle: u32) -> &Material {
         &self.materials[self.triangle_material[triangle as usize] as usize]
     }
+}
+
+/// The barycentric coordinates (of the second and third corners) of point `p` on `tri`.
+fn barycentrics(tri: &Triangle, p: Vec3) -> (f32, f32) {
+    let (e1, e2, d) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0], p - tri.v[0]);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d1, d2) = (d.dot(e1), d.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    if det.abs() < f32::MIN_POSITIVE {
+        return (0.0, 0.0);
+    }
+    ((d22 * d1 - d12 * d2) / det, (d11 * d2 - d12 * d1) / det)
 }
 
 /// The hit `from_origin` finds for `ray` traced from the start of its range, with the hit's

@@ -35,6 +35,8 @@
 //! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709
 //! two_sided_emission = false
 //! # normal_map = { texture = "n.png", scale = 1.0 }  # tangent-space, linear; scale: strength
+//! # opacity = { texture = "leaf.png", channel = "a" }  # cut-outs: 0 lets rays through (or a
+//!                               # number); objects that stand still only
 //! one_sided = false             # true: the back side (against the winding's normal) absorbs
 //!                               # all light, as Mitsuba's BSDFs do; the default reflects on both
 //!
@@ -261,6 +263,8 @@ pub struct MaterialSection {
     pub emission: Option<[f64; 3]>,
     pub two_sided_emission: Option<bool>,
     pub one_sided: Option<bool>,
+    /// Cut-outs: the share of rays the surface stops (0 to 1; a texture, usually "a").
+    pub opacity: Option<f64>,
     /// The standard material's inputs.
     pub base_color: Option<[f64; 3]>,
     pub metallic: Option<f64>,

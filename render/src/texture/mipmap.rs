@@ -140,6 +140,11 @@ impl Texture {
             .sum()
     }
 
+    /// Channels per texel: 1 grey, 2 grey and alpha, 3 RGB, 4 RGBA.
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
     /// The full image's size.
     pub fn size(&self) -> (usize, usize) {
         (self.levels[0].width, self.levels[0].height)
