@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cornell_vs_mitsuba import newest_libllvm, read_exr
+from cornell_vs_mitsuba import load_mitsuba, read_exr
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "examples" / "cornell.obj"
@@ -115,13 +115,8 @@ def main():
     ap.add_argument("--gaps", type=float, nargs="+", default=[0.0, 0.001])
     ap.add_argument("--variant", default="llvm_ad_rgb")
     args = ap.parse_args()
-    if args.variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
-        lib = newest_libllvm()
-        if lib:
-            os.environ["DRJIT_LIBLLVM_PATH"] = lib
+    mi = load_mitsuba(args.variant)
     import drjit as dr
-    import mitsuba as mi
-    mi.set_variant(args.variant)
 
     for gap in args.gaps:
         with tempfile.TemporaryDirectory() as tmp:

@@ -64,6 +64,18 @@ def rift_round(rift, spp, threads, tmp):
     return float(row[1]), float(row[2])
 
 
+def load_mitsuba(variant):
+    """Mitsuba with `variant` set, its LLVM variants pointed at the newest libLLVM here."""
+    if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
+        lib = newest_libllvm()
+        if lib:
+            os.environ["DRJIT_LIBLLVM_PATH"] = lib
+    import mitsuba as mi
+
+    mi.set_variant(variant)
+    return mi
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rift", default=str(ROOT / "target/release/rift"))
@@ -73,13 +85,8 @@ def main():
     ap.add_argument("--variant", default="llvm_ad_rgb")
     args = ap.parse_args()
 
-    if args.variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
-        lib = newest_libllvm()
-        if lib:
-            os.environ["DRJIT_LIBLLVM_PATH"] = lib
+    mi = load_mitsuba(args.variant)
     import drjit as dr
-    import mitsuba as mi
-    mi.set_variant(args.variant)
     if args.variant.startswith("llvm"):
         dr.set_thread_count(args.threads)
     reference = read_exr(PACK / "reference.exr")

@@ -17,15 +17,15 @@ regions, with the noise (the two seeds' spread, both renderers), all in per cent
     python3 tools/lights_vs_mitsuba.py --rift target/release/rift [--spp 256]
 """
 import argparse
-import os
 import subprocess
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from bsdf_vs_mitsuba import read_exr, regions
-from cornell_vs_mitsuba import newest_libllvm
+from bsdf_vs_mitsuba import read_exr
+from textures_vs_mitsuba import report
+from cornell_vs_mitsuba import load_mitsuba
 
 SIZE = 64
 CAMERA = ([2.5, 1.6, 3.5], [-0.3, 0.5, -0.3], 50.0)
@@ -119,19 +119,13 @@ def main():
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--only", nargs="*")
     args = ap.parse_args()
-    if args.variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
-        found = newest_libllvm()
-        if found:
-            os.environ["DRJIT_LIBLLVM_PATH"] = found
-    import mitsuba as mi
-
-    mi.set_variant(args.variant)
+    mi = load_mitsuba(args.variant)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         room(out)
         print(f"lights, rift against Mitsuba {mi.__version__} {args.variant}: "
               f"{args.spp} spp x 2 seeds, {SIZE} x {SIZE}")
-        print(f"{'light':<10} {'image %':>22} {'worst region %':>15} {'noise %':>8}")
+        print(f"{'light':<20} {'image %':>22} {'worst region %':>15} {'noise %':>8}")
         for name in CASES:
             if args.only and name not in args.only:
                 continue
@@ -146,19 +140,7 @@ def main():
                 rift.append(read_exr(exr))
                 scene = mi.load_dict(mitsuba_scene(name, out, args.spp))
                 mits.append(np.asarray(mi.render(scene, seed=seed), dtype=np.float64)[..., :3])
-            r, m = sum(rift) / 2, sum(mits) / 2
-            image = (r.mean((0, 1)) / m.mean((0, 1)) - 1) * 100
-            rr, mr = regions(r), regions(m)
-            spread = lambda pair: np.abs(regions(pair[0]) - regions(pair[1])) / 2
-            noise = np.sqrt(spread(rift) ** 2 + spread(mits) ** 2) / np.maximum(mr, 1e-6)
-            rel = (rr - mr) / np.maximum(mr, 1e-6)
-            lit = mr > 1e-2 * mr.max()
-            i = np.unravel_index(np.argmax(np.where(lit, np.abs(rel) - 3 * noise, -1)), rel.shape)
-            if os.environ.get("REGIONS"):
-                print(np.round(rel.mean(-1) * 100, 2))
-            print(f"{name:<10} {np.array2string(image, precision=2):>22} "
-                  f"{rel[i] * 100:>+14.2f}  {noise[i] * 100:>7.2f}", flush=True)
-
+            report(name, rift, mits)
 
 if __name__ == "__main__":
     main()

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from bsdf_vs_mitsuba import METALS, read_exr, regions, write_sky
-from cornell_vs_mitsuba import newest_libllvm
+from cornell_vs_mitsuba import load_mitsuba
 
 SIZE = 64
 CAMERAS = {  # position, look_at, fov
@@ -164,13 +164,7 @@ def main():
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--only", nargs="*")
     args = ap.parse_args()
-    if args.variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
-        found = newest_libllvm()
-        if found:
-            os.environ["DRJIT_LIBLLVM_PATH"] = found
-    import mitsuba as mi
-
-    mi.set_variant(args.variant)
+    mi = load_mitsuba(args.variant)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         textures(out)

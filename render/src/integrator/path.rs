@@ -385,18 +385,12 @@ pub(super) fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) 
 fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &mut PathSample) {
     let mut strategies = None;
     loop {
-        let touching = path.contact(ctx.scene);
-        let found = || {
-            ctx.scene
-                .intersect_surfaces(&path.ray)
-                .map(|h| path.first_met(ctx.scene, h))
-        };
-        let Some(hit) = touching.or_else(found) else {
+        let Some(hit) = ctx.scene.intersect_surfaces(&path.ray) else {
             break;
         };
         let mut textured = None;
         let Some((p, ng, bsdf)) =
-            surface_emission(ctx, &mut path, &strategies, &hit, &mut textured, out)
+            surface_emission::<false>(ctx, &mut path, &strategies, &hit, &mut textured, out)
         else {
             break;
         };
@@ -658,7 +652,8 @@ fn scatter<R: Recorder>(
     let mut made = None;
     let (p, ng, bsdf) = match event {
         Event::Surface(hit) => {
-            let Some(scattering) = surface_emission(ctx, path, strategies, &hit, &mut made, out)
+            let Some(scattering) =
+                surface_emission::<true>(ctx, path, strategies, &hit, &mut made, out)
             else {
                 return false;
             };
@@ -696,9 +691,10 @@ fn medium_vertex(path: &PathState, out: &mut PathSample, at: f32, g: f32, albedo
 /// made in `textured`), or `None` when the path met the black back of a one-sided material,
 /// where it ends. A reference rather than a `Cow`: moving a `Cow<Bsdf>` out through the
 /// return stalled the store buffer and slowed the Cornell box by 9%; inlined, so the point
-/// and normal stay in registers.
+/// and normal stay in registers. `FULL` as for [`scatter_at`]: the plain loop's scenes have no
+/// touching surfaces and no normal maps.
 #[inline(always)]
-fn surface_emission<'b>(
+fn surface_emission<'b, const FULL: bool>(
     ctx: &'b Context,
     path: &mut PathState,
     strategies: &Option<Strategies>,
@@ -712,13 +708,15 @@ fn surface_emission<'b>(
     let material = ctx.scene.material(hit.triangle);
     let cos_o = -dir.dot(ng);
     let black = material.black_from(cos_o);
-    if ctx.scene.contacts.touches(hit) {
+    if FULL && ctx.scene.contacts.touches(hit) {
         path.touching = hit.triangle;
     }
     let bsdf = match material.textured() {
         true => textured_bsdf(ctx, path, hit, &surface, material, textured),
         false => {
-            path.mapped_normal = None;
+            if FULL {
+                path.mapped_normal = None;
+            }
             &material.bsdf
         }
     };
@@ -894,7 +892,12 @@ fn scatter_at<const FULL: bool, R: Recorder>(
     } else {
         (-ng, Side::Back)
     };
-    let (frame, bent) = match path.mapped_normal.take() {
+    let mapped = if FULL {
+        path.mapped_normal.take()
+    } else {
+        None
+    };
+    let (frame, bent) = match mapped {
         None => (Frame::new(n), false),
         Some(mapped) => {
             let mapped = if side == Side::Front { mapped } else { -mapped };

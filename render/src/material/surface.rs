@@ -39,6 +39,11 @@ impl Material {
         }
     }
 
+    /// True when the material has a normal map.
+    pub fn normal_mapped(&self) -> bool {
+        self.inputs.as_ref().is_some_and(|i| i.normal.is_some())
+    }
+
     /// The normal map's normal at `at` in the tangent frame, when the material has one.
     pub fn normal_at(&self, textures: &[Texture], at: &Lookup) -> Option<Vec3> {
         let map = self.inputs.as_ref()?.normal?;

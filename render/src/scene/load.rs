@@ -208,6 +208,7 @@ impl Scene {
         );
         let contacts = contacts(&g, &normals, &s.materials);
         let cut_out = cut_outs(file, &g, &s.materials, &names)?;
+        let normal_maps = s.materials.iter().any(|m| m.normal_mapped());
         let accel = Accel::build(&g.triangles[..g.static_count], g.instances);
         let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let visibility = Visibility::new(
@@ -240,6 +241,7 @@ impl Scene {
             accel,
             contacts,
             cut_out,
+            normal_maps,
             lights,
             settings: s.settings,
             camera: shot.camera.clone(),

@@ -97,6 +97,8 @@ pub struct Scene {
     /// Some static triangle's material is a cut-out ([`Material::cuts_out`]): rays test
     /// opacity where they meet it.
     pub cut_out: bool,
+    /// Some material has a normal map.
+    pub normal_maps: bool,
     pub lights: Lights,
     pub settings: Settings,
     pub camera: Camera,
@@ -197,6 +199,8 @@ impl Scene {
             && self.lights.shapes.is_empty()
             && !self.visibility.hides_anything()
             && !self.cut_out
+            && !self.normal_maps
+            && self.contacts.is_empty()
     }
 
     /// The closest surface or strand a ray of `class` sees along `ray`. A ray whose range
