@@ -384,10 +384,7 @@ pub(super) fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) 
 /// Follows `path` in a scene of surfaces and lamps alone to its end.
 fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &mut PathSample) {
     let mut strategies = None;
-    loop {
-        let Some(hit) = ctx.scene.intersect_surfaces(&path.ray) else {
-            break;
-        };
+    while let Some(hit) = ctx.scene.intersect_surfaces(&path.ray) {
         let mut textured = None;
         let Some((p, ng, bsdf)) =
             surface_emission::<false>(ctx, &mut path, &strategies, &hit, &mut textured, out)
