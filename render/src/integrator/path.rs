@@ -136,6 +136,40 @@ impl PathState {
         meet_touching(scene, left, self.prev_receiver.p, &self.ray, self.class())
     }
 
+    /// The shading frame where the path arrived, at geometric normal `n` on its `side`
+    /// (towards `wo`): around `n`, or around the normal map's normal the surface gave
+    /// ([`Self::mapped_normal`], taken) bent as [`bent_normal`] says, and then true:
+    /// directions must be checked against the geometry. `FULL` as for [`scatter_at`].
+    #[inline(always)]
+    fn shading_frame<const FULL: bool>(&mut self, n: Vec3, side: Side, wo: Vec3) -> (Frame, bool) {
+        let mapped = if FULL {
+            self.mapped_normal.take()
+        } else {
+            None
+        };
+        match mapped {
+            None => (Frame::new(n), false),
+            Some(mapped) => {
+                let mapped = if side == Side::Front { mapped } else { -mapped };
+                (Frame::new(bent_normal(mapped, n, wo)), true)
+            }
+        }
+    }
+
+    /// What the path's ray meets first: the surface it touches as it leaves one that touches
+    /// another, else the scene's nearest surface or strand (a touching surface's partner when
+    /// that lies before it).
+    #[inline(always)]
+    fn next_hit(&mut self, scene: &Scene) -> Option<SceneHit> {
+        if let Some(touching) = self.contact(scene) {
+            return Some(SceneHit::Surface(touching));
+        }
+        match scene.intersect(&self.ray, self.class()) {
+            Some(SceneHit::Surface(h)) => Some(SceneHit::Surface(self.first_met(scene, h))),
+            other => other,
+        }
+    }
+
     /// `hit`, found by the path's ray, or the surface it touches that the ray meets before it
     /// (see [`crate::geometry::Contacts::first_met`]).
     #[inline(always)]
@@ -450,13 +484,7 @@ fn follow_full<R: Recorder>(
     recorder: &mut R,
 ) {
     loop {
-        let hit = match path.contact(ctx.scene) {
-            Some(touching) => Some(SceneHit::Surface(touching)),
-            None => match ctx.scene.intersect(&path.ray, path.class()) {
-                Some(SceneHit::Surface(h)) => Some(SceneHit::Surface(path.first_met(ctx.scene, h))),
-                other => other,
-            },
-        };
+        let hit = path.next_hit(ctx.scene);
         let hit_t = hit.map(|h| h.t());
         let medium = ctx.scene.media.medium(path.inside);
         let collision = medium.and_then(|m| free_flight(m, hit_t, s));
@@ -889,18 +917,7 @@ fn scatter_at<const FULL: bool, R: Recorder>(
     } else {
         (-ng, Side::Back)
     };
-    let mapped = if FULL {
-        path.mapped_normal.take()
-    } else {
-        None
-    };
-    let (frame, bent) = match mapped {
-        None => (Frame::new(n), false),
-        Some(mapped) => {
-            let mapped = if side == Side::Front { mapped } else { -mapped };
-            (Frame::new(bent_normal(mapped, n, -dir)), true)
-        }
-    };
+    let (frame, bent) = path.shading_frame::<FULL>(n, side, -dir);
     let wo = frame.to_local(-dir);
     let receiver = Receiver {
         p,

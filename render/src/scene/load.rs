@@ -206,9 +206,7 @@ impl Scene {
             Sky::new(s.environment, s.suns),
             selection,
         );
-        let contacts = contacts(&g, &normals, &s.materials);
-        let cut_out = cut_outs(file, &g, &s.materials, &names)?;
-        let normal_maps = s.materials.iter().any(|m| m.normal_mapped());
+        let surfaces = Surfaces::of(file, &g, &normals, &s.materials, &names)?;
         let accel = Accel::build(&g.triangles[..g.static_count], g.instances);
         let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let visibility = Visibility::new(
@@ -239,9 +237,9 @@ impl Scene {
             triangle_material: g.triangle_material,
             materials: s.materials,
             accel,
-            contacts,
-            cut_out,
-            normal_maps,
+            contacts: surfaces.contacts,
+            cut_out: surfaces.cut_out,
+            normal_maps: surfaces.normal_maps,
             lights,
             settings: s.settings,
             camera: shot.camera.clone(),
@@ -260,6 +258,31 @@ impl Scene {
             environment_group: s.environment_group,
             frame,
             shutter: s.shutter,
+        })
+    }
+}
+
+/// What the path loop must know of the scene's surfaces beyond their BSDFs.
+struct Surfaces {
+    contacts: Contacts,
+    cut_out: bool,
+    normal_maps: bool,
+}
+
+impl Surfaces {
+    /// Those of geometry `g` (unit `normals`) with its `materials`; `names` are the objects'
+    /// (for messages).
+    fn of(
+        file: &Path,
+        g: &Geometry,
+        normals: &[Vec3],
+        materials: &[Material],
+        names: &[&str],
+    ) -> Result<Self, RenderError> {
+        Ok(Self {
+            contacts: contacts(g, normals, materials),
+            cut_out: cut_outs(file, g, materials, names)?,
+            normal_maps: materials.iter().any(|m| m.normal_mapped()),
         })
     }
 }
