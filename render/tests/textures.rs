@@ -530,6 +530,12 @@ fn bad_textures_are_refused_by_file_and_key() {
             "only texture, scale",
         ),
         (
+            "type = \"diffuse\"\nnormal_map = { texture = \"ok.png\", filter = \"bilinear\" }"
+                .into(),
+            "material[0].normal_map.filter",
+            "full image",
+        ),
+        (
             "type = \"diffuse\"\nnormal_map = { texture = \"ok.png\", scale = -1.0 }".into(),
             "material[0].normal_map.scale",
             "≥ 0",

@@ -227,15 +227,18 @@ fn normal_input(
     reader: &mut TextureReader,
 ) -> Result<NormalInput, RenderError> {
     let file = reader.file;
-    for (field, given) in [
+    let given = [
         ("offset", spec.offset.is_some()),
         ("channel", spec.channel.is_some()),
-    ] {
+        ("filter", spec.filter.is_some()),
+    ];
+    for (field, given) in given {
         if given {
             return Err(key_error(
                 file,
                 format!("{key}.{field}"),
-                "a normal map takes only texture, scale (its strength) and colorspace",
+                "a normal map takes only texture, scale (its strength) and colorspace; it is \
+                 always read from the full image",
             ));
         }
     }
@@ -351,8 +354,8 @@ pub(super) fn find_or_add(
 
 /// A material from an MTL entry: Kd (or its map_Kd, an sRGB colour texture scaled by Kd when
 /// both are given) as diffuse reflectance, Ke as one-sided emission, `norm`/`map_Bump` as a
-/// normal map, `d`/`map_d` as opacity (cut-outs). With Ks, Ns, Pr, Pm or their maps it is a standard material, read as Blender
-/// writes them: roughness Pr (or 1 − √(Ns/1000)), metallic Pm, and Ks's mean as the specular
+/// normal map, `d`/`map_d` as opacity (cut-outs). With Ks, Ns, Pr, Pm or their maps it is a
+/// standard material, read as Blender writes them: roughness Pr (or 1 − √(Ns/1000)), metallic Pm, and Ks's mean as the specular
 /// level (0.5: ior 1.5). Maps' paths are relative to `folder`, the mesh's; `key` names the
 /// object in messages.
 pub(super) fn from_mtl(
