@@ -16,15 +16,13 @@ regions, with the noise (the two seeds' spread, both renderers), all in per cent
 
     python3 tools/lights_vs_mitsuba.py --rift target/release/rift [--spp 256]
 """
-import argparse
-import subprocess
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from bsdf_vs_mitsuba import read_exr
-from textures_vs_mitsuba import report
+from bsdf_vs_mitsuba import render_rift
+from textures_vs_mitsuba import arguments, report
 from cornell_vs_mitsuba import load_mitsuba
 
 SIZE = 64
@@ -112,13 +110,7 @@ def mitsuba_scene(name, out, spp):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--rift", default=str(Path(__file__).resolve().parent.parent
-                                          / "target" / "release" / "rift"))
-    ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--variant", default="llvm_ad_rgb")
-    ap.add_argument("--only", nargs="*")
-    args = ap.parse_args()
+    args = arguments(__doc__)
     mi = load_mitsuba(args.variant)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
@@ -131,15 +123,10 @@ def main():
                 continue
             shot = out / f"{name}.toml"
             shot.write_text(rift_shot(name))
-            rift, mits = [], []
-            for seed in (1, 2):
-                exr = out / f"{name}_{seed}.exr"
-                subprocess.run([args.rift, "render", str(shot), "-o", str(exr), "--spp",
-                                str(args.spp), "--seed", str(seed)], check=True,
-                               capture_output=True, cwd=out)
-                rift.append(read_exr(exr))
-                scene = mi.load_dict(mitsuba_scene(name, out, args.spp))
-                mits.append(np.asarray(mi.render(scene, seed=seed), dtype=np.float64)[..., :3])
+            rift = [render_rift(args.rift, shot, args.spp, seed, out)[0] for seed in (1, 2)]
+            scene = mi.load_dict(mitsuba_scene(name, out, args.spp))
+            mits = [np.asarray(mi.render(scene, seed=seed), dtype=np.float64)[..., :3]
+                    for seed in (1, 2)]
             report(name, rift, mits)
 
 if __name__ == "__main__":

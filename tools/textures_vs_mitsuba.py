@@ -29,7 +29,6 @@ Needs `pip install mitsuba numpy OpenEXR`; the LLVM variant wants libLLVM 15 or 
 import argparse
 import math
 import os
-import subprocess
 import tempfile
 import zlib
 import struct
@@ -37,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bsdf_vs_mitsuba import METALS, read_exr, regions, write_sky
+from bsdf_vs_mitsuba import METALS, regions, render_rift, write_sky
 from cornell_vs_mitsuba import load_mitsuba
 
 SIZE = 64
@@ -156,14 +155,20 @@ def mitsuba_scene(case, out, spp):
     return scene
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def arguments(doc):
+    """The comparison scripts' command line: rift's binary, samples per pixel, Mitsuba's
+    variant, and the cases to run (all by default)."""
+    ap = argparse.ArgumentParser(description=doc.split("\n")[0])
     ap.add_argument("--rift", default=str(Path(__file__).resolve().parent.parent
                                           / "target" / "release" / "rift"))
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--only", nargs="*")
-    args = ap.parse_args()
+    return ap.parse_args()
+
+
+def main():
+    args = arguments(__doc__)
     mi = load_mitsuba(args.variant)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
@@ -176,20 +181,13 @@ def main():
             if args.only and case not in args.only:
                 continue
             floor_obj(out / f"floor_{case}.obj", REPEAT[case])
-            mits = []
-            for seed in (1, 2):
-                scene = mi.load_dict(mitsuba_scene(case, out, args.spp))
-                mits.append(np.asarray(mi.render(scene, seed=seed), dtype=np.float64)[..., :3])
+            scene = mi.load_dict(mitsuba_scene(case, out, args.spp))
+            mits = [np.asarray(mi.render(scene, seed=seed), dtype=np.float64)[..., :3]
+                    for seed in (1, 2)]
             for filtering in (("trilinear", "bilinear") if case != "normal" else ("",)):
                 shot = out / f"{case}_{filtering}.toml"
                 shot.write_text(rift_shot(case, filtering == "bilinear"))
-                rift = []
-                for seed in (1, 2):
-                    exr = out / f"{case}_{seed}.exr"
-                    subprocess.run([args.rift, "render", str(shot), "-o", str(exr), "--spp",
-                                    str(args.spp), "--seed", str(seed)], check=True,
-                                   capture_output=True, cwd=out)
-                    rift.append(read_exr(exr))
+                rift = [render_rift(args.rift, shot, args.spp, seed, out)[0] for seed in (1, 2)]
                 report(f"{case} {filtering}", rift, mits)
 
 

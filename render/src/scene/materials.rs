@@ -195,13 +195,7 @@ fn color_input(
     reader: &mut TextureReader,
 ) -> Result<ColorInput, RenderError> {
     let file = reader.file;
-    let color_space = color_space(spec.colorspace, ColorSpace::Srgb);
-    let texture = reader.load(
-        &format!("{key}.texture"),
-        &base.join(&spec.texture),
-        &spec.texture,
-        color_space,
-    )?;
+    let texture = section_texture(key, spec, base, reader, ColorSpace::Srgb)?;
     let three = |name: &str, v: &Option<toml::Value>, default: f64| -> Result<Vec3, RenderError> {
         let k = format!("{key}.{name}");
         match v {
@@ -252,13 +246,7 @@ fn normal_input(
             )
         })?,
     };
-    let color_space = color_space(spec.colorspace, ColorSpace::Linear);
-    let texture = reader.load(
-        &format!("{key}.texture"),
-        &base.join(&spec.texture),
-        &spec.texture,
-        color_space,
-    )?;
+    let texture = section_texture(key, spec, base, reader, ColorSpace::Linear)?;
     Ok(NormalInput { texture, strength })
 }
 
@@ -283,13 +271,7 @@ fn scalar_input(
             ));
         }
     };
-    let color_space = color_space(spec.colorspace, ColorSpace::Linear);
-    let texture = reader.load(
-        &format!("{key}.texture"),
-        &base.join(&spec.texture),
-        &spec.texture,
-        color_space,
-    )?;
+    let texture = section_texture(key, spec, base, reader, ColorSpace::Linear)?;
     let one = |name: &str, v: &Option<toml::Value>, default: f32| -> Result<f32, RenderError> {
         match v {
             None => Ok(default),
@@ -304,6 +286,23 @@ fn scalar_input(
         offset: one("offset", &spec.offset, 0.0)?,
         filter: filter(spec.filter),
     })
+}
+
+/// The texture a texture section at `key` names (relative to the shot's folder `base`), read
+/// in its `colorspace`, `default` when it gives none.
+fn section_texture(
+    key: &str,
+    spec: &TextureSection,
+    base: &Path,
+    reader: &mut TextureReader,
+    default: ColorSpace,
+) -> Result<u32, RenderError> {
+    reader.load(
+        &format!("{key}.texture"),
+        &base.join(&spec.texture),
+        &spec.texture,
+        color_space(spec.colorspace, default),
+    )
 }
 
 /// The filter a texture's `filter` key names (trilinear by default).
@@ -481,20 +480,8 @@ pub(super) fn color(key: &str, v: Option<[f64; 3]>, default: Vec3) -> Result<Vec
 /// One `[[material]]` section (at `key`) as a material. Keys every kind checks come first, so a
 /// value out of range is named before a key its kind does not take.
 fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
-    let reflectance = color(
-        &format!("{key}.reflectance"),
-        m.reflectance,
-        Vec3::splat(0.8),
-    )?;
-    if reflectance.max_element() > 1.0 {
-        return Err(Invalid::new(
-            format!("{key}.reflectance"),
-            "a reflectance above 1 creates energy",
-        ));
-    }
-    let roughness = optional(m.roughness, 0.0, |r| {
-        check::within(&format!("{key}.roughness"), r, 0.0, 1.0, false)
-    })? as f32;
+    let reflectance = albedo(key, "reflectance", m.reflectance, 0.8)?;
+    let roughness = fraction(key, "roughness", m.roughness, 0.0)?;
     let ggx = Ggx::from_roughness(roughness).with_shadowing(match m.shadowing {
         Some(ShadowingKind::HeightCorrelated) | None => Shadowing::HeightCorrelated,
         Some(ShadowingKind::Separable) => Shadowing::Separable,
@@ -522,10 +509,29 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         two_sided_emission: m.two_sided_emission.unwrap_or(false),
         one_sided: m.one_sided.unwrap_or(false),
         inputs: None,
-        opacity: optional(m.opacity, 1.0, |o| {
-            check::within(&format!("{key}.opacity"), o, 0.0, 1.0, false)
-        })? as f32,
+        opacity: fraction(key, "opacity", m.opacity, 1.0)?,
     })
+}
+
+/// A number from 0 to 1 at `key.field` (`default` when not given).
+fn fraction(key: &str, field: &str, v: Option<f64>, default: f64) -> Result<f32, Invalid> {
+    optional(v, default, |x| {
+        check::within(&format!("{key}.{field}"), x, 0.0, 1.0, false)
+    })
+    .map(|x| x as f32)
+}
+
+/// A colour at `key.field` that reflects no more than it receives: each channel at most 1
+/// (`default` on every channel when not given).
+fn albedo(key: &str, field: &str, v: Option<[f64; 3]>, default: f32) -> Result<Vec3, Invalid> {
+    let c = color(&format!("{key}.{field}"), v, Vec3::splat(default))?;
+    match c.max_element() <= 1.0 {
+        true => Ok(c),
+        false => Err(Invalid::new(
+            format!("{key}.{field}"),
+            format!("a {field} above 1 creates energy"),
+        )),
+    }
 }
 
 /// The error for `field`, which a `what` material does not take.
@@ -582,41 +588,25 @@ fn standard(key: &str, m: &MaterialSection, ggx: Ggx) -> Result<Bsdf, Invalid> {
             "a standard material always keeps its energy: leave multiscatter out",
         ));
     }
-    let unit = |field: &str, v: Option<f64>, default: f64| {
-        optional(v, default, |x| {
-            check::within(&format!("{key}.{field}"), x, 0.0, 1.0, false)
-        })
-        .map(|x| x as f32)
-    };
     let ior = |field: &str, v: Option<f64>| {
         optional(v, 1.5, |x| {
             check::within(&format!("{key}.{field}"), x, 1.0, MAX_IOR as f64, false)
         })
         .map(|x| x as f32)
     };
-    let unit_color = |field: &str, v: Option<[f64; 3]>, default: f32| {
-        let c = color(&format!("{key}.{field}"), v, Vec3::splat(default))?;
-        match c.max_element() <= 1.0 {
-            true => Ok(c),
-            false => Err(Invalid::new(
-                format!("{key}.{field}"),
-                "a colour above 1 creates energy",
-            )),
-        }
-    };
-    let coat_roughness = unit("coat_roughness", m.coat_roughness, 0.0)?;
+    let coat_roughness = fraction(key, "coat_roughness", m.coat_roughness, 0.0)?;
     // UsdPreviewSurface's and the Principled BSDF's default roughness.
     let ggx = match m.roughness {
         Some(_) => ggx,
         None => Ggx::from_roughness(0.5).with_shadowing(ggx.shadowing),
     };
     Ok(Bsdf::Standard(Standard::new(
-        unit_color("base_color", m.base_color, 0.8)?,
-        unit("metallic", m.metallic, 0.0)?,
-        unit_color("specular_color", m.specular_color, 1.0)?,
+        albedo(key, "base_color", m.base_color, 0.8)?,
+        fraction(key, "metallic", m.metallic, 0.0)?,
+        albedo(key, "specular_color", m.specular_color, 1.0)?,
         ior("ior", m.ior)?,
         ggx,
-        unit("coat", m.coat, 0.0)?,
+        fraction(key, "coat", m.coat, 0.0)?,
         Ggx::from_roughness(coat_roughness).with_shadowing(ggx.shadowing),
         ior("coat_ior", m.coat_ior)?,
     )))

@@ -3,7 +3,7 @@
 //! once per masking-shadowing term over the cosine μ, the roughness and the index of
 //! refraction, from rift's own sampling of the lobe so the layering matches what it scales.
 
-use super::multiscatter::{N, cell, cosine_weighted_mean, mu_at};
+use super::multiscatter::{N, cell, cell_of, cosine_weighted_mean, mu_at, per_shadowing};
 use crate::material::microfacet::{Ggx, Shadowing, fresnel_dielectric, reflect};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -27,7 +27,7 @@ struct Table {
 /// microfacets `ggx`.
 pub fn dielectric_albedo(ior: f32, ggx: Ggx, mu: f32) -> f32 {
     let t = table(ggx.shadowing);
-    t.bilinear(ior, ggx, |row, _| {
+    t.bilinear(ior, ggx, |row| {
         let (m0, m1, fm) = cell(mu * N as f32 - 0.5);
         t.albedo[row][m0] * (1.0 - fm) + t.albedo[row][m1] * fm
     })
@@ -36,7 +36,7 @@ pub fn dielectric_albedo(ior: f32, ggx: Ggx, mu: f32) -> f32 {
 /// 2∫E(μ)μ dμ, the cosine-weighted mean of [`dielectric_albedo`].
 pub fn dielectric_mean_albedo(ior: f32, ggx: Ggx) -> f32 {
     let t = table(ggx.shadowing);
-    t.bilinear(ior, ggx, |row, _| t.mean[row])
+    t.bilinear(ior, ggx, |row| t.mean[row])
 }
 
 impl Table {
@@ -55,11 +55,12 @@ impl Table {
     }
 
     /// `at(row, ...)` interpolated bilinearly between the four rows around (ior, roughness).
-    fn bilinear(&self, ior: f32, ggx: Ggx, at: impl Fn(usize, ()) -> f32) -> f32 {
-        let x = (ior.clamp(1.0, MAX_IOR) - 1.0) / (ior.clamp(1.0, MAX_IOR) + 1.0);
+    fn bilinear(&self, ior: f32, ggx: Ggx, at: impl Fn(usize) -> f32) -> f32 {
+        let ior = ior.clamp(1.0, MAX_IOR);
+        let x = (ior - 1.0) / (ior + 1.0);
         let (i0, i1, fi) = cell_of(x * 2.0 * (IORS - 1) as f32, IORS);
         let (r0, r1, fr) = cell(ggx.alpha.sqrt() * (N - 1) as f32);
-        let row = |i: usize, r: usize| at(i * N + r, ());
+        let row = |i: usize, r: usize| at(i * N + r);
         let at_ior = |i: usize| row(i, r0) * (1.0 - fr) + row(i, r1) * fr;
         at_ior(i0) * (1.0 - fi) + at_ior(i1) * fi
     }
@@ -69,13 +70,6 @@ impl Table {
 fn ior_at(i: usize) -> f32 {
     let x = 0.5 * i as f32 / (IORS - 1) as f32;
     (1.0 + x) / (1.0 - x)
-}
-
-/// [`cell`] over `count` entries.
-fn cell_of(x: f32, count: usize) -> (usize, usize, f32) {
-    let x = x.clamp(0.0, (count - 1) as f32);
-    let i = (x as usize).min(count - 2);
-    (i, i + 1, x - i as f32)
 }
 
 /// E(μ) by stratified sampling of visible normals: the mean of F·G2/G1 over reflections that
@@ -101,12 +95,8 @@ fn sampled_albedo(ior: f32, ggx: Ggx, mu: f32) -> f32 {
 }
 
 fn table(shadowing: Shadowing) -> &'static Table {
-    static CORRELATED: OnceLock<Table> = OnceLock::new();
-    static SEPARABLE: OnceLock<Table> = OnceLock::new();
-    match shadowing {
-        Shadowing::HeightCorrelated => CORRELATED.get_or_init(|| Table::build(shadowing)),
-        Shadowing::Separable => SEPARABLE.get_or_init(|| Table::build(shadowing)),
-    }
+    static TABLES: [OnceLock<Table>; 2] = [OnceLock::new(), OnceLock::new()];
+    per_shadowing(&TABLES, shadowing, Table::build)
 }
 
 #[cfg(test)]

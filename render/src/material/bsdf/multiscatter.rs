@@ -124,8 +124,13 @@ pub(super) fn mu_at(k: usize) -> f32 {
 
 /// The two table indices around a continuous coordinate, and the weight of the second.
 pub(super) fn cell(x: f32) -> (usize, usize, f32) {
-    let x = x.clamp(0.0, (N - 1) as f32);
-    let i = (x as usize).min(N - 2);
+    cell_of(x, N)
+}
+
+/// [`cell`] over `count` entries.
+pub(super) fn cell_of(x: f32, count: usize) -> (usize, usize, f32) {
+    let x = x.clamp(0.0, (count - 1) as f32);
+    let i = (x as usize).min(count - 2);
     (i, i + 1, x - i as f32)
 }
 
@@ -171,10 +176,19 @@ pub fn directional_albedo(bsdf: &Bsdf, side: Side, mu: f32, strata: u32) -> f32 
 }
 
 fn table(shadowing: Shadowing) -> &'static Table {
-    static CORRELATED: OnceLock<Table> = OnceLock::new();
-    static SEPARABLE: OnceLock<Table> = OnceLock::new();
-    match shadowing {
-        Shadowing::HeightCorrelated => CORRELATED.get_or_init(|| Table::build(shadowing)),
-        Shadowing::Separable => SEPARABLE.get_or_init(|| Table::build(shadowing)),
-    }
+    static TABLES: [OnceLock<Table>; 2] = [OnceLock::new(), OnceLock::new()];
+    per_shadowing(&TABLES, shadowing, Table::build)
+}
+
+/// The table of `tables` for `shadowing`, built with `build` the first time it is asked for.
+pub(super) fn per_shadowing<T>(
+    tables: &'static [OnceLock<T>; 2],
+    shadowing: Shadowing,
+    build: fn(Shadowing) -> T,
+) -> &'static T {
+    let slot = match shadowing {
+        Shadowing::HeightCorrelated => &tables[0],
+        Shadowing::Separable => &tables[1],
+    };
+    slot.get_or_init(|| build(shadowing))
 }
