@@ -65,6 +65,37 @@ impl Accel {
         self.instances[instance as usize].placement(t)
     }
 
+    /// Triangle `i` of moving instance `instance` in object space at time `t`, where that
+    /// instance deforms (`None` otherwise: the scene's stored triangle is its shape).
+    #[inline]
+    pub fn deformed_triangle(&self, instance: u32, i: u32, t: f64) -> Option<Triangle> {
+        self.instances
+            .get(instance as usize)?
+            .deformed_triangle(i, t)
+    }
+
+    /// Bytes the deformations of the instances hold, each shared one counted once.
+    pub fn deformation_bytes(&self) -> usize {
+        let mut seen = Vec::new();
+        let mut bytes = 0;
+        for mesh in self
+            .instances
+            .iter()
+            .filter_map(MovingInstance::deformation)
+        {
+            if !seen.contains(&std::sync::Arc::as_ptr(mesh)) {
+                seen.push(std::sync::Arc::as_ptr(mesh));
+                bytes += mesh.bytes();
+            }
+        }
+        bytes
+    }
+
+    /// True when some instance changes shape with time.
+    pub fn has_deformation(&self) -> bool {
+        self.instances.iter().any(MovingInstance::deforms)
+    }
+
     /// Closest hit along `ray` (which starts at its origin: t in (0, t_max)) among the
     /// triangles `accept(triangle, t)` admits ([`every_triangle`] for all).
     pub fn intersect(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> Option<Hit> {

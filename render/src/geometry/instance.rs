@@ -1,7 +1,11 @@
 //! A moving object: its triangles in object space under their own BVH, placed in the world by a
 //! keyframed similarity that is evaluated at each ray's time. Rays are taken into object space
 //! rather than the triangles into world space, so motion blur costs one transform per visit.
+//! A deforming object's triangles also change shape with time ([`Deformation`], shared by its
+//! copies); each copy reads the shape at its own time (a copy through an opening that delays
+//! rays sees the object as it was that much earlier).
 
+use super::deforming::Deformation;
 use super::motion::ObjectMotion;
 use super::triangle::Triangle;
 use super::triangle_bvh::{TriangleBvh, TriangleHit};
@@ -9,6 +13,7 @@ use crate::geometry::ray::Ray;
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use rift_fx::rig::Similarity;
+use std::sync::Arc;
 
 /// Times at which the world bounds are sampled across the time interval rays may have.
 const BOUND_STEPS: usize = 64;
@@ -16,9 +21,19 @@ const BOUND_STEPS: usize = 64;
 /// An object with a time-varying placement.
 pub struct MovingInstance {
     transform: ObjectMotion,
-    bvh: TriangleBvh,
+    shape: Shape,
     /// World bounds over every time a ray can have.
     pub bounds: Aabb,
+}
+
+/// An instance's triangles in object space.
+enum Shape {
+    Rigid(TriangleBvh),
+    /// Scene-wide indices of its triangles start at `first_id`.
+    Deforming {
+        mesh: Arc<Deformation>,
+        first_id: u32,
+    },
 }
 
 /// The placement of an instance at one time, in f32 for the hot path.
@@ -60,8 +75,55 @@ impl MovingInstance {
         );
         Self {
             transform,
-            bvh: TriangleBvh::build(triangles, first_id),
+            shape: Shape::Rigid(TriangleBvh::build(triangles, first_id)),
             bounds,
+        }
+    }
+
+    /// A deforming object's copy at `transform`, its triangles (scene-wide indices from
+    /// `first_id`) read from `mesh` at the copy's own time; `times` as for [`Self::new`].
+    pub fn deforming(
+        mesh: Arc<Deformation>,
+        first_id: u32,
+        transform: ObjectMotion,
+        times: [f64; 2],
+    ) -> Self {
+        let bounds = swept_bounds(
+            &mesh.corners_of_bounds(),
+            |t| transform.at(t),
+            &transform.key_times(),
+            times,
+            BOUND_STEPS,
+        );
+        Self {
+            transform,
+            shape: Shape::Deforming { mesh, first_id },
+            bounds,
+        }
+    }
+
+    /// True when the instance's triangles change shape with time.
+    pub fn deforms(&self) -> bool {
+        self.deformation().is_some()
+    }
+
+    /// The shape over time of a deforming instance (shared with its copies).
+    pub fn deformation(&self) -> Option<&Arc<Deformation>> {
+        match &self.shape {
+            Shape::Rigid(_) => None,
+            Shape::Deforming { mesh, .. } => Some(mesh),
+        }
+    }
+
+    /// Triangle `i` (scene-wide) in object space at time `t`, where the instance deforms;
+    /// `None` for a rigid instance (its triangles are the scene's).
+    #[inline]
+    pub fn deformed_triangle(&self, i: u32, t: f64) -> Option<Triangle> {
+        match &self.shape {
+            Shape::Rigid(_) => None,
+            Shape::Deforming { mesh, first_id } => {
+                Some(mesh.triangle(i - first_id, self.transform.source_time(t)))
+            }
         }
     }
 
@@ -85,13 +147,25 @@ impl MovingInstance {
     /// not renormalised.
     pub fn intersect(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> Option<TriangleHit> {
         let (o, d) = self.object_ray(ray);
-        self.bvh.intersect(o, d, ray.t_max, accept)
+        match &self.shape {
+            Shape::Rigid(bvh) => bvh.intersect(o, d, ray.t_max, accept),
+            Shape::Deforming { mesh, first_id } => {
+                let time = self.transform.source_time(ray.time);
+                mesh.intersect((o, d), ray.t_max, time, *first_id, accept)
+            }
+        }
     }
 
     /// True when an admitted triangle of the object blocks `ray` (t in (0, t_max)).
     pub fn occluded(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> bool {
         let (o, d) = self.object_ray(ray);
-        self.bvh.occluded(o, d, ray.t_max, accept)
+        match &self.shape {
+            Shape::Rigid(bvh) => bvh.occluded(o, d, ray.t_max, accept),
+            Shape::Deforming { mesh, first_id } => {
+                let time = self.transform.source_time(ray.time);
+                mesh.occluded((o, d), ray.t_max, time, *first_id, accept)
+            }
+        }
     }
 }
 

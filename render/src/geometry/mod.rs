@@ -4,6 +4,7 @@
 pub mod accel;
 pub mod build;
 pub mod contact;
+pub mod deforming;
 pub mod instance;
 pub mod motion;
 pub mod moving_bvh;
@@ -17,6 +18,7 @@ pub mod wide_bvh;
 
 pub use accel::{Accel, Hit, STATIC, every_triangle};
 pub use contact::Contacts;
+pub use deforming::{Deformation, Samples};
 pub use instance::{MovingInstance, Placement};
 pub use motion::{ObjectMotion, changes_during};
 pub use offset::{offset_origin, offset_target};

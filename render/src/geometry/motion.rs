@@ -68,10 +68,30 @@ impl ObjectMotion {
             None => self.own.at(t),
             Some(c) if c.back => {
                 let teleport = c.rig.teleport_at(c.opening, t);
-                solve_here(&teleport, &self.own.at(t + c.delay))
+                solve_here(&teleport, &self.own.at(self.source_time(t)))
             }
-            Some(c) => solve_there(&c.rig.teleport_at(c.opening, t), &self.own.at(t - c.delay)),
+            Some(c) => solve_there(
+                &c.rig.teleport_at(c.opening, t),
+                &self.own.at(self.source_time(t)),
+            ),
         }
+    }
+
+    /// The time at which the object itself is read for this placement at time `t`: a copy
+    /// through an opening that delays rays shows the object that much earlier, one carried
+    /// back that much later (its shape, where it deforms, is taken then too).
+    #[inline]
+    pub fn source_time(&self, t: f64) -> f64 {
+        match &self.through {
+            None => t,
+            Some(c) if c.back => t + c.delay,
+            Some(c) => t - c.delay,
+        }
+    }
+
+    /// The interval of [`Self::source_time`] over `times`.
+    pub fn source_times(&self, times: [f64; 2]) -> [f64; 2] {
+        times.map(|t| self.source_time(t))
     }
 
     /// Times where the placement may bend (keys of the transform and of the rig's frames).

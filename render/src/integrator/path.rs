@@ -782,7 +782,7 @@ fn textured_bsdf<'b>(
     slot: &'b mut Option<Bsdf>,
 ) -> &'b Bsdf {
     path.mapped_normal = None;
-    let Some((uv, per_metre)) = ctx.scene.uv_at(hit, surface.area_scale) else {
+    let Some((uv, per_metre)) = ctx.scene.uv_at(hit, path.ray.time, surface.area_scale) else {
         return &material.bsdf;
     };
     let cos = path.ray.dir.dot(surface.ng).abs().max(GRAZING_COS);

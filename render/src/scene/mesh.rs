@@ -47,6 +47,9 @@ pub struct MeshPart {
     pub triangles: Vec<[Vec3; 3]>,
     /// Per triangle, its corners' UVs (v = 0 at an image's bottom row); empty without.
     pub uvs: Vec<[Vec2; 3]>,
+    /// Per triangle, its corners' velocities in units per second (a PLY's `vx vy vz`, for a
+    /// mesh sequence's motion between frames); empty without.
+    pub velocities: Vec<[Vec3; 3]>,
     pub material: Option<MtlMaterial>,
 }
 
@@ -151,6 +154,7 @@ pub fn parse_obj(
             name: model.name,
             triangles,
             uvs,
+            velocities: Vec::new(),
             material,
         });
     }

@@ -18,6 +18,7 @@ pub mod ply;
 pub mod portals;
 pub mod rings;
 pub mod schema;
+mod sequence;
 mod settings;
 
 pub use load::scene_bytes;
@@ -320,13 +321,16 @@ impl Scene {
     }
 
     /// The texture coordinates of `hit` and how many UV units a metre of the surface spans
-    /// there (its triangle's world area is `area_scale` times its stored area); `None` when
-    /// no mesh gives UVs.
-    pub fn uv_at(&self, hit: &Hit, area_scale: f32) -> Option<(glam::Vec2, f32)> {
+    /// there at `time` (its triangle's world area is `area_scale` times its object-space
+    /// area); `None` when no mesh gives UVs.
+    pub fn uv_at(&self, hit: &Hit, time: f64, area_scale: f32) -> Option<(glam::Vec2, f32)> {
         let [a, b, c] = *self.triangle_uvs.get(hit.triangle as usize)?;
         let uv = a * (1.0 - hit.b1 - hit.b2) + b * hit.b1 + c * hit.b2;
         let uv_area = 0.5 * (b - a).perp_dot(c - a).abs();
-        let world_area = self.triangles[hit.triangle as usize].area() * area_scale;
+        let world_area = self
+            .object_triangle(hit.triangle, hit.instance, time)
+            .area()
+            * area_scale;
         let per_metre = if world_area > 0.0 {
             (uv_area / world_area).sqrt()
         } else {
@@ -339,7 +343,7 @@ impl Scene {
     /// `time`), for a tangent frame; `None` without UVs or where the UVs are degenerate.
     pub fn tangents(&self, hit: &Hit, time: f64) -> Option<(Vec3, Vec3)> {
         let [a, b, c] = *self.triangle_uvs.get(hit.triangle as usize)?;
-        let tri = &self.triangles[hit.triangle as usize];
+        let tri = self.object_triangle(hit.triangle, hit.instance, time);
         let (e1, e2) = (tri.v[1] - tri.v[0], tri.v[2] - tri.v[0]);
         let (d1, d2) = (b - a, c - a);
         let det = d1.perp_dot(d2);
@@ -359,9 +363,16 @@ impl Scene {
     /// The world-space point and normal of `hit` at time `time`.
     #[inline]
     pub fn surface(&self, hit: &Hit, time: f64) -> SurfacePoint {
-        let tri = &self.triangles[hit.triangle as usize];
-        let p = tri.point(hit.b1, hit.b2);
-        let n = self.normals[hit.triangle as usize];
+        let (p, n) = match self
+            .accel
+            .deformed_triangle(hit.instance, hit.triangle, time)
+        {
+            None => (
+                self.triangles[hit.triangle as usize].point(hit.b1, hit.b2),
+                self.normals[hit.triangle as usize],
+            ),
+            Some(tri) => (tri.point(hit.b1, hit.b2), tri.normal().normalize_or_zero()),
+        };
         if hit.instance == STATIC {
             return SurfacePoint {
                 p,
@@ -377,9 +388,19 @@ impl Scene {
         }
     }
 
+    /// Triangle `i` of `instance` at time `time` in its own space: a static triangle's is the
+    /// world, a moving one's its object's, where a deforming object has its shape at `time`.
+    #[inline]
+    pub fn object_triangle(&self, i: u32, instance: u32, time: f64) -> Triangle {
+        match self.accel.deformed_triangle(instance, i, time) {
+            Some(tri) => tri,
+            None => self.triangles[i as usize],
+        }
+    }
+
     /// Triangle `i` of `instance` in world space at time `time`.
     pub fn world_triangle(&self, i: u32, instance: u32, time: f64) -> Triangle {
-        let tri = self.triangles[i as usize];
+        let tri = self.object_triangle(i, instance, time);
         if instance == STATIC {
             return tri;
         }

@@ -7,9 +7,10 @@ use super::light_groups::LightGroups;
 use super::materials::{self, BOUNDARY_MATERIAL, TextureReader};
 use super::media::MediaSections;
 use super::schema::ObjectSection;
+use super::sequence::{self, Sequence};
 use super::{flags, mesh, parse, ply, within_single_precision};
 use crate::error::{RenderError, key_error};
-use crate::geometry::{MovingInstance, ObjectMotion, STATIC, Triangle};
+use crate::geometry::{Deformation, MovingInstance, ObjectMotion, STATIC, Triangle};
 use crate::lights::emitters::Emitter;
 use crate::material::surface::Material;
 use crate::portals::openings::Portals;
@@ -19,7 +20,9 @@ use rift_fx::rig::{AnimatedTransform, Rig, Similarity};
 use rift_fx::shot::check;
 use rift_fx::shot::pose::{self, Facing};
 use rift_fx::{Invalid, Shot};
+use std::collections::HashMap;
 use std::path::Path;
+use std::path::PathBuf;
 use std::sync::Arc;
 
 /// One object's triangles on their way into the scene.
@@ -32,6 +35,8 @@ pub(super) struct Part {
     materials: Vec<u32>,
     /// Its placement over time.
     motion: ObjectMotion,
+    /// Its mesh's shape over time, where it comes from a mesh sequence (shared by copies).
+    deformation: Option<Arc<Deformation>>,
     /// Whether it moves within the times rays can reach (else its triangles are baked to
     /// world space).
     moves: bool,
@@ -108,14 +113,20 @@ impl Loader<'_> {
     ) -> Result<(Vec<Part>, Vec<Flags>), RenderError> {
         let mut parts = Vec::new();
         let mut flags = Vec::new();
-        for (i, o) in objects.iter().enumerate() {
+        let motions = objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| self.motion(&format!("object[{i}]"), o))
+            .collect::<Result<Vec<_>, _>>()?;
+        let sequences = self.sequences(objects, &motions, reader.budget)?;
+        for ((i, o), motion) in objects.iter().enumerate().zip(motions) {
             flags.push(if self.media.inside(&o.name).is_some() {
                 // Paths cross a medium's boundary; shadow rays pass it (attenuated by the media).
                 Flags::new(true, true, true, false)
             } else {
                 self::flags(o.visibility)
             });
-            let mut part = self.part(i, o, materials, reader)?;
+            let mut part = self.part(i, o, motion, &sequences, materials, reader)?;
             let key = format!("object[{i}].light_group");
             part.group = groups.index(&self.shot.source, &key, o.light_group.as_deref())?;
             parts.push(part);
@@ -131,16 +142,46 @@ impl Loader<'_> {
         key_error(&self.shot.source, key, message)
     }
 
-    /// Object `i`'s triangles, placed and with their materials.
+    /// The mesh sequences the objects name, each read once over the times every object that
+    /// uses it (an original and its copies, each at its own time) needs.
+    fn sequences(
+        &self,
+        objects: &[ObjectSection],
+        motions: &[ObjectMotion],
+        budget: Option<u64>,
+    ) -> Result<HashMap<PathBuf, Sequence>, RenderError> {
+        let mut spans: Vec<(PathBuf, String, [f64; 2])> = Vec::new();
+        for (i, (o, motion)) in objects.iter().zip(motions).enumerate() {
+            let Some(name) = o.mesh.as_deref().filter(|m| sequence::is_sequence(m)) else {
+                continue;
+            };
+            let path = self.base.join(name);
+            let [a, b] = motion.source_times(self.times);
+            match spans.iter_mut().find(|(p, ..)| *p == path) {
+                Some((_, _, span)) => *span = [span[0].min(a), span[1].max(b)],
+                None => spans.push((path, format!("object[{i}].mesh"), [a, b])),
+            }
+        }
+        let mut out = HashMap::new();
+        for (path, key, span) in spans {
+            let s = sequence::load(&path, span, self.shot.fps, budget)
+                .map_err(|e| self.error(key, e.to_string()))?;
+            out.insert(path, s);
+        }
+        Ok(out)
+    }
+
+    /// Object `i`'s triangles, placed by `motion` and with their materials.
     fn part(
         &self,
         i: usize,
         o: &ObjectSection,
+        motion: ObjectMotion,
+        sequences: &HashMap<PathBuf, Sequence>,
         materials: &mut Vec<Material>,
         reader: &mut TextureReader,
     ) -> Result<Part, RenderError> {
         let key = format!("object[{i}]");
-        let motion = self.motion(&key, o)?;
         let Some(mesh_name) = &o.mesh else {
             return Err(self.error(
                 format!("{key}.mesh"),
@@ -148,7 +189,9 @@ impl Loader<'_> {
             ));
         };
         let mesh_path = self.base.join(mesh_name);
+        let sequence = sequences.get(&mesh_path);
         let mesh_parts = match mesh_path.extension().and_then(|e| e.to_str()) {
+            _ if sequence.is_some() => sequence.map(|s| s.parts.clone()).unwrap_or_default(),
             // A mesh's own error (its file, line or element) under the key that names it.
             Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)
                 .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
@@ -161,7 +204,9 @@ impl Loader<'_> {
                 ));
             }
         };
-        let moves = motion.moves_during(self.times);
+        let deformation = sequence.map(|s| s.mesh.clone());
+        // A deforming object is an instance whether or not it also moves.
+        let moves = deformation.is_some() || motion.moves_during(self.times);
         let placed = motion.at(self.times[0]);
         let mut part = Part {
             object: i as u32,
@@ -169,6 +214,7 @@ impl Loader<'_> {
             uvs: Vec::new(),
             materials: Vec::new(),
             motion,
+            deformation,
             moves,
             group: 0,
             warnings: Vec::new(),
@@ -188,6 +234,15 @@ impl Loader<'_> {
                      read yet; rendered without",
                     mtl.name,
                     mtl.unread_maps.join(", ")
+                ));
+            }
+            if part.deformation.is_some() && materials[index].emits() {
+                return Err(self.error(
+                    format!("{key}.material"),
+                    format!(
+                        "material {:?} emits light, which a deforming mesh ({mesh_name}) cannot                          do yet; give its emissive parts a mesh that does not deform",
+                        materials[index].name
+                    ),
                 ));
             }
             if materials[index].textured() && mesh_part.uvs.is_empty() {
@@ -389,7 +444,10 @@ impl Geometry {
             g.placements[part.object as usize] = part.motion.clone();
             let first = g.triangles.len() as u32;
             let instance = if part.moves {
-                let moving = MovingInstance::new(&part.triangles, first, part.motion, times);
+                let moving = match part.deformation {
+                    Some(mesh) => MovingInstance::deforming(mesh, first, part.motion, times),
+                    None => MovingInstance::new(&part.triangles, first, part.motion, times),
+                };
                 g.instances.push(moving);
                 g.instances.len() as u32 - 1
             } else {

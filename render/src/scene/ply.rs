@@ -1,7 +1,8 @@
 //! PLY polygon meshes (ASCII and binary, either byte order, read by fx's PLY table reader): the
 //! `vertex` element's x, y, z (and texture coordinates `u v`, `s t` or `texture_u texture_v`
-//! when it has them) and the `face` element's index list, polygons split into triangle fans.
-//! Other elements and properties are ignored.
+//! when it has them; velocities `vx vy vz`, units per second, for mesh sequences) and the `face`
+//! element's index list, polygons split into triangle fans. Other elements and properties are
+//! ignored.
 
 use super::mesh::MeshPart;
 use crate::error::RenderError;
@@ -22,29 +23,16 @@ pub fn load_ply(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
 /// Parses PLY mesh bytes into one part.
 pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
     let table = ply_table::parse(bytes)?;
-    let vertices: Vec<Vec3> = match table.element("vertex") {
+    let vertices = match table.element("vertex") {
         None => Vec::new(),
-        Some(vertex) => {
-            let [Some(x), Some(y), Some(z)] = ["x", "y", "z"].map(|a| vertex.scalar(a)) else {
-                return Err("the vertex element lacks x, y or z".into());
-            };
-            let mut points = Vec::with_capacity(vertex.count);
-            for (item, ((&x, &y), &z)) in x.iter().zip(y).zip(z).enumerate() {
-                let p = Vec3::new(x as f32, y as f32, z as f32);
-                if !super::within_single_precision(p) {
-                    return Err(format!(
-                        "vertex {item} is not finite or beyond ±{:e} m",
-                        rift_fx::shot::check::MAX_LENGTH
-                    ));
-                }
-                points.push(p);
-            }
-            points
-        }
+        Some(_) => vectors(&table, ["x", "y", "z"], "position")?
+            .ok_or("the vertex element lacks x, y or z")?,
     };
+    let velocities = vectors(&table, ["vx", "vy", "vz"], "velocity")?;
     let texcoords = texcoords(&table)?;
     let mut triangles = Vec::new();
     let mut uvs = Vec::new();
+    let mut corner_velocities = Vec::new();
     if let Some(face) = table.element("face") {
         let faces = face
             .list("vertex_indices")
@@ -64,6 +52,10 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
                     let uv = |v: f64| t[v as usize];
                     uvs.push([uv(list[0]), uv(list[i]), uv(list[i + 1])]);
                 }
+                if let Some(vel) = &velocities {
+                    let at = |v: f64| vel[v as usize];
+                    corner_velocities.push([at(list[0]), at(list[i]), at(list[i + 1])]);
+                }
             }
         }
     }
@@ -74,8 +66,36 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
         name: "ply".into(),
         triangles,
         uvs,
+        velocities: corner_velocities,
         material: None,
     }])
+}
+
+/// The vertex element's vectors from the three properties `names` (`None` when it lacks any
+/// of them), each finite and within single precision's reach; `what` names them in errors.
+fn vectors(
+    table: &ply_table::Table,
+    names: [&str; 3],
+    what: &str,
+) -> Result<Option<Vec<Vec3>>, String> {
+    let Some(vertex) = table.element("vertex") else {
+        return Ok(None);
+    };
+    let [Some(x), Some(y), Some(z)] = names.map(|a| vertex.scalar(a)) else {
+        return Ok(None);
+    };
+    let mut out = Vec::with_capacity(vertex.count);
+    for (item, ((&x, &y), &z)) in x.iter().zip(y).zip(z).enumerate() {
+        let p = Vec3::new(x as f32, y as f32, z as f32);
+        if !super::within_single_precision(p) {
+            return Err(format!(
+                "vertex {item}'s {what} is not finite or beyond ±{:e}",
+                rift_fx::shot::check::MAX_LENGTH
+            ));
+        }
+        out.push(p);
+    }
+    Ok(Some(out))
 }
 
 /// The vertices' texture coordinates, under whichever pair of names the file uses; `None`

@@ -1,0 +1,382 @@
+//! A deforming mesh: triangles whose corners move, from a cache of their positions at sample
+//! times (the frames and sub-frames of a mesh sequence), with or without velocities. A ray at
+//! time t sees each corner between the two samples around t: along the straight line without
+//! velocities, along the cubic whose ends have the cache's positions and velocities with them
+//! (so fast deformation blurs along its path, not across the chord).
+//!
+//! One tree layout serves every time: it is built once over each triangle's box across all
+//! samples, and its nodes are refit for each segment between two samples, to the boxes at the
+//! segment's start and at its end (as a moving ring's are, [`super::moving_bvh`]). A ray in
+//! the segment sees the boxes moved linearly between the two; a corner's cubic leaves that
+//! straight path by at most what the cubic's Bézier control points say, and the boxes are
+//! widened by that. No tree is built per ray or per time.
+//!
+//! The cache is in object space and shared (`Arc`) by every copy of the object: copies
+//! through openings place it with their own transform and read it at their own time.
+
+use super::build::wide_bvh;
+use super::instance::box_corners;
+use super::moving_bvh::refit_slice;
+use super::triangle::{ShearedRay, Triangle, intersect_watertight};
+use super::triangle_bvh::TriangleHit;
+use super::wide_bvh::{BoxRay, Swept, SweptNode, any_hit, closest_hit};
+use glam::{Vec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
+
+/// A mesh's corner positions at sample times, and the tree that finds its triangles at any
+/// time between.
+pub struct Deformation {
+    /// Sample times, seconds, strictly increasing (at least one).
+    times: Vec<f64>,
+    /// Per sample, each triangle's corners in object space.
+    corners: Vec<Vec<[Vec3; 3]>>,
+    /// Per sample, each corner's velocity in units per second; empty without.
+    velocities: Vec<Vec<[Vec3; 3]>>,
+    /// Per segment between two samples (one for a single sample), the tree's nodes refit to it.
+    slices: Vec<Vec<SweptNode>>,
+    /// The triangle (index into the cache) of each leaf slot.
+    leaf_triangles: Vec<u32>,
+    /// The object-space box of every corner at every time.
+    pub bounds: Aabb,
+}
+
+/// What a deformation's samples are, checked by [`Deformation::new`].
+pub struct Samples {
+    pub times: Vec<f64>,
+    pub corners: Vec<Vec<[Vec3; 3]>>,
+    /// Empty, or one list per sample as long as its corners.
+    pub velocities: Vec<Vec<[Vec3; 3]>>,
+}
+
+/// Where a time falls among the samples: the segment and the fraction through it.
+#[derive(Clone, Copy, Debug)]
+struct At {
+    segment: usize,
+    s: f32,
+}
+
+impl Deformation {
+    /// The deformation through `samples` (times increasing, every sample with the same
+    /// triangles); its tree is built here.
+    pub fn new(samples: Samples) -> Self {
+        let Samples {
+            times,
+            corners,
+            velocities,
+        } = samples;
+        assert!(!times.is_empty() && times.len() == corners.len());
+        assert!(times.windows(2).all(|w| w[0] < w[1]));
+        assert!(velocities.is_empty() || velocities.len() == corners.len());
+        let mut this = Self {
+            times,
+            corners,
+            velocities,
+            slices: Vec::new(),
+            leaf_triangles: Vec::new(),
+            bounds: Aabb::empty(),
+        };
+        this.build_tree();
+        this
+    }
+
+    /// Triangles in the mesh.
+    pub fn triangle_count(&self) -> usize {
+        self.corners[0].len()
+    }
+
+    /// Bytes held: corner samples, velocities and every segment's nodes.
+    pub fn bytes(&self) -> usize {
+        let samples: usize = self
+            .corners
+            .iter()
+            .chain(&self.velocities)
+            .map(|c| c.len())
+            .sum();
+        let nodes: usize = self.slices.iter().map(|s| s.len()).sum();
+        samples * size_of::<[Vec3; 3]>()
+            + nodes * size_of::<SweptNode>()
+            + self.leaf_triangles.len() * 4
+    }
+
+    /// Segments between samples (one for a single sample).
+    fn segments(&self) -> usize {
+        (self.times.len() - 1).max(1)
+    }
+
+    /// The layout over each triangle's box across every segment, then its nodes refit to each
+    /// segment's ends.
+    fn build_tree(&mut self) {
+        let triangles = self.triangle_count();
+        let ends: Vec<[Vec<Aabb>; 2]> = (0..self.segments())
+            .map(|k| [0, 1].map(|end| (0..triangles).map(|i| self.end_box(k, end, i)).collect()))
+            .collect();
+        let whole: Vec<Aabb> = (0..triangles)
+            .map(|i| {
+                ends.iter()
+                    .flatten()
+                    .fold(Aabb::empty(), |b, boxes| b.union(&boxes[i]))
+            })
+            .collect();
+        self.bounds = whole.iter().fold(Aabb::empty(), |b, t| b.union(t));
+        let params = BvhBuildParams::medium_build();
+        let bvh = wide_bvh(&whole, params);
+        self.slices = ends
+            .iter()
+            .map(|[start, end]| refit_slice(&bvh, start, end))
+            .collect();
+        self.leaf_triangles = bvh.primitive_indices;
+    }
+
+    /// Triangle `i`'s box at one end (`end` 0 the start, 1 the end) of segment `k`, widened by
+    /// how far its corners' cubics stray from the straight paths the boxes move along.
+    fn end_box(&self, k: usize, end: usize, i: usize) -> Aabb {
+        let sample = (k + end).min(self.times.len() - 1);
+        let mut b = Aabb::empty();
+        for (c, &p) in self.corners[sample][i].iter().enumerate() {
+            let (lo, hi) = self.stray(k, i, c);
+            b.extend(Vec3A::from(p + lo));
+            b.extend(Vec3A::from(p + hi));
+        }
+        b
+    }
+
+    /// The least and greatest offset (per axis) of corner `c` of triangle `i` from the chord
+    /// of segment `k`: the cubic minus the chord is a cubic Bézier curve with control points
+    /// 0, (h·v0 − Δ)/3, (Δ − h·v1)/3, 0, and lies within their box.
+    fn stray(&self, k: usize, i: usize, c: usize) -> (Vec3, Vec3) {
+        if self.velocities.is_empty() || self.times.len() < 2 {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let h = (self.times[k + 1] - self.times[k]) as f32;
+        let delta = self.corners[k + 1][i][c] - self.corners[k][i][c];
+        let first = (self.velocities[k][i][c] * h - delta) / 3.0;
+        let second = (delta - self.velocities[k + 1][i][c] * h) / 3.0;
+        (
+            first.min(second).min(Vec3::ZERO),
+            first.max(second).max(Vec3::ZERO),
+        )
+    }
+
+    /// Where time `t` (seconds) falls: before the first sample the mesh holds its first
+    /// shape, after the last its last.
+    fn at(&self, t: f64) -> At {
+        let last = self.times.len() - 1;
+        if last == 0 || t <= self.times[0] {
+            return At { segment: 0, s: 0.0 };
+        }
+        if t >= self.times[last] {
+            return At {
+                segment: last - 1,
+                s: 1.0,
+            };
+        }
+        let segment = self.times.partition_point(|&x| x <= t) - 1;
+        let (a, b) = (self.times[segment], self.times[segment + 1]);
+        At {
+            segment,
+            s: ((t - a) / (b - a)) as f32,
+        }
+    }
+
+    /// Corner `c` of triangle `i` at `at`.
+    #[inline]
+    fn corner(&self, at: At, i: usize, c: usize) -> Vec3 {
+        let k = at.segment;
+        let p0 = self.corners[k][i][c];
+        let Some(next) = self.corners.get(k + 1) else {
+            return p0;
+        };
+        let p1 = next[i][c];
+        if self.velocities.is_empty() {
+            return p0.lerp(p1, at.s);
+        }
+        // Cubic Hermite: positions and velocities (per second, so scaled by the segment's
+        // length) at both ends.
+        let h = (self.times[k + 1] - self.times[k]) as f32;
+        let (v0, v1) = (
+            self.velocities[k][i][c] * h,
+            self.velocities[k + 1][i][c] * h,
+        );
+        let s = at.s;
+        let (s2, s3) = (s * s, s * s * s);
+        p0 * (2.0 * s3 - 3.0 * s2 + 1.0)
+            + v0 * (s3 - 2.0 * s2 + s)
+            + p1 * (-2.0 * s3 + 3.0 * s2)
+            + v1 * (s3 - s2)
+    }
+
+    /// Triangle `i` (index into the cache) at time `t`, in object space.
+    pub fn triangle(&self, i: u32, t: f64) -> Triangle {
+        self.triangle_at(self.at(t), i as usize)
+    }
+
+    #[inline]
+    fn triangle_at(&self, at: At, i: usize) -> Triangle {
+        Triangle {
+            v: [0, 1, 2].map(|c| self.corner(at, i, c)),
+        }
+    }
+
+    /// Closest hit along `origin + t·dir` (object space), t in (0, t_max), at time `time`,
+    /// among the triangles `accept(first_id + i, t)` admits; scene-wide indices from `first_id`.
+    pub fn intersect(
+        &self,
+        (origin, dir): (Vec3, Vec3),
+        t_max: f32,
+        time: f64,
+        first_id: u32,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> Option<TriangleHit> {
+        let at = self.at(time);
+        let sheared = ShearedRay::new(origin, dir);
+        let mut found = None;
+        closest_hit(
+            &self.slices[at.segment],
+            &Swept { at: at.s },
+            &BoxRay::new(origin, dir),
+            t_max,
+            NOTHING_TO_FETCH,
+            false,
+            |slot, range| {
+                let i = self.leaf_triangles[slot];
+                let tri = self.triangle_at(at, i as usize);
+                let (t, b1, b2) = intersect_watertight(&sheared, &tri, range)?;
+                let triangle = first_id + i;
+                accept(triangle, t).then_some(())?;
+                found = Some(TriangleHit {
+                    t,
+                    triangle,
+                    b1,
+                    b2,
+                });
+                Some(t)
+            },
+        );
+        found
+    }
+
+    /// True when an admitted triangle lies along `origin + t·dir`, t in (0, t_max), at `time`.
+    pub fn occluded(
+        &self,
+        (origin, dir): (Vec3, Vec3),
+        t_max: f32,
+        time: f64,
+        first_id: u32,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> bool {
+        let at = self.at(time);
+        let sheared = ShearedRay::new(origin, dir);
+        any_hit(
+            &self.slices[at.segment],
+            &Swept { at: at.s },
+            &BoxRay::new(origin, dir),
+            t_max,
+            NOTHING_TO_FETCH,
+            false,
+            |slot| {
+                let i = self.leaf_triangles[slot];
+                let tri = self.triangle_at(at, i as usize);
+                intersect_watertight(&sheared, &tri, t_max)
+                    .is_some_and(|(t, ..)| accept(first_id + i, t))
+            },
+        )
+    }
+
+    /// The eight corners of [`Self::bounds`].
+    pub fn corners_of_bounds(&self) -> [Vec3; 8] {
+        box_corners(self.bounds.min.into(), self.bounds.max.into())
+    }
+}
+
+/// The leaf tests read the cache by triangle, not by slot: nothing to fetch ahead.
+const NOTHING_TO_FETCH: &[u32] = &[];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One triangle in the plane z = 0 moving along +x from x = 0 to x = 2 over one second.
+    fn sliding(velocities: bool) -> Deformation {
+        let tri = |x: f32| {
+            [
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x + 1.0, 0.0, 0.0),
+                Vec3::new(x, 1.0, 0.0),
+            ]
+        };
+        let v = Vec3::new(2.0, 0.0, 0.0);
+        Deformation::new(Samples {
+            times: vec![0.0, 1.0],
+            corners: vec![vec![tri(0.0)], vec![tri(2.0)]],
+            velocities: if velocities {
+                vec![vec![[v; 3]], vec![[v; 3]]]
+            } else {
+                Vec::new()
+            },
+        })
+    }
+
+    #[test]
+    fn a_ray_meets_the_triangle_where_it_is_at_the_rays_time() {
+        let mesh = sliding(false);
+        let down = (Vec3::new(1.2, 0.2, 1.0), Vec3::NEG_Z);
+        // At t = 0 the triangle spans x in [0, 1): x = 1.2 misses; at t = 0.5 it spans
+        // [1, 2) and is hit at distance 1.
+        assert!(mesh.intersect(down, 10.0, 0.0, 0, &|_, _| true).is_none());
+        let hit = mesh.intersect(down, 10.0, 0.5, 7, &|_, _| true).unwrap();
+        assert_eq!(hit.triangle, 7);
+        assert!((hit.t - 1.0).abs() < 1e-6);
+        assert!(mesh.occluded(down, 10.0, 0.5, 0, &|_, _| true));
+        assert!(!mesh.occluded(down, 0.5, 0.5, 0, &|_, _| true));
+        // Before the first sample and after the last, the mesh holds its end shapes.
+        assert_eq!(mesh.triangle(0, -3.0), mesh.triangle(0, 0.0));
+        assert_eq!(mesh.triangle(0, 9.0).v[0], Vec3::new(2.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn velocities_bend_the_path_and_the_boxes_hold_it() {
+        // Still ends but a velocity at each: the corner swings out and back along x.
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let v = Vec3::new(4.0, 0.0, 0.0);
+        let mesh = Deformation::new(Samples {
+            times: vec![0.0, 1.0],
+            corners: vec![vec![tri], vec![tri]],
+            velocities: vec![vec![[v; 3]], vec![[v; 3]]],
+        });
+        // Hermite with v0 = v1 = 4: x(s) = 4(s − 2s² + s³) + 4(s³ − s²) = 4s − 12s² + 8s³.
+        for s in [0.1f64, 0.3, 0.5, 0.8] {
+            let x = mesh.triangle(0, s).v[0].x as f64;
+            let expected = 4.0 * s - 12.0 * s * s + 8.0 * s * s * s;
+            assert!((x - expected).abs() < 1e-5, "s = {s}: {x} vs {expected}");
+            // A ray straight down onto the moved corner's neighbourhood hits at every time.
+            let p = mesh.triangle(0, s).point(0.2, 0.2);
+            let ray = (p + Vec3::Z, Vec3::NEG_Z);
+            assert!(
+                mesh.intersect(ray, 2.0, s, 0, &|_, _| true).is_some(),
+                "s = {s}"
+            );
+        }
+        // Velocities along the chord give the chord back.
+        let straight = sliding(true);
+        for s in [0.25, 0.5, 0.75] {
+            let a = straight.triangle(0, s).v[0];
+            assert!((a.x - 2.0 * s as f32).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn the_filter_is_asked_with_scene_wide_indices() {
+        let mesh = sliding(false);
+        let down = (Vec3::new(0.2, 0.2, 1.0), Vec3::NEG_Z);
+        assert!(
+            mesh.intersect(down, 10.0, 0.0, 40, &|i, _| i != 40)
+                .is_none()
+        );
+        assert!(!mesh.occluded(down, 10.0, 0.0, 40, &|i, _| i != 40));
+        assert!(
+            mesh.intersect(down, 10.0, 0.0, 40, &|i, _| i == 40)
+                .is_some()
+        );
+    }
+}
