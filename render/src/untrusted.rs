@@ -20,7 +20,7 @@ const MAX_FUZZED_OPENINGS: usize = 16;
 pub type Reader = fn(&[u8]);
 
 /// The readers, by the name of their fuzz target.
-pub const TARGETS: [(&str, Reader); 10] = [
+pub const TARGETS: [(&str, Reader); 11] = [
     ("shot", shot),
     ("obj", obj),
     ("ply_mesh", ply_mesh),
@@ -31,6 +31,7 @@ pub const TARGETS: [(&str, Reader); 10] = [
     ("checkpoint", checkpoint),
     ("vdb", vdb),
     ("texture", texture),
+    ("mesh_sequence", mesh_sequence),
 ];
 
 /// A shot file: parsed, validated and, when it is small (few strands and openings), built into
@@ -57,6 +58,13 @@ pub fn obj(bytes: &[u8]) {
 /// A PLY mesh.
 pub fn ply_mesh(bytes: &[u8]) {
     let _ = crate::scene::ply::parse(bytes);
+}
+
+/// A mesh sequence: up to four frames (PLY, or OBJ where a frame does not start `ply`),
+/// separated by lines `end_frame`, checked for one topology and built into a deformation, then
+/// traced at times before, between and after the samples.
+pub fn mesh_sequence(bytes: &[u8]) {
+    crate::scene::sequence::fuzz_frames(bytes);
 }
 
 /// A ring point cloud (PLY) written by `rift fx`.

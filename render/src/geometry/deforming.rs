@@ -66,6 +66,7 @@ impl Deformation {
             velocities,
         } = samples;
         assert!(!times.is_empty() && times.len() == corners.len());
+        assert!(corners.iter().all(|c| c.len() == corners[0].len()));
         assert!(times.windows(2).all(|w| w[0] < w[1]));
         assert!(velocities.is_empty() || velocities.len() == corners.len());
         let mut this = Self {
@@ -108,6 +109,9 @@ impl Deformation {
     /// segment's ends.
     fn build_tree(&mut self) {
         let triangles = self.triangle_count();
+        if triangles == 0 {
+            return;
+        }
         let ends: Vec<[Vec<Aabb>; 2]> = (0..self.segments())
             .map(|k| [0, 1].map(|end| (0..triangles).map(|i| self.end_box(k, end, i)).collect()))
             .collect();
@@ -229,10 +233,11 @@ impl Deformation {
         accept: &impl Fn(u32, f32) -> bool,
     ) -> Option<TriangleHit> {
         let at = self.at(time);
+        let nodes = self.slices.get(at.segment)?;
         let sheared = ShearedRay::new(origin, dir);
         let mut found = None;
         closest_hit(
-            &self.slices[at.segment],
+            nodes,
             &Swept { at: at.s },
             &BoxRay::new(origin, dir),
             t_max,
@@ -266,9 +271,12 @@ impl Deformation {
         accept: &impl Fn(u32, f32) -> bool,
     ) -> bool {
         let at = self.at(time);
+        let Some(nodes) = self.slices.get(at.segment) else {
+            return false;
+        };
         let sheared = ShearedRay::new(origin, dir);
         any_hit(
-            &self.slices[at.segment],
+            nodes,
             &Swept { at: at.s },
             &BoxRay::new(origin, dir),
             t_max,

@@ -18,7 +18,7 @@ pub mod ply;
 pub mod portals;
 pub mod rings;
 pub mod schema;
-mod sequence;
+pub(crate) mod sequence;
 mod settings;
 
 pub use load::scene_bytes;

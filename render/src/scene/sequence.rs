@@ -39,9 +39,9 @@ pub fn is_sequence(mesh: &str) -> bool {
 
 /// One file of a sequence: its frame number (with any fraction) and path.
 #[derive(Clone, Debug)]
-struct Sample {
-    frame: f64,
-    path: PathBuf,
+pub(crate) struct Sample {
+    pub frame: f64,
+    pub path: PathBuf,
 }
 
 /// Reads the samples of the sequence `pattern` (a path whose file name holds a run of `#`)
@@ -76,27 +76,42 @@ pub fn load(
             ),
         ));
     }
+    let rest = chosen[1..].iter().map(|s| Ok((s, read(&s.path)?)));
+    assemble((&chosen[0], first), rest, fps)
+}
+
+/// The sequence of the `first` sample's parts and the `rest` (read as they are asked for),
+/// each checked against the first's topology; sample times in seconds at `fps`.
+pub(crate) fn assemble<'a>(
+    (first, first_parts): (&Sample, Vec<MeshPart>),
+    rest: impl Iterator<Item = Result<(&'a Sample, Vec<MeshPart>), RenderError>>,
+    fps: f64,
+) -> Result<Sequence, RenderError> {
+    let velocities = first_parts.iter().all(|p| !p.velocities.is_empty());
     let mut samples = Samples {
-        times: Vec::with_capacity(chosen.len()),
-        corners: Vec::with_capacity(chosen.len()),
+        times: Vec::new(),
+        corners: Vec::new(),
         velocities: Vec::new(),
     };
-    push(&mut samples, &chosen[0], &first, velocities);
-    for sample in &chosen[1..] {
-        let parts = read(&sample.path)?;
-        same_topology(&chosen[0], &first, sample, &parts, velocities)
-            .map_err(|m| bad(&sample.path, m))?;
+    push(&mut samples, first, &first_parts, velocities);
+    for next in rest {
+        let (sample, parts) = next?;
+        same_topology(first, &first_parts, sample, &parts, velocities).map_err(|message| {
+            RenderError::Mesh {
+                file: sample.path.clone(),
+                message,
+            }
+        })?;
         push(&mut samples, sample, &parts, velocities);
     }
     for t in &mut samples.times {
         *t /= fps;
     }
     Ok(Sequence {
-        parts: first,
+        parts: first_parts,
         mesh: Arc::new(Deformation::new(samples)),
     })
 }
-
 /// Appends `sample`'s corners (and velocities, when the sequence has them) in part order: the
 /// order the object's triangles take in the scene.
 fn push(samples: &mut Samples, sample: &Sample, parts: &[MeshPart], velocities: bool) {
@@ -276,6 +291,56 @@ fn check_no_gap(pattern: &Path, all: &[Sample], (a, b): (usize, usize)) -> Resul
         }
     }
     Ok(())
+}
+
+/// `bytes` cut at each line `end_frame`.
+fn split_frames(bytes: &[u8]) -> Vec<&[u8]> {
+    const SEPARATOR: &[u8] = b"end_frame\n";
+    let mut out = Vec::new();
+    let mut rest = bytes;
+    while let Some(at) = rest.windows(SEPARATOR.len()).position(|w| w == SEPARATOR) {
+        out.push(&rest[..at]);
+        rest = &rest[at + SEPARATOR.len()..];
+    }
+    out.push(rest);
+    out
+}
+
+/// The fuzz target's reading of a sequence from bytes (see [`crate::untrusted`]).
+pub(crate) fn fuzz_frames(bytes: &[u8]) {
+    let parse = |frame: &[u8]| match frame.starts_with(b"ply") {
+        true => ply::parse(frame),
+        false => mesh::parse_obj(frame, |_| None),
+    };
+    let mut frames = Vec::new();
+    for (i, frame) in split_frames(bytes).into_iter().take(4).enumerate() {
+        let Ok(parts) = parse(frame) else { return };
+        let sample = Sample {
+            frame: i as f64,
+            path: PathBuf::from(format!("fuzz.{i}")),
+        };
+        frames.push((sample, parts));
+    }
+    let mut frames = frames.into_iter();
+    let Some((first, parts)) = frames.next() else {
+        return;
+    };
+    let rest: Vec<_> = frames.collect();
+    let Ok(sequence) = assemble((&first, parts), rest.iter().map(|(s, p)| Ok((s, p.clone()))), 1.0)
+    else {
+        return;
+    };
+    let b = sequence.mesh.bounds;
+    let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+    for time in [-1.0, 0.0, 0.5, 1.7, 9.0] {
+        for k in 0..4 {
+            let target = lo.lerp(hi, 0.25 * k as f32 + 0.1);
+            let origin = target + Vec3::new(1.0, 2.0, 3.0) * (hi - lo).max_element().max(1.0);
+            let ray = (origin, target - origin);
+            let _ = sequence.mesh.intersect(ray, f32::MAX, time, 0, &|_, _| true);
+            let _ = sequence.mesh.occluded(ray, 1.0, time, 0, &|_, _| true);
+        }
+    }
 }
 
 #[cfg(test)]

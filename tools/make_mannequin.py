@@ -1,0 +1,399 @@
+#!/usr/bin/env python3
+"""Makes the showcase's character: a humanoid mannequin (ellipsoid limbs, torso and head over a
+joint hierarchy, bound by linear blend skinning) animated running to the back opening and
+through it, its right arm reaching ahead through the opening for the orb whose here-side copy
+waits there (the orb stands in front of the front opening; `back_through` places the copy the
+hand reaches for). Written as a mesh sequence of binary PLY files, one per frame, with
+per-vertex velocities (units per second) so rift blurs each vertex along its path:
+examples/assets/mannequin/walker.0001.ply ... walker.0025.ply (frame 25 is what frame 24's
+open shutter reaches). Python's standard library only, so it runs anywhere; the output is
+committed, and tests/mannequin_assets.rs checks it is what this script makes.
+
+    python3 tools/make_mannequin.py [--out examples/assets/mannequin]
+"""
+import argparse
+import math
+import struct
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+FPS = 24.0
+FRAMES = range(1, 26)
+
+# Where the showcase puts things (examples/shots/showcase.toml): the back opening's centre,
+# and the teleport through it (the pair's there side is the front opening, 5.94 m along +z),
+# which carries the orb in front of the front opening back to where the hand reaches.
+BACK_OPENING_Z = -2.97
+TELEPORT_Z = 5.94
+ORB = (0.25, 1.3, 2.62)
+REACH_TARGET = (ORB[0], ORB[1], ORB[2] - TELEPORT_Z)
+
+# Joints: name, parent, rest position (metres; the mannequin stands at the origin facing +z).
+JOINTS = [
+    ("hips", None, (0.0, 0.95, 0.0)),
+    ("spine", "hips", (0.0, 1.08, 0.0)),
+    ("chest", "spine", (0.0, 1.28, 0.0)),
+    ("neck", "chest", (0.0, 1.50, 0.0)),
+    ("head", "neck", (0.0, 1.60, 0.0)),
+]
+for side, x in (("l", 1.0), ("r", -1.0)):
+    JOINTS += [
+        (f"{side}_shoulder", "chest", (0.19 * x, 1.45, 0.0)),
+        (f"{side}_elbow", f"{side}_shoulder", (0.20 * x, 1.17, 0.0)),
+        (f"{side}_wrist", f"{side}_elbow", (0.20 * x, 0.92, 0.0)),
+        (f"{side}_hip", "hips", (0.10 * x, 0.92, 0.0)),
+        (f"{side}_knee", f"{side}_hip", (0.10 * x, 0.51, 0.0)),
+        (f"{side}_ankle", f"{side}_knee", (0.10 * x, 0.09, 0.0)),
+    ]
+INDEX = {name: i for i, (name, _, _) in enumerate(JOINTS)}
+
+
+# --- small linear algebra: 3-vectors as tuples, rigid transforms as (3x3 rows, translation)
+
+
+def add(a, b):
+    return tuple(x + y for x, y in zip(a, b))
+
+
+def sub(a, b):
+    return tuple(x - y for x, y in zip(a, b))
+
+
+def scale(a, s):
+    return tuple(x * s for x in a)
+
+
+def dot(a, b):
+    return sum(x * y for x, y in zip(a, b))
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def norm(a):
+    return math.sqrt(dot(a, a))
+
+
+def unit(a):
+    n = norm(a)
+    return scale(a, 1.0 / n) if n > 0 else a
+
+
+def mat_mul(a, b):
+    return tuple(tuple(sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)) for i in range(3))
+
+
+def mat_vec(m, v):
+    return tuple(dot(row, v) for row in m)
+
+
+def transpose(m):
+    return tuple(tuple(m[j][i] for j in range(3)) for i in range(3))
+
+
+IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+def rotation(axis, angle):
+    """The rotation by `angle` radians about the unit `axis` (Rodrigues)."""
+    x, y, z = axis
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    return (
+        (t * x * x + c, t * x * y - s * z, t * x * z + s * y),
+        (t * x * y + s * z, t * y * y + c, t * y * z - s * x),
+        (t * x * z - s * y, t * y * z + s * x, t * z * z + c),
+    )
+
+
+def euler(pitch=0.0, yaw=0.0, roll=0.0):
+    """Rotations about x (pitch), then y (yaw), then z (roll), applied in that order."""
+    return mat_mul(rotation((0, 0, 1), roll), mat_mul(rotation((0, 1, 0), yaw), rotation((1, 0, 0), pitch)))
+
+
+def aligning(a, b):
+    """The shortest rotation taking unit vector a to unit vector b."""
+    axis = cross(a, b)
+    s, c = norm(axis), dot(a, b)
+    if s < 1e-9:
+        return IDENTITY
+    return rotation(scale(axis, 1.0 / s), math.atan2(s, c))
+
+
+def compose(a, b):
+    """Rigid transform a after b."""
+    return (mat_mul(a[0], b[0]), add(mat_vec(a[0], b[1]), a[1]))
+
+
+def apply(t, p):
+    return add(mat_vec(t[0], p), t[1])
+
+
+# --- the body
+
+
+def ellipsoid(centre, radii, frame, around=14, down=10):
+    """Vertices and faces (0-based) of an ellipsoid with `radii` along the columns of the
+    rotation `frame` (rows), poles along its second axis."""
+    vertices, faces = [], []
+    top = add(centre, mat_vec(transpose(frame), (0.0, radii[1], 0.0)))
+    vertices.append(top)
+    for i in range(1, down):
+        theta = math.pi * i / down
+        for j in range(around):
+            phi = 2 * math.pi * j / around
+            local = (
+                radii[0] * math.sin(theta) * math.cos(phi),
+                radii[1] * math.cos(theta),
+                radii[2] * math.sin(theta) * math.sin(phi),
+            )
+            vertices.append(add(centre, mat_vec(transpose(frame), local)))
+    bottom = add(centre, mat_vec(transpose(frame), (0.0, -radii[1], 0.0)))
+    vertices.append(bottom)
+    ring = lambda i, j: 1 + (i - 1) * around + j % around
+    for j in range(around):
+        faces.append((0, ring(1, j + 1), ring(1, j)))
+        faces.append((len(vertices) - 1, ring(down - 1, j), ring(down - 1, j + 1)))
+    for i in range(1, down - 1):
+        for j in range(around):
+            a, b = ring(i, j), ring(i, j + 1)
+            c, d = ring(i + 1, j + 1), ring(i + 1, j)
+            faces.append((a, b, c))
+            faces.append((a, c, d))
+    return vertices, faces
+
+
+def limb_frame(a, b):
+    """A rotation whose second axis runs from b to a (the ellipsoid's poles along the limb)."""
+    along = unit(sub(a, b))
+    m = aligning((0.0, 1.0, 0.0), along)
+    return transpose(m)
+
+
+def joint_position(name):
+    return JOINTS[INDEX[name]][2]
+
+
+def segment(start, end, radius, bone, parent=None, child=None, blend=0.2):
+    """An ellipsoid from joint `start` to joint `end`, bound to `bone`, blended towards
+    `parent` near its start and `child` near its end (smooth elbows and knees)."""
+    a, b = joint_position(start), joint_position(end)
+    length = norm(sub(b, a))
+    centre = scale(add(a, b), 0.5)
+    radii = (radius, 0.5 * length + 0.6 * radius, radius)
+    vertices, faces = ellipsoid(centre, radii, limb_frame(a, b))
+    weights = []
+    axis = unit(sub(b, a))
+    for v in vertices:
+        u = dot(sub(v, a), axis) / length
+        w = {bone: 1.0}
+        if parent is not None and u < blend:
+            share = 0.5 * (1.0 - max(u, 0.0) / blend)
+            w = {bone: 1.0 - share, parent: share}
+        elif child is not None and u > 1.0 - blend:
+            share = 0.5 * min((u - (1.0 - blend)) / blend, 1.0)
+            w = {bone: 1.0 - share, child: share}
+        weights.append(w)
+    return vertices, faces, weights
+
+
+def blob(centre, radii, bone):
+    """An upright ellipsoid bound wholly to `bone`."""
+    vertices, faces = ellipsoid(centre, radii, IDENTITY)
+    return vertices, faces, [{bone: 1.0} for _ in vertices]
+
+
+def body():
+    """The mannequin's pieces in its rest pose: vertices, faces and skinning weights."""
+    pieces = [
+        blob((0.0, 0.95, 0.0), (0.16, 0.11, 0.10), "hips"),
+        segment("spine", "neck", 0.125, "spine", parent="hips", child="chest", blend=0.35),
+        blob((0.0, 1.36, 0.0), (0.18, 0.15, 0.105), "chest"),
+        segment("neck", "head", 0.05, "neck", parent="chest"),
+        blob((0.0, 1.71, 0.01), (0.088, 0.115, 0.10), "head"),
+    ]
+    for side in ("l", "r"):
+        pieces += [
+            segment(f"{side}_shoulder", f"{side}_elbow", 0.05, f"{side}_shoulder",
+                    parent="chest", child=f"{side}_elbow"),
+            segment(f"{side}_elbow", f"{side}_wrist", 0.042, f"{side}_elbow",
+                    parent=f"{side}_shoulder"),
+            blob(add(joint_position(f"{side}_wrist"), (0.0, -0.075, 0.0)),
+                 (0.032, 0.075, 0.045), f"{side}_wrist"),
+            segment(f"{side}_hip", f"{side}_knee", 0.075, f"{side}_hip",
+                    parent="hips", child=f"{side}_knee"),
+            segment(f"{side}_knee", f"{side}_ankle", 0.055, f"{side}_knee",
+                    parent=f"{side}_hip"),
+            blob(add(joint_position(f"{side}_ankle"), (0.0, -0.035, 0.06)),
+                 (0.05, 0.04, 0.12), f"{side}_ankle"),
+        ]
+    vertices, faces, weights = [], [], []
+    for v, f, w in pieces:
+        base = len(vertices)
+        vertices += v
+        weights += [{INDEX[k]: x for k, x in wi.items()} for wi in w]
+        faces += [tuple(base + i for i in face) for face in f]
+    return vertices, faces, weights
+
+
+# --- the animation
+
+
+def smoothstep(a, b, x):
+    t = min(max((x - a) / (b - a), 0.0), 1.0)
+    return t * t * (3 - 2 * t)
+
+
+def root_at(frame):
+    """The hips' placement: a run from the room's middle into the back opening and beyond,
+    facing −z, bobbing with each stride."""
+    t = (frame - 1) / 24.0
+    x = 0.45 * (1.0 - t) ** 2
+    z = -1.15 - 3.5 * t
+    stride = 2 * math.pi * 1.6 * t
+    y = 0.02 * math.cos(2 * stride)
+    yaw = math.pi + 0.25 * (1.0 - t) ** 2
+    return (euler(pitch=0.0, yaw=yaw), (x, y, z))
+
+
+def local_rotations(frame, world_of):
+    """Each joint's rotation relative to its rest pose (in its parent's frame), at `frame`;
+    `world_of(name, rotations)` gives a joint's world transform for the reach."""
+    t = (frame - 1) / 24.0
+    phase = 2 * math.pi * 1.6 * t
+    r = {name: IDENTITY for name, _, _ in JOINTS}
+    lean = 0.12
+    r["spine"] = euler(pitch=lean)
+    r["chest"] = euler(yaw=0.12 * math.sin(phase))
+    for side, sign in (("l", 1.0), ("r", -1.0)):
+        swing = sign * math.sin(phase)
+        r[f"{side}_hip"] = euler(pitch=-0.65 * swing - 0.1)
+        r[f"{side}_knee"] = euler(pitch=0.15 + 1.1 * max(0.0, sign * math.cos(phase)) ** 2)
+        r[f"{side}_ankle"] = euler(pitch=-0.25 * swing)
+        r[f"{side}_shoulder"] = euler(pitch=0.55 * swing, roll=sign * 0.12)
+        r[f"{side}_elbow"] = euler(pitch=-0.9)
+    # The right arm reaches ahead for the orb's copy behind the back opening.
+    reach = smoothstep(3.0, 9.0, frame)
+    if reach > 0.0:
+        shoulder = apply(world_of("r_shoulder", r), joint_position("r_shoulder"))
+        # Once the hand has the orb (frame 12) it carries it ahead of the body.
+        carried = add(shoulder, (0.0, -0.12, -0.55))
+        held = smoothstep(12.0, 15.0, frame)
+        target = add(scale(REACH_TARGET, 1.0 - held), scale(carried, held))
+        along = unit(sub(target, shoulder))
+        # In the chest's frame, the rotation taking the arm's rest direction (down) to `along`.
+        parent = world_of("chest", r)
+        local_dir = mat_vec(transpose(parent[0]), along)
+        aim = aligning((0.0, -1.0, 0.0), unit(local_dir))
+        swing_pose = r["r_shoulder"]
+        r["r_shoulder"] = blend_rotation(swing_pose, aim, reach)
+        r["r_elbow"] = blend_rotation(r["r_elbow"], euler(pitch=-0.15), reach)
+        r["r_wrist"] = blend_rotation(IDENTITY, euler(pitch=0.3), reach)
+    return r
+
+
+def blend_rotation(a, b, w):
+    """Rotation a turned a share w of the way to b (about the axis of a⁻¹b)."""
+    d = mat_mul(transpose(a), b)
+    angle = math.acos(max(-1.0, min(1.0, (d[0][0] + d[1][1] + d[2][2] - 1.0) / 2.0)))
+    if angle < 1e-9:
+        return a
+    axis = unit((d[2][1] - d[1][2], d[0][2] - d[2][0], d[1][0] - d[0][1]))
+    if norm(axis) < 1e-9:
+        return b if w > 0.5 else a
+    return mat_mul(a, rotation(axis, w * angle))
+
+
+def pose(frame):
+    """Every joint's transform at `frame` (fractional frames allowed), taking the rest pose's
+    points to the world."""
+    root = root_at(frame)
+
+    def world_of(name, rotations, cache=None):
+        i = INDEX[name]
+        _, parent, rest = JOINTS[i]
+        if parent is None:
+            # About the hips' rest position, then placed by the root.
+            local = (rotations[name], sub(rest, mat_vec(rotations[name], rest)))
+            return compose(root, local)
+        parent_world = world_of(parent, rotations)
+        local = (rotations[name], sub(rest, mat_vec(rotations[name], rest)))
+        return compose(parent_world, local)
+
+    rotations = local_rotations(frame, world_of)
+    return [world_of(name, rotations) for name, _, _ in JOINTS]
+
+
+def skinned(vertices, weights, frame):
+    """Every vertex placed by linear blend skinning at `frame`."""
+    joints = pose(frame)
+    out = []
+    for v, w in zip(vertices, weights):
+        p = (0.0, 0.0, 0.0)
+        for j, share in w.items():
+            p = add(p, scale(apply(joints[j], v), share))
+        out.append(p)
+    return out
+
+
+def orb_keys():
+    """The showcase orb's keys: at rest in front of the front opening until the hand's copy
+    reaches it (frame 12), then held in that hand (the hand's place carried through the
+    back opening's teleport)."""
+    hand = add(joint_position("r_wrist"), (0.0, -0.075, 0.0))
+    keys = [f"  {{ frame = 1, position = [{ORB[0]}, {ORB[1]}, {ORB[2]}], scale = 0.3 }},"]
+    for frame in (12, 13, 14, 15, 16, 18, 20, 22, 24, 25):
+        p = apply(pose(frame)[INDEX["r_wrist"]], hand)
+        p = (p[0], p[1], p[2] + TELEPORT_Z)
+        if frame == 12:
+            p = ORB
+        keys.append(f"  {{ frame = {frame}, position = [{p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}], scale = 0.3 }},")
+    return "transform = { keys = [\n" + "\n".join(keys) + "\n] }"
+
+
+# --- output
+
+
+def ply_bytes(points, velocities, faces):
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        "comment rift's mannequin (tools/make_mannequin.py); velocities in units per second\n"
+        f"element vertex {len(points)}\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "property float vx\nproperty float vy\nproperty float vz\n"
+        f"element face {len(faces)}\n"
+        "property list uchar int vertex_indices\nend_header\n"
+    ).encode()
+    body = bytearray()
+    for p, v in zip(points, velocities):
+        body += struct.pack("<6f", *p, *v)
+    for f in faces:
+        body += struct.pack("<B3i", 3, *f)
+    return header + bytes(body)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=ROOT / "examples/assets/mannequin")
+    parser.add_argument("--orb-keys", action="store_true",
+                        help="print the orb's transform keys for the showcase instead")
+    args = parser.parse_args()
+    if args.orb_keys:
+        print(orb_keys())
+        return
+    args.out.mkdir(parents=True, exist_ok=True)
+    vertices, faces, weights = body()
+    h = 0.01
+    for frame in FRAMES:
+        points = skinned(vertices, weights, frame)
+        ahead = skinned(vertices, weights, frame + h)
+        behind = skinned(vertices, weights, frame - h)
+        velocities = [scale(sub(a, b), FPS / (2 * h)) for a, b in zip(ahead, behind)]
+        path = args.out / f"walker.{frame:04d}.ply"
+        path.write_bytes(ply_bytes(points, velocities, faces))
+    print(f"{len(FRAMES)} frames of {len(vertices)} vertices and {len(faces)} triangles in {args.out}")
+
+
+if __name__ == "__main__":
+    main()
