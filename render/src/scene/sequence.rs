@@ -326,8 +326,11 @@ pub(crate) fn fuzz_frames(bytes: &[u8]) {
         return;
     };
     let rest: Vec<_> = frames.collect();
-    let Ok(sequence) = assemble((&first, parts), rest.iter().map(|(s, p)| Ok((s, p.clone()))), 1.0)
-    else {
+    let Ok(sequence) = assemble(
+        (&first, parts),
+        rest.iter().map(|(s, p)| Ok((s, p.clone()))),
+        1.0,
+    ) else {
         return;
     };
     let b = sequence.mesh.bounds;
@@ -337,7 +340,9 @@ pub(crate) fn fuzz_frames(bytes: &[u8]) {
             let target = lo.lerp(hi, 0.25 * k as f32 + 0.1);
             let origin = target + Vec3::new(1.0, 2.0, 3.0) * (hi - lo).max_element().max(1.0);
             let ray = (origin, target - origin);
-            let _ = sequence.mesh.intersect(ray, f32::MAX, time, 0, &|_, _| true);
+            let _ = sequence
+                .mesh
+                .intersect(ray, f32::MAX, time, 0, &|_, _| true);
             let _ = sequence.mesh.occluded(ray, 1.0, time, 0, &|_, _| true);
         }
     }
