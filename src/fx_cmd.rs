@@ -93,7 +93,10 @@ pub fn run(args: FxArgs) -> anyhow::Result<()> {
     })?;
     progress.finish();
     let stage = if formats.contains(&Format::Usd) && outcome.iter().all(Result::is_ok) {
-        Some(export::write_stage(&args.output, &shot, frames)?)
+        // The characters beside the rings, shaped and placed as the renderer has them.
+        let samples = export::usd_stage::sample_frames(&shot, frames);
+        let meshes = rift_render::scene::characters::sampled(&shot, &samples)?;
+        Some(export::write_stage(&args.output, &shot, frames, &meshes)?)
     } else {
         None
     };

@@ -123,11 +123,45 @@ fn the_api_serves_the_scene_and_refuses_what_it_should() {
         .iter()
         .map(|o| o["name"].as_str().unwrap())
         .collect();
-    assert_eq!(names, ["room", "pillar", "walker", "walker_there"]);
+    assert_eq!(
+        names,
+        [
+            "room",
+            "pillar",
+            "walker",
+            "walker_there",
+            "orb",
+            "orb_here"
+        ]
+    );
     for o in scene["objects"].as_array().unwrap() {
         let n = o["positions"].as_array().unwrap().len();
         assert!(n > 0 && n % 9 == 0, "{}: {n} coordinates", o["name"]);
     }
+    // The character deforms: the page gets its shape at the frame asked for, and its copy
+    // (through an opening without a time offset) the same shape.
+    let shape = |scene: &serde_json::Value, name: &str| -> Vec<f64> {
+        let object = scene["objects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|o| o["name"] == name)
+            .unwrap();
+        let positions = object["positions"].as_array().unwrap();
+        positions.iter().map(|x| x.as_f64().unwrap()).collect()
+    };
+    let (_, earlier) = layout.get("/api/scene?frame=6", "");
+    let earlier: serde_json::Value = serde_json::from_str(&earlier).unwrap();
+    let moved = shape(&earlier, "walker")
+        .iter()
+        .zip(shape(&scene, "walker"))
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        moved > 0.3,
+        "the character's shape moved {moved} m from frame 6 to 12"
+    );
+    assert_eq!(shape(&scene, "walker"), shape(&scene, "walker_there"));
     assert_eq!(scene["openings"].as_array().unwrap().len(), 2);
     let rings = scene["rings"].as_array().unwrap();
     assert_eq!(rings.len(), 2, "one ring per opening");

@@ -128,3 +128,48 @@ fn blender_plays_the_shot_stage_as_moving_curves() {
     // Both openings' rings, at each of the three frames.
     assert_eq!(report.matches(" points in ").count(), 6, "{report}");
 }
+
+#[test]
+fn the_shot_stage_carries_the_character_and_its_copy_as_time_sampled_meshes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let shot = root().join("examples/shots/showcase.toml");
+    let args = [
+        "fx",
+        shot.to_str().unwrap(),
+        "--frames",
+        "11-13",
+        "--format",
+        "usd",
+        "-o",
+        "o",
+    ];
+    let out = rift(d, &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let ply = root().join("examples/assets/mannequin/walker.0012.ply");
+    // The showcase's pair carries the back opening's here side 5.94 m along +z.
+    let args = [
+        "o/showcase.usda",
+        "walker",
+        "walker_there",
+        "12",
+        ply.to_str().unwrap(),
+        "0",
+        "0",
+        "5.94",
+    ];
+    let report = python("usd_character_check.py", &args, d);
+    assert!(report.contains("4284 triangles at 9 times"), "{report}");
+    // And every registered validator passes the stage.
+    let check = python_command("python3")
+        .arg(root().join("tests/support/usd_validate.py"))
+        .arg(d.join("o/showcase.usda"))
+        .output()
+        .unwrap();
+    assert!(
+        check.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&check.stdout),
+        String::from_utf8_lossy(&check.stderr)
+    );
+}

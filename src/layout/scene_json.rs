@@ -113,7 +113,8 @@ fn camera(scene: &Scene, time: f64) -> Value {
 }
 
 /// Per object: its name, base colour (the mean albedo of its triangles' materials), its
-/// triangles' corners in its own space, flattened, and its placement at `time`; the cull
+/// triangles' corners in its own space (a deforming object's in its shape at `time`),
+/// flattened, and its placement at `time`; the cull
 /// volumes that hide parts of it (world-to-local matrix, column-major; the opening whose frame
 /// it is; which side is behind; depth; radius); whether camera rays see it directly and through openings (its visibility
 /// flags); and for editing, the keys of the transform that places it, the object whose
@@ -126,9 +127,13 @@ fn objects(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value>
     let to_local: Vec<_> = placements.iter().map(Similarity::inverse).collect();
     for (t, tri) in scene.triangles.iter().enumerate() {
         let o = scene.object_of(t as u32) as usize;
-        // Moving objects' triangles are in their own space already.
+        // Moving objects' triangles are in their own space already; a deforming object's
+        // take their shape at `time` (each copy's at its own).
         let corners = if t >= scene.static_triangles {
-            tri.v
+            match scene.accel.find_deformed(t as u32, time) {
+                Some(shape) => shape.v,
+                None => tri.v,
+            }
         } else {
             tri.v
                 .map(|v| to_local[o].transform_point(v.as_dvec3()).as_vec3())

@@ -67,13 +67,16 @@ pub fn write_stage(
     dir: &Path,
     shot: &crate::Shot,
     frames: crate::FrameRange,
+    meshes: &[usd_stage::StageMesh],
 ) -> Result<PathBuf, FxError> {
     let path = stage_path(dir, &shot.name);
     let frame_file = |f: i64| {
         let file = usda_path(Path::new("."), &shot.name, f);
         file.to_string_lossy().into_owned()
     };
-    atomic::write(&path, |w| usd_stage::write(w, shot, frames, frame_file))?;
+    atomic::write(&path, |w| {
+        usd_stage::write(w, shot, frames, meshes, frame_file)
+    })?;
     Ok(path)
 }
 

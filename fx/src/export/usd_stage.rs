@@ -1,8 +1,9 @@
 //! One USD stage for a shot's frame range, `<shot>.usda`, beside the per-frame files: the
 //! camera as a `Camera` and every opening's here frame as an `Xform`, both sampled at every frame
 //! and at its shutter open and close (so the whole rig travels to Blender, usdview, Maya or
-//! Houdini), and each ring's `BasisCurves` taken frame by frame from the per-frame files as
-//! value clips. The stage stays small however long the shot, the per-frame files stay the only
+//! Houdini), each ring's `BasisCurves` taken frame by frame from the per-frame files as
+//! value clips, and each deforming object (a character and its copies) as a `Mesh` whose
+//! points are sampled at the same times. The stage stays small however long the shot, the per-frame files stay the only
 //! copy of the curves, and a stage opens as one animation.
 //!
 //! Clips carry time samples only, so the stage declares what they cannot: the curves' `type` and
@@ -18,12 +19,33 @@ use std::io::{self, Write};
 /// (USD's convention; 0.24 = 24 mm with metres).
 const VERTICAL_APERTURE: f64 = 0.24;
 
-/// Writes the stage for `frames` of `shot`; `frame_file(f)` is the per-frame file of frame `f`
-/// (a path relative to the stage).
+/// A deforming object in world space, sampled at the stage's [`sample_frames`]: triangles of
+/// three consecutive points.
+pub struct StageMesh {
+    pub name: String,
+    /// Per sample, three corners per triangle.
+    pub points: Vec<Vec<[f32; 3]>>,
+}
+
+/// The (fractional) frames the stage samples what moves at: each frame and its shutter's open
+/// and close.
+pub fn sample_frames(shot: &Shot, frames: FrameRange) -> Vec<f64> {
+    let mut codes: Vec<f64> = frames
+        .iter()
+        .flat_map(|f| [shot.shutter[0], 0.0, shot.shutter[1]].map(|s| f as f64 + s))
+        .collect();
+    codes.sort_by(f64::total_cmp);
+    codes.dedup();
+    codes
+}
+
+/// Writes the stage for `frames` of `shot` with its deforming `meshes`; `frame_file(f)` is the
+/// per-frame file of frame `f` (a path relative to the stage).
 pub fn write(
     w: &mut dyn Write,
     shot: &Shot,
     frames: FrameRange,
+    meshes: &[StageMesh],
     frame_file: impl Fn(i64) -> String,
 ) -> io::Result<()> {
     let name = &shot.name;
@@ -55,7 +77,92 @@ pub fn write(
         }
         writeln!(w, "    }}")?;
     }
+    for mesh in meshes {
+        writeln!(w)?;
+        write_mesh(w, &sample_frames(shot, frames), mesh)?;
+    }
     writeln!(w, "}}")
+}
+
+/// A deforming object's `Mesh`: its triangles' topology once, its points at each sample.
+fn write_mesh(w: &mut dyn Write, codes: &[f64], mesh: &StageMesh) -> io::Result<()> {
+    let (indices, first_corner) = shared_corners(&mesh.points);
+    writeln!(w, "    def Mesh \"{}\"", prim_name(&mesh.name))?;
+    writeln!(w, "    {{")?;
+    let counts = vec!["3"; indices.len() / 3].join(", ");
+    writeln!(w, "        int[] faceVertexCounts = [{counts}]")?;
+    let list: Vec<String> = indices.iter().map(|i| i.to_string()).collect();
+    writeln!(w, "        int[] faceVertexIndices = [{}]", list.join(", "))?;
+    writeln!(w, "        point3f[] points.timeSamples = {{")?;
+    for (code, points) in codes.iter().zip(&mesh.points) {
+        let list: Vec<String> = first_corner
+            .iter()
+            .map(|&c| points[c])
+            .map(|p| format!("({}, {}, {})", p[0], p[1], p[2]))
+            .collect();
+        writeln!(w, "            {}: [{}],", fmt_time(*code), list.join(", "))?;
+    }
+    writeln!(w, "        }}")?;
+    writeln!(w, "        float3[] extent.timeSamples = {{")?;
+    for (code, points) in codes.iter().zip(&mesh.points) {
+        let (lo, hi) = points.iter().fold(
+            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(lo, hi), p| {
+                (
+                    std::array::from_fn(|a| lo[a].min(p[a])),
+                    std::array::from_fn(|a| hi[a].max(p[a])),
+                )
+            },
+        );
+        let (lo, hi) = (lo.map(f64::from), hi.map(f64::from));
+        writeln!(
+            w,
+            "            {}: [({}, {}, {}), ({}, {}, {})],",
+            fmt_time(*code),
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2]
+        )?;
+    }
+    writeln!(w, "        }}")?;
+    writeln!(w, "        uniform token subdivisionScheme = \"none\"")?;
+    writeln!(w, "    }}")
+}
+
+/// Corners that are one point at every sample, as one vertex: each corner's vertex index, and
+/// each vertex's first corner. Corners that only meet at some samples stay apart.
+fn shared_corners(samples: &[Vec<[f32; 3]>]) -> (Vec<usize>, Vec<usize>) {
+    let corners = samples.first().map_or(0, Vec::len);
+    let mut vertex_of = std::collections::HashMap::new();
+    let mut first_corner = Vec::new();
+    let indices = (0..corners)
+        .map(|c| {
+            let key: Vec<u32> = samples
+                .iter()
+                .flat_map(|s| s[c].map(f32::to_bits))
+                .collect();
+            *vertex_of.entry(key).or_insert_with(|| {
+                first_corner.push(c);
+                first_corner.len() - 1
+            })
+        })
+        .collect();
+    (indices, first_corner)
+}
+
+/// `name` as a USD prim name: letters, digits and `_`, not starting with a digit.
+fn prim_name(name: &str) -> String {
+    let mut out: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    if !out.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_') {
+        out.insert(0, '_');
+    }
+    out
 }
 
 /// The shot camera: its transform over the frames and its lens.
@@ -90,13 +197,7 @@ fn write_transform(
     at: impl Fn(f64) -> Similarity,
 ) -> io::Result<()> {
     writeln!(w, "        matrix4d xformOp:transform.timeSamples = {{")?;
-    let mut codes: Vec<f64> = frames
-        .iter()
-        .flat_map(|f| [shot.shutter[0], 0.0, shot.shutter[1]].map(|s| f as f64 + s))
-        .collect();
-    codes.sort_by(f64::total_cmp);
-    codes.dedup();
-    for code in codes {
+    for code in sample_frames(shot, frames) {
         let m = matrix(&at(shot.time_of(code)));
         writeln!(w, "            {}: {m},", fmt_time(code))?;
     }

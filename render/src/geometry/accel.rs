@@ -74,6 +74,13 @@ impl Accel {
             .deformed_triangle(i, t)
     }
 
+    /// Triangle `i` in object space at time `t`, found among the deforming instances (a slow
+    /// search, for tools that do not know the triangle's instance); `None` when no deforming
+    /// instance holds it.
+    pub fn find_deformed(&self, i: u32, t: f64) -> Option<Triangle> {
+        self.instances.iter().find_map(|m| m.holds_deformed(i, t))
+    }
+
     /// Bytes the deformations of the instances hold, each shared one counted once.
     pub fn deformation_bytes(&self) -> usize {
         let mut seen = Vec::new();

@@ -107,6 +107,19 @@ impl MovingInstance {
         self.deformation().is_some()
     }
 
+    /// Triangle `i` (scene-wide) in object space at time `t`, where this instance deforms and
+    /// holds it (`None` otherwise).
+    pub fn holds_deformed(&self, i: u32, t: f64) -> Option<Triangle> {
+        match &self.shape {
+            Shape::Deforming { mesh, first_id }
+                if i >= *first_id && ((i - first_id) as usize) < mesh.triangle_count() =>
+            {
+                self.deformed_triangle(i, t)
+            }
+            _ => None,
+        }
+    }
+
     /// The shape over time of a deforming instance (shared with its copies).
     pub fn deformation(&self) -> Option<&Arc<Deformation>> {
         match &self.shape {

@@ -4,6 +4,7 @@
 //! sections: [`schema`].
 
 pub mod camera;
+pub mod characters;
 mod environment;
 pub mod grids;
 pub mod light_groups;

@@ -144,7 +144,7 @@ impl Loader<'_> {
 
     /// The mesh sequences the objects name, each read once over the times every object that
     /// uses it (an original and its copies, each at its own time) needs.
-    fn sequences(
+    pub fn sequences(
         &self,
         objects: &[ObjectSection],
         motions: &[ObjectMotion],
@@ -287,7 +287,7 @@ impl Loader<'_> {
 
     /// The object's placement over time: its keyed transform, carried through an opening (or
     /// back through one) by the constraint solver.
-    fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
+    pub fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
         let carried = match (&o.through, &o.back_through) {
             (Some(_), Some(_)) => {
                 return Err(self.error(
