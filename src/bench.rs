@@ -2,6 +2,7 @@
 //! compare ratios within one run, since the machines are shared.
 
 mod convergence;
+mod deforming;
 mod furnace;
 mod fx;
 mod lights;
@@ -44,6 +45,9 @@ pub enum BenchCommand {
     /// What textures cost: mipmap build time per megapixel, and a scene of a gigabyte of
     /// 8-bit textures: its load time and peak memory.
     Textures(textures::TexturesArgs),
+    /// What a deforming mesh costs: load time per frame, peak memory, and ray throughput
+    /// against the same mesh standing still.
+    Deforming(deforming::DeformingArgs),
 }
 
 /// How long a timed benchmark runs: repeats (the median is reported) and threads.
@@ -79,6 +83,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Furnace(args) => furnace::run(args),
         BenchCommand::Scaling(args) => scaling::run(args),
         BenchCommand::Textures(args) => textures::run(args),
+        BenchCommand::Deforming(args) => deforming::run(args),
     }
 }
 

@@ -89,6 +89,20 @@ fn missing_mesh() {
 }
 
 #[test]
+fn a_mesh_sequence_whose_topology_changes() {
+    // The Cornell box's room as a sequence whose second frame lost a face.
+    let dir = cornell_dir(|t| {
+        t.replace("mesh = \"cornell.obj\"", "mesh = \"room.####.obj\"")
+            .replace("shutter = [0.0, 0.0]", "shutter = [0.0, 0.5]")
+    });
+    let room = std::fs::read_to_string(dir.path().join("cornell.obj")).unwrap();
+    std::fs::write(dir.path().join("room.0001.obj"), &room).unwrap();
+    let last_face = room.rfind("\nf ").unwrap();
+    std::fs::write(dir.path().join("room.0002.obj"), &room[..last_face + 1]).unwrap();
+    expect_failure(&dir, &["room.0002.obj", "frame 2", "same topology"]);
+}
+
+#[test]
 fn malformed_obj() {
     let dir = cornell_dir(|t| t);
     std::fs::write(

@@ -83,19 +83,11 @@ impl Accel {
 
     /// Bytes the deformations of the instances hold, each shared one counted once.
     pub fn deformation_bytes(&self) -> usize {
-        let mut seen = Vec::new();
-        let mut bytes = 0;
-        for mesh in self
-            .instances
-            .iter()
-            .filter_map(MovingInstance::deformation)
-        {
-            if !seen.contains(&std::sync::Arc::as_ptr(mesh)) {
-                seen.push(std::sync::Arc::as_ptr(mesh));
-                bytes += mesh.bytes();
-            }
-        }
-        bytes
+        super::deforming::shared_bytes(
+            self.instances
+                .iter()
+                .filter_map(MovingInstance::deformation),
+        )
     }
 
     /// True when some instance changes shape with time.

@@ -297,6 +297,21 @@ impl Deformation {
     }
 }
 
+/// Bytes `meshes` hold, each counted once however many copies share it.
+pub fn shared_bytes<'a>(
+    meshes: impl IntoIterator<Item = &'a std::sync::Arc<Deformation>>,
+) -> usize {
+    let mut seen: Vec<*const Deformation> = Vec::new();
+    let mut bytes = 0;
+    for mesh in meshes {
+        if !seen.contains(&std::sync::Arc::as_ptr(mesh)) {
+            seen.push(std::sync::Arc::as_ptr(mesh));
+            bytes += mesh.bytes();
+        }
+    }
+    bytes
+}
+
 /// The leaf tests read the cache by triangle, not by slot: nothing to fetch ahead.
 const NOTHING_TO_FETCH: &[u32] = &[];
 

@@ -161,7 +161,8 @@ impl Scene {
             loader.parts(&s.objects, &mut s.materials, &mut s.groups, &mut reader)?;
         let grids = grids::load(&loader, &s.media.grids, frame, overrides.memory_budget)?;
         let triangles = objects::triangle_count(&parts);
-        let other_bytes = grids.bytes() as u64 + s.textures.bytes();
+        let other_bytes =
+            grids.bytes() as u64 + s.textures.bytes() + objects::deformation_bytes(&parts);
         check_memory(file, triangles, other_bytes, overrides.memory_budget)?;
         let selection = overrides.light_selection.unwrap_or_default();
         Self::assemble(shot, frame, s, (parts, flags), grids, rig, selection)
@@ -340,7 +341,7 @@ fn check_memory(
         Some(budget) if scene_bytes(triangles) + other_bytes > budget => {
             Err(RenderError::Settings(format!(
                 "{}: its meshes hold {triangles} triangles, which need about {} MiB to render \
-                 (their BVH included), beside {} MiB of density grids and textures: more than \
+                 (their BVH included), beside {} MiB of density grids, textures and deforming meshes: more than \
                  the {} MiB available; use lighter meshes, or give more with --max-memory \
                  where the machine has it",
                 file.display(),

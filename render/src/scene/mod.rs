@@ -78,7 +78,9 @@ impl SceneHit {
 /// A frame's scene as the shot describes it: geometry, materials, lights, openings, media, the
 /// camera and the render settings.
 pub struct Scene {
-    /// Static triangles (world space) first, then each moving object's (object space).
+    /// Static triangles (world space) first, then each moving object's (object space); a
+    /// deforming object's in its first sample's shape (its shape at a time:
+    /// [`Self::object_triangle`]).
     pub triangles: Vec<Triangle>,
     /// Per triangle, its corners' UVs; empty when no mesh gives any.
     pub triangle_uvs: Vec<[glam::Vec2; 3]>,
@@ -88,7 +90,8 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// How many of [`Self::triangles`] are static.
     pub static_triangles: usize,
-    /// Unit geometric normal per triangle, in the triangle's space.
+    /// Unit geometric normal per triangle, in the triangle's space (a deforming object's at
+    /// its first sample; [`Self::surface`] gives the normal at a hit's time).
     pub normals: Vec<Vec3>,
     /// Material index per triangle.
     pub triangle_material: Vec<u32>,

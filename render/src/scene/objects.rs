@@ -395,6 +395,12 @@ impl Loader<'_> {
     }
 }
 
+/// Bytes the parts' deformations hold, each shared one (an original's and its copies') once.
+pub(super) fn deformation_bytes(parts: &[Part]) -> u64 {
+    crate::geometry::deforming::shared_bytes(parts.iter().filter_map(|p| p.deformation.as_ref()))
+        as u64
+}
+
 /// Triangles in all `parts`.
 pub(super) fn triangle_count(parts: &[Part]) -> usize {
     parts.iter().map(|p| p.triangles.len()).sum()

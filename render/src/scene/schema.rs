@@ -129,7 +129,12 @@
 //!
 //! [[object]]
 //! name = "room"
-//! mesh = "cornell.obj"          # OBJ (+MTL) or PLY, relative to the shot file
+//! mesh = "cornell.obj"          # OBJ (+MTL) or PLY, relative to the shot file; a run of # in
+//!                               # the file name is a mesh sequence, one file per frame
+//!                               # ("walker.####.ply"; "walker.0012.5.ply" a sub-frame sample):
+//!                               # a deforming mesh, read around the times rays reach (the ends
+//!                               # hold), every file of one topology; a PLY's vx vy vz (units
+//!                               # per second) curve each vertex's path between samples
 //! material = "white"            # optional: otherwise each OBJ group's `usemtl` name, looked up
 //!                               # among [[material]] first and then in the MTL (Kd, Ke)
 //! transform = { position = [0.0, 0.0, 0.0] }   # a pose as in rift-fx (optional), or keys:
