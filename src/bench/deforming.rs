@@ -34,6 +34,9 @@ pub struct DeformingArgs {
     /// Keep the sequence and the shots in this folder (else a temporary one).
     #[arg(long)]
     keep: Option<PathBuf>,
+    /// Write no velocities: vertices then move in straight lines between frames.
+    #[arg(long)]
+    no_velocities: bool,
 }
 
 pub fn run(args: DeformingArgs) -> anyhow::Result<()> {
@@ -48,13 +51,19 @@ pub fn run(args: DeformingArgs) -> anyhow::Result<()> {
     let t = Instant::now();
     let mut bytes = 0u64;
     for frame in 1..=args.frames {
-        bytes += write_frame(&dir.join(format!("sheet.{frame:04}.ply")), cells, frame)?;
+        let path = dir.join(format!("sheet.{frame:04}.ply"));
+        bytes += write_frame(&path, cells, frame, !args.no_velocities)?;
     }
     println!(
         "rift bench deforming: a sheet of {} triangles over {} frames ({:.0} MB of binary PLY \
-         with velocities, written in {:.1} s)",
+         {} velocities, written in {:.1} s)",
         2 * cells * cells,
         args.frames,
+        if args.no_velocities {
+            "without"
+        } else {
+            "with"
+        },
         bytes as f64 / 1e6,
         t.elapsed().as_secs_f64()
     );
@@ -167,7 +176,7 @@ fn shot(dir: &Path, name: &str, mesh: &str, frames: i64) -> anyhow::Result<Shot>
     let text = format!(
         "[shot]\nname = \"{name}\"\nfps = 24.0\nframes = [1, {frames}]\nshutter = [-0.25, 0.25]\n\
          [camera]\nresolution = [64, 64]\nfov_degrees = 40.0\n\
-         transform = {{ position = [0.0, 3.0, 0.0], look_at = [0.0, 0.0, 0.0] }}\n\
+         transform = {{ position = [0.0, 3.0, 2.0], look_at = [0.0, 0.0, 0.0] }}\n\
          [environment]\nradiance = [1.0, 1.0, 1.0]\n\
          [[material]]\nname = \"grey\"\ntype = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]\n\
          [[object]]\nname = \"sheet\"\nmesh = \"{mesh}\"\nmaterial = \"grey\"\n"
@@ -184,17 +193,20 @@ fn height(x: f32, z: f32, f: f32) -> f32 {
 }
 
 /// Writes frame `frame` of the sheet (`cells`² quads over [−1, 1]², two triangles each) as a
-/// binary PLY with per-vertex velocities (units per second at 24 frames a second); returns the
-/// bytes written.
-fn write_frame(path: &Path, cells: usize, frame: i64) -> anyhow::Result<u64> {
+/// binary PLY, with per-vertex velocities (units per second at 24 frames a second) when
+/// `velocities`; returns the bytes written.
+fn write_frame(path: &Path, cells: usize, frame: i64, velocities: bool) -> anyhow::Result<u64> {
     let side = cells + 1;
     let f = frame as f32;
     let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    let velocity_properties = match velocities {
+        true => "property float vx\nproperty float vy\nproperty float vz\n",
+        false => "",
+    };
     write!(
         out,
         "ply\nformat binary_little_endian 1.0\nelement vertex {}\n\
-         property float x\nproperty float y\nproperty float z\n\
-         property float vx\nproperty float vy\nproperty float vz\n\
+         property float x\nproperty float y\nproperty float z\n{velocity_properties}\
          element face {}\nproperty list uchar int vertex_indices\nend_header\n",
         side * side,
         2 * cells * cells
@@ -205,7 +217,8 @@ fn write_frame(path: &Path, cells: usize, frame: i64) -> anyhow::Result<u64> {
             let (x, z) = (i as f32 * step - 1.0, j as f32 * step - 1.0);
             let y = height(x, z, f);
             let dy = (height(x, z, f + 0.01) - height(x, z, f - 0.01)) / 0.02 * 24.0;
-            for v in [x, y, z, 0.0, dy, 0.0] {
+            let values = [x, y, z, 0.0, dy, 0.0];
+            for v in &values[..if velocities { 6 } else { 3 }] {
                 out.write_all(&v.to_le_bytes())?;
             }
         }

@@ -29,14 +29,17 @@ use obvhs::aabb::Aabb;
 pub struct Deformation {
     /// Sample times, seconds, strictly increasing (at least one).
     times: Vec<f64>,
-    /// Per sample, each triangle's corners in object space.
+    /// Per sample, each triangle's corners in object space, in the tree's leaf order (so the
+    /// triangles a leaf tests lie together in memory).
     corners: Vec<Vec<[Vec3; 3]>>,
-    /// Per sample, each corner's velocity in units per second; empty without.
+    /// Per sample, each corner's velocity in units per second, in leaf order; empty without.
     velocities: Vec<Vec<[Vec3; 3]>>,
     /// Per segment between two samples (one for a single sample), the tree's nodes refit to it.
     slices: Vec<Vec<SweptNode>>,
-    /// The triangle (index into the cache) of each leaf slot.
+    /// The triangle (index into the mesh as given) of each leaf slot.
     leaf_triangles: Vec<u32>,
+    /// The leaf slot of each triangle of the mesh as given.
+    slot_of: Vec<u32>,
     /// The object-space box of every corner at every time.
     pub bounds: Aabb,
 }
@@ -75,6 +78,7 @@ impl Deformation {
             velocities,
             slices: Vec::new(),
             leaf_triangles: Vec::new(),
+            slot_of: Vec::new(),
             bounds: Aabb::empty(),
         };
         this.build_tree();
@@ -97,7 +101,7 @@ impl Deformation {
         let nodes: usize = self.slices.iter().map(|s| s.len()).sum();
         samples * size_of::<[Vec3; 3]>()
             + nodes * size_of::<SweptNode>()
-            + self.leaf_triangles.len() * 4
+            + (self.leaf_triangles.len() + self.slot_of.len()) * 4
     }
 
     /// Segments between samples (one for a single sample).
@@ -130,6 +134,14 @@ impl Deformation {
             .map(|[start, end]| refit_slice(&bvh, start, end))
             .collect();
         self.leaf_triangles = bvh.primitive_indices;
+        self.slot_of = vec![0; triangles];
+        for (slot, &i) in self.leaf_triangles.iter().enumerate() {
+            self.slot_of[i as usize] = slot as u32;
+        }
+        let order = &self.leaf_triangles;
+        for sample in self.corners.iter_mut().chain(&mut self.velocities) {
+            *sample = order.iter().map(|&i| sample[i as usize]).collect();
+        }
     }
 
     /// Triangle `i`'s box at one end (`end` 0 the start, 1 the end) of segment `k`, widened by
@@ -183,7 +195,7 @@ impl Deformation {
         }
     }
 
-    /// Corner `c` of triangle `i` at `at`.
+    /// Corner `c` of the triangle in leaf slot `i` at `at`.
     #[inline]
     fn corner(&self, at: At, i: usize, c: usize) -> Vec3 {
         let k = at.segment;
@@ -210,9 +222,9 @@ impl Deformation {
             + v1 * (s3 - s2)
     }
 
-    /// Triangle `i` (index into the cache) at time `t`, in object space.
+    /// Triangle `i` (of the mesh as given) at time `t`, in object space.
     pub fn triangle(&self, i: u32, t: f64) -> Triangle {
-        self.triangle_at(self.at(t), i as usize)
+        self.triangle_at(self.at(t), self.slot_of[i as usize] as usize)
     }
 
     #[inline]
@@ -244,10 +256,9 @@ impl Deformation {
             NOTHING_TO_FETCH,
             false,
             |slot, range| {
-                let i = self.leaf_triangles[slot];
-                let tri = self.triangle_at(at, i as usize);
+                let tri = self.triangle_at(at, slot);
                 let (t, b1, b2) = intersect_watertight(&sheared, &tri, range)?;
-                let triangle = first_id + i;
+                let triangle = first_id + self.leaf_triangles[slot];
                 accept(triangle, t).then_some(())?;
                 found = Some(TriangleHit {
                     t,
@@ -283,10 +294,9 @@ impl Deformation {
             NOTHING_TO_FETCH,
             false,
             |slot| {
-                let i = self.leaf_triangles[slot];
-                let tri = self.triangle_at(at, i as usize);
+                let tri = self.triangle_at(at, slot);
                 intersect_watertight(&sheared, &tri, t_max)
-                    .is_some_and(|(t, ..)| accept(first_id + i, t))
+                    .is_some_and(|(t, ..)| accept(first_id + self.leaf_triangles[slot], t))
             },
         )
     }
