@@ -367,23 +367,24 @@ impl Scene {
     /// The world-space point and normal of `hit` at time `time`.
     #[inline]
     pub fn surface(&self, hit: &Hit, time: f64) -> SurfacePoint {
+        let stored = &self.triangles[hit.triangle as usize];
+        if hit.instance == STATIC {
+            return SurfacePoint {
+                p: stored.point(hit.b1, hit.b2),
+                ng: self.normals[hit.triangle as usize],
+                area_scale: 1.0,
+            };
+        }
         let (p, n) = match self
             .accel
             .deformed_triangle(hit.instance, hit.triangle, time)
         {
             None => (
-                self.triangles[hit.triangle as usize].point(hit.b1, hit.b2),
+                stored.point(hit.b1, hit.b2),
                 self.normals[hit.triangle as usize],
             ),
             Some(tri) => (tri.point(hit.b1, hit.b2), tri.normal().normalize_or_zero()),
         };
-        if hit.instance == STATIC {
-            return SurfacePoint {
-                p,
-                ng: n,
-                area_scale: 1.0,
-            };
-        }
         let placement = self.accel.placement(hit.instance, time);
         SurfacePoint {
             p: placement.to_world.transform_point3(p),
@@ -396,6 +397,9 @@ impl Scene {
     /// world, a moving one's its object's, where a deforming object has its shape at `time`.
     #[inline]
     pub fn object_triangle(&self, i: u32, instance: u32, time: f64) -> Triangle {
+        if instance == STATIC {
+            return self.triangles[i as usize];
+        }
         match self.accel.deformed_triangle(instance, i, time) {
             Some(tri) => tri,
             None => self.triangles[i as usize],
