@@ -8,7 +8,7 @@ use super::materials::{self, BOUNDARY_MATERIAL, TextureReader};
 use super::media::MediaSections;
 use super::schema::ObjectSection;
 use super::sequence::{self, Sequence};
-use super::{flags, mesh, parse, ply, within_single_precision};
+use super::{flags, mesh, parse, within_single_precision};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{Deformation, MovingInstance, ObjectMotion, STATIC, Triangle};
 use crate::lights::emitters::Emitter;
@@ -190,19 +190,11 @@ impl Loader<'_> {
         };
         let mesh_path = self.base.join(mesh_name);
         let sequence = sequences.get(&mesh_path);
-        let mesh_parts = match mesh_path.extension().and_then(|e| e.to_str()) {
-            _ if sequence.is_some() => sequence.map(|s| s.parts.clone()).unwrap_or_default(),
+        let mesh_parts = match sequence {
+            Some(s) => s.parts.clone(),
             // A mesh's own error (its file, line or element) under the key that names it.
-            Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(&mesh_path)
+            None => mesh::load_mesh(&mesh_path)
                 .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
-            Some(ext) if ext.eq_ignore_ascii_case("ply") => ply::load_ply(&mesh_path)
-                .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
-            _ => {
-                return Err(self.error(
-                    format!("{key}.mesh"),
-                    format!("{mesh_name:?}: expected an .obj or .ply file"),
-                ));
-            }
         };
         let deformation = sequence.map(|s| s.mesh.clone());
         // A deforming object is an instance whether or not it also moves.
@@ -240,7 +232,8 @@ impl Loader<'_> {
                 return Err(self.error(
                     format!("{key}.material"),
                     format!(
-                        "material {:?} emits light, which a deforming mesh ({mesh_name}) cannot                          do yet; give its emissive parts a mesh that does not deform",
+                        "material {:?} emits light, which a deforming mesh ({mesh_name}) cannot do \
+                         yet; give its emissive parts a mesh that does not deform",
                         materials[index].name
                     ),
                 ));

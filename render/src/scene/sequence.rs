@@ -60,7 +60,7 @@ pub fn load(
     let needed = needed(&all, times.map(|t| t * fps));
     check_no_gap(pattern, &all, needed).map_err(|m| bad(pattern, m))?;
     let chosen = &all[needed.0..=needed.1];
-    let first = read(&chosen[0].path)?;
+    let first = mesh::load_mesh(&chosen[0].path)?;
     let triangles: usize = first.iter().map(|p| p.triangles.len()).sum();
     let velocities = first.iter().all(|p| !p.velocities.is_empty());
     let bytes = sample_bytes(triangles, velocities) * chosen.len() as u64;
@@ -76,7 +76,9 @@ pub fn load(
             ),
         ));
     }
-    let rest = chosen[1..].iter().map(|s| Ok((s, read(&s.path)?)));
+    let rest = chosen[1..]
+        .iter()
+        .map(|s| Ok((s, mesh::load_mesh(&s.path)?)));
     assemble((&chosen[0], first), rest, fps)
 }
 
@@ -129,14 +131,6 @@ fn push(samples: &mut Samples, sample: &Sample, parts: &[MeshPart], velocities: 
                 .flat_map(|p| p.velocities.iter().copied())
                 .collect(),
         );
-    }
-}
-
-/// The mesh of one sample's file.
-fn read(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
-    match path.extension().and_then(|e| e.to_str()) {
-        Some(e) if e.eq_ignore_ascii_case("ply") => ply::load_ply(path),
-        _ => mesh::load_obj(path),
     }
 }
 
