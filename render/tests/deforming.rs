@@ -382,10 +382,16 @@ fn bad_sequences_are_refused_naming_the_file_the_frame_and_the_counts() {
     let lamp = "[[material]]\nname = \"lamp\"\ntype = \"diffuse\"\nemission = [1.0, 1.0, 1.0]\n\
                 [[object]]\nname = \"e\"\nmesh = \"e.####.obj\"\nmaterial = \"lamp\"\n";
     let e = load_error(d, &shot(lamp));
-    assert!(e.contains("object[0].material") && e.contains("emits light"), "{e}");
+    assert!(
+        e.contains("object[0].material") && e.contains("emits light"),
+        "{e}"
+    );
     write("g.0001.abc", SHEET);
     let e = load_error(d, &sequence_shot("g.####.abc"));
-    assert!(e.contains("g.0001.abc") && e.contains("expected an .obj or .ply"), "{e}");
+    assert!(
+        e.contains("g.0001.abc") && e.contains("expected an .obj or .ply"),
+        "{e}"
+    );
 
     // No file matches at all, and a run of # outside the file name.
     let e = load_error(d, &sequence_shot("none.####.obj"));

@@ -65,19 +65,8 @@ impl MovingInstance {
         transform: ObjectMotion,
         times: [f64; 2],
     ) -> Self {
-        let corners = object_corners(triangles);
-        let bounds = swept_bounds(
-            &corners,
-            |t| transform.at(t),
-            &transform.key_times(),
-            times,
-            BOUND_STEPS,
-        );
-        Self {
-            transform,
-            shape: Shape::Rigid(TriangleBvh::build(triangles, first_id)),
-            bounds,
-        }
+        let shape = Shape::Rigid(TriangleBvh::build(triangles, first_id));
+        Self::placed(shape, &object_corners(triangles), transform, times)
     }
 
     /// A deforming object's copy at `transform`, its triangles (scene-wide indices from
@@ -88,8 +77,20 @@ impl MovingInstance {
         transform: ObjectMotion,
         times: [f64; 2],
     ) -> Self {
+        let corners = mesh.corners_of_bounds();
+        Self::placed(
+            Shape::Deforming { mesh, first_id },
+            &corners,
+            transform,
+            times,
+        )
+    }
+
+    /// `shape`, whose object-space box has the `corners`, placed by `transform`, with its
+    /// world bounds over `times`.
+    fn placed(shape: Shape, corners: &[Vec3; 8], transform: ObjectMotion, times: [f64; 2]) -> Self {
         let bounds = swept_bounds(
-            &mesh.corners_of_bounds(),
+            corners,
             |t| transform.at(t),
             &transform.key_times(),
             times,
@@ -97,7 +98,7 @@ impl MovingInstance {
         );
         Self {
             transform,
-            shape: Shape::Deforming { mesh, first_id },
+            shape,
             bounds,
         }
     }

@@ -216,38 +216,9 @@ impl Loader<'_> {
         for mesh_part in mesh_parts {
             let index =
                 self.material_of(&key, o, (mesh_name, folder), &mesh_part, materials, reader)?;
-            if let Some(mtl) = mesh_part
-                .material
-                .as_ref()
-                .filter(|m| !m.unread_maps.is_empty())
-            {
-                part.warnings.push(format!(
-                    "{key}.mesh: material {:?} of {mesh_name} names {}, which rift does not \
-                     read yet; rendered without",
-                    mtl.name,
-                    mtl.unread_maps.join(", ")
-                ));
-            }
-            if part.deformation.is_some() && materials[index].emits() {
-                return Err(self.error(
-                    format!("{key}.material"),
-                    format!(
-                        "material {:?} emits light, which a deforming mesh ({mesh_name}) cannot do \
-                         yet; give its emissive parts a mesh that does not deform",
-                        materials[index].name
-                    ),
-                ));
-            }
-            if materials[index].textured() && mesh_part.uvs.is_empty() {
-                return Err(self.error(
-                    format!("{key}.mesh"),
-                    format!(
-                        "material {:?} is textured, but {mesh_name} gives no texture \
-                         coordinates for its part {:?}",
-                        materials[index].name, mesh_part.name
-                    ),
-                ));
-            }
+            let material = &materials[index];
+            let deforms = part.deformation.is_some();
+            self.check_mesh_part(&key, mesh_name, &mesh_part, material, deforms, &mut part)?;
             if any_uvs {
                 let n = mesh_part.triangles.len();
                 match mesh_part.uvs.is_empty() {
@@ -276,6 +247,53 @@ impl Loader<'_> {
             }
         }
         Ok(part)
+    }
+
+    /// What one part of object `key`'s mesh asks of its `material`: MTL maps rift does not
+    /// read yet (a warning on `part`), emission on a deforming mesh (`deforms`) or a texture
+    /// without UVs (errors).
+    fn check_mesh_part(
+        &self,
+        key: &str,
+        mesh_name: &str,
+        mesh_part: &mesh::MeshPart,
+        material: &Material,
+        deforms: bool,
+        part: &mut Part,
+    ) -> Result<(), RenderError> {
+        if let Some(mtl) = mesh_part
+            .material
+            .as_ref()
+            .filter(|m| !m.unread_maps.is_empty())
+        {
+            part.warnings.push(format!(
+                "{key}.mesh: material {:?} of {mesh_name} names {}, which rift does not read \
+                 yet; rendered without",
+                mtl.name,
+                mtl.unread_maps.join(", ")
+            ));
+        }
+        if deforms && material.emits() {
+            return Err(self.error(
+                format!("{key}.material"),
+                format!(
+                    "material {:?} emits light, which a deforming mesh ({mesh_name}) cannot do \
+                     yet; give its emissive parts a mesh that does not deform",
+                    material.name
+                ),
+            ));
+        }
+        if material.textured() && mesh_part.uvs.is_empty() {
+            return Err(self.error(
+                format!("{key}.mesh"),
+                format!(
+                    "material {:?} is textured, but {mesh_name} gives no texture coordinates \
+                     for its part {:?}",
+                    material.name, mesh_part.name
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// The object's placement over time: its keyed transform, carried through an opening (or
