@@ -15,7 +15,6 @@
 //! through openings place it with their own transform and read it at their own time.
 
 use super::build::wide_bvh;
-use super::instance::box_corners;
 use super::moving_bvh::refit_slice;
 use super::triangle::{ShearedRay, Triangle, intersect_watertight};
 use super::triangle_bvh::TriangleHit;
@@ -299,11 +298,6 @@ impl Deformation {
                     .is_some_and(|(t, ..)| accept(first_id + self.leaf_triangles[slot], t))
             },
         )
-    }
-
-    /// The eight corners of [`Self::bounds`].
-    pub fn corners_of_bounds(&self) -> [Vec3; 8] {
-        box_corners(self.bounds.min.into(), self.bounds.max.into())
     }
 }
 

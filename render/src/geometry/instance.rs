@@ -77,7 +77,7 @@ impl MovingInstance {
         transform: ObjectMotion,
         times: [f64; 2],
     ) -> Self {
-        let corners = mesh.corners_of_bounds();
+        let corners = box_corners(mesh.bounds.min.into(), mesh.bounds.max.into());
         Self::placed(
             Shape::Deforming { mesh, first_id },
             &corners,

@@ -80,7 +80,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.toml");
         let text = "[shot]\nname = \"s\"\nfps = 24.0\nframes = [1, 2]\n[camera]\n\
-                    resolution = [8, 8]\nfov_degrees = 40.0\n[[object]]\nname = \"a\"\n\
+                    resolution = [8, 8]\nfov_degrees = 40.0\n\
+                    transform = { position = [0.0, 0.0, 0.0] }\n[[object]]\nname = \"a\"\n\
                     mesh = \"missing.obj\"\n";
         std::fs::write(&path, text).unwrap();
         let shot = Shot::load(&path).unwrap();

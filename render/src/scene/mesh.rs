@@ -53,18 +53,6 @@ pub struct MeshPart {
     pub material: Option<MtlMaterial>,
 }
 
-/// Loads an OBJ (with its MTL files) or a PLY mesh, by the file's extension.
-pub fn load_mesh(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
-    match path.extension().and_then(|e| e.to_str()) {
-        Some(ext) if ext.eq_ignore_ascii_case("obj") => load_obj(path),
-        Some(ext) if ext.eq_ignore_ascii_case("ply") => super::ply::load_ply(path),
-        _ => Err(RenderError::Mesh {
-            file: path.to_owned(),
-            message: "expected an .obj or .ply file".into(),
-        }),
-    }
-}
-
 /// Loads an OBJ file, with the MTL files it names beside it.
 pub fn load_obj(path: &Path) -> Result<Vec<MeshPart>, RenderError> {
     let bad = |message: String| RenderError::Mesh {

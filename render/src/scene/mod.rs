@@ -508,6 +508,18 @@ pub(crate) fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) ->
     !transform.is_static() && changes_during(|t| transform.at(t), &keys, interval)
 }
 
+/// Loads an OBJ (with its MTL files) or a PLY mesh, by the file's extension.
+pub fn load_mesh(path: &std::path::Path) -> Result<Vec<mesh::MeshPart>, RenderError> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(ext) if ext.eq_ignore_ascii_case("obj") => mesh::load_obj(path),
+        Some(ext) if ext.eq_ignore_ascii_case("ply") => ply::load_ply(path),
+        _ => Err(RenderError::Mesh {
+            file: path.to_owned(),
+            message: "expected an .obj or .ply file".into(),
+        }),
+    }
+}
+
 /// True when every coordinate of `p` is finite and within [`check::MAX_LENGTH`].
 pub fn within_single_precision(p: Vec3) -> bool {
     p.is_finite() && p.abs().max_element() <= check::MAX_LENGTH as f32

@@ -193,7 +193,7 @@ impl Loader<'_> {
         let mesh_parts = match sequence {
             Some(s) => s.parts.clone(),
             // A mesh's own error (its file, line or element) under the key that names it.
-            None => mesh::load_mesh(&mesh_path)
+            None => super::load_mesh(&mesh_path)
                 .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
         };
         let deformation = sequence.map(|s| s.mesh.clone());

@@ -25,10 +25,11 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
     let table = ply_table::parse(bytes)?;
     let vertices = match table.element("vertex") {
         None => Vec::new(),
-        Some(_) => vectors(&table, ["x", "y", "z"], "position")?
-            .ok_or("the vertex element lacks x, y or z")?,
+        Some(_) => {
+            vectors(&table, ["x", "y", "z"], "")?.ok_or("the vertex element lacks x, y or z")?
+        }
     };
-    let velocities = vectors(&table, ["vx", "vy", "vz"], "velocity")?;
+    let velocities = vectors(&table, ["vx", "vy", "vz"], "'s velocity")?;
     let texcoords = texcoords(&table)?;
     let mut triangles = Vec::new();
     let mut uvs = Vec::new();
@@ -72,7 +73,8 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
 }
 
 /// The vertex element's vectors from the three properties `names` (`None` when it lacks any
-/// of them), each finite and within single precision's reach; `what` names them in errors.
+/// of them), each finite and within single precision's reach; `what` follows "vertex N" in
+/// errors (empty for positions).
 fn vectors(
     table: &ply_table::Table,
     names: [&str; 3],
@@ -89,7 +91,7 @@ fn vectors(
         let p = Vec3::new(x as f32, y as f32, z as f32);
         if !super::within_single_precision(p) {
             return Err(format!(
-                "vertex {item}'s {what} is not finite or beyond ±{:e}",
+                "vertex {item}{what} is not finite or beyond ±{:e}",
                 rift_fx::shot::check::MAX_LENGTH
             ));
         }

@@ -60,7 +60,7 @@ pub fn load(
     let needed = needed(&all, times.map(|t| t * fps));
     check_no_gap(pattern, &all, needed).map_err(|m| bad(pattern, m))?;
     let chosen = &all[needed.0..=needed.1];
-    let first = mesh::load_mesh(&chosen[0].path)?;
+    let first = super::load_mesh(&chosen[0].path)?;
     let triangles: usize = first.iter().map(|p| p.triangles.len()).sum();
     let velocities = first.iter().all(|p| !p.velocities.is_empty());
     let bytes = sample_bytes(triangles, velocities) * chosen.len() as u64;
@@ -78,7 +78,7 @@ pub fn load(
     }
     let rest = chosen[1..]
         .iter()
-        .map(|s| Ok((s, mesh::load_mesh(&s.path)?)));
+        .map(|s| Ok((s, super::load_mesh(&s.path)?)));
     assemble((&chosen[0], first), rest, fps)
 }
 
