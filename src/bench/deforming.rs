@@ -8,7 +8,6 @@
 use super::median;
 use super::scaling::{reset_peak_memory, status_mib};
 use clap::Args;
-use glam::Vec3;
 use rayon::prelude::*;
 use rift_fx::Shot;
 use rift_render::Scene;
@@ -115,11 +114,10 @@ fn load_table(shot: &Shot, frames: i64) -> anyhow::Result<()> {
 fn ray_table(scenes: &[(&str, Scene)], args: &DeformingArgs) -> anyhow::Result<()> {
     let rays: Vec<Ray> = (0..args.rays)
         .map(|i| {
-            let h = |k: u32| super::hashed(i, 5, k);
-            let origin = Vec3::new(2.0 * h(0) - 1.0, 0.5 + h(1), 2.0 * h(2) - 1.0);
-            let dir = Vec3::new(h(3) - 0.5, -1.0, h(1) * 0.7 - 0.35).normalize();
+            // `rift bench rays`' rays over the same square, each at its own time.
+            let (origin, dir) = super::rays::ray(i);
             let shutter = scenes[0].1.shutter;
-            let time = shutter[0] + (shutter[1] - shutter[0]) * h(4) as f64;
+            let time = shutter[0] + (shutter[1] - shutter[0]) * super::hashed(i, 1, 0) as f64;
             Ray::new(origin, dir, f32::INFINITY, time)
         })
         .collect();

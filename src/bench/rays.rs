@@ -98,7 +98,7 @@ pub fn rays(args: RaysArgs) -> anyhow::Result<()> {
 
 /// Ray `i` of the incoherent set: a hashed origin above the surface and a hashed, mostly
 /// downward direction (unit length).
-fn ray(i: usize) -> (Vec3, Vec3) {
+pub(super) fn ray(i: usize) -> (Vec3, Vec3) {
     let h = |k: u32| super::hashed(i, 4, k);
     let origin = Vec3::new(2.0 * h(0) - 1.0, 0.5 + h(1), 2.0 * h(2) - 1.0);
     let dir = Vec3::new(h(3) - 0.5, -1.0, h(1) * 0.7 - 0.35).normalize();

@@ -51,11 +51,13 @@ pub struct Samples {
     pub velocities: Vec<Vec<[Vec3; 3]>>,
 }
 
-/// Where a time falls among the samples: the segment and the fraction through it.
+/// Where a time falls among the samples: the segment, the fraction through it, and its length
+/// in seconds (which scales the velocities).
 #[derive(Clone, Copy, Debug)]
 struct At {
     segment: usize,
     s: f32,
+    length: f32,
 }
 
 impl Deformation {
@@ -177,20 +179,19 @@ impl Deformation {
     /// shape, after the last its last.
     fn at(&self, t: f64) -> At {
         let last = self.times.len() - 1;
-        if last == 0 || t <= self.times[0] {
-            return At { segment: 0, s: 0.0 };
-        }
-        if t >= self.times[last] {
+        if last == 0 {
             return At {
-                segment: last - 1,
-                s: 1.0,
+                segment: 0,
+                s: 0.0,
+                length: 0.0,
             };
         }
-        let segment = self.times.partition_point(|&x| x <= t) - 1;
+        let segment = self.times.partition_point(|&x| x <= t).clamp(1, last) - 1;
         let (a, b) = (self.times[segment], self.times[segment + 1]);
         At {
             segment,
-            s: ((t - a) / (b - a)) as f32,
+            s: ((t - a) / (b - a)).clamp(0.0, 1.0) as f32,
+            length: (b - a) as f32,
         }
     }
 
@@ -208,10 +209,9 @@ impl Deformation {
         }
         // Cubic Hermite: positions and velocities (per second, so scaled by the segment's
         // length) at both ends.
-        let h = (self.times[k + 1] - self.times[k]) as f32;
         let (v0, v1) = (
-            self.velocities[k][i][c] * h,
-            self.velocities[k + 1][i][c] * h,
+            self.velocities[k][i][c] * at.length,
+            self.velocities[k + 1][i][c] * at.length,
         );
         let s = at.s;
         let (s2, s3) = (s * s, s * s * s);

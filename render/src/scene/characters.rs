@@ -39,11 +39,7 @@ pub fn sampled(shot: &Shot, frames: &[f64]) -> Result<Vec<StageMesh>, RenderErro
         portals: &portals,
         media: &media,
     };
-    let motions = sections
-        .iter()
-        .enumerate()
-        .map(|(i, o)| loader.motion(&format!("object[{i}]"), o))
-        .collect::<Result<Vec<_>, _>>()?;
+    let motions = loader.motions(&sections)?;
     let sequences = loader.sequences(&sections, &motions, None)?;
     let mut out = Vec::new();
     for (o, motion) in sections.iter().zip(&motions) {

@@ -113,11 +113,7 @@ impl Loader<'_> {
     ) -> Result<(Vec<Part>, Vec<Flags>), RenderError> {
         let mut parts = Vec::new();
         let mut flags = Vec::new();
-        let motions = objects
-            .iter()
-            .enumerate()
-            .map(|(i, o)| self.motion(&format!("object[{i}]"), o))
-            .collect::<Result<Vec<_>, _>>()?;
+        let motions = self.motions(objects)?;
         let sequences = self.sequences(objects, &motions, reader.budget)?;
         for ((i, o), motion) in objects.iter().enumerate().zip(motions) {
             flags.push(if self.media.inside(&o.name).is_some() {
@@ -296,9 +292,18 @@ impl Loader<'_> {
         Ok(())
     }
 
+    /// Every object's placement over time ([`Self::motion`]).
+    pub fn motions(&self, objects: &[ObjectSection]) -> Result<Vec<ObjectMotion>, RenderError> {
+        objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| self.motion(&format!("object[{i}]"), o))
+            .collect()
+    }
+
     /// The object's placement over time: its keyed transform, carried through an opening (or
     /// back through one) by the constraint solver.
-    pub fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
+    fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
         let carried = match (&o.through, &o.back_through) {
             (Some(_), Some(_)) => {
                 return Err(self.error(

@@ -62,7 +62,7 @@ pub fn load(
     let chosen = &all[needed.0..=needed.1];
     let first = super::load_mesh(&chosen[0].path)?;
     let triangles: usize = first.iter().map(|p| p.triangles.len()).sum();
-    let velocities = first.iter().all(|p| !p.velocities.is_empty());
+    let velocities = has_velocities(&first);
     let bytes = sample_bytes(triangles, velocities) * chosen.len() as u64;
     if let Some(budget) = budget.filter(|&b| bytes > b) {
         return Err(bad(
@@ -89,7 +89,7 @@ pub(crate) fn assemble<'a>(
     rest: impl Iterator<Item = Result<(&'a Sample, Vec<MeshPart>), RenderError>>,
     fps: f64,
 ) -> Result<Sequence, RenderError> {
-    let velocities = first_parts.iter().all(|p| !p.velocities.is_empty());
+    let velocities = has_velocities(&first_parts);
     let mut samples = Samples {
         times: Vec::new(),
         corners: Vec::new(),
@@ -114,6 +114,11 @@ pub(crate) fn assemble<'a>(
         mesh: Arc::new(Deformation::new(samples)),
     })
 }
+/// True when every part of a sample gives velocities.
+fn has_velocities(parts: &[MeshPart]) -> bool {
+    parts.iter().all(|p| !p.velocities.is_empty())
+}
+
 /// Appends `sample`'s corners (and velocities, when the sequence has them) in part order: the
 /// order the object's triangles take in the scene.
 fn push(samples: &mut Samples, sample: &Sample, parts: &[MeshPart], velocities: bool) {
