@@ -1,7 +1,9 @@
 //! The showcase's character: the mannequin's committed frames are what
-//! tools/make_mannequin.py makes, and in the showcase its copy comes out of the front opening
-//! as the original goes into the back one (Cryptomatte coverage of the copy, seen through the
-//! opening, grows across frames as the original's shrinks).
+//! tools/make_mannequin.py makes; the orb its hand reaches for through the hatch, placed by the
+//! script's own teleport, is where the solver's copy through the hatch rests on the pillar; and
+//! its copy comes out of the front opening as the original goes into the back one (Cryptomatte
+//! coverage of the copy, seen through the opening, grows across frames as the original's
+//! shrinks).
 
 mod common;
 
@@ -59,6 +61,56 @@ fn the_committed_mannequin_is_what_the_script_makes() {
     }
 }
 
+/// A `[[object]]` section of the showcase by name.
+fn showcase_object(name: &str) -> toml::Table {
+    let text = std::fs::read_to_string(root().join("examples/shots/showcase.toml")).unwrap();
+    let shot: toml::Table = text.parse().unwrap();
+    shot["object"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| o.as_table().unwrap())
+        .find(|o| o["name"].as_str() == Some(name))
+        .unwrap_or_else(|| panic!("no object {name}"))
+        .clone()
+}
+
+fn vec3(v: &toml::Value) -> glam::DVec3 {
+    let a: Vec<f64> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_float().unwrap())
+        .collect();
+    glam::DVec3::new(a[0], a[1], a[2])
+}
+
+#[test]
+fn the_orb_the_hand_reaches_for_rests_on_the_pillar_through_the_hatch() {
+    let shot = Shot::load(&root().join("examples/shots/showcase.toml")).unwrap();
+    let hatch = shot.rig.find("hatch").expect("the showcase has a hatch");
+    // The pillar's top (a unit cube scaled about its centre) and the ball's radius (0.35 in
+    // its mesh) scaled like the orb.
+    let pillar = &showcase_object("pillar")["transform"];
+    let top =
+        vec3(&pillar["position"]) + glam::DVec3::Y * 0.5 * pillar["scale"].as_float().unwrap();
+    let orb = showcase_object("orb");
+    let keys = orb["transform"]["keys"].as_array().unwrap();
+    let radius = 0.35 * keys[0]["scale"].as_float().unwrap();
+    let resting = top + glam::DVec3::Y * radius;
+    // Until the hand takes it (frame 11), the orb waits behind the hatch where the script's
+    // teleport puts it; the solver's copy through the hatch is then on the pillar.
+    for key in keys.iter().take(2) {
+        let frame = key["frame"].as_integer().unwrap() as f64;
+        let teleport = shot.rig.teleport_at(hatch, frame / shot.fps);
+        let on_pillar = teleport.transform_point(vec3(&key["position"]));
+        assert!(
+            (on_pillar - resting).length() < 2e-3,
+            "frame {frame}: the orb's copy through the hatch is at {on_pillar}, not on the pillar at {resting}"
+        );
+    }
+}
+
 /// The share of the image each of `names` covers at `frame` of the showcase (160×90, 4 spp).
 fn coverage(names: &[&str], frame: i64) -> Vec<f64> {
     let mut shot = Shot::load(&root().join("examples/shots/showcase.toml")).unwrap();
@@ -87,7 +139,7 @@ fn coverage(names: &[&str], frame: i64) -> Vec<f64> {
 
 #[test]
 fn the_characters_copy_comes_out_as_the_original_goes_in() {
-    let frames = [4, 12, 20];
+    let frames = [4, 18, 22];
     let shares: Vec<Vec<f64>> = frames
         .iter()
         .map(|&f| coverage(&["walker", "walker_there"], f))
@@ -96,7 +148,7 @@ fn the_characters_copy_comes_out_as_the_original_goes_in() {
         eprintln!("frame {f}: original {:.4}, copy {:.4}", s[0], s[1]);
     }
     // Frame 4: the character is in the room and its copy not yet out of the front opening;
-    // frame 20: it has gone through and its copy is out.
+    // frame 22: it has gone through and its copy is out.
     assert!(shares[0][0] > 0.01 && shares[0][1] < 0.1 * shares[0][0]);
     for k in 1..frames.len() {
         assert!(

@@ -130,8 +130,10 @@ fn the_api_serves_the_scene_and_refuses_what_it_should() {
             "pillar",
             "walker",
             "walker_there",
+            "walker_reach",
             "orb",
-            "orb_here"
+            "orb_pillar",
+            "orb_there"
         ]
     );
     for o in scene["objects"].as_array().unwrap() {
@@ -162,9 +164,10 @@ fn the_api_serves_the_scene_and_refuses_what_it_should() {
         "the character's shape moved {moved} m from frame 6 to 12"
     );
     assert_eq!(shape(&scene, "walker"), shape(&scene, "walker_there"));
-    assert_eq!(scene["openings"].as_array().unwrap().len(), 2);
+    assert_eq!(shape(&scene, "walker"), shape(&scene, "walker_reach"));
+    assert_eq!(scene["openings"].as_array().unwrap().len(), 4);
     let rings = scene["rings"].as_array().unwrap();
-    assert_eq!(rings.len(), 2, "one ring per opening");
+    assert_eq!(rings.len(), 4, "one ring per opening");
     for ring in rings {
         assert!(ring["opening"].is_u64());
         assert!(ring["points"].as_array().unwrap().len() > 1000);
@@ -285,8 +288,8 @@ fn the_page_draws_the_shot_and_shows_errors() {
     assert_eq!(page["error"], "");
     assert_eq!(page["pageErrors"].as_array().unwrap().len(), 0, "{page}");
     assert_eq!(page["frame"], 12);
-    assert_eq!(page["objects"], 6);
-    assert_eq!(page["openings"], 2);
+    assert_eq!(page["objects"], 8);
+    assert_eq!(page["openings"], 4);
     // Both views draw the set over a good part of their area.
     assert!(page["shotCoverage"].as_f64().unwrap() > 0.3, "{page}");
     assert!(page["orbitCoverage"].as_f64().unwrap() > 0.1, "{page}");
@@ -473,7 +476,7 @@ fn compare_ids(
             both += (in_preview && in_render) as usize;
             either += (in_preview || in_render) as usize;
         }
-        // Regions too small for IoU to judge (a hundred pixels is mostly edge) are left out.
+        // Regions too small to judge (a hundred pixels is mostly edge) are left out.
         let smallest = if o < names.len() { 100 } else { 500 };
         if either < smallest {
             continue;
@@ -501,7 +504,11 @@ fn compare_ids(
              (95%, {} edge pixels)",
             edges.len()
         );
-        assert!(iou >= 0.97, "{what}: {name}: IoU {iou:.4}");
+        // IoU judges regions that are mostly inside; a sliver (an object half through an
+        // opening, say) is mostly edge, and its edges are judged instead.
+        if edges.len() * 2 <= either {
+            assert!(iou >= 0.97, "{what}: {name}: IoU {iou:.4}");
+        }
         assert!(p95 <= 1.5, "{what}: {name}: edges {p95:.2} px apart");
         checked += 1;
     }
@@ -874,7 +881,7 @@ fn edits_made_in_the_page_follow_the_solver_and_round_trip_through_the_shot_file
     let original = std::fs::read_to_string(&shot).unwrap();
     let layout = Layout::start(&shot, &[]);
     let url = format!("{}?frame=12&depth=2", layout.url());
-    // The orb is keyed (the character is a mesh sequence); its copy is carried back.
+    // The orb is keyed (the character is a mesh sequence); its copy is carried through.
     let orb = r#"{"kind": "object", "name": "orb"}"#;
     let pillar = r#"{"kind": "object", "name": "pillar"}"#;
     let back_there = r#"{"kind": "opening", "name": "back", "side": "there"}"#;
@@ -882,7 +889,7 @@ fn edits_made_in_the_page_follow_the_solver_and_round_trip_through_the_shot_file
         r#"[
         ["select", {orb}],
         ["move", {{"position": [0.8, 0.6, -1.0], "rotation": [0, 0, 0, 1], "scale": 1}}],
-        ["placement", "orb_here"],
+        ["placement", "orb_there"],
         ["select", {pillar}],
         ["placement", "pillar"],
         ["drag", 80, 0],
@@ -909,20 +916,18 @@ fn edits_made_in_the_page_follow_the_solver_and_round_trip_through_the_shot_file
     let scene: serde_json::Value = serde_json::from_str(&body).unwrap();
     let frames = &scene["openings"][0];
     let teleport = similarity(&frames["there"]) * similarity(&frames["here"]).inverse();
-    // The copy followed its source live, back through the opening as it was then (before
-    // the opening moved 0.3 m).
+    // The copy followed its source live, through the opening as it was then (before the
+    // opening moved 0.3 m).
     let moved = r[1]["drawMs"].as_f64().unwrap();
     let answered = r[1]["answerMs"].as_f64().unwrap();
     eprintln!(
         "a move shows through the openings in {moved:.0} ms; the server answers in {answered:.0} ms"
     );
     let before_opening = glam::DMat4::from_translation(glam::DVec3::new(-0.3, 0.0, 0.0)) * teleport;
-    let expected = before_opening
-        .inverse()
-        .transform_point3(glam::DVec3::new(0.8, 0.6, -1.0));
+    let expected = before_opening.transform_point3(glam::DVec3::new(0.8, 0.6, -1.0));
     assert!(
         (translation(&r[2]) - expected).length() < 1e-6,
-        "orb_here at {} not {expected}",
+        "orb_there at {} not {expected}",
         translation(&r[2])
     );
     // The mouse dragged the pillar.

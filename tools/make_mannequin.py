@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Makes the showcase's character: a humanoid mannequin (ellipsoid limbs, torso and head over a
-joint hierarchy, bound by linear blend skinning) animated running to the back opening and
-through it, its right arm reaching ahead through the opening for the orb whose here-side copy
-waits there (the orb stands in front of the front opening; `back_through` places the copy the
-hand reaches for). Written as a mesh sequence of binary PLY files, one per frame, with
+joint hierarchy, bound by linear blend skinning) animated running towards the back opening,
+slowing to reach its left arm through the hatch (a second, small opening) for the orb on the
+pillar beyond it (the IK target is the pillar's top carried back through the hatch's pair, as
+`back_through` places a here-side target), then running on through the back opening carrying
+it. Written as a mesh sequence of binary PLY files, one per frame, with
 per-vertex velocities (units per second) so rift blurs each vertex along its path:
 examples/assets/mannequin/walker.0001.ply ... walker.0025.ply (frame 25 is what frame 24's
 open shutter reaches). Python's standard library only, so it runs anywhere; the output is
-committed, and tests/mannequin_assets.rs checks it is what this script makes.
+committed, and tests/character.rs checks it is what this script makes.
 
     python3 tools/make_mannequin.py [--out examples/assets/mannequin]
 """
@@ -20,13 +21,25 @@ ROOT = Path(__file__).resolve().parent.parent
 FPS = 24.0
 FRAMES = range(1, 26)
 
-# Where the showcase puts things (examples/shots/showcase.toml): the back opening's centre,
-# and the teleport through it (the pair's there side is the front opening, 5.94 m along +z),
-# which carries the orb in front of the front opening back to where the hand reaches.
-BACK_OPENING_Z = -2.97
-TELEPORT_Z = 5.94
-ORB = (0.25, 1.3, 2.62)
-REACH_TARGET = (ORB[0], ORB[1], ORB[2] - TELEPORT_Z)
+# Where the showcase puts things (examples/shots/showcase.toml). The orb rests on the pillar;
+# a small opening, the hatch, stands upright beside the walker's path facing it (+x), paired
+# with the nook, which faces down just above the orb. The walker reaches through the hatch, and
+# the hand's copy comes down out of the nook and takes the orb.
+ORB_REST = (-1.9, 0.905, -1.4)
+HATCH = (-0.45, 1.3, -1.75)
+HATCH_NORMAL = (1.0, 0.0, 0.0)
+NOOK = (-1.9, 1.105, -1.4)
+
+
+def teleport_back_through_hatch(p):
+    """The here-side place of `p` beyond the pair: T⁻¹ = P_hatch · R_y(π) · P_nook⁻¹, as the
+    constraint solver's `back_through` computes it (the hatch turned 90° about y, the nook
+    90° about x)."""
+    d = sub(p, NOOK)
+    local = mat_vec(transpose(rotation((1.0, 0.0, 0.0), math.pi / 2)), d)
+    turned = (-local[0], local[1], -local[2])
+    return add(HATCH, mat_vec(rotation((0.0, 1.0, 0.0), math.pi / 2), turned))
+
 
 # Joints: name, parent, rest position (metres; the mannequin stands at the origin facing +z).
 JOINTS = [
@@ -239,32 +252,101 @@ def body():
 
 # --- the animation
 
+# The hips' path along z (frame, z, dz/dframe): a run that slows beside the hatch while the arm
+# reaches through it (frames 8 to 13), then speeds into the back opening and through it.
+WALK = [(1.0, -0.35, -0.17), (8.0, -1.55, -0.08), (13.0, -1.9, -0.06), (25.0, -4.75, -0.30)]
+WALK_X = 0.2
+STRIDE = 2.1  # metres per cycle of the legs
+
+# The left hand's effector: the point 0.17 m beyond the wrist along the hand, where it holds
+# the orb; upper arm and forearm-to-effector lengths for the two-bone IK.
+EFFECTOR = (0.0, -0.17, 0.0)
+GRAB_FRAME = 11.0
+
+
+def hermite(p0, m0, p1, m1, s, span):
+    s2, s3 = s * s, s * s * s
+    return ((2 * s3 - 3 * s2 + 1) * p0 + (s3 - 2 * s2 + s) * span * m0
+            + (-2 * s3 + 3 * s2) * p1 + (s3 - s2) * span * m1)
+
+
+def walk_z(frame):
+    for (f0, z0, m0), (f1, z1, m1) in zip(WALK, WALK[1:]):
+        if frame <= f1 or f1 == WALK[-1][0]:
+            span = f1 - f0
+            return hermite(z0, m0, z1, m1, (frame - f0) / span, span)
+    raise AssertionError("unreachable")
+
 
 def smoothstep(a, b, x):
     t = min(max((x - a) / (b - a), 0.0), 1.0)
     return t * t * (3 - 2 * t)
 
 
+def lerp(a, b, t):
+    return add(scale(a, 1.0 - t), scale(b, t))
+
+
 def root_at(frame):
-    """The hips' placement: a run from the room's middle into the back opening and beyond,
-    facing −z, bobbing with each stride."""
-    t = (frame - 1) / 24.0
-    x = 0.45 * (1.0 - t) ** 2
-    z = -1.15 - 3.5 * t
-    stride = 2 * math.pi * 1.6 * t
+    """The hips' placement: facing −z, bobbing with each stride."""
+    z = walk_z(frame)
+    stride = 2 * math.pi * (WALK[0][1] - z) / STRIDE
     y = 0.02 * math.cos(2 * stride)
-    yaw = math.pi + 0.25 * (1.0 - t) ** 2
-    return (euler(pitch=0.0, yaw=yaw), (x, y, z))
+    return (euler(yaw=math.pi), (WALK_X, y, z))
+
+
+def reach_target(frame, shoulder):
+    """Where the left hand's effector heads at `frame`: up to the hatch, in along its axis to
+    the orb's place behind it (the pillar's spot carried back through the pair, as
+    `back_through` places a here-side target), out again along the axis with the orb, then
+    ahead of the body, carrying it."""
+    normal = HATCH_NORMAL
+    approach = add(HATCH, scale(normal, 0.06))
+    inside = teleport_back_through_hatch(ORB_REST)
+    out = add(HATCH, scale(normal, 0.12))
+    aside = add(shoulder, (-0.38, -0.15, -0.3))
+    carried = add(shoulder, (0.05, -0.22, -0.42))
+    if frame < 8.5:
+        return approach
+    if frame < GRAB_FRAME:
+        return lerp(approach, inside, smoothstep(8.5, GRAB_FRAME, frame))
+    if frame < 13.0:
+        return lerp(inside, out, smoothstep(GRAB_FRAME, 13.0, frame))
+    if frame < 14.5:
+        return lerp(out, aside, smoothstep(13.0, 14.5, frame))
+    return lerp(aside, carried, smoothstep(14.5, 16.0, frame))
+
+
+def arm_rest(side):
+    """The rest directions of the upper arm and of the forearm to the effector, and their
+    lengths."""
+    shoulder, elbow = joint_position(f"{side}_shoulder"), joint_position(f"{side}_elbow")
+    effector = add(joint_position(f"{side}_wrist"), EFFECTOR)
+    upper, lower = sub(elbow, shoulder), sub(effector, elbow)
+    return unit(upper), unit(lower), norm(upper), norm(lower)
+
+
+def two_bone(shoulder, target, pole):
+    """Directions of the upper arm and of the forearm (elbow to effector) that put the
+    effector on `target` (or as near as the arm reaches), the elbow bending towards `pole`."""
+    _, _, upper_arm, lower_arm = arm_rest("l")
+    to = sub(target, shoulder)
+    d = min(max(norm(to), abs(upper_arm - lower_arm) + 1e-4), upper_arm + lower_arm - 1e-4)
+    u = unit(to)
+    cos_a = (upper_arm ** 2 + d * d - lower_arm ** 2) / (2 * upper_arm * d)
+    alpha = math.acos(max(-1.0, min(1.0, cos_a)))
+    w = unit(sub(pole, scale(u, dot(pole, u))))
+    elbow = add(shoulder, scale(add(scale(u, math.cos(alpha)), scale(w, math.sin(alpha))), upper_arm))
+    return unit(sub(elbow, shoulder)), unit(sub(add(shoulder, scale(u, d)), elbow))
 
 
 def local_rotations(frame, world_of):
     """Each joint's rotation relative to its rest pose (in its parent's frame), at `frame`;
     `world_of(name, rotations)` gives a joint's world transform for the reach."""
-    t = (frame - 1) / 24.0
-    phase = 2 * math.pi * 1.6 * t
+    z = walk_z(frame)
+    phase = 2 * math.pi * (WALK[0][1] - z) / STRIDE
     r = {name: IDENTITY for name, _, _ in JOINTS}
-    lean = 0.12
-    r["spine"] = euler(pitch=lean)
+    r["spine"] = euler(pitch=0.12)
     r["chest"] = euler(yaw=0.12 * math.sin(phase))
     for side, sign in (("l", 1.0), ("r", -1.0)):
         swing = sign * math.sin(phase)
@@ -273,23 +355,17 @@ def local_rotations(frame, world_of):
         r[f"{side}_ankle"] = euler(pitch=-0.25 * swing)
         r[f"{side}_shoulder"] = euler(pitch=0.55 * swing, roll=sign * 0.12)
         r[f"{side}_elbow"] = euler(pitch=-0.9)
-    # The right arm reaches ahead for the orb's copy behind the back opening.
-    reach = smoothstep(3.0, 9.0, frame)
+    # The left arm reaches through the hatch for the orb, then carries it.
+    reach = smoothstep(6.0, 8.5, frame)
     if reach > 0.0:
-        shoulder = apply(world_of("r_shoulder", r), joint_position("r_shoulder"))
-        # Once the hand has the orb (frame 12) it carries it ahead of the body.
-        carried = add(shoulder, (0.0, -0.12, -0.55))
-        held = smoothstep(12.0, 15.0, frame)
-        target = add(scale(REACH_TARGET, 1.0 - held), scale(carried, held))
-        along = unit(sub(target, shoulder))
-        # In the chest's frame, the rotation taking the arm's rest direction (down) to `along`.
-        parent = world_of("chest", r)
-        local_dir = mat_vec(transpose(parent[0]), along)
-        aim = aligning((0.0, -1.0, 0.0), unit(local_dir))
-        swing_pose = r["r_shoulder"]
-        r["r_shoulder"] = blend_rotation(swing_pose, aim, reach)
-        r["r_elbow"] = blend_rotation(r["r_elbow"], euler(pitch=-0.15), reach)
-        r["r_wrist"] = blend_rotation(IDENTITY, euler(pitch=0.3), reach)
+        shoulder = apply(world_of("l_shoulder", r), joint_position("l_shoulder"))
+        upper, lower = two_bone(shoulder, reach_target(frame, shoulder), (-1.0, -0.7, 0.3))
+        upper_rest, lower_rest, _, _ = arm_rest("l")
+        chest = world_of("chest", r)[0]
+        aim_upper = aligning(upper_rest, mat_vec(transpose(chest), upper))
+        aim_lower = aligning(lower_rest, mat_vec(transpose(mat_mul(chest, aim_upper)), lower))
+        r["l_shoulder"] = blend_rotation(r["l_shoulder"], aim_upper, reach)
+        r["l_elbow"] = blend_rotation(r["l_elbow"], aim_lower, reach)
     return r
 
 
@@ -337,18 +413,21 @@ def skinned(vertices, weights, frame):
     return out
 
 
+def effector_at(frame):
+    """The left hand's effector (where it holds the orb) at `frame`."""
+    rest = add(joint_position("l_wrist"), EFFECTOR)
+    return apply(pose(frame)[INDEX["l_wrist"]], rest)
+
+
 def orb_keys():
-    """The showcase orb's keys: at rest in front of the front opening until the hand's copy
-    reaches it (frame 12), then held in that hand (the hand's place carried through the
-    back opening's teleport)."""
-    hand = add(joint_position("r_wrist"), (0.0, -0.075, 0.0))
-    keys = [f"  {{ frame = 1, position = [{ORB[0]}, {ORB[1]}, {ORB[2]}], scale = 0.3 }},"]
-    for frame in (12, 13, 14, 15, 16, 18, 20, 22, 24, 25):
-        p = apply(pose(frame)[INDEX["r_wrist"]], hand)
-        p = (p[0], p[1], p[2] + TELEPORT_Z)
-        if frame == 12:
-            p = ORB
-        keys.append(f"  {{ frame = {frame}, position = [{p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}], scale = 0.3 }},")
+    """The showcase orb's keys: until the grab it waits behind the hatch, where its copy through
+    the hatch rests on the pillar; from then on it is in the hand."""
+    def key(frame, p):
+        return f"  {{ frame = {frame}, position = [{p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}], scale = 0.3 }},"
+
+    waiting = teleport_back_through_hatch(ORB_REST)
+    keys = [key(1, waiting), key(int(GRAB_FRAME), waiting)]
+    keys += [key(f, effector_at(f)) for f in range(int(GRAB_FRAME) + 1, 26)]
     return "transform = { keys = [\n" + "\n".join(keys) + "\n] }"
 
 

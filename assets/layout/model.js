@@ -48,6 +48,9 @@ function place(object, matrix) {
 // move.
 function withCulls(material, culls, toLocal) {
   if (!culls.length) return material;
+  // The shader's arrays are sized by the count: materials with different counts must not
+  // share a compiled program (three.js keys programs by this callback's text otherwise).
+  material.customProgramCacheKey = () => `culls:${culls.length}`;
   material.onBeforeCompile = shader => {
     shader.uniforms.cullToLocal = { value: toLocal };
     shader.uniforms.cullShape = { value: culls.map(c => new THREE.Vector3(c.sign, c.depth, c.radius)) };

@@ -30,9 +30,15 @@ const context = await chromium.launchPersistentContext(profile, {
          '--disable-sync', '--no-first-run', '--use-angle=swiftshader',
          '--enable-unsafe-swiftshader'],
 });
+const console_errors = [];
+// A page that stops answering (its draw loop died on an error, say) fails the test with what
+// it threw, instead of hanging it.
+setTimeout(() => {
+  console.error(`layout.mjs: the page did not answer in 120 s; its errors: ${JSON.stringify(console_errors)}`);
+  process.exit(2);
+}, 120000).unref();
 try {
   const page = await context.newPage();
-  const console_errors = [];
   page.on('pageerror', e => console_errors.push(String(e)));
   await page.goto(url);
   await page.waitForFunction(() => window.riftLayout && window.riftLayout.ready, null,
