@@ -619,3 +619,113 @@ fn bad_textures_are_refused_by_file_and_key() {
         "{e}"
     );
 }
+
+/// A lamp 2 × 1 m at y = 0.6 facing down over the floor, as two quads side by side (−x and
+/// +x), their UVs running 0 to ½ and ½ to 1 across; `left_only` leaves out the +x quad.
+fn lamp_obj(dir: &Path, left_only: bool) {
+    let mut obj = String::from(
+        "mtllib lamp.mtl\nv -1 0.6 -0.5\nv 0 0.6 -0.5\nv 0 0.6 0.5\nv -1 0.6 0.5\n\
+         vt 0 0\nvt 0.5 0\nvt 0.5 1\nvt 0 1\nusemtl lamp\nf 1/1 2/2 3/3 4/4\n",
+    );
+    if !left_only {
+        obj += "v 0 0.6 -0.5\nv 1 0.6 -0.5\nv 1 0.6 0.5\nv 0 0.6 0.5\n\
+                vt 0.5 0\nvt 1 0\nvt 1 1\nvt 0.5 1\nf 5/5 6/6 7/7 8/8\n";
+    }
+    std::fs::write(dir.join("lamp.obj"), obj).unwrap();
+}
+
+/// The floor lit only by the lamp (`lamp` its material's section body), seen from `position`
+/// looking at `target`.
+fn lamp_shot(position: [f32; 3], target: [f32; 3], lamp: &str) -> String {
+    floor_shot(
+        position,
+        target,
+        60.0,
+        "type = \"diffuse\"\nreflectance = [0.5, 0.5, 0.5]",
+    )
+    .replace(
+        &format!("radiance = [{SKY}, {SKY}, {SKY}]"),
+        "radiance = [0.0, 0.0, 0.0]",
+    )
+    .replace("max_bounces = 1", "max_bounces = 3")
+    .replace("up = [0.0, 0.0, -1.0]", "up = [0.0, 1.0, 0.0]")
+        + &format!(
+            "[[material]]\nname = \"lamp\"\n{lamp}\n[[object]]\nname = \"lamp\"\nmesh = \"lamp.obj\"\n"
+        )
+}
+
+#[test]
+fn a_textured_emitter_lights_as_the_light_its_texture_paints() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    floor_obj(d, 1.0);
+    // The lamp's texture: white over its −x half, black over its +x half (256 texels, so the
+    // bilinear ramp between them is 8 mm wide), at 3 times: the −x quad alone emitting 3.
+    let halves: Vec<[u8; 3]> = (0..256)
+        .map(|i| if i < 128 { [255; 3] } else { [0; 3] })
+        .collect();
+    write_png(&d.join("halves.png"), 256, 1, &halves);
+    std::fs::write(d.join("lamp.mtl"), "newmtl lamp\nKd 0 0 0\n").unwrap();
+    let textured = "type = \"diffuse\"\nreflectance = [0.0, 0.0, 0.0]\n\
+                    emission = { texture = \"halves.png\", scale = 3.0 }";
+    let constant = "type = \"diffuse\"\nreflectance = [0.0, 0.0, 0.0]\nemission = [3.0, 3.0, 3.0]";
+    // Light sampling picks each triangle by its mean (read through the mipmap, so a little of
+    // the other half bleeds across the edge they share): the +x quad's are nearly black.
+    lamp_obj(d, false);
+    let view = [0.0, 1.6, 2.6];
+    let shot = lamp_shot(view, [0.0, 0.0, 0.0], textured);
+    let path = d.join("textured.toml");
+    std::fs::write(&path, &shot).unwrap();
+    let scene = Scene::load(&Shot::load(&path).unwrap(), 1).unwrap();
+    let means: Vec<f32> = scene.lights.emitters.iter().map(|e| e.radiance.y).collect();
+    eprintln!("the lamp's triangles' mean radiance: {means:?}");
+    assert_eq!(means.len(), 4);
+    assert!(
+        means[..2].iter().all(|m| (m - 3.0).abs() < 0.3),
+        "{means:?}"
+    );
+    assert!(means[2..].iter().all(|m| *m < 0.3), "{means:?}");
+    // The floor lit by the half-painted lamp is the floor lit by its painted half alone: each
+    // strategy reads the texture where it lands (light sampling at the points it draws), so
+    // the images agree within their noise, region by region (relMSE), not just on average.
+    let a = [1, 2].map(|seed| render_at(d, "textured", &shot, 16, seed));
+    lamp_obj(d, true);
+    let half = lamp_shot(view, [0.0, 0.0, 0.0], constant);
+    let b = [1, 2].map(|seed| render_at(d, "half", &half, 16, seed));
+    common::assert_statistically_equal(
+        [&a[0].rgb, &a[1].rgb],
+        [&b[0].rgb, &b[1].rgb],
+        "a half-painted lamp against its painted half",
+    );
+    // Seen from below, the lamp shows its texture: 3 on the −x half, 0 on the +x half.
+    lamp_obj(d, false);
+    let below = lamp_shot([0.0, 0.05, 0.0], [0.0, 1.0, 0.0], textured)
+        .replace("up = [0.0, 1.0, 0.0]", "up = [0.0, 0.0, 1.0]")
+        .replace("fov_degrees = 60", "fov_degrees = 20");
+    let image = render_at(d, "below", &below, 4, 1);
+    let (w, h) = (image.width, image.height);
+    let side = |from: usize, to: usize| {
+        let mut sum = 0.0;
+        for y in 0..h {
+            for x in from..to {
+                sum += image.rgb[y * w + x].y as f64;
+            }
+        }
+        sum / ((to - from) * h) as f64
+    };
+    let (left, right) = (side(0, w / 2 - 2), side(w / 2 + 2, w));
+    eprintln!("seen from below: {left:.4} on the painted half, {right:.4} on the black one");
+    assert!((left - 3.0).abs() < 0.01 && right < 0.01, "{left} {right}");
+    // An OBJ's map_Ke, scaled by its Ke, is the same texture.
+    std::fs::write(
+        d.join("lamp.mtl"),
+        "newmtl lamp\nKd 0 0 0\nKe 3 3 3\nmap_Ke halves.png\n",
+    )
+    .unwrap();
+    let from_mtl = shot.replace(&format!("[[material]]\nname = \"lamp\"\n{textured}\n"), "");
+    assert!(!from_mtl.contains("halves.png"));
+    for (seed, a) in [1, 2].iter().zip(&a) {
+        let mtl = render_at(d, "from_mtl", &from_mtl, 16, *seed);
+        assert_eq!(mtl.rgb, a.rgb, "the same emission texture, the same seeds");
+    }
+}

@@ -221,6 +221,7 @@ pub(crate) fn incoming(
         u,
         receiver,
         |e| ctx.scene.world_triangle(e.triangle, e.instance, time),
+        |triangle, b1, b2| ctx.scene.emitted_at(triangle, b1, b2),
         &ctx.scene.strands,
     )?;
     let arrival = arrival(ctx, &light, receiver)?;

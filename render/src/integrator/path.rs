@@ -752,8 +752,11 @@ fn surface_emission<'b, const FULL: bool>(
         let albedo = if black { Vec3::ZERO } else { bsdf.albedo() };
         path.first_hit(out, hit.t, facing, albedo, object);
     }
-    if material.emits() {
-        let le = material.emitted(cos_o);
+    if material.emits() && material.emits_towards(cos_o) {
+        let le = match material.emission_map() {
+            None => material.emission,
+            Some(_) => emission_at(ctx, hit, time, &surface, material),
+        };
         if le != Vec3::ZERO {
             let found = Found::Triangle {
                 triangle: hit.triangle,
@@ -766,6 +769,22 @@ fn surface_emission<'b, const FULL: bool>(
         }
     }
     (!black).then_some((p, ng, bsdf))
+}
+
+/// The radiance a textured emitter sends from `hit`, read at its UV.
+#[inline(never)]
+fn emission_at(
+    ctx: &Context,
+    hit: &Hit,
+    time: f64,
+    surface: &SurfacePoint,
+    material: &Material,
+) -> Vec3 {
+    let uv = ctx
+        .scene
+        .uv_at(hit, time, surface.area_scale)
+        .map(|(uv, _)| uv);
+    material.radiance_at(ctx.scene.textures.list(), uv)
 }
 
 /// The BSDF of the textured `material` where the path's ray met `hit` (at `surface`), its

@@ -103,7 +103,10 @@ pub struct Emitter {
     pub triangle: u32,
     /// Moving instance the triangle belongs to, or [`crate::geometry::STATIC`].
     pub instance: u32,
+    /// Its radiance, or a textured one's mean over the triangle.
     pub radiance: Vec3,
+    /// Its radiance comes from a texture, read where a sample lands.
+    pub textured: bool,
     pub two_sided: bool,
     /// The triangle as stored (world space when static, else object space).
     pub vertices: Triangle,
@@ -638,6 +641,7 @@ impl LightSampler<'_> {
     /// 2-D sample: `u.x` chooses the light and is then rescaled to be reused for the point, so
     /// the light samples of a pixel stay stratified across the emitters' surface. `moving`
     /// gives the world-space triangle of an emitter on a moving object at the receiver's time;
+    /// `textured` the radiance of a textured emitter's triangle at barycentrics `(b1, b2)`;
     /// strands are taken at that time too.
     #[inline(always)]
     pub fn sample(
@@ -645,6 +649,7 @@ impl LightSampler<'_> {
         u: Vec2,
         at: &Receiver,
         moving: impl Fn(&Emitter) -> Triangle,
+        textured: impl Fn(u32, f32, f32) -> Vec3,
         strands: &Strands,
     ) -> Option<LightSample> {
         let (p_env, on_environment, u_point) = self.split(u, at);
@@ -680,6 +685,10 @@ impl LightSampler<'_> {
             (tri, n / (2.0 * area), area)
         };
         let (b1, b2) = uniform_triangle(u_point);
+        let radiance = match e.textured {
+            false => e.radiance,
+            true => textured(e.triangle, b1, b2),
+        };
         (area > 0.0).then(|| LightSample {
             place: LightPlace::Point {
                 point: tri.point(b1, b2),
@@ -687,7 +696,7 @@ impl LightSampler<'_> {
                 two_sided: e.two_sided,
                 source: LightSource::Triangle(e.triangle),
             },
-            radiance: e.radiance,
+            radiance,
             pdf: pick / area,
         })
     }
@@ -976,6 +985,7 @@ mod tests {
             triangle,
             instance,
             radiance: Vec3::splat(3.0),
+            textured: false,
             two_sided: true,
             vertices: tri,
             normal: tri.normal().normalize(),
@@ -1093,7 +1103,11 @@ mod tests {
             let mut integral = std::collections::HashMap::<LightSource, f64>::new();
             for k in 0..SAMPLES {
                 let u = hammersley(k);
-                let Some(sample) = lights.sampler(None).sample(u, &at, world, &strands) else {
+                let Some(sample) =
+                    lights
+                        .sampler(None)
+                        .sample(u, &at, world, |_, _, _| unreachable!(), &strands)
+                else {
                     continue;
                 };
                 let LightPlace::Point {
@@ -1189,6 +1203,7 @@ mod tests {
             .enumerate()
             .map(|(i, v)| Emitter {
                 radiance: Vec3::splat(5.0),
+                textured: false,
                 two_sided,
                 ..emitter(i as u32, STATIC, v)
             })
@@ -1235,6 +1250,7 @@ mod tests {
         .enumerate()
         .map(|(i, v)| Emitter {
             radiance: Vec3::splat(10.0),
+            textured: false,
             two_sided: false,
             ..emitter(i as u32, STATIC, v)
         })
@@ -1283,7 +1299,7 @@ mod tests {
                 let u = hammersley(k * (SAMPLES / 2000));
                 let s = lights
                     .sampler(None)
-                    .sample(u, &at, |e| e.vertices, &none)
+                    .sample(u, &at, |e| e.vertices, |_, _, _| unreachable!(), &none)
                     .unwrap();
                 let evaluated = match s.place {
                     LightPlace::Direction { dir, .. } => {

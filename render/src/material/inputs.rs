@@ -71,6 +71,8 @@ pub struct Inputs {
     pub normal: Option<NormalInput>,
     /// Opacity for cut-outs (leaves, fences): 0 lets rays through, 1 stops them.
     pub opacity: Option<ScalarInput>,
+    /// Emitted radiance (a screen, a lit sign, a window's sky).
+    pub emission: Option<ColorInput>,
 }
 
 /// A tangent-space normal map.
@@ -89,7 +91,8 @@ pub struct Lookup {
 }
 
 impl ColorInput {
-    fn at(&self, textures: &[Texture], at: &Lookup) -> Vec3 {
+    /// The input's value at `at`.
+    pub fn at(&self, textures: &[Texture], at: &Lookup) -> Vec3 {
         let t = textures[self.texture as usize].lookup(at.uv, self.filter.width(at.width));
         t.truncate() * self.scale + self.offset
     }

@@ -1,7 +1,7 @@
 //! A surface material: a BSDF, its emission, its sides, and the inputs it reads from textures.
 
 use crate::material::bsdf::Bsdf;
-use crate::material::inputs::{Inputs, Lookup};
+use crate::material::inputs::{ColorInput, Inputs, Lookup};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 
@@ -10,7 +10,7 @@ use glam::{Vec2, Vec3};
 pub struct Material {
     pub name: String,
     pub bsdf: Bsdf,
-    /// Emitted radiance.
+    /// Emitted radiance (where no texture gives it: [`Inputs::emission`]).
     pub emission: Vec3,
     /// Emits from the back side too.
     pub two_sided_emission: bool,
@@ -68,7 +68,22 @@ impl Material {
 
     /// True when the material emits.
     pub fn emits(&self) -> bool {
-        self.emission.max_element() > 0.0
+        self.emission.max_element() > 0.0 || self.emission_map().is_some()
+    }
+
+    /// The texture the emission is read from, when it has one.
+    pub fn emission_map(&self) -> Option<&ColorInput> {
+        self.inputs.as_ref()?.emission.as_ref()
+    }
+
+    /// The radiance emitted at UV `uv` (on its front, or on both sides when two-sided). A
+    /// texture is read in the full image, as light sampling reads it, so the two estimates
+    /// MIS weighs agree; never below zero.
+    pub fn radiance_at(&self, textures: &[Texture], uv: Option<Vec2>) -> Vec3 {
+        match (self.emission_map(), uv) {
+            (Some(map), Some(uv)) => map.at(textures, &Lookup { uv, width: 0.0 }).max(Vec3::ZERO),
+            _ => self.emission,
+        }
     }
 
     /// True when a path arriving from the side whose cosine with the geometric normal is
@@ -78,12 +93,10 @@ impl Material {
         self.one_sided && cos < 0.0
     }
 
-    /// Emitted radiance towards a direction whose cosine with the geometric normal is `cos`.
-    pub fn emitted(&self, cos: f32) -> Vec3 {
-        if cos > 0.0 || (self.two_sided_emission && cos < 0.0) {
-            self.emission
-        } else {
-            Vec3::ZERO
-        }
+    /// True when light leaves towards a direction whose cosine with the geometric normal is
+    /// `cos`.
+    #[inline]
+    pub fn emits_towards(&self, cos: f32) -> bool {
+        cos > 0.0 || (self.two_sided_emission && cos < 0.0)
     }
 }

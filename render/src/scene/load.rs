@@ -194,7 +194,7 @@ impl Scene {
             grids,
         )?;
         let normals = unit_normals(&g.triangles);
-        let emitters = objects::emitters(&g, &normals, &s.materials);
+        let emitters = objects::emitters(&g, &normals, &s.materials, s.textures.list());
         let (strands, ring_looks) =
             rings::strands(shot, s.rings.as_ref(), &s.strand_looks, times, &rig);
         let lights = Lights::new(

@@ -26,7 +26,8 @@ use std::path::Path;
 pub(super) const BOUNDARY_MATERIAL: &str = "(medium boundary)";
 
 /// The keys whose value may be a texture.
-const TEXTURED_KEYS: [&str; 9] = [
+const TEXTURED_KEYS: [&str; 10] = [
+    "emission",
     "normal_map",
     "opacity",
     "reflectance",
@@ -161,7 +162,8 @@ fn inputs(
             }
             _ => {}
         }
-        let emits = m.emission.is_some_and(|e| e.iter().any(|&c| c > 0.0));
+        let emits = m.emission.is_some_and(|e| e.iter().any(|&c| c > 0.0))
+            || textured.iter().any(|(n, _)| n == "emission");
         if name == "opacity" && emits {
             return refuse(
                 "an emitting material cannot cut out (light would leave where nothing is)",
@@ -175,6 +177,7 @@ fn inputs(
         let scalar = |reader: &mut TextureReader| scalar_input(&full, spec, base, reader);
         match name.as_str() {
             "normal_map" => inputs.normal = Some(normal_input(&full, spec, base, reader)?),
+            "emission" => inputs.emission = Some(color(reader)?),
             "reflectance" | "base_color" => inputs.reflectance = Some(color(reader)?),
             "specular_color" => inputs.specular_color = Some(color(reader)?),
             "roughness" => inputs.roughness = Some(scalar(reader)?),
@@ -383,6 +386,14 @@ pub(super) fn from_mtl(
     }
     if let Some(map) = &mtl.roughness_map {
         inputs.roughness = Some(scalar(load(map, ColorSpace::Linear)?));
+    }
+    if let Some(map) = &mtl.emission_map {
+        inputs.emission = Some(ColorInput {
+            texture: load(map, ColorSpace::Srgb)?,
+            scale: mtl.emission.unwrap_or(Vec3::ONE),
+            offset: Vec3::ZERO,
+            filter: Filter::Trilinear,
+        });
     }
     if let Some(map) = &mtl.metallic_map {
         inputs.metallic = Some(scalar(load(map, ColorSpace::Linear)?));

@@ -29,7 +29,9 @@ pub struct MtlMaterial {
     /// `d` and `map_d`: opacity (cut-outs), as Blender writes alpha.
     pub opacity: Option<f32>,
     pub opacity_map: Option<String>,
-    /// The maps it names that rift does not read yet (`map_Ke`, `map_d`, …).
+    /// `map_Ke`: the emission's texture (its colour scaled by Ke, else by 1).
+    pub emission_map: Option<String>,
+    /// The maps it names that rift does not read yet (`map_Ka`, `map_Ks`, …).
     pub unread_maps: Vec<String>,
     /// False when no MTL defines the name: only the shot's `[[material]]` can supply it.
     pub declared: bool,
@@ -223,7 +225,7 @@ fn mtl_material(mat: &tobj::Material, declared: bool) -> Result<MtlMaterial, Str
     .filter(|(_, map)| map.is_some())
     .map(|(name, _)| name.to_string())
     .collect();
-    let read = ["map_Pr", "map_Pm"];
+    let read = ["map_Pr", "map_Pm", "map_Ke"];
     let mut keys: Vec<&String> = mat.unknown_param.keys().collect();
     keys.sort();
     unread_maps.extend(
@@ -245,6 +247,7 @@ fn mtl_material(mat: &tobj::Material, declared: bool) -> Result<MtlMaterial, Str
         normal_map: normal.map(|value| (map_file(value), bump_strength(value))),
         opacity: mat.dissolve.filter(|d| (0.0..=1.0).contains(d)),
         opacity_map: mat.dissolve_texture.as_deref().map(map_file),
+        emission_map: param("map_Ke").map(map_file),
         unread_maps,
         declared,
     })

@@ -343,6 +343,17 @@ impl Scene {
         Some((uv, per_metre))
     }
 
+    /// The radiance triangle `triangle` emits at barycentrics `(b1, b2)`, from its material's
+    /// emission texture at that point's UV (or its constant emission).
+    pub fn emitted_at(&self, triangle: u32, b1: f32, b2: f32) -> Vec3 {
+        let uv = self
+            .triangle_uvs
+            .get(triangle as usize)
+            .map(|[a, b, c]| *a * (1.0 - b1 - b2) + *b * b1 + *c * b2);
+        self.material(triangle)
+            .radiance_at(self.textures.list(), uv)
+    }
+
     /// The surface's derivatives ∂p/∂u and ∂p/∂v on the triangle of `hit` (world space at
     /// `time`), for a tangent frame; `None` without UVs or where the UVs are degenerate.
     pub fn tangents(&self, hit: &Hit, time: f64) -> Option<(Vec3, Vec3)> {

@@ -12,9 +12,12 @@ use super::{flags, mesh, parse, within_single_precision};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{Deformation, MovingInstance, ObjectMotion, STATIC, Triangle};
 use crate::lights::emitters::Emitter;
+use crate::material::inputs::{ColorInput, Lookup};
 use crate::material::surface::Material;
 use crate::portals::openings::Portals;
 use crate::portals::visibility::Flags;
+use crate::sampling::uniform_triangle;
+use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use rift_fx::rig::{AnimatedTransform, Rig, Similarity};
 use rift_fx::shot::check;
@@ -496,17 +499,28 @@ impl Geometry {
     }
 }
 
-/// The emissive triangles (of non-zero area) as emitters.
-pub(super) fn emitters(g: &Geometry, normals: &[Vec3], materials: &[Material]) -> Vec<Emitter> {
+/// The emissive triangles (of non-zero area) as emitters; a textured one's radiance is its
+/// mean over the triangle.
+pub(super) fn emitters(
+    g: &Geometry,
+    normals: &[Vec3],
+    materials: &[Material],
+    textures: &[Texture],
+) -> Vec<Emitter> {
     g.triangles
         .iter()
         .enumerate()
         .filter_map(|(i, tri)| {
             let m = &materials[g.triangle_material[i] as usize];
+            let radiance = match (m.emission_map(), g.triangle_uvs.get(i)) {
+                (Some(map), Some(&uvs)) => mean_emission(map, textures, uvs),
+                _ => m.emission,
+            };
             (m.emits() && tri.area() > 0.0).then(|| Emitter {
                 triangle: i as u32,
                 instance: g.triangle_instance[i],
-                radiance: m.emission,
+                radiance,
+                textured: m.emission_map().is_some(),
                 two_sided: m.two_sided_emission,
                 vertices: *tri,
                 normal: normals[i],
@@ -514,4 +528,23 @@ pub(super) fn emitters(g: &Geometry, normals: &[Vec3], materials: &[Material]) -
             })
         })
         .collect()
+}
+
+/// A textured emitter's mean radiance over its triangle of UVs `[a, b, c]`, which sets how
+/// often light sampling picks it (the texture itself is read at each point drawn): the texture
+/// at 16 stratified points, each read over a sixteenth of the triangle's UV area.
+fn mean_emission(map: &ColorInput, textures: &[Texture], [a, b, c]: [Vec2; 3]) -> Vec3 {
+    const N: usize = 4;
+    let uv_area = 0.5 * (b - a).perp_dot(c - a).abs();
+    let width = (uv_area / (N * N) as f32).sqrt();
+    let mut sum = Vec3::ZERO;
+    for i in 0..N {
+        for j in 0..N {
+            let u = Vec2::new(i as f32 + 0.5, j as f32 + 0.5) / N as f32;
+            let (b1, b2) = uniform_triangle(u);
+            let uv = a * (1.0 - b1 - b2) + b * b1 + c * b2;
+            sum += map.at(textures, &Lookup { uv, width }).max(Vec3::ZERO);
+        }
+    }
+    sum / (N * N) as f32
 }

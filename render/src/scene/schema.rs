@@ -32,7 +32,8 @@
 //!                               # must give UVs). `roughness` takes a texture too, read from
 //!                               # one `channel` ("r", "g", "b" or "a"; linear by default).
 //!                               # An OBJ's MTL brings map_Kd, map_Pr/map_Ns, map_Pm, norm
-//! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709
+//! emission = [0.0, 0.0, 0.0]    # optional radiance, linear Rec.709, or a texture (an MTL's
+//!                               # map_Ke): { texture = "screen.png", scale = 4.0 }
 //! two_sided_emission = false
 //! # normal_map = { texture = "n.png", scale = 1.0 }  # tangent-space, linear; scale: strength
 //! # opacity = { texture = "leaf.png", channel = "a" }  # cut-outs: 0 lets rays through (or a
