@@ -98,7 +98,7 @@ fn the_orb_the_hand_reaches_for_rests_on_the_pillar_through_the_hatch() {
     let keys = orb["transform"]["keys"].as_array().unwrap();
     let radius = 0.35 * keys[0]["scale"].as_float().unwrap();
     let resting = top + glam::DVec3::Y * radius;
-    // Until the hand takes it (frame 11), the orb waits behind the hatch where the script's
+    // Until the hand takes it (frame 12), the orb waits behind the hatch where the script's
     // teleport puts it; the solver's copy through the hatch is then on the pillar.
     for key in keys.iter().take(2) {
         let frame = key["frame"].as_integer().unwrap() as f64;
@@ -139,7 +139,7 @@ fn coverage(names: &[&str], frame: i64) -> Vec<f64> {
 
 #[test]
 fn the_characters_copy_comes_out_as_the_original_goes_in() {
-    let frames = [4, 18, 22];
+    let frames = [4, 19, 21];
     let shares: Vec<Vec<f64>> = frames
         .iter()
         .map(|&f| coverage(&["walker", "walker_there"], f))
@@ -148,7 +148,7 @@ fn the_characters_copy_comes_out_as_the_original_goes_in() {
         eprintln!("frame {f}: original {:.4}, copy {:.4}", s[0], s[1]);
     }
     // Frame 4: the character is in the room and its copy not yet out of the front opening;
-    // frame 22: it has gone through and its copy is out.
+    // frame 21: it has gone through and its copy is out.
     assert!(shares[0][0] > 0.01 && shares[0][1] < 0.1 * shares[0][0]);
     for k in 1..frames.len() {
         assert!(

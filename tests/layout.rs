@@ -376,7 +376,7 @@ fn the_preview_through_openings_matches_the_path_tracers_object_ids() {
     let (w, h) = (256u32, 144u32);
     let dir = tempfile::tempdir().unwrap();
     for (example, frames, depth) in [
-        ("showcase.toml", [6, 20], 2),
+        ("showcase.toml", [6, 18], 2),
         ("through_portal.toml", [4, 16], 1),
         // An opening of opacity 0 (it teleports nothing) and strands the camera cannot see.
         ("ring_on_wall.toml", [1, 1], 1),

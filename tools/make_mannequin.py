@@ -21,24 +21,23 @@ ROOT = Path(__file__).resolve().parent.parent
 FPS = 24.0
 FRAMES = range(1, 26)
 
-# Where the showcase puts things (examples/shots/showcase.toml). The orb rests on the pillar;
-# a small opening, the hatch, stands upright beside the walker's path facing it (+x), paired
-# with the nook, which faces down just above the orb. The walker reaches through the hatch, and
-# the hand's copy comes down out of the nook and takes the orb.
-ORB_REST = (-1.9, 0.905, -1.4)
-HATCH = (-0.45, 1.3, -1.75)
+# Where the showcase puts things (examples/shots/showcase.toml). The orb rests on the pillar
+# by the left wall; a small opening, the hatch, stands upright beside the walker's path facing
+# it (+x), paired with the nook in the left wall just above the orb, also facing +x. The
+# walker reaches through the hatch, and the hand's copy comes out of the wall and takes the orb.
+ORB_REST = (-2.7, 0.605, -2.2)
+HATCH = (-0.29, 1.42, -1.75)
 HATCH_NORMAL = (1.0, 0.0, 0.0)
-NOOK = (-1.9, 1.105, -1.4)
+NOOK = (-2.97, 0.85, -2.2)
 
 
 def teleport_back_through_hatch(p):
-    """The here-side place of `p` beyond the pair: T⁻¹ = P_hatch · R_y(π) · P_nook⁻¹, as the
-    constraint solver's `back_through` computes it (the hatch turned 90° about y, the nook
-    90° about x)."""
-    d = sub(p, NOOK)
-    local = mat_vec(transpose(rotation((1.0, 0.0, 0.0), math.pi / 2)), d)
+    """The here-side place of `p` beyond the pair, as the constraint solver's `back_through`
+    computes it: T⁻¹ = P_hatch · R_y(π) · P_nook⁻¹ (both openings turned 90° about y)."""
+    quarter = rotation((0.0, 1.0, 0.0), math.pi / 2)
+    local = mat_vec(transpose(quarter), sub(p, NOOK))
     turned = (-local[0], local[1], -local[2])
-    return add(HATCH, mat_vec(rotation((0.0, 1.0, 0.0), math.pi / 2), turned))
+    return add(HATCH, mat_vec(quarter, turned))
 
 
 # Joints: name, parent, rest position (metres; the mannequin stands at the origin facing +z).
@@ -253,15 +252,15 @@ def body():
 # --- the animation
 
 # The hips' path along z (frame, z, dz/dframe): a run that slows beside the hatch while the arm
-# reaches through it (frames 8 to 13), then speeds into the back opening and through it.
-WALK = [(1.0, -0.35, -0.17), (8.0, -1.55, -0.08), (13.0, -1.9, -0.06), (25.0, -4.75, -0.30)]
+# reaches through it (frames 9 to 14), then speeds into the back opening and through it.
+WALK = [(1.0, -0.35, -0.15), (9.0, -1.55, -0.08), (14.0, -1.9, -0.06), (25.0, -4.75, -0.32)]
 WALK_X = 0.2
 STRIDE = 2.1  # metres per cycle of the legs
 
 # The left hand's effector: the point 0.17 m beyond the wrist along the hand, where it holds
 # the orb; upper arm and forearm-to-effector lengths for the two-bone IK.
 EFFECTOR = (0.0, -0.17, 0.0)
-GRAB_FRAME = 11.0
+GRAB_FRAME = 12.0
 
 
 def hermite(p0, m0, p1, m1, s, span):
@@ -306,15 +305,15 @@ def reach_target(frame, shoulder):
     out = add(HATCH, scale(normal, 0.12))
     aside = add(shoulder, (-0.38, -0.15, -0.3))
     carried = add(shoulder, (0.05, -0.22, -0.42))
-    if frame < 8.5:
+    if frame < 9.5:
         return approach
     if frame < GRAB_FRAME:
-        return lerp(approach, inside, smoothstep(8.5, GRAB_FRAME, frame))
-    if frame < 13.0:
-        return lerp(inside, out, smoothstep(GRAB_FRAME, 13.0, frame))
-    if frame < 14.5:
-        return lerp(out, aside, smoothstep(13.0, 14.5, frame))
-    return lerp(aside, carried, smoothstep(14.5, 16.0, frame))
+        return lerp(approach, inside, smoothstep(9.5, GRAB_FRAME, frame))
+    if frame < 14.0:
+        return lerp(inside, out, smoothstep(GRAB_FRAME, 14.0, frame))
+    if frame < 15.5:
+        return lerp(out, aside, smoothstep(14.0, 15.5, frame))
+    return lerp(aside, carried, smoothstep(15.5, 17.0, frame))
 
 
 def arm_rest(side):
@@ -356,7 +355,7 @@ def local_rotations(frame, world_of):
         r[f"{side}_shoulder"] = euler(pitch=0.55 * swing, roll=sign * 0.12)
         r[f"{side}_elbow"] = euler(pitch=-0.9)
     # The left arm reaches through the hatch for the orb, then carries it.
-    reach = smoothstep(6.0, 8.5, frame)
+    reach = smoothstep(7.0, 9.5, frame)
     if reach > 0.0:
         shoulder = apply(world_of("l_shoulder", r), joint_position("l_shoulder"))
         upper, lower = two_bone(shoulder, reach_target(frame, shoulder), (-1.0, -0.7, 0.3))
