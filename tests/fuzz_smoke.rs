@@ -12,7 +12,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Seconds each target runs for.
-const SECONDS: u32 = 8;
+const SECONDS: u32 = 5;
 
 fn succeeds(command: &mut Command) -> bool {
     command.output().is_ok_and(|o| o.status.success())

@@ -316,6 +316,12 @@ fn the_page_draws_the_shot_and_shows_errors() {
     );
 }
 
+/// The `[render]` keys of [`still_variant`]: `depth` levels of openings, and no bounces (the
+/// object IDs the tests compare are the camera paths' first hits).
+fn render_keys(depth: u32) -> String {
+    format!("max_portal_depth = {depth}\nmax_bounces = 0\n")
+}
+
 /// `example` (under examples/shots) as a still, pinhole, mono shot of `width` x `height` with
 /// `depth` levels of openings, its asset paths made absolute, written into `dir`.
 fn still_variant(
@@ -337,6 +343,7 @@ fn still_variant(
             || trimmed.starts_with("shutter")
             || trimmed.starts_with("fstop")
             || trimmed.starts_with("max_portal_depth")
+            || trimmed.starts_with("max_bounces")
         {
             continue;
         }
@@ -354,11 +361,11 @@ fn still_variant(
             out += "shutter = [0.0, 0.0]\n";
         }
         if trimmed == "[render]" {
-            out += &format!("max_portal_depth = {depth}\n");
+            out += &render_keys(depth);
         }
     }
     if !out.contains("[render]") {
-        out += &format!("[render]\nmax_portal_depth = {depth}\n");
+        out += &format!("[render]\n{}", render_keys(depth));
     }
     let path = dir.join(example);
     std::fs::write(&path, out).unwrap();
