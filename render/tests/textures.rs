@@ -576,6 +576,16 @@ fn bad_textures_are_refused_by_file_and_key() {
             "cannot cut out",
         ),
         (
+            "type = \"diffuse\"\nemission = { texture = \"ok.png\" }\nopacity = 0.5".into(),
+            "material[0].opacity",
+            "cannot cut out",
+        ),
+        (
+            "type = \"diffuse\"\nemission = { texture = \"missing.png\" }".into(),
+            "material[0].emission.texture",
+            "missing.png",
+        ),
+        (
             "type = \"standard\"\ncoat_roughness = { texture = \"missing.png\" }".into(),
             "material[0].coat_roughness.texture",
             "missing.png",

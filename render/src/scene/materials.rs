@@ -187,6 +187,13 @@ fn inputs(
             _ => inputs.coat_roughness = Some(scalar(reader)?),
         }
     }
+    if inputs.emission.is_some() && m.opacity.is_some() {
+        return Err(key_error(
+            file,
+            format!("{key}.opacity"),
+            "an emitting material cannot cut out (light would leave where nothing is)",
+        ));
+    }
     Ok((inputs != Inputs::default()).then(|| Box::new(inputs)))
 }
 
