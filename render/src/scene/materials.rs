@@ -362,11 +362,11 @@ pub(super) fn find_or_add(
 }
 
 /// A material from an MTL entry: Kd (or its map_Kd, an sRGB colour texture scaled by Kd when
-/// both are given) as diffuse reflectance, Ke as one-sided emission, `norm`/`map_Bump` as a
-/// normal map, `d`/`map_d` as opacity (cut-outs). With Ks, Ns, Pr, Pm or their maps it is a
-/// standard material, read as Blender writes them: roughness Pr (or 1 − √(Ns/1000)), metallic Pm, and Ks's mean as the specular
-/// level (0.5: ior 1.5). Maps' paths are relative to `folder`, the mesh's; `key` names the
-/// object in messages.
+/// both are given) as diffuse reflectance, Ke (or map_Ke, likewise) as one-sided emission,
+/// `norm`/`map_Bump` as a normal map, `d`/`map_d` as opacity (cut-outs). With Ks, Ns, Pr, Pm
+/// or their maps it is a standard material, read as Blender writes them: roughness Pr (or
+/// 1 − √(Ns/1000)), metallic Pm, and Ks's mean as the specular level (0.5: ior 1.5). Maps'
+/// paths are relative to `folder`, the mesh's; `key` names the object in messages.
 pub(super) fn from_mtl(
     mtl: &super::mesh::MtlMaterial,
     folder: &Path,
@@ -374,6 +374,39 @@ pub(super) fn from_mtl(
     reader: &mut TextureReader,
 ) -> Result<Material, RenderError> {
     let diffuse = mtl.diffuse.unwrap_or(Vec3::splat(0.8));
+    let inputs = mtl_inputs(mtl, folder, key, reader)?;
+    let standard = mtl.specular.is_some()
+        || mtl.shininess.is_some()
+        || mtl.roughness.is_some()
+        || mtl.metallic.is_some()
+        || inputs.roughness.is_some()
+        || inputs.metallic.is_some();
+    let bsdf = match standard {
+        true => Bsdf::Standard(mtl_standard(mtl, diffuse)),
+        false => Bsdf::Diffuse {
+            reflectance: diffuse,
+        },
+    };
+    Ok(Material {
+        name: mtl.name.clone(),
+        bsdf,
+        emission: mtl.emission.unwrap_or(Vec3::ZERO),
+        two_sided_emission: false,
+        one_sided: false,
+        inputs: (inputs != Inputs::default()).then(|| Box::new(inputs)),
+        opacity: mtl.opacity.unwrap_or(1.0),
+    })
+}
+
+/// The textured inputs an MTL entry's maps give: map_Kd and map_Ke as sRGB colours scaled by
+/// Kd and Ke, map_Pr and map_Pm as linear numbers, the normal map with its strength, and
+/// map_d's alpha (or first) channel as opacity.
+fn mtl_inputs(
+    mtl: &super::mesh::MtlMaterial,
+    folder: &Path,
+    key: &str,
+    reader: &mut TextureReader,
+) -> Result<Inputs, RenderError> {
     let mut load = |map: &String, space| reader.load(key, &folder.join(map), map, space);
     let scalar = |texture| ScalarInput {
         texture,
@@ -382,25 +415,21 @@ pub(super) fn from_mtl(
         offset: 0.0,
         filter: Filter::Trilinear,
     };
+    let colour = |texture, scale: Option<Vec3>| ColorInput {
+        texture,
+        scale: scale.unwrap_or(Vec3::ONE),
+        offset: Vec3::ZERO,
+        filter: Filter::Trilinear,
+    };
     let mut inputs = Inputs::default();
     if let Some(map) = &mtl.diffuse_map {
-        inputs.reflectance = Some(ColorInput {
-            texture: load(map, ColorSpace::Srgb)?,
-            scale: mtl.diffuse.unwrap_or(Vec3::ONE),
-            offset: Vec3::ZERO,
-            filter: Filter::Trilinear,
-        });
+        inputs.reflectance = Some(colour(load(map, ColorSpace::Srgb)?, mtl.diffuse));
+    }
+    if let Some(map) = &mtl.emission_map {
+        inputs.emission = Some(colour(load(map, ColorSpace::Srgb)?, mtl.emission));
     }
     if let Some(map) = &mtl.roughness_map {
         inputs.roughness = Some(scalar(load(map, ColorSpace::Linear)?));
-    }
-    if let Some(map) = &mtl.emission_map {
-        inputs.emission = Some(ColorInput {
-            texture: load(map, ColorSpace::Srgb)?,
-            scale: mtl.emission.unwrap_or(Vec3::ONE),
-            offset: Vec3::ZERO,
-            filter: Filter::Trilinear,
-        });
     }
     if let Some(map) = &mtl.metallic_map {
         inputs.metallic = Some(scalar(load(map, ColorSpace::Linear)?));
@@ -426,27 +455,7 @@ pub(super) fn from_mtl(
             ..scalar(texture)
         });
     }
-    let standard = mtl.specular.is_some()
-        || mtl.shininess.is_some()
-        || mtl.roughness.is_some()
-        || mtl.metallic.is_some()
-        || inputs.roughness.is_some()
-        || inputs.metallic.is_some();
-    let bsdf = match standard {
-        true => Bsdf::Standard(mtl_standard(mtl, diffuse)),
-        false => Bsdf::Diffuse {
-            reflectance: diffuse,
-        },
-    };
-    Ok(Material {
-        name: mtl.name.clone(),
-        bsdf,
-        emission: mtl.emission.unwrap_or(Vec3::ZERO),
-        two_sided_emission: false,
-        one_sided: false,
-        inputs: (inputs != Inputs::default()).then(|| Box::new(inputs)),
-        opacity: mtl.opacity.unwrap_or(1.0),
-    })
+    Ok(inputs)
 }
 
 /// The standard material an MTL's Ks, Ns, Pr and Pm describe over the base colour `base`.
