@@ -755,7 +755,7 @@ fn surface_emission<'b, const FULL: bool>(
     if material.emits() && material.emits_towards(cos_o) {
         let le = match material.emission_map() {
             None => material.emission,
-            Some(_) => emission_at(ctx, hit, time, &surface, material),
+            Some(_) => ctx.scene.emitted_at(hit.triangle, hit.b1, hit.b2),
         };
         if le != Vec3::ZERO {
             let found = Found::Triangle {
@@ -769,22 +769,6 @@ fn surface_emission<'b, const FULL: bool>(
         }
     }
     (!black).then_some((p, ng, bsdf))
-}
-
-/// The radiance a textured emitter sends from `hit`, read at its UV.
-#[inline(never)]
-fn emission_at(
-    ctx: &Context,
-    hit: &Hit,
-    time: f64,
-    surface: &SurfacePoint,
-    material: &Material,
-) -> Vec3 {
-    let uv = ctx
-        .scene
-        .uv_at(hit, time, surface.area_scale)
-        .map(|(uv, _)| uv);
-    material.radiance_at(ctx.scene.textures.list(), uv)
 }
 
 /// The BSDF of the textured `material` where the path's ray met `hit` (at `surface`), its

@@ -94,6 +94,14 @@ pub(super) fn materials(
         }
         let mut material = material(&key, &m).map_err(|e| RenderError::Shot(e.in_file(file)))?;
         material.inputs = inputs(&key, &m, &textured, reader)?;
+        let opacity = m.opacity.is_some() || textured.iter().any(|(n, _)| n == "opacity");
+        if material.emits() && opacity {
+            return Err(key_error(
+                file,
+                format!("{key}.opacity"),
+                "an emitting material cannot cut out (light would leave where nothing is)",
+            ));
+        }
         materials.push(material);
     }
     Ok(materials)
@@ -162,13 +170,6 @@ fn inputs(
             }
             _ => {}
         }
-        let emits = m.emission.is_some_and(|e| e.iter().any(|&c| c > 0.0))
-            || textured.iter().any(|(n, _)| n == "emission");
-        if name == "opacity" && emits {
-            return refuse(
-                "an emitting material cannot cut out (light would leave where nothing is)",
-            );
-        }
         if STANDARD_KEYS.contains(&name.as_str()) && m.kind != MaterialKind::Standard {
             return refuse(&format!("only a standard material has {name}"));
         }
@@ -186,13 +187,6 @@ fn inputs(
             "coat" => inputs.coat = Some(scalar(reader)?),
             _ => inputs.coat_roughness = Some(scalar(reader)?),
         }
-    }
-    if inputs.emission.is_some() && m.opacity.is_some() {
-        return Err(key_error(
-            file,
-            format!("{key}.opacity"),
-            "an emitting material cannot cut out (light would leave where nothing is)",
-        ));
     }
     Ok((inputs != Inputs::default()).then(|| Box::new(inputs)))
 }
@@ -523,12 +517,6 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         MaterialKind::Standard => standard(key, m, ggx)?,
     };
     let emission = color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?;
-    if emission.max_element() > 0.0 && m.opacity.is_some() {
-        return Err(Invalid::new(
-            format!("{key}.opacity"),
-            "an emitting material cannot cut out (light would leave where nothing is)",
-        ));
-    }
     Ok(Material {
         name: m.name.clone(),
         bsdf,

@@ -308,11 +308,8 @@ impl Scene {
         if !material.cuts_out() {
             return true;
         }
-        let tri = &self.triangles[triangle as usize];
-        let uv = self.triangle_uvs.get(triangle as usize).map(|[a, b, c]| {
-            let (b1, b2) = barycentrics(tri, ray.at(t));
-            *a * (1.0 - b1 - b2) + *b * b1 + *c * b2
-        });
+        let (b1, b2) = barycentrics(&self.triangles[triangle as usize], ray.at(t));
+        let uv = self.uv_of(triangle, b1, b2);
         let opacity = material.opacity_at(self.textures.list(), uv);
         if opacity >= 1.0 {
             return true;
@@ -329,7 +326,7 @@ impl Scene {
     /// area); `None` when no mesh gives UVs.
     pub fn uv_at(&self, hit: &Hit, time: f64, area_scale: f32) -> Option<(glam::Vec2, f32)> {
         let [a, b, c] = *self.triangle_uvs.get(hit.triangle as usize)?;
-        let uv = a * (1.0 - hit.b1 - hit.b2) + b * hit.b1 + c * hit.b2;
+        let uv = interpolated(&[a, b, c], hit.b1, hit.b2);
         let uv_area = 0.5 * (b - a).perp_dot(c - a).abs();
         let world_area = self
             .object_triangle(hit.triangle, hit.instance, time)
@@ -343,13 +340,18 @@ impl Scene {
         Some((uv, per_metre))
     }
 
+    /// The texture coordinates of triangle `triangle` at barycentrics `(b1, b2)`; `None` when
+    /// no mesh gives UVs.
+    fn uv_of(&self, triangle: u32, b1: f32, b2: f32) -> Option<glam::Vec2> {
+        let uvs = self.triangle_uvs.get(triangle as usize)?;
+        Some(interpolated(uvs, b1, b2))
+    }
+
     /// The radiance triangle `triangle` emits at barycentrics `(b1, b2)`, from its material's
-    /// emission texture at that point's UV (or its constant emission).
+    /// emission texture at that point's UV (or its constant emission): where light sampling
+    /// draws a point, and where a ray meets a textured emitter.
     pub fn emitted_at(&self, triangle: u32, b1: f32, b2: f32) -> Vec3 {
-        let uv = self
-            .triangle_uvs
-            .get(triangle as usize)
-            .map(|[a, b, c]| *a * (1.0 - b1 - b2) + *b * b1 + *c * b2);
+        let uv = self.uv_of(triangle, b1, b2);
         self.material(triangle)
             .radiance_at(self.textures.list(), uv)
     }
@@ -517,6 +519,11 @@ pub(crate) fn flags(v: Option<VisibilitySection>) -> Flags {
 pub(crate) fn moves_during(transform: &AnimatedTransform, interval: [f64; 2]) -> bool {
     let keys: Vec<f64> = transform.keys().iter().map(|k| k.time).collect();
     !transform.is_static() && changes_during(|t| transform.at(t), &keys, interval)
+}
+
+/// The value at barycentrics `(b1, b2)` of a triangle whose corners hold `[a, b, c]`.
+pub(crate) fn interpolated(&[a, b, c]: &[glam::Vec2; 3], b1: f32, b2: f32) -> glam::Vec2 {
+    a * (1.0 - b1 - b2) + b * b1 + c * b2
 }
 
 /// Loads an OBJ (with its MTL files) or a PLY mesh, by the file's extension.

@@ -512,14 +512,13 @@ pub(super) fn emitters(
         .enumerate()
         .filter_map(|(i, tri)| {
             let m = &materials[g.triangle_material[i] as usize];
-            let radiance = match (m.emission_map(), g.triangle_uvs.get(i)) {
-                (Some(map), Some(&uvs)) => mean_emission(map, textures, uvs),
-                _ => m.emission,
-            };
             (m.emits() && tri.area() > 0.0).then(|| Emitter {
                 triangle: i as u32,
                 instance: g.triangle_instance[i],
-                radiance,
+                radiance: match (m.emission_map(), g.triangle_uvs.get(i)) {
+                    (Some(map), Some(&uvs)) => mean_emission(map, textures, uvs),
+                    _ => m.emission,
+                },
                 textured: m.emission_map().is_some(),
                 two_sided: m.two_sided_emission,
                 vertices: *tri,
@@ -542,7 +541,7 @@ fn mean_emission(map: &ColorInput, textures: &[Texture], [a, b, c]: [Vec2; 3]) -
         for j in 0..N {
             let u = Vec2::new(i as f32 + 0.5, j as f32 + 0.5) / N as f32;
             let (b1, b2) = uniform_triangle(u);
-            let uv = a * (1.0 - b1 - b2) + b * b1 + c * b2;
+            let uv = super::interpolated(&[a, b, c], b1, b2);
             sum += map.at(textures, &Lookup { uv, width }).max(Vec3::ZERO);
         }
     }
