@@ -90,6 +90,8 @@ pub struct RenderSections {
     pub media: Vec<toml::Table>,
     pub lights: Vec<toml::Table>,
     pub environment: Option<toml::Table>,
+    /// `[[usd]]`: layers of the pipeline's sets, characters, lights and materials.
+    pub usd: Vec<toml::Table>,
     /// `portal[i].surface`, one entry per opening.
     pub portal_surfaces: Vec<Option<toml::Table>>,
     /// `portal[i].cull`, one list per opening.
@@ -199,6 +201,7 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
         media: raw.media,
         lights: raw.lights,
         environment: raw.environment,
+        usd: raw.usd,
         portal_surfaces: raw.portals.iter().map(|p| p.surface.clone()).collect(),
         portal_culls: raw.portals.into_iter().map(|p| p.cull).collect(),
         camera_clip: raw.camera.clip,

@@ -98,6 +98,9 @@ pub struct ShotFile {
     #[serde(default, rename = "light")]
     pub lights: Vec<toml::Table>,
     pub environment: Option<toml::Table>,
+    /// USD layers whose sets, characters, lights and materials the renderer reads.
+    #[serde(default)]
+    pub usd: Vec<toml::Table>,
 }
 
 /// `[shot]`: timing.

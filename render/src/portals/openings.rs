@@ -264,6 +264,15 @@ impl Portals {
         self.times
     }
 
+    /// The largest time offset of any opening, seconds (how far a copy's own time can be
+    /// from a ray's).
+    pub fn largest_time_offset(&self) -> f64 {
+        self.looks
+            .iter()
+            .map(|l| l.time_offset.abs())
+            .fold(0.0, f64::max)
+    }
+
     /// The time of a ray at `time` after it teleports through opening `i`.
     #[inline]
     pub fn exit_time(&self, i: usize, time: f64) -> f64 {

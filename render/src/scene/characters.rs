@@ -17,7 +17,7 @@ use std::sync::Arc;
 /// none when it has none, at the cost of parsing its objects.
 pub fn sampled(shot: &Shot, frames: &[f64]) -> Result<Vec<StageMesh>, RenderError> {
     let file = &shot.source;
-    let sections = objects::object_sections(file, &shot.render.objects)?;
+    let sections = objects::object_sections(file, &shot.render.objects, Vec::new())?;
     let deforming =
         |o: &super::schema::ObjectSection| o.mesh.as_deref().is_some_and(sequence::is_sequence);
     let (Some(first), Some(last)) = (frames.first(), frames.last()) else {
@@ -38,6 +38,7 @@ pub fn sampled(shot: &Shot, frames: &[f64]) -> Result<Vec<StageMesh>, RenderErro
         rig: &Arc::new(shot.rig.clone()),
         portals: &portals,
         media: &media,
+        imported: 0,
     };
     let motions = loader.motions(&sections)?;
     let sequences = loader.sequences(&sections, &motions, None)?;

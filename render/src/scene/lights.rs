@@ -4,7 +4,7 @@
 
 use super::light_groups::LightGroups;
 use super::schema::{LightKind, LightSection, VisibilitySection};
-use super::{optional, parse};
+use super::{Entry, optional, parse};
 use crate::error::{RenderError, key_error};
 use crate::lights::{Cone, Shape, ShapeLight, Sun};
 use crate::portals::Flags;
@@ -14,18 +14,17 @@ use rift_fx::shot::check;
 use rift_fx::shot::pose::{self, Facing};
 use rift_fx::{Invalid, Shot};
 
-/// The lights of `shot`: shape lights and distant lights, in section order; each names its
-/// light group in `groups`.
+/// The lights of `entries` (the shot's `[[light]]`s, then those USD layers bring): shape
+/// lights and distant lights, in order; each names its light group in `groups`.
 pub(super) fn lights(
     shot: &Shot,
+    entries: &[Entry],
     groups: &mut LightGroups,
 ) -> Result<(Vec<ShapeLight>, Vec<Sun>), RenderError> {
-    let file = &shot.source;
     let (mut shapes, mut suns) = (Vec::new(), Vec::new());
     let mut names: Vec<String> = Vec::new();
-    for (i, table) in shot.render.lights.iter().enumerate() {
-        let key = format!("light[{i}]");
-        let section: LightSection = parse(file, &key, table)?;
+    for Entry { file, key, table } in entries {
+        let section: LightSection = parse(file, key, table)?;
         if names.contains(&section.name) {
             return Err(key_error(
                 file,
@@ -39,17 +38,14 @@ pub(super) fn lights(
             &format!("{key}.light_group"),
             section.light_group.as_deref(),
         )?;
-        let light = light(shot, &key, &section, group).map_err(|e| invalid(shot, e))?;
+        let light =
+            light(shot, key, &section, group).map_err(|e| RenderError::Shot(e.in_file(file)))?;
         match light {
             Light::Shape(l) => shapes.push(l),
             Light::Sun(s) => suns.push(s),
         }
     }
     Ok((shapes, suns))
-}
-
-fn invalid(shot: &Shot, e: Invalid) -> RenderError {
-    RenderError::Shot(e.in_file(&shot.source))
 }
 
 /// One light, of either kind.

@@ -11,7 +11,10 @@ use super::portals::StrandLook;
 use super::rings::RingSource;
 use super::schema::ObjectSection;
 use super::settings::{Overrides, Settings};
-use super::{Scene, camera, environment, grids, lights, materials, media, objects, portals, rings};
+use super::{
+    Entry, Scene, camera, environment, grids, lights, materials, media, objects, portals, rings,
+    usd,
+};
 use crate::camera::{Clip, Stereo};
 use crate::error::{RenderError, key_error};
 use crate::geometry::{Accel, Contacts, Triangle};
@@ -56,6 +59,10 @@ struct Sections {
     cull_volumes: Vec<CullVolume>,
     clip: Clip,
     stereo: Option<Stereo>,
+    /// What the USD layers hold that rift does not read.
+    warnings: Vec<String>,
+    /// How many of `objects` (the first) USD layers brought.
+    imported: usize,
 }
 
 impl Sections {
@@ -73,19 +80,24 @@ impl Sections {
             textures: &mut textures,
             budget: overrides.memory_budget,
         };
-        let materials = materials::materials(&sections.materials, &mut reader)?;
+        let mut materials = materials::materials(
+            &Entry::of_shot(file, "material", &sections.materials),
+            &mut reader,
+        )?;
         let shutter = shot
             .shutter_seconds()
             .map(|s| s + shot.time_of(frame as f64));
         let rings = rings::load(shot, frame, &ring_source(shot, &settings, overrides))?;
         let mut groups = LightGroups::new();
-        let (environment, environment_group) = environment::environment_section(
-            file,
-            base,
-            sections.environment.as_ref(),
-            &mut groups,
-        )?;
-        let (shape_lights, suns) = lights::lights(shot, &mut groups)?;
+        let shot_environment = sections.environment.as_ref().map(|table| Entry {
+            file: file.clone(),
+            key: "environment".into(),
+            table: table.clone(),
+        });
+        let (mut environment, mut environment_group) =
+            environment::environment_section(shot_environment.as_ref(), base, &mut groups)?;
+        let shot_lights = Entry::of_shot(file, "light", &sections.lights);
+        let (mut shape_lights, mut suns) = lights::lights(shot, &shot_lights, &mut groups)?;
         let (portals, strand_looks) = portals::portals(
             shot,
             shutter,
@@ -93,7 +105,35 @@ impl Sections {
             rings.as_ref(),
             &mut groups,
         )?;
-        let objects = objects::object_sections(file, &sections.objects)?;
+        // The pipeline's layers: what the shot file says of the same names wins.
+        let imported = usd::import(
+            shot,
+            portals.times(),
+            portals.largest_time_offset(),
+            overrides.memory_budget,
+        )?;
+        let usd_materials: Vec<Entry> = (imported.materials.into_iter())
+            .filter(|e| {
+                !materials
+                    .iter()
+                    .any(|m| Some(m.name.as_str()) == entry_name(e))
+            })
+            .collect();
+        let mut reader = TextureReader {
+            file,
+            textures: &mut textures,
+            budget: overrides.memory_budget,
+        };
+        materials.extend(materials::materials(&usd_materials, &mut reader)?);
+        let (more_lights, more_suns) = lights::lights(shot, &imported.lights, &mut groups)?;
+        shape_lights.extend(more_lights);
+        suns.extend(more_suns);
+        if environment.is_none() {
+            (environment, environment_group) =
+                environment::environment_section(imported.environment.as_ref(), base, &mut groups)?;
+        }
+        let imported_objects = imported.objects.len();
+        let objects = objects::object_sections(file, &sections.objects, imported.objects)?;
         let names: Vec<&str> = objects.iter().map(|o| o.name.as_str()).collect();
         Ok(Self {
             cull_volumes: portals::cull_volumes(shot, &names)?,
@@ -113,8 +153,15 @@ impl Sections {
             portals,
             strand_looks,
             objects,
+            warnings: imported.warnings,
+            imported: imported_objects,
         })
     }
+}
+
+/// The `name` an entry's table gives.
+fn entry_name(e: &Entry) -> Option<&str> {
+    e.table.get("name").and_then(|n| n.as_str())
 }
 
 /// Where the frame's rings come from: `--rings`, else the shot's `[render] rings` or its
@@ -151,6 +198,7 @@ impl Scene {
             rig: &rig,
             portals: &s.portals,
             media: &s.media,
+            imported: s.imported,
         };
         let mut reader = TextureReader {
             file,
@@ -182,7 +230,9 @@ impl Scene {
         let file = &shot.source;
         let times = s.portals.times();
         let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
-        let warnings = parts.iter().flat_map(|p| p.warnings.clone()).collect();
+        let warnings = (s.warnings.iter().cloned())
+            .chain(parts.iter().flat_map(|p| p.warnings.clone()))
+            .collect();
         let mut g = Geometry::assemble(parts, names.len(), times);
         let media = media::volumes(
             file,

@@ -7,7 +7,7 @@
 use super::schema::{
     MaterialKind, MaterialSection, ShadowingKind, TextureColorSpace, TextureFilter, TextureSection,
 };
-use super::{metals, optional, parse};
+use super::{Entry, metals, optional, parse};
 use crate::error::{RenderError, key_error};
 use crate::material::bsdf::Bsdf;
 use crate::material::bsdf::albedo::MAX_IOR;
@@ -74,15 +74,15 @@ impl TextureReader<'_> {
     }
 }
 
-/// The `[[material]]` sections, with names checked unique and their textures read.
+/// The `[[material]]` sections (and those USD layers bring), with names checked unique and
+/// their textures read.
 pub(super) fn materials(
-    tables: &[toml::Table],
+    entries: &[Entry],
     reader: &mut TextureReader,
 ) -> Result<Vec<Material>, RenderError> {
-    let file = reader.file;
     let mut materials: Vec<Material> = Vec::new();
-    for (i, table) in tables.iter().enumerate() {
-        let key = format!("material[{i}]");
+    for Entry { file, key, table } in entries {
+        let key = key.clone();
         let (plain, textured) = split_textures(file, &key, table)?;
         let m: MaterialSection = parse(file, &key, &plain)?;
         if materials.iter().any(|x| x.name == m.name) {

@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use std::path::Path;
 
 /// The material a part's `usemtl` names, with the values its MTL gives.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Default)]
 pub struct MtlMaterial {
     pub name: String,
     pub diffuse: Option<Vec3>,

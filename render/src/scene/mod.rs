@@ -21,6 +21,7 @@ pub mod rings;
 pub mod schema;
 pub(crate) mod sequence;
 mod settings;
+pub mod usd;
 
 pub use load::scene_bytes;
 pub use settings::{Overrides, Settings};
@@ -48,6 +49,29 @@ use std::sync::Arc;
 /// The object index of no object (the sky, a medium, an opening at the depth limit), beside
 /// the indices of [`Scene::id_names`].
 pub const NO_OBJECT: u32 = u32::MAX;
+
+/// A section as a table, with where it came from for messages: the shot file and its key
+/// (`material[2]`), or a USD layer and the prim it was made from (`</World/Looks/Wood>`).
+pub struct Entry {
+    pub file: std::path::PathBuf,
+    pub key: String,
+    pub table: toml::Table,
+}
+
+impl Entry {
+    /// The shot's own sections `tables`, keyed `<name>[i]`.
+    pub(crate) fn of_shot(file: &Path, name: &str, tables: &[toml::Table]) -> Vec<Entry> {
+        tables
+            .iter()
+            .enumerate()
+            .map(|(i, table)| Entry {
+                file: file.to_owned(),
+                key: format!("{name}[{i}]"),
+                table: table.clone(),
+            })
+            .collect()
+    }
+}
 
 /// What a ray met: a triangle or a ring's strand.
 #[derive(Clone, Copy, Debug)]

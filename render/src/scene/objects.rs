@@ -49,13 +49,15 @@ pub(super) struct Part {
     pub warnings: Vec<String>,
 }
 
-/// The `[[object]]` sections, with names checked unique and each `copy_of` filled in from the
-/// earlier object it names (mesh, material and transform, where the copy gives none).
+/// The `[[object]]` sections after the `imported` objects of USD layers, with names checked
+/// unique and each `copy_of` filled in from the earlier object it names (mesh, material and
+/// transform, where the copy gives none).
 pub(super) fn object_sections(
     file: &Path,
     tables: &[toml::Table],
+    imported: Vec<ObjectSection>,
 ) -> Result<Vec<ObjectSection>, RenderError> {
-    let mut out: Vec<ObjectSection> = Vec::new();
+    let mut out: Vec<ObjectSection> = imported;
     for (i, table) in tables.iter().enumerate() {
         let key = format!("object[{i}]");
         let mut o: ObjectSection = parse(file, &key, table)?;
@@ -74,6 +76,9 @@ pub(super) fn object_sections(
                     format!("no earlier object is called {source:?}"),
                 ));
             };
+            if o.mesh.is_none() {
+                o.shape = from.shape.clone();
+            }
             o.mesh = o.mesh.or_else(|| from.mesh.clone());
             o.material = o.material.or_else(|| from.material.clone());
             o.transform = o.transform.or_else(|| from.transform.clone());
@@ -102,6 +107,8 @@ pub(super) struct Loader<'a> {
     pub rig: &'a Arc<Rig>,
     pub portals: &'a Portals,
     pub media: &'a MediaSections,
+    /// How many of the objects (the first) USD layers brought.
+    pub imported: usize,
 }
 
 impl Loader<'_> {
@@ -126,11 +133,20 @@ impl Loader<'_> {
                 self::flags(o.visibility)
             });
             let mut part = self.part(i, o, motion, &sequences, materials, reader)?;
-            let key = format!("object[{i}].light_group");
+            let key = format!("{}.light_group", self.key(i, o));
             part.group = groups.index(&self.shot.source, &key, o.light_group.as_deref())?;
             parts.push(part);
         }
         Ok((parts, flags))
+    }
+
+    /// The key that names object `i` in messages: `object[j]` for the shot's own, the prim's
+    /// path for one a USD layer brings.
+    fn key(&self, i: usize, o: &ObjectSection) -> String {
+        match i.checked_sub(self.imported) {
+            Some(j) => format!("object[{j}]"),
+            None => format!("<{}>", o.name),
+        }
     }
 
     fn invalid(&self, e: Invalid) -> RenderError {
@@ -158,7 +174,7 @@ impl Loader<'_> {
             let [a, b] = motion.source_times(self.times);
             match spans.iter_mut().find(|(p, ..)| *p == path) {
                 Some((_, _, span)) => *span = [span[0].min(a), span[1].max(b)],
-                None => spans.push((path, format!("object[{i}].mesh"), [a, b])),
+                None => spans.push((path, format!("{}.mesh", self.key(i, o)), [a, b])),
             }
         }
         let mut out = HashMap::new();
@@ -180,22 +196,36 @@ impl Loader<'_> {
         materials: &mut Vec<Material>,
         reader: &mut TextureReader,
     ) -> Result<Part, RenderError> {
-        let key = format!("object[{i}]");
-        let Some(mesh_name) = &o.mesh else {
-            return Err(self.error(
-                format!("{key}.mesh"),
-                "missing: give `mesh`, or `copy_of` another object".into(),
-            ));
+        let key = self.key(i, o);
+        let (mesh_name, mesh_path, mesh_parts, deformation) = match (&o.mesh, &o.shape) {
+            (Some(mesh_name), _) => {
+                let mesh_path = self.base.join(mesh_name);
+                let sequence = sequences.get(&mesh_path);
+                let mesh_parts = match sequence {
+                    Some(s) => s.parts.clone(),
+                    // A mesh's own error (its file, line or element) under the key that names it.
+                    None => super::load_mesh(&mesh_path)
+                        .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
+                };
+                let deformation = sequence.map(|s| s.mesh.clone());
+                (mesh_name.as_str(), mesh_path, mesh_parts, deformation)
+            }
+            (None, Some(shape)) => {
+                let deformation = shape.deformation.clone();
+                (
+                    o.name.as_str(),
+                    PathBuf::new(),
+                    shape.parts.clone(),
+                    deformation,
+                )
+            }
+            (None, None) => {
+                return Err(self.error(
+                    format!("{key}.mesh"),
+                    "missing: give `mesh`, or `copy_of` another object".into(),
+                ));
+            }
         };
-        let mesh_path = self.base.join(mesh_name);
-        let sequence = sequences.get(&mesh_path);
-        let mesh_parts = match sequence {
-            Some(s) => s.parts.clone(),
-            // A mesh's own error (its file, line or element) under the key that names it.
-            None => super::load_mesh(&mesh_path)
-                .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
-        };
-        let deformation = sequence.map(|s| s.mesh.clone());
         // A deforming object is an instance whether or not it also moves.
         let moves = deformation.is_some() || motion.moves_during(self.times);
         let placed = motion.at(self.times[0]);
@@ -300,7 +330,7 @@ impl Loader<'_> {
         objects
             .iter()
             .enumerate()
-            .map(|(i, o)| self.motion(&format!("object[{i}]"), o))
+            .map(|(i, o)| self.motion(&self.key(i, o), o))
             .collect()
     }
 

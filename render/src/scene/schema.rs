@@ -333,6 +333,9 @@ pub struct ObjectSection {
     pub back_through: Option<String>,
     pub visibility: Option<VisibilitySection>,
     pub light_group: Option<String>,
+    /// The shape of an object a USD layer brings (never a shot-file key).
+    #[serde(skip)]
+    pub shape: Option<std::sync::Arc<super::usd::Shape>>,
 }
 
 /// `[object.visibility]`: which rays see the object (each defaults to true).

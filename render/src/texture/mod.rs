@@ -37,8 +37,8 @@ impl Textures {
         if let Some(&i) = self.index.get(&key) {
             return Ok(i);
         }
-        let bytes = rift_fx::io::read(path).map_err(|e| format!("cannot read: {e}"))?;
         let left = budget.map_or(u64::MAX, |b| b.saturating_sub(self.bytes));
+        let bytes = read_file(path, left).map_err(|e| format!("cannot read: {e}"))?;
         let picture = image::decode(&bytes, left)?;
         let texture = Texture::new(picture, color_space);
         self.bytes += texture.bytes();
@@ -63,4 +63,28 @@ impl Textures {
     pub fn bytes(&self) -> u64 {
         self.bytes
     }
+}
+
+/// The bytes of the image at `path`: a file, or one packed in a USDZ package, named as USD
+/// names it (`/set/room.usdz[textures/wood.png]`); a packed one larger than `budget` bytes is
+/// refused before it is read.
+fn read_file(path: &Path, budget: u64) -> std::io::Result<Vec<u8>> {
+    let text = path.to_string_lossy();
+    let packed = text.ends_with(']') && text.contains(".usdz[");
+    if !packed {
+        return rift_fx::io::read(path);
+    }
+    use openusd::ar::{Asset, DefaultResolver, ResolvedPath, Resolver};
+    let package = &text[..text.find(".usdz[").map_or(0, |i| i + 5)];
+    rift_fx::io::regular_file(Path::new(package))?;
+    let mut asset: Box<dyn Asset> =
+        DefaultResolver::new().open_asset(&ResolvedPath::new(path.to_owned()))?;
+    if asset.size()? > budget.min(rift_fx::io::MAX_INPUT_BYTES) {
+        return Err(std::io::Error::other(format!(
+            "it holds {} MiB, more than the {} MiB left for textures",
+            asset.size()? >> 20,
+            budget >> 20
+        )));
+    }
+    asset.read_all()
 }

@@ -1,0 +1,547 @@
+//! UsdGeomMesh prims into mesh parts: polygons triangulated as fans (holes left out, a
+//! left-handed mesh's winding turned), `primvars:st` as UVs at any interpolation (indexed or
+//! not), one part per material (the mesh's binding and its `materialBind` subsets), and
+//! time-sampled points (with their velocities) as a deforming mesh.
+
+use super::Shape;
+use super::stage::Source;
+use super::xform::{Placement, within};
+use crate::error::RenderError;
+use crate::scene::mesh::{MeshPart, MtlMaterial};
+use crate::scene::sequence::{self, Sample};
+use glam::{DMat4, Vec2, Vec3};
+use openusd::sdf::Value;
+use openusd::usd::{Prim, TimeCode};
+
+/// A mesh prim as read: its shape (parts without material names yet) and, per part, the
+/// USD material bound to it.
+pub struct ReadMesh {
+    pub shape: Shape,
+    pub bindings: Vec<Option<String>>,
+    pub warnings: Vec<String>,
+}
+
+impl Shape {
+    /// This shape with part `i` using the scene material `names[i]`.
+    pub fn with_materials(mut self, names: &[String]) -> Self {
+        for (part, name) in self.parts.iter_mut().zip(names) {
+            part.material = Some(MtlMaterial {
+                name: name.clone(),
+                declared: true,
+                ..MtlMaterial::default()
+            });
+        }
+        self
+    }
+}
+
+/// The polygons of a mesh: corner counts and point indices, checked.
+struct Topology {
+    counts: Vec<u32>,
+    indices: Vec<u32>,
+    /// Per face, the index of its first corner in `indices`.
+    starts: Vec<usize>,
+    /// Per face, the part it belongs to (`u32::MAX`: a hole).
+    part: Vec<u32>,
+    left_handed: bool,
+}
+
+/// Texture coordinates and how they are spread over the mesh.
+enum Uvs {
+    None,
+    /// One per point, face, face corner, or for the whole mesh; each looked up through
+    /// `indices` when the primvar is indexed.
+    Given {
+        values: Vec<Vec2>,
+        indices: Option<Vec<u32>>,
+        interpolation: Interpolation,
+    },
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Interpolation {
+    Constant,
+    Uniform,
+    Vertex,
+    FaceVarying,
+}
+
+/// Reads the mesh `prim`, placed by `placement`.
+pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadMesh, RenderError> {
+    let path = prim.path().as_str();
+    let code = source.codes()[0];
+    let mut warnings = Vec::new();
+    let scheme = token(prim, "subdivisionScheme", code)
+        .map_err(|e| source.read_error(path, e))?
+        .unwrap_or_else(|| "catmullClark".into());
+    if scheme != "none" {
+        warnings.push(format!(
+            "{}: <{path}> is a {scheme} subdivision surface; rendered as its control cage",
+            source.layer.display()
+        ));
+    }
+    let (topology, bindings) = topology(prim, source, code)?;
+    let uvs = uvs(prim, source, code)?;
+    let times = point_times(prim, source).map_err(|e| source.read_error(path, e))?;
+    check_memory(source, path, &topology, times.len())?;
+    let mut samples = Vec::with_capacity(times.len());
+    for &t in &times {
+        let points = points(prim, source, "points", t)?;
+        let velocities = match times.len() > 1 {
+            true => velocities(prim, source, t, points.len())?,
+            false => None,
+        };
+        let parts = parts(
+            path,
+            source,
+            (&topology, &uvs, bindings.len()),
+            &points,
+            velocities.as_deref(),
+            placement.bake,
+        )?;
+        samples.push((t, parts));
+    }
+    let shape = shape(source, samples)?;
+    Ok(ReadMesh {
+        shape,
+        bindings,
+        warnings,
+    })
+}
+
+/// The shape of a mesh from its samples' parts: still with one sample, else deforming.
+fn shape(source: &Source, samples: Vec<(f64, Vec<MeshPart>)>) -> Result<Shape, RenderError> {
+    let mut samples = samples.into_iter();
+    let (first_code, first) = samples.next().expect("a mesh is read at one time at least");
+    if samples.len() == 0 {
+        return Ok(Shape {
+            parts: first,
+            deformation: None,
+        });
+    }
+    let sample = |code: f64| Sample {
+        frame: source.clock.frame(code),
+        path: source.layer.to_owned(),
+    };
+    let rest: Vec<(Sample, Vec<MeshPart>)> = samples.map(|(c, p)| (sample(c), p)).collect();
+    let first_sample = sample(first_code);
+    let sequence = sequence::assemble(
+        (&first_sample, first),
+        rest.iter().map(|(s, p)| Ok((s, p.clone()))),
+        source.clock.fps,
+    )?;
+    Ok(Shape {
+        parts: sequence.parts,
+        deformation: Some(sequence.mesh),
+    })
+}
+
+/// The time codes the points are read at: their samples around the span, or the span's
+/// start when they are not sampled.
+fn point_times(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
+    let times = prim.attribute("points").time_sample_times()?;
+    Ok(within(&times, source.codes()))
+}
+
+/// Refuses a mesh whose triangles (at every sample) would not fit the memory budget, before
+/// any is made.
+fn check_memory(
+    source: &Source,
+    path: &str,
+    topology: &Topology,
+    samples: usize,
+) -> Result<(), RenderError> {
+    let triangles: u64 = topology.counts.iter().map(|&c| c as u64 - 2).sum();
+    // Corners, UVs and the part's share of the scene's arrays, per sample.
+    let bytes = triangles.saturating_mul(36 + 24 + 16) * samples as u64;
+    match source.budget {
+        Some(budget) if bytes > budget => Err(source.error(
+            path,
+            Some("faceVertexCounts"),
+            format!(
+                "its {triangles} triangles at {samples} time samples need about {} MiB, \
+                 more than the {} MiB available",
+                bytes >> 20,
+                budget >> 20
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// The mesh's polygons and, per part, the material bound to it: the mesh's own first, then
+/// each `materialBind` subset's.
+fn topology(
+    prim: &Prim,
+    source: &Source,
+    code: f64,
+) -> Result<(Topology, Vec<Option<String>>), RenderError> {
+    let path = prim.path().as_str();
+    let read = |name: &str| {
+        int_array(prim, name, code)
+            .map_err(|e| source.read_error(path, e))?
+            .ok_or_else(|| source.error(path, Some(name), "missing".into()))
+    };
+    let counts = read("faceVertexCounts")?;
+    let indices = read("faceVertexIndices")?;
+    let points = prim
+        .attribute("points")
+        .get_at::<Value>(TimeCode::new(code))
+        .map_err(|e| source.read_error(path, e))?
+        .map_or(0, |v| array_len(&v));
+    let mut starts = Vec::with_capacity(counts.len());
+    let mut at = 0usize;
+    for (f, &c) in counts.iter().enumerate() {
+        if c < 3 {
+            return Err(source.error(
+                path,
+                Some("faceVertexCounts"),
+                format!("face {f} has {c} corners; a face needs 3 or more"),
+            ));
+        }
+        starts.push(at);
+        at = at.saturating_add(c as usize);
+    }
+    if at != indices.len() {
+        return Err(source.error(
+            path,
+            Some("faceVertexIndices"),
+            format!(
+                "holds {} indices where faceVertexCounts add up to {at}",
+                indices.len()
+            ),
+        ));
+    }
+    if let Some(i) = indices.iter().position(|&i| i as usize >= points) {
+        return Err(source.error(
+            path,
+            Some("faceVertexIndices"),
+            format!(
+                "index {} (entry {i}) is past the mesh's {points} points",
+                indices[i]
+            ),
+        ));
+    }
+    let mut part = vec![0u32; counts.len()];
+    let mut bindings =
+        vec![super::shading::bound_material(prim).map_err(|e| source.read_error(path, e))?];
+    subsets(prim, source, &mut part, &mut bindings)?;
+    for h in int_array(prim, "holeIndices", code)
+        .map_err(|e| source.read_error(path, e))?
+        .unwrap_or_default()
+    {
+        if let Some(p) = part.get_mut(h as usize) {
+            *p = u32::MAX;
+        }
+    }
+    let left_handed = token(prim, "orientation", code)
+        .map_err(|e| source.read_error(path, e))?
+        .is_some_and(|o| o == "leftHanded");
+    Ok((
+        Topology {
+            counts,
+            indices,
+            starts,
+            part,
+            left_handed,
+        },
+        bindings,
+    ))
+}
+
+/// Gives the faces of each `materialBind` subset under `prim` a part of its own, bound to the
+/// subset's material.
+fn subsets(
+    prim: &Prim,
+    source: &Source,
+    part: &mut [u32],
+    bindings: &mut Vec<Option<String>>,
+) -> Result<(), RenderError> {
+    let path = prim.path().as_str();
+    let children = prim.children().map_err(|e| source.read_error(path, e))?;
+    for child in children {
+        let child_path = child.path().as_str().to_owned();
+        let kind = child
+            .type_name()
+            .map_err(|e| source.read_error(&child_path, e))?;
+        if kind.as_ref().map(|k| k.as_str()) != Some("GeomSubset") {
+            continue;
+        }
+        let family =
+            token(&child, "familyName", 0.0).map_err(|e| source.read_error(&child_path, e))?;
+        if family.as_deref() != Some("materialBind") {
+            continue;
+        }
+        let faces = int_array(&child, "indices", 0.0)
+            .map_err(|e| source.read_error(&child_path, e))?
+            .unwrap_or_default();
+        let index = bindings.len() as u32;
+        bindings.push(
+            super::shading::bound_material(&child)
+                .map_err(|e| source.read_error(&child_path, e))?,
+        );
+        for f in faces {
+            let Some(p) = part.get_mut(f as usize) else {
+                return Err(source.error(
+                    &child_path,
+                    Some("indices"),
+                    format!("face {f} is past the mesh's {} faces", part.len()),
+                ));
+            };
+            *p = index;
+        }
+    }
+    Ok(())
+}
+
+/// The mesh's UVs: `primvars:st`, else Blender's `primvars:UVMap`.
+fn uvs(prim: &Prim, source: &Source, code: f64) -> Result<Uvs, RenderError> {
+    let path = prim.path().as_str();
+    for name in ["primvars:st", "primvars:UVMap"] {
+        let attr = prim.attribute(name);
+        let value = attr
+            .get_at::<Value>(TimeCode::new(code))
+            .map_err(|e| source.read_error(path, e))?;
+        let Some(value) = value else { continue };
+        let Some(values) = vec2_array(&value) else {
+            return Err(source.error(
+                path,
+                Some(name),
+                "expected texture coordinates (float2[])".into(),
+            ));
+        };
+        let interpolation = match attr
+            .get_metadata::<openusd::tf::Token>("interpolation")
+            .map_err(|e| source.read_error(path, e))?
+            .as_ref()
+            .map(|t| t.as_str())
+        {
+            Some("constant") => Interpolation::Constant,
+            Some("uniform") => Interpolation::Uniform,
+            Some("vertex") | Some("varying") => Interpolation::Vertex,
+            Some("faceVarying") | None => Interpolation::FaceVarying,
+            Some(other) => {
+                return Err(source.error(
+                    path,
+                    Some(name),
+                    format!("interpolation {other:?} is not one rift reads"),
+                ));
+            }
+        };
+        let indices = int_array(prim, &format!("{name}:indices"), code)
+            .map_err(|e| source.read_error(path, e))?;
+        return Ok(Uvs::Given {
+            values,
+            indices,
+            interpolation,
+        });
+    }
+    Ok(Uvs::None)
+}
+
+/// The triangles of each part, their points placed by `bake`.
+fn parts(
+    path: &str,
+    source: &Source,
+    (topology, uvs, count): (&Topology, &Uvs, usize),
+    points: &[Vec3],
+    velocities: Option<&[Vec3]>,
+    bake: DMat4,
+) -> Result<Vec<MeshPart>, RenderError> {
+    let placed: Vec<Vec3> = points
+        .iter()
+        .map(|p| bake.transform_point3(p.as_dvec3()).as_vec3())
+        .collect();
+    let linear = glam::DMat3::from_mat4(bake);
+    let moved: Option<Vec<Vec3>> = velocities.map(|v| {
+        v.iter()
+            .map(|v| (linear * v.as_dvec3()).as_vec3())
+            .collect()
+    });
+    let mut out: Vec<MeshPart> = (0..count)
+        .map(|i| MeshPart {
+            name: format!("{path}[{i}]"),
+            triangles: Vec::new(),
+            uvs: Vec::new(),
+            velocities: Vec::new(),
+            material: None,
+        })
+        .collect();
+    for (f, (&c, &start)) in topology.counts.iter().zip(&topology.starts).enumerate() {
+        let Some(part) = out.get_mut(topology.part[f] as usize) else {
+            continue;
+        };
+        let corner = |k: usize| start + k;
+        for k in 1..c as usize - 1 {
+            let mut tri = [corner(0), corner(k), corner(k + 1)];
+            if topology.left_handed {
+                tri.swap(1, 2);
+            }
+            let vertex = |c: usize| topology.indices[c] as usize;
+            part.triangles.push(tri.map(|c| placed[vertex(c)]));
+            if let Some(moved) = &moved {
+                part.velocities.push(tri.map(|c| moved[vertex(c)]));
+            }
+            if let Some(uv) = uv_corners(uvs, f, tri, |c| vertex(c)) {
+                part.uvs
+                    .push(uv.map_err(|m| source.error(path, Some("primvars:st"), m))?);
+            }
+        }
+    }
+    out.retain(|p| !p.triangles.is_empty());
+    Ok(out)
+}
+
+/// The UVs at a triangle's corners (`tri`: indices into the face-vertex list), or `None` when
+/// the mesh has none; an index past the values is an error.
+fn uv_corners(
+    uvs: &Uvs,
+    face: usize,
+    tri: [usize; 3],
+    vertex: impl Fn(usize) -> usize,
+) -> Option<Result<[Vec2; 3], String>> {
+    let Uvs::Given {
+        values,
+        indices,
+        interpolation,
+    } = uvs
+    else {
+        return None;
+    };
+    let element = |corner: usize| match interpolation {
+        Interpolation::Constant => 0,
+        Interpolation::Uniform => face,
+        Interpolation::Vertex => vertex(corner),
+        Interpolation::FaceVarying => corner,
+    };
+    let lookup = |corner: usize| -> Result<Vec2, String> {
+        let e = element(corner);
+        let i = match indices {
+            Some(ix) => *ix
+                .get(e)
+                .ok_or_else(|| format!("its indices have no entry {e}"))?
+                as usize,
+            None => e,
+        };
+        values
+            .get(i)
+            .copied()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("entry {i} is missing or not finite"))
+    };
+    Some((|| Ok([lookup(tri[0])?, lookup(tri[1])?, lookup(tri[2])?]))())
+}
+
+/// A `point3f[]` attribute at time `code`, each point finite.
+fn points(prim: &Prim, source: &Source, name: &str, code: f64) -> Result<Vec<Vec3>, RenderError> {
+    let path = prim.path().as_str();
+    let value = prim
+        .attribute(name)
+        .get_at::<Value>(TimeCode::new(code))
+        .map_err(|e| source.read_error(path, e))?
+        .ok_or_else(|| source.error(path, Some(name), "missing".into()))?;
+    let points = vec3_array(&value)
+        .ok_or_else(|| source.error(path, Some(name), "expected points (point3f[])".into()))?;
+    if let Some(i) = points
+        .iter()
+        .position(|p| !crate::scene::within_single_precision(*p))
+    {
+        return Err(source.error(
+            path,
+            Some(name),
+            format!("point {i} is not finite or lies beyond ±1e12"),
+        ));
+    }
+    Ok(points)
+}
+
+/// The mesh's `velocities` at `code`, when authored for every point.
+fn velocities(
+    prim: &Prim,
+    source: &Source,
+    code: f64,
+    count: usize,
+) -> Result<Option<Vec<Vec3>>, RenderError> {
+    if prim
+        .attribute("velocities")
+        .get_at::<Value>(TimeCode::new(code))
+        .ok()
+        .flatten()
+        .is_none()
+    {
+        return Ok(None);
+    }
+    let v = points(prim, source, "velocities", code)?;
+    Ok((v.len() == count).then_some(v))
+}
+
+/// An integer array attribute at `code`.
+pub(super) fn int_array(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Vec<u32>>> {
+    let Some(value) = prim.attribute(name).get_at::<Value>(TimeCode::new(code))? else {
+        return Ok(None);
+    };
+    let ints: Vec<i64> = match value {
+        Value::IntVec(v) => v.into_iter().map(i64::from).collect(),
+        Value::UintVec(v) => v.into_iter().map(i64::from).collect(),
+        Value::Int64Vec(v) => v,
+        other => anyhow::bail!("{name}: expected an integer array, found {}", kind(&other)),
+    };
+    ints.into_iter()
+        .map(|i| u32::try_from(i).map_err(|_| anyhow::anyhow!("{name}: {i} is not an index")))
+        .collect::<anyhow::Result<Vec<u32>>>()
+        .map(Some)
+}
+
+/// A token (or string) attribute at `code`.
+pub(super) fn token(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<String>> {
+    Ok(
+        match prim.attribute(name).get_at::<Value>(TimeCode::new(code))? {
+            Some(Value::Token(t)) => Some(t.as_str().to_owned()),
+            Some(Value::String(s)) => Some(s),
+            _ => None,
+        },
+    )
+}
+
+/// A short name of a value's type, for messages.
+fn kind(v: &Value) -> String {
+    let debug = format!("{v:?}");
+    debug.split('(').next().unwrap_or("?").to_owned()
+}
+
+/// The length of an array value (0 for anything else).
+fn array_len(v: &Value) -> usize {
+    vec3_array(v).map_or(0, |a| a.len())
+}
+
+/// A 3-vector array of any precision.
+fn vec3_array(v: &Value) -> Option<Vec<Vec3>> {
+    Some(match v {
+        Value::Vec3fVec(a) => a.iter().map(|p| Vec3::new(p.x, p.y, p.z)).collect(),
+        Value::Vec3dVec(a) => a
+            .iter()
+            .map(|p| Vec3::new(p.x as f32, p.y as f32, p.z as f32))
+            .collect(),
+        Value::Vec3hVec(a) => a
+            .iter()
+            .map(|p| Vec3::new(p.x.to_f32(), p.y.to_f32(), p.z.to_f32()))
+            .collect(),
+        _ => return None,
+    })
+}
+
+/// A 2-vector array of any precision.
+fn vec2_array(v: &Value) -> Option<Vec<Vec2>> {
+    Some(match v {
+        Value::Vec2fVec(a) => a.iter().map(|p| Vec2::new(p.x, p.y)).collect(),
+        Value::Vec2dVec(a) => a
+            .iter()
+            .map(|p| Vec2::new(p.x as f32, p.y as f32))
+            .collect(),
+        Value::Vec2hVec(a) => a
+            .iter()
+            .map(|p| Vec2::new(p.x.to_f32(), p.y.to_f32()))
+            .collect(),
+        _ => return None,
+    })
+}

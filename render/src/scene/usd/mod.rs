@@ -1,0 +1,155 @@
+//! `[[usd]]`: sets, characters, lights and materials read from the pipeline's USD layers
+//! (usda, usdc or usdz) with the `openusd` crate, natively at render time.
+//!
+//! A stage becomes what the shot file would otherwise say: each mesh prim an object named by
+//! its prim path (so `copy_of`, `through`, cull volumes and light groups can name it), each
+//! bound UsdPreviewSurface a material named by the material's path, each UsdLux light a
+//! `[[light]]` and a dome light the `[environment]`. The sections are built as the shot's own
+//! tables are and checked by the same code, their messages naming the layer and the prim.
+//! What the stage holds that rift does not read is said once per prim, never skipped silently.
+
+mod lights;
+mod mesh;
+mod shading;
+mod stage;
+mod xform;
+
+pub use stage::{StageLimits, open_stage};
+
+use super::Entry;
+use super::mesh::MeshPart;
+use super::schema::ObjectSection;
+use crate::error::{RenderError, key_error};
+use crate::geometry::Deformation;
+use rift_fx::Shot;
+use serde::Deserialize;
+use std::path::Path;
+use std::sync::Arc;
+
+/// One `[[usd]]` section.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UsdSection {
+    /// The layer, relative to the shot file.
+    pub file: String,
+    /// Only the prims under this one (default: the whole stage).
+    pub root: Option<String>,
+    /// Frames added to the stage's times: time code `t` is shot frame `t + time_offset`
+    /// (when the stage's time codes per second equal the shot's fps).
+    pub time_offset: Option<f64>,
+}
+
+/// A mesh prim's shape: its parts in the space its object's transform places (the
+/// non-similar part of its world transform baked in), and how they deform over time when its
+/// points are time-sampled.
+pub struct Shape {
+    pub parts: Vec<MeshPart>,
+    pub deformation: Option<Arc<Deformation>>,
+}
+
+impl std::fmt::Debug for Shape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let triangles: usize = self.parts.iter().map(|p| p.triangles.len()).sum();
+        write!(
+            f,
+            "Shape({} parts, {triangles} triangles, deforms: {})",
+            self.parts.len(),
+            self.deformation.is_some()
+        )
+    }
+}
+
+/// What the `[[usd]]` sections bring, as the shot's own sections would say it.
+#[derive(Default)]
+pub struct Imported {
+    /// One per mesh prim, named by its path, with its shape attached.
+    pub objects: Vec<ObjectSection>,
+    pub materials: Vec<Entry>,
+    pub lights: Vec<Entry>,
+    /// From a dome light.
+    pub environment: Option<Entry>,
+    /// What the stages hold that rift does not read, each said once (with its prim).
+    pub warnings: Vec<String>,
+}
+
+/// Maps the stage's time codes to the shot's seconds.
+#[derive(Clone, Copy, Debug)]
+pub struct Clock {
+    /// Stage time codes per second.
+    pub codes_per_second: f64,
+    /// The section's offset, seconds.
+    pub offset: f64,
+    /// The shot's frames per second.
+    pub fps: f64,
+}
+
+impl Clock {
+    /// Seconds of shot time at time code `code`.
+    pub fn seconds(&self, code: f64) -> f64 {
+        code / self.codes_per_second + self.offset
+    }
+
+    /// The shot frame at time code `code`.
+    pub fn frame(&self, code: f64) -> f64 {
+        self.seconds(code) * self.fps
+    }
+
+    /// The time code at shot time `seconds`.
+    pub fn code(&self, seconds: f64) -> f64 {
+        (seconds - self.offset) * self.codes_per_second
+    }
+}
+
+/// Reads every `[[usd]]` section of `shot` for rays at `times` (seconds; `margin` more on
+/// each side for copies seen through openings with time offsets), within `budget` bytes.
+pub fn import(
+    shot: &Shot,
+    times: [f64; 2],
+    margin: f64,
+    budget: Option<u64>,
+) -> Result<Imported, RenderError> {
+    let file = &shot.source;
+    let base = file.parent().unwrap_or(Path::new("."));
+    let mut out = Imported::default();
+    for (i, table) in shot.render.usd.iter().enumerate() {
+        let key = format!("usd[{i}]");
+        let section: UsdSection = super::parse(file, &key, table)?;
+        let offset = match section.time_offset {
+            Some(f) if !f.is_finite() || f.abs() > 1e9 => {
+                return Err(key_error(
+                    file,
+                    format!("{key}.time_offset"),
+                    "expected a finite number of frames within ±1e9",
+                ));
+            }
+            Some(f) => f / shot.fps,
+            None => 0.0,
+        };
+        // Absolute, so the textures and maps it names are found from any folder.
+        let layer = base.join(&section.file);
+        let layer = std::fs::canonicalize(&layer).unwrap_or(layer);
+        let limits = StageLimits::from_budget(budget);
+        let stage = open_stage(&layer, limits)
+            .map_err(|message| key_error(file, format!("{key}.file"), message))?;
+        let clock = Clock {
+            codes_per_second: stage.time_codes_per_second(),
+            offset,
+            fps: shot.fps,
+        };
+        let span = [times[0] - margin, times[1] + margin];
+        stage::read(
+            &stage,
+            &stage::Source {
+                layer: &layer,
+                key: &key,
+                shot_file: file,
+                root: section.root.as_deref(),
+                clock,
+                span,
+                budget,
+            },
+            &mut out,
+        )?;
+    }
+    Ok(out)
+}

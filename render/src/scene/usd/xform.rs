@@ -1,0 +1,310 @@
+//! Where a prim is over time: its world transform at the time samples of its own and its
+//! ancestors' xform ops around the times rays reach, split into a constant part baked into its
+//! points and a similarity that moves it (the only motion rift blurs).
+
+use super::Shape;
+use super::stage::Source;
+use crate::error::RenderError;
+use crate::scene::schema::ObjectSection;
+use glam::{DMat3, DMat4, DVec3};
+use openusd::schemas::geom::{Imageable, Purpose, Visibility, Xformable};
+use openusd::usd::{Prim, SchemaBase, SchemaKind, TimeCode};
+use rift_fx::shot::schema::{InterpolationSpec, PoseSpec};
+use std::sync::Arc;
+
+/// Any prim, seen as imageable and transformable (every prim rift reads is).
+struct Placed(Prim);
+
+impl SchemaBase for Placed {
+    const KIND: SchemaKind = SchemaKind::AbstractTyped;
+    fn prim(&self) -> &Prim {
+        &self.0
+    }
+}
+impl Imageable for Placed {}
+impl Xformable for Placed {}
+
+/// False for prims no render shows: invisible ones (or under one), guides and proxies.
+pub fn rendered(prim: &Prim) -> anyhow::Result<bool> {
+    let placed = Placed(prim.clone());
+    if placed.compute_visibility()? == Visibility::Invisible {
+        return Ok(false);
+    }
+    Ok(matches!(
+        placed.compute_purpose()?,
+        Purpose::Default | Purpose::Render
+    ))
+}
+
+/// A prim's placement: `bake` (column-vector, world units) applied to its points once, then
+/// `keys` (shot frames, similarities) moving them; no keys when it stands still.
+pub struct Placement {
+    pub bake: DMat4,
+    pub keys: Vec<(f64, DMat4)>,
+}
+
+impl Placement {
+    /// The object section of a mesh prim at `path` placed here, with its `shape`.
+    pub fn object(&self, path: String, shape: Arc<Shape>) -> ObjectSection {
+        ObjectSection {
+            name: path.clone(),
+            mesh: None,
+            material: None,
+            transform: self.pose(),
+            copy_of: None,
+            through: None,
+            back_through: None,
+            visibility: None,
+            light_group: None,
+            shape: Some(shape),
+        }
+    }
+
+    /// As a shot file's `transform` (for sections built as tables): one matrix, or keyed
+    /// matrices.
+    pub fn pose_value(&self) -> toml::Value {
+        let matrix = |m: glam::DMat4| {
+            let rows = m.transpose().to_cols_array_2d();
+            toml::Value::Array(
+                rows.iter()
+                    .map(|r| toml::Value::Array(r.iter().map(|&x| x.into()).collect()))
+                    .collect(),
+            )
+        };
+        let mut t = toml::Table::new();
+        match self.keys.as_slice() {
+            [(_, m)] => {
+                t.insert("matrix".into(), matrix(*m));
+            }
+            keys => {
+                let keys = keys
+                    .iter()
+                    .map(|&(frame, m)| {
+                        let mut k = toml::Table::new();
+                        k.insert("frame".into(), frame.into());
+                        k.insert("matrix".into(), matrix(m));
+                        toml::Value::Table(k)
+                    })
+                    .collect();
+                t.insert("keys".into(), toml::Value::Array(keys));
+                t.insert("interpolation".into(), "linear".into());
+            }
+        }
+        toml::Value::Table(t)
+    }
+
+    /// The keys as a shot-file pose (none when it stands still).
+    pub fn pose(&self) -> Option<PoseSpec> {
+        if self.keys.len() < 2 {
+            return None;
+        }
+        let keys = self
+            .keys
+            .iter()
+            .map(|&(frame, m)| PoseSpec {
+                frame: Some(frame),
+                matrix: Some(m.transpose().to_cols_array_2d()),
+                ..PoseSpec::default()
+            })
+            .collect();
+        Some(PoseSpec {
+            keys: Some(keys),
+            interpolation: Some(InterpolationSpec::Linear),
+            ..PoseSpec::default()
+        })
+    }
+}
+
+/// Where `prim` is over the times rays reach. A transform whose shape changes over time
+/// (animated non-uniform scale or shear) is refused: rift blurs rigid motion and uniform scale.
+pub fn placement(prim: &Prim, source: &Source) -> Result<Placement, RenderError> {
+    let path = prim.path().as_str();
+    let codes = sample_codes(prim, source).map_err(|e| source.read_error(path, e))?;
+    let matrices: Vec<DMat4> = codes
+        .iter()
+        .map(|&c| world(prim, c))
+        .collect::<anyhow::Result<_>>()
+        .map_err(|e| source.read_error(path, e))?;
+    let bake = matrices[0];
+    if !bake.is_finite() || bake.determinant() == 0.0 {
+        return Err(source.error(
+            path,
+            Some("xformOp"),
+            "its world transform is singular or not finite".into(),
+        ));
+    }
+    if matrices.iter().all(|m| *m == bake) {
+        return Ok(Placement {
+            bake,
+            keys: Vec::new(),
+        });
+    }
+    let inverse = bake.inverse();
+    let mut keys = Vec::with_capacity(codes.len());
+    for (&code, m) in codes.iter().zip(&matrices) {
+        let relative = *m * inverse;
+        if !is_similarity(DMat3::from_mat4(relative)) {
+            return Err(source.error(
+                path,
+                Some("xformOp"),
+                format!(
+                    "its transform changes shape at time code {code} (animated non-uniform \
+                     scale or shear), which rift cannot blur; bake it into the points"
+                ),
+            ));
+        }
+        keys.push((source.clock.frame(code), relative));
+    }
+    Ok(Placement { bake, keys })
+}
+
+/// A light's placement: its world transform's per-axis scales at the first sample (which
+/// size the light) taken out, the rest as keys of similarities from the origin.
+pub fn light_placement(prim: &Prim, source: &Source) -> Result<(Placement, DVec3), RenderError> {
+    let path = prim.path().as_str();
+    let codes = sample_codes(prim, source).map_err(|e| source.read_error(path, e))?;
+    let first = world(prim, codes[0]).map_err(|e| source.read_error(path, e))?;
+    let axes = DMat3::from_mat4(first);
+    let scales = DVec3::new(
+        axes.x_axis.length(),
+        axes.y_axis.length(),
+        axes.z_axis.length(),
+    );
+    if !first.is_finite() || scales.min_element() <= 0.0 {
+        return Err(source.error(
+            path,
+            Some("xformOp"),
+            "its world transform is singular or not finite".into(),
+        ));
+    }
+    let unscale = DMat4::from_scale(1.0 / scales);
+    let mut keys = Vec::with_capacity(codes.len());
+    for &code in &codes {
+        let m = world(prim, code).map_err(|e| source.read_error(path, e))? * unscale;
+        if !is_similarity(DMat3::from_mat4(m)) {
+            return Err(source.error(
+                path,
+                Some("xformOp"),
+                format!(
+                    "its transform at time code {code} shears the light or scales it \
+                     differently than at its first sample, which rift cannot place"
+                ),
+            ));
+        }
+        keys.push((source.clock.frame(code), m));
+    }
+    let keys = match keys.windows(2).all(|w| w[0].1 == w[1].1) {
+        // Standing still: one key, as a pose.
+        true => vec![keys[0]],
+        false => keys,
+    };
+    Ok((
+        Placement {
+            bake: DMat4::IDENTITY,
+            keys,
+        },
+        scales,
+    ))
+}
+
+/// True when `m` is a rotation times a uniform scale (columns orthogonal, of one length).
+fn is_similarity(m: DMat3) -> bool {
+    let gram = m.transpose() * m;
+    let s2 = (gram.x_axis.x + gram.y_axis.y + gram.z_axis.z) / 3.0;
+    if !(s2 > 0.0) || m.determinant() <= 0.0 {
+        return false;
+    }
+    let off = (gram - DMat3::from_diagonal(DVec3::splat(s2))) * (1.0 / s2);
+    off.to_cols_array().iter().all(|x| x.abs() < 1e-5)
+}
+
+/// `prim`'s local-to-world transform at time `code`, column-vector.
+fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
+    let mut m = DMat4::IDENTITY;
+    for placed in chain(prim) {
+        let local = placed.local_to_parent_transform(TimeCode::new(code))?;
+        m = DMat4::from_cols_array(&local.0) * m;
+        if placed.resets_xform_stack()? {
+            break;
+        }
+    }
+    Ok(m)
+}
+
+/// `prim` and its ancestors below the pseudo-root, nearest first.
+fn chain(prim: &Prim) -> Vec<Placed> {
+    let stage = prim.stage();
+    let mut out = vec![Placed(prim.clone())];
+    let mut path = prim.path().parent();
+    while let Some(p) = path {
+        if p.is_abs_root() {
+            break;
+        }
+        path = p.parent();
+        out.push(Placed(stage.prim(p)));
+    }
+    out
+}
+
+/// The time codes `prim`'s world transform is read at: every time sample of the ops of it
+/// and its ancestors within the span, with the nearest one outside each end; the span's
+/// start alone when nothing is sampled there.
+fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
+    let [start, end] = source.codes();
+    let mut all: Vec<f64> = Vec::new();
+    for placed in chain(prim) {
+        for op in placed.xform_op_order()?.unwrap_or_default() {
+            let name = op.strip_prefix("!invert!").unwrap_or(&op);
+            if name == "!resetXformStack!" {
+                continue;
+            }
+            all.extend(placed.prim().attribute(name).time_sample_times()?);
+        }
+        if placed.resets_xform_stack()? {
+            break;
+        }
+    }
+    all.retain(|t| t.is_finite());
+    all.sort_by(f64::total_cmp);
+    all.dedup();
+    Ok(within(&all, [start, end]))
+}
+
+/// Of sorted `times`, those within `[start, end]` and the nearest outside each end; `start`
+/// alone when there are none.
+pub fn within(times: &[f64], [start, end]: [f64; 2]) -> Vec<f64> {
+    if times.is_empty() {
+        return vec![start];
+    }
+    let first = times.partition_point(|&t| t < start).saturating_sub(1);
+    let last = times.partition_point(|&t| t <= end).min(times.len() - 1);
+    times[first..=last.max(first)].to_vec()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn samples_around_the_span_are_kept_with_one_outside_each_end() {
+        let t = [0.0, 1.0, 2.0, 3.0, 4.0];
+        assert_eq!(within(&t, [1.5, 2.5]), vec![1.0, 2.0, 3.0]);
+        assert_eq!(within(&t, [2.0, 2.0]), vec![1.0, 2.0, 3.0]);
+        assert_eq!(within(&t, [-5.0, -4.0]), vec![0.0]);
+        assert_eq!(within(&t, [9.0, 10.0]), vec![4.0]);
+        assert_eq!(within(&[], [1.0, 2.0]), vec![1.0]);
+    }
+
+    #[test]
+    fn similarities_are_told_from_stretches() {
+        let rot = DMat3::from_rotation_y(0.7) * 2.5;
+        assert!(is_similarity(rot));
+        assert!(!is_similarity(DMat3::from_diagonal(DVec3::new(
+            1.0, 2.0, 1.0
+        ))));
+        // A mirror is not a motion.
+        assert!(!is_similarity(DMat3::from_diagonal(DVec3::new(
+            -1.0, 1.0, 1.0
+        ))));
+    }
+}
