@@ -20,7 +20,7 @@ const MAX_FUZZED_OPENINGS: usize = 16;
 pub type Reader = fn(&[u8]);
 
 /// The readers, by the name of their fuzz target.
-pub const TARGETS: [(&str, Reader); 11] = [
+pub const TARGETS: [(&str, Reader); 12] = [
     ("shot", shot),
     ("obj", obj),
     ("ply_mesh", ply_mesh),
@@ -32,6 +32,7 @@ pub const TARGETS: [(&str, Reader); 11] = [
     ("vdb", vdb),
     ("texture", texture),
     ("mesh_sequence", mesh_sequence),
+    ("usd", usd),
 ];
 
 /// A shot file: parsed, validated and, when it is small (few strands and openings), built into
@@ -113,4 +114,45 @@ pub fn texture(bytes: &[u8]) {
         let texture = crate::texture::Texture::new(picture, crate::texture::ColorSpace::Srgb);
         let _ = texture.lookup(glam::Vec2::new(0.3, 0.7), 0.01);
     }
+}
+
+/// A USD layer (usda, usdc or usdz, told by its first bytes), written to a scratch file (the
+/// crate opens layers by path) and read into objects, materials and lights within 256 MiB.
+/// The reader catches a panic of the USD crate's parser and reports a malformed layer; the
+/// fuzzer's own panic hook (which aborts, a finding) is passed over for panics inside that
+/// crate only, so what is fuzzed is the contract (rift returns, whatever the bytes) and any
+/// panic in rift's own code is still found.
+pub fn usd(bytes: &[u8]) {
+    let extension = match bytes {
+        [b'P', b'X', b'R', b'-', b'U', b'S', b'D', b'C', ..] => "usdc",
+        [b'P', b'K', ..] => "usdz",
+        _ => "usda",
+    };
+    let path =
+        std::env::temp_dir().join(format!("rift-fuzz-usd-{}.{extension}", std::process::id()));
+    if std::fs::write(&path, bytes).is_err() {
+        return;
+    }
+    let layer = crate::scene::usd::Layer {
+        path: &path,
+        key: "usd[0]",
+        shot_file: Path::new("fuzz.toml"),
+        root: None,
+    };
+    let mut out = crate::scene::usd::Imported::default();
+    let previous = std::sync::Arc::new(std::panic::take_hook());
+    let outside = previous.clone();
+    std::panic::set_hook(Box::new(move |info| {
+        if !info
+            .location()
+            .is_some_and(|l| l.file().contains("/openusd-"))
+        {
+            outside(info);
+        }
+    }));
+    let _ =
+        crate::scene::usd::read_layer(&layer, (0.0, 24.0), [0.0, 0.02], Some(256 << 20), &mut out);
+    let _ = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| previous(info)));
+    let _ = std::fs::remove_file(&path);
 }

@@ -8,6 +8,7 @@
 //! tables are and checked by the same code, their messages naming the layer and the prim.
 //! What the stage holds that rift does not read is said once per prim, never skipped silently.
 
+mod crate_check;
 mod lights;
 mod mesh;
 mod shading;
@@ -100,6 +101,103 @@ impl Clock {
     }
 }
 
+/// A layer to read, and the shot key that names it.
+pub struct Layer<'a> {
+    pub path: &'a Path,
+    /// The section's key, `usd[i]`.
+    pub key: &'a str,
+    pub shot_file: &'a Path,
+    /// Only the prims under this one.
+    pub root: Option<&'a str>,
+}
+
+/// Reads the stage of `layer` into `out`: time codes at `offset` seconds and `fps` frames a
+/// second, for rays at `span` (seconds), within `budget` bytes. The crate's parser can panic on
+/// a malformed file (an assertion, an index past an array); such a panic is caught and
+/// reported as a malformed layer, so bad input never ends the program.
+pub fn read_layer(
+    layer: &Layer,
+    clock: (f64, f64),
+    span: [f64; 2],
+    budget: Option<u64>,
+    out: &mut Imported,
+) -> Result<(), RenderError> {
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let mut read = Imported::default();
+        read_stage(layer, clock, span, budget, &mut read).map(|()| read)
+    }));
+    match read {
+        Ok(result) => {
+            let read = result?;
+            out.objects.extend(read.objects);
+            out.materials.extend(read.materials);
+            out.lights.extend(read.lights);
+            out.warnings.extend(read.warnings);
+            if read.environment.is_some() && out.environment.is_some() {
+                return Err(key_error(
+                    layer.shot_file,
+                    format!("{}.file", layer.key),
+                    "a second dome light: rift's environment is one (or give it in the shot)",
+                ));
+            }
+            out.environment = out.environment.take().or(read.environment);
+            Ok(())
+        }
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("no message");
+            Err(key_error(
+                layer.shot_file,
+                format!("{}.file", layer.key),
+                format!(
+                    "{}: the layer is malformed: the USD reader stopped ({what})",
+                    layer.path.display()
+                ),
+            ))
+        }
+    }
+}
+
+fn read_stage(
+    layer: &Layer,
+    (offset, fps): (f64, f64),
+    span: [f64; 2],
+    budget: Option<u64>,
+    out: &mut Imported,
+) -> Result<(), RenderError> {
+    let stage = open_stage(layer.path, StageLimits::from_budget(budget))
+        .map_err(|message| key_error(layer.shot_file, format!("{}.file", layer.key), message))?;
+    let clock = Clock {
+        codes_per_second: stage.time_codes_per_second(),
+        offset,
+        fps,
+    };
+    if !(clock.codes_per_second.is_finite() && clock.codes_per_second > 0.0) {
+        return Err(key_error(
+            layer.shot_file,
+            format!("{}.file", layer.key),
+            format!(
+                "{}: timeCodesPerSecond is {}; expected a positive number",
+                layer.path.display(),
+                clock.codes_per_second
+            ),
+        ));
+    }
+    let source = stage::Source {
+        layer: layer.path,
+        key: layer.key,
+        shot_file: layer.shot_file,
+        root: layer.root,
+        clock,
+        span,
+        budget,
+    };
+    stage::read(&stage, &source, out)
+}
+
 /// Reads every `[[usd]]` section of `shot` for rays at `times` (seconds; `margin` more on
 /// each side for copies seen through openings with time offsets), within `budget` bytes.
 pub fn import(
@@ -128,28 +226,14 @@ pub fn import(
         // Absolute, so the textures and maps it names are found from any folder.
         let layer = base.join(&section.file);
         let layer = std::fs::canonicalize(&layer).unwrap_or(layer);
-        let limits = StageLimits::from_budget(budget);
-        let stage = open_stage(&layer, limits)
-            .map_err(|message| key_error(file, format!("{key}.file"), message))?;
-        let clock = Clock {
-            codes_per_second: stage.time_codes_per_second(),
-            offset,
-            fps: shot.fps,
+        let layer_source = Layer {
+            path: &layer,
+            key: &key,
+            shot_file: file,
+            root: section.root.as_deref(),
         };
         let span = [times[0] - margin, times[1] + margin];
-        stage::read(
-            &stage,
-            &stage::Source {
-                layer: &layer,
-                key: &key,
-                shot_file: file,
-                root: section.root.as_deref(),
-                clock,
-                span,
-                budget,
-            },
-            &mut out,
-        )?;
+        read_layer(&layer_source, (offset, shot.fps), span, budget, &mut out)?;
     }
     Ok(out)
 }

@@ -5,7 +5,7 @@
 
 use super::Entry;
 use super::mesh::token;
-use super::stage::Source;
+use super::stage::{Source, well_formed};
 use crate::error::RenderError;
 use openusd::schemas::shade::{Material, Shader};
 use openusd::sdf::{self, Value};
@@ -31,6 +31,9 @@ pub fn bound_material(prim: &Prim) -> anyhow::Result<Option<String>> {
         let here = stage.prim(p.clone());
         for rel in ["material:binding", "material:binding:full"] {
             if let Some(target) = here.relationship(rel).targets()?.into_iter().next() {
+                if !well_formed(&target) {
+                    anyhow::bail!("{rel} targets a malformed path {:?}", target.as_str());
+                }
                 return Ok(Some(target.as_str().to_owned()));
             }
         }
@@ -284,6 +287,12 @@ impl Surface<'_> {
         let Some(target) = attr.connections()?.into_iter().next() else {
             return Ok(None);
         };
+        if !well_formed(&target) {
+            return Err(Problem::Refused(
+                format!("inputs:{name}"),
+                format!("it connects to a malformed path {:?}", target.as_str()),
+            ));
+        }
         let Some((prim, property)) = target.split_property() else {
             return Ok(None);
         };
@@ -383,7 +392,7 @@ impl Surface<'_> {
     /// Warns when a texture reads UVs from a primvar other than the ones rift reads.
     fn check_uv_set(&mut self, texture: &Prim) -> Result<(), Problem> {
         let st = texture.attribute("inputs:st");
-        let Some(target) = st.connections()?.into_iter().next() else {
+        let Some(target) = st.connections()?.into_iter().next().filter(well_formed) else {
             return Ok(());
         };
         let reader = self.shader.stage().prim(target.prim_path());

@@ -55,7 +55,7 @@ impl Resolver for BoundedResolver {
         if path.exists() {
             rift_fx::io::regular_file(path)?;
         }
-        let asset = self.inner.open_asset(resolved)?;
+        let mut asset = self.inner.open_asset(resolved)?;
         let total = self.read.get().saturating_add(asset.size()?);
         if total > self.limit {
             return Err(io::Error::other(format!(
@@ -65,7 +65,13 @@ impl Resolver for BoundedResolver {
             )));
         }
         self.read.set(total);
-        Ok(asset)
+        let bytes = asset.read_all()?;
+        // A binary layer is checked before the crate's reader trusts its declared sizes.
+        if bytes.starts_with(b"PXR-USDC") {
+            super::crate_check::check(&bytes, self.limit)
+                .map_err(|m| io::Error::other(format!("{resolved}: {m}")))?;
+        }
+        Ok(Box::new(io::Cursor::new(bytes)))
     }
 }
 
@@ -89,6 +95,19 @@ pub fn open_stage(layer: &Path, limits: StageLimits) -> Result<Stage, String> {
         return Err(format!("{}: {e}", layer.display()));
     }
     Ok(stage)
+}
+
+/// True when `path` (a relationship's or connection's target, as the layer gives it) is a
+/// well-formed absolute path: the USD crate's composition can loop forever on a malformed one
+/// (spaces or line breaks inside it), so rift follows no other.
+pub fn well_formed(path: &openusd::sdf::Path) -> bool {
+    let text = path.as_str();
+    text.starts_with('/')
+        && text.len() < 4096
+        && text
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_/.:{}=-".contains(c))
+        && openusd::sdf::path(text).is_ok()
 }
 
 /// Where a stage came from and what of it is read.
