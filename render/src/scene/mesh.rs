@@ -369,3 +369,23 @@ mod tests {
         assert!(parse_obj(bad, |_| None).is_err());
     }
 }
+
+/// A mesh given in memory rather than named by file (a USD mesh prim's): its parts in the
+/// space its object's transform places, and how they deform over time when its points are
+/// time-sampled.
+pub struct Shape {
+    pub parts: Vec<MeshPart>,
+    pub deformation: Option<std::sync::Arc<crate::geometry::Deformation>>,
+}
+
+impl std::fmt::Debug for Shape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let triangles: usize = self.parts.iter().map(|p| p.triangles.len()).sum();
+        write!(
+            f,
+            "Shape({} parts, {triangles} triangles, deforms: {})",
+            self.parts.len(),
+            self.deformation.is_some()
+        )
+    }
+}

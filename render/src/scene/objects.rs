@@ -50,7 +50,8 @@ pub(super) struct Part {
 }
 
 /// The `[[object]]` sections after the `imported` objects of USD layers, with names checked
-/// unique and each `copy_of` filled in from the earlier object it names (mesh, material and
+/// unique (a section named like a USD prim, without a mesh, changes that prim's object
+/// instead) and each `copy_of` filled in from the earlier object it names (mesh, material and
 /// transform, where the copy gives none).
 pub(super) fn object_sections(
     file: &Path,
@@ -61,6 +62,15 @@ pub(super) fn object_sections(
     for (i, table) in tables.iter().enumerate() {
         let key = format!("object[{i}]");
         let mut o: ObjectSection = parse(file, &key, table)?;
+        // A section named like a USD prim, with no mesh of its own, changes that object.
+        if let Some(prim) = out
+            .iter_mut()
+            .find(|x| x.name == o.name && x.shape.is_some() && x.copy_of.is_none())
+            .filter(|_| o.mesh.is_none() && o.copy_of.is_none())
+        {
+            override_prim(prim, o);
+            continue;
+        }
         if out.iter().any(|x| x.name == o.name) {
             return Err(key_error(
                 file,
@@ -86,6 +96,18 @@ pub(super) fn object_sections(
         out.push(o);
     }
     Ok(out)
+}
+
+/// What a shot-file section named like a USD prim changes of it: its material, transform,
+/// opening, visibility and light group, each where the section gives it.
+fn override_prim(prim: &mut ObjectSection, o: ObjectSection) {
+    prim.material = o.material.or(prim.material.take());
+    prim.transform = o.transform.or(prim.transform.take());
+    if o.through.is_some() || o.back_through.is_some() {
+        (prim.through, prim.back_through) = (o.through, o.back_through);
+    }
+    prim.visibility = o.visibility.or(prim.visibility);
+    prim.light_group = o.light_group.or(prim.light_group.take());
 }
 
 /// The opening the constraint solver carries a section's transform through, by name.

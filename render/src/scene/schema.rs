@@ -97,6 +97,17 @@
 //! transform = { position = [0.0, 0.0, -3.0], scale = 0.5 }  # keyed like an object's (optional)
 //! # through = "door"            # carried through this opening by the solver, like an object
 //!
+//! [[usd]]                       # the pipeline's set, characters, lights and materials
+//! file = "set/room.usdc"        # usda, usdc or usdz, relative to the shot file; each mesh prim
+//!                               # is an object named by its path ("/World/Room"), each bound
+//!                               # UsdPreviewSurface a material named by its path, each UsdLux
+//!                               # light a [[light]], a dome light the [environment] (docs/usd.md)
+//! # root = "/World/Set"         # only the prims under this one
+//! # time_offset = 0.0           # frames: time code t is shot frame t + time_offset
+//!                               # An [[object]] named like a prim, without a mesh, changes that
+//!                               # prim's object (material, transform, visibility, light group,
+//!                               # through); a [[material]] named like a USD material replaces it
+//!
 //! [[light]]                     # a light as a lighter places it, in UsdLux's units
 //! name = "key"
 //! type = "rect"                 # "point" (a sphere: `radius`, 0 for a point), "spot" (a point
@@ -200,6 +211,19 @@
 //! ```
 
 use serde::Deserialize;
+
+/// One `[[usd]]` section.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UsdSection {
+    /// The layer, relative to the shot file.
+    pub file: String,
+    /// Only the prims under this one (default: the whole stage).
+    pub root: Option<String>,
+    /// Frames added to the stage's times: time code `t` is shot frame `t + time_offset`
+    /// (when the stage's time codes per second equal the shot's fps).
+    pub time_offset: Option<f64>,
+}
 
 /// `[render]`.
 #[derive(Debug, Deserialize, Default)]
@@ -335,7 +359,7 @@ pub struct ObjectSection {
     pub light_group: Option<String>,
     /// The shape of an object a USD layer brings (never a shot-file key).
     #[serde(skip)]
-    pub shape: Option<std::sync::Arc<super::usd::Shape>>,
+    pub shape: Option<std::sync::Arc<super::mesh::Shape>>,
 }
 
 /// `[object.visibility]`: which rays see the object (each defaults to true).

@@ -2,7 +2,7 @@
 //! the ShapingAPI) and a dome light into the `[environment]`, in UsdLux's own units: colour ×
 //! intensity × 2^exposure, `normalize` as authored. A light's scale sizes it.
 
-use super::stage::Source;
+use super::Source;
 use super::xform::{light_placement, placement};
 use super::{Entry, Imported};
 use crate::error::RenderError;

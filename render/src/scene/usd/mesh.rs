@@ -3,10 +3,11 @@
 //! not), one part per material (the mesh's binding and its `materialBind` subsets), and
 //! time-sampled points (with their velocities) as a deforming mesh.
 
-use super::Shape;
-use super::stage::Source;
+use super::Source;
+use super::values::{array_len, int_array, token, vec2_array, vec3_array};
 use super::xform::{Placement, within};
 use crate::error::RenderError;
+use crate::scene::mesh::Shape;
 use crate::scene::mesh::{MeshPart, MtlMaterial};
 use crate::scene::sequence::{self, Sample};
 use glam::{DMat4, Vec2, Vec3};
@@ -382,7 +383,7 @@ fn parts(
             if let Some(moved) = &moved {
                 part.velocities.push(tri.map(|c| moved[vertex(c)]));
             }
-            if let Some(uv) = uv_corners(uvs, f, tri, |c| vertex(c)) {
+            if let Some(uv) = uv_corners(uvs, f, tri, vertex) {
                 part.uvs
                     .push(uv.map_err(|m| source.error(path, Some("primvars:st"), m))?);
             }
@@ -473,75 +474,4 @@ fn velocities(
     }
     let v = points(prim, source, "velocities", code)?;
     Ok((v.len() == count).then_some(v))
-}
-
-/// An integer array attribute at `code`.
-pub(super) fn int_array(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Vec<u32>>> {
-    let Some(value) = prim.attribute(name).get_at::<Value>(TimeCode::new(code))? else {
-        return Ok(None);
-    };
-    let ints: Vec<i64> = match value {
-        Value::IntVec(v) => v.into_iter().map(i64::from).collect(),
-        Value::UintVec(v) => v.into_iter().map(i64::from).collect(),
-        Value::Int64Vec(v) => v,
-        other => anyhow::bail!("{name}: expected an integer array, found {}", kind(&other)),
-    };
-    ints.into_iter()
-        .map(|i| u32::try_from(i).map_err(|_| anyhow::anyhow!("{name}: {i} is not an index")))
-        .collect::<anyhow::Result<Vec<u32>>>()
-        .map(Some)
-}
-
-/// A token (or string) attribute at `code`.
-pub(super) fn token(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<String>> {
-    Ok(
-        match prim.attribute(name).get_at::<Value>(TimeCode::new(code))? {
-            Some(Value::Token(t)) => Some(t.as_str().to_owned()),
-            Some(Value::String(s)) => Some(s),
-            _ => None,
-        },
-    )
-}
-
-/// A short name of a value's type, for messages.
-fn kind(v: &Value) -> String {
-    let debug = format!("{v:?}");
-    debug.split('(').next().unwrap_or("?").to_owned()
-}
-
-/// The length of an array value (0 for anything else).
-fn array_len(v: &Value) -> usize {
-    vec3_array(v).map_or(0, |a| a.len())
-}
-
-/// A 3-vector array of any precision.
-fn vec3_array(v: &Value) -> Option<Vec<Vec3>> {
-    Some(match v {
-        Value::Vec3fVec(a) => a.iter().map(|p| Vec3::new(p.x, p.y, p.z)).collect(),
-        Value::Vec3dVec(a) => a
-            .iter()
-            .map(|p| Vec3::new(p.x as f32, p.y as f32, p.z as f32))
-            .collect(),
-        Value::Vec3hVec(a) => a
-            .iter()
-            .map(|p| Vec3::new(p.x.to_f32(), p.y.to_f32(), p.z.to_f32()))
-            .collect(),
-        _ => return None,
-    })
-}
-
-/// A 2-vector array of any precision.
-fn vec2_array(v: &Value) -> Option<Vec<Vec2>> {
-    Some(match v {
-        Value::Vec2fVec(a) => a.iter().map(|p| Vec2::new(p.x, p.y)).collect(),
-        Value::Vec2dVec(a) => a
-            .iter()
-            .map(|p| Vec2::new(p.x as f32, p.y as f32))
-            .collect(),
-        Value::Vec2hVec(a) => a
-            .iter()
-            .map(|p| Vec2::new(p.x.to_f32(), p.y.to_f32()))
-            .collect(),
-        _ => return None,
-    })
 }

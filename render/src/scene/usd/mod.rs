@@ -13,52 +13,16 @@ mod lights;
 mod mesh;
 mod shading;
 mod stage;
+mod values;
 mod xform;
 
 pub use stage::{StageLimits, open_stage};
 
 use super::Entry;
-use super::mesh::MeshPart;
-use super::schema::ObjectSection;
+use super::schema::{ObjectSection, UsdSection};
 use crate::error::{RenderError, key_error};
-use crate::geometry::Deformation;
 use rift_fx::Shot;
-use serde::Deserialize;
 use std::path::Path;
-use std::sync::Arc;
-
-/// One `[[usd]]` section.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct UsdSection {
-    /// The layer, relative to the shot file.
-    pub file: String,
-    /// Only the prims under this one (default: the whole stage).
-    pub root: Option<String>,
-    /// Frames added to the stage's times: time code `t` is shot frame `t + time_offset`
-    /// (when the stage's time codes per second equal the shot's fps).
-    pub time_offset: Option<f64>,
-}
-
-/// A mesh prim's shape: its parts in the space its object's transform places (the
-/// non-similar part of its world transform baked in), and how they deform over time when its
-/// points are time-sampled.
-pub struct Shape {
-    pub parts: Vec<MeshPart>,
-    pub deformation: Option<Arc<Deformation>>,
-}
-
-impl std::fmt::Debug for Shape {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let triangles: usize = self.parts.iter().map(|p| p.triangles.len()).sum();
-        write!(
-            f,
-            "Shape({} parts, {triangles} triangles, deforms: {})",
-            self.parts.len(),
-            self.deformation.is_some()
-        )
-    }
-}
 
 /// What the `[[usd]]` sections bring, as the shot's own sections would say it.
 #[derive(Default)]
@@ -186,7 +150,7 @@ fn read_stage(
             ),
         ));
     }
-    let source = stage::Source {
+    let source = Source {
         layer: layer.path,
         key: layer.key,
         shot_file: layer.shot_file,
@@ -196,6 +160,53 @@ fn read_stage(
         budget,
     };
     stage::read(&stage, &source, out)
+}
+
+/// True when `path` (a relationship's or connection's target, as the layer gives it) is a
+/// well-formed absolute path: the USD crate's composition can loop forever on a malformed one
+/// (spaces or line breaks inside it), so rift follows no other.
+pub fn well_formed(path: &openusd::sdf::Path) -> bool {
+    let text = path.as_str();
+    text.starts_with('/')
+        && text.len() < 4096
+        && text
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_/.:{}=-".contains(c))
+        && openusd::sdf::path(text).is_ok()
+}
+
+/// Where a stage came from and what of it is read.
+pub struct Source<'a> {
+    pub layer: &'a Path,
+    /// `usd[i]`, for messages about the section itself.
+    pub key: &'a str,
+    pub shot_file: &'a Path,
+    pub root: Option<&'a str>,
+    pub clock: Clock,
+    /// Shot seconds rays can reach.
+    pub span: [f64; 2],
+    pub budget: Option<u64>,
+}
+
+impl Source<'_> {
+    /// An error about `prim` (its `attribute`, when given), in the layer.
+    pub fn error(&self, prim: &str, attribute: Option<&str>, message: String) -> RenderError {
+        let key = match attribute {
+            Some(a) => format!("<{prim}>.{a}"),
+            None => format!("<{prim}>"),
+        };
+        key_error(self.layer, key, message)
+    }
+
+    /// An error the crate reported while reading `prim`.
+    pub fn read_error(&self, prim: &str, e: anyhow::Error) -> RenderError {
+        self.error(prim, None, format!("cannot be read: {e:#}"))
+    }
+
+    /// The time codes rays need: the span's ends mapped to the stage.
+    pub fn codes(&self) -> [f64; 2] {
+        self.span.map(|s| self.clock.code(s))
+    }
 }
 
 /// Reads every `[[usd]]` section of `shot` for rays at `times` (seconds; `margin` more on

@@ -4,8 +4,8 @@
 //! colour space and channel. An unbound mesh takes its display colour, as USD viewers show it.
 
 use super::Entry;
-use super::mesh::token;
-use super::stage::{Source, well_formed};
+use super::values::token;
+use super::{Source, well_formed};
 use crate::error::RenderError;
 use openusd::schemas::shade::{Material, Shader};
 use openusd::sdf::{self, Value};
@@ -230,7 +230,10 @@ impl Surface<'_> {
     /// `inputs:normal` from a texture: a tangent-space normal map. Its scale and bias must
     /// be the usual 2 and −1 (rift decodes them itself).
     fn normal(&mut self) -> Result<(), Problem> {
-        let Some((texture, scale, bias)) = self.connected_texture("normal")? else {
+        let Some(Texture {
+            path, scale, bias, ..
+        }) = self.connected_texture("normal")?
+        else {
             return Ok(());
         };
         let usual = scale[..3].iter().all(|&s| (s - 2.0).abs() < 1e-4)
@@ -245,7 +248,7 @@ impl Surface<'_> {
             ));
         }
         let mut t = toml::Table::new();
-        t.insert("texture".into(), texture.path.into());
+        t.insert("texture".into(), path.into());
         self.table.insert("normal_map".into(), t.into());
         Ok(())
     }
@@ -305,9 +308,10 @@ impl Surface<'_> {
 
     /// The texture connected to `inputs:<name>`, as a rift texture table.
     fn texture(&mut self, name: &str, kind: Kind) -> Result<Option<toml::Table>, Problem> {
-        let Some((texture, scale, bias)) = self.connected_texture(name)? else {
+        let Some(texture) = self.connected_texture(name)? else {
             return Ok(None);
         };
+        let (scale, bias) = (texture.scale, texture.bias);
         let mut t = toml::Table::new();
         t.insert("texture".into(), texture.path.into());
         match (kind, texture.output.as_str()) {
@@ -345,11 +349,8 @@ impl Surface<'_> {
         Ok(Some(t))
     }
 
-    /// The UsdUVTexture connected to `inputs:<name>`: the texture, its scale and bias.
-    fn connected_texture(
-        &mut self,
-        name: &str,
-    ) -> Result<Option<(Texture, [f32; 4], [f32; 4])>, Problem> {
+    /// The UsdUVTexture connected to `inputs:<name>`.
+    fn connected_texture(&mut self, name: &str) -> Result<Option<Texture>, Problem> {
         let Some((prim, output)) = self.connected(name)? else {
             return Ok(None);
         };
@@ -384,9 +385,11 @@ impl Surface<'_> {
                 },
             )
         };
-        let scale = four("scale", [1.0; 4])?;
-        let bias = four("bias", [0.0; 4])?;
-        Ok(Some((texture, scale, bias)))
+        Ok(Some(Texture {
+            scale: four("scale", [1.0; 4])?,
+            bias: four("bias", [0.0; 4])?,
+            ..texture
+        }))
     }
 
     /// Warns when a texture reads UVs from a primvar other than the ones rift reads.
@@ -417,6 +420,9 @@ struct Texture {
     /// Which of its outputs the input reads: "rgb", "r", "g", "b" or "a".
     output: String,
     color_space: Option<&'static str>,
+    /// Its `scale` and `bias` per channel (r, g, b, a).
+    scale: [f32; 4],
+    bias: [f32; 4],
 }
 
 impl Texture {
@@ -448,6 +454,8 @@ impl Texture {
             path: path.to_string_lossy().into_owned(),
             output,
             color_space,
+            scale: [1.0; 4],
+            bias: [0.0; 4],
         })
     }
 }

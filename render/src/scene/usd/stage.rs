@@ -1,6 +1,6 @@
 //! Opening a stage within bounds, and walking its prims into objects, materials and lights.
 
-use super::{Clock, Imported, lights, mesh, shading, xform};
+use super::{Imported, Source, lights, mesh, shading, xform};
 use crate::error::{RenderError, key_error};
 use openusd::ar::{self, Asset, ResolvedPath, Resolver};
 use openusd::usd::{Prim, Stage};
@@ -97,53 +97,6 @@ pub fn open_stage(layer: &Path, limits: StageLimits) -> Result<Stage, String> {
     Ok(stage)
 }
 
-/// True when `path` (a relationship's or connection's target, as the layer gives it) is a
-/// well-formed absolute path: the USD crate's composition can loop forever on a malformed one
-/// (spaces or line breaks inside it), so rift follows no other.
-pub fn well_formed(path: &openusd::sdf::Path) -> bool {
-    let text = path.as_str();
-    text.starts_with('/')
-        && text.len() < 4096
-        && text
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || "_/.:{}=-".contains(c))
-        && openusd::sdf::path(text).is_ok()
-}
-
-/// Where a stage came from and what of it is read.
-pub(super) struct Source<'a> {
-    pub layer: &'a Path,
-    /// `usd[i]`, for messages about the section itself.
-    pub key: &'a str,
-    pub shot_file: &'a Path,
-    pub root: Option<&'a str>,
-    pub clock: Clock,
-    /// Shot seconds rays can reach.
-    pub span: [f64; 2],
-    pub budget: Option<u64>,
-}
-
-impl Source<'_> {
-    /// An error about `prim` (its `attribute`, when given), in the layer.
-    pub fn error(&self, prim: &str, attribute: Option<&str>, message: String) -> RenderError {
-        let key = match attribute {
-            Some(a) => format!("<{prim}>.{a}"),
-            None => format!("<{prim}>"),
-        };
-        key_error(self.layer, key, message)
-    }
-
-    /// An error the crate reported while reading `prim`.
-    pub fn read_error(&self, prim: &str, e: anyhow::Error) -> RenderError {
-        self.error(prim, None, format!("cannot be read: {e:#}"))
-    }
-
-    /// The time codes rays need: the span's ends mapped to the stage.
-    pub fn codes(&self) -> [f64; 2] {
-        self.span.map(|s| self.clock.code(s))
-    }
-}
-
 /// Reads `stage` from `source` into `out`.
 pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result<(), RenderError> {
     let root = match source.root {
@@ -176,7 +129,16 @@ pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result
             stack.extend(kids);
         }
     }
-    Ok(())
+    // References and payloads are composed as their prims are reached: a cycle, or a layer
+    // that is missing, is known only now.
+    match stage.composition_errors().first() {
+        Some(e) => Err(key_error(
+            source.shot_file,
+            format!("{}.file", source.key),
+            format!("{}: {e}", source.layer.display()),
+        )),
+        None => Ok(()),
+    }
 }
 
 /// The active, defined children of `prim` (instances expanded into their prototypes' prims).

@@ -2,9 +2,9 @@
 //! ancestors' xform ops around the times rays reach, split into a constant part baked into its
 //! points and a similarity that moves it (the only motion rift blurs).
 
-use super::Shape;
-use super::stage::Source;
+use super::Source;
 use crate::error::RenderError;
+use crate::scene::mesh::Shape;
 use crate::scene::schema::ObjectSection;
 use glam::{DMat3, DMat4, DVec3};
 use openusd::schemas::geom::{Imageable, Purpose, Visibility, Xformable};
@@ -211,7 +211,7 @@ pub fn light_placement(prim: &Prim, source: &Source) -> Result<(Placement, DVec3
 fn is_similarity(m: DMat3) -> bool {
     let gram = m.transpose() * m;
     let s2 = (gram.x_axis.x + gram.y_axis.y + gram.z_axis.z) / 3.0;
-    if !(s2 > 0.0) || m.determinant() <= 0.0 {
+    if s2.is_nan() || s2 <= 0.0 || m.determinant() <= 0.0 {
         return false;
     }
     let off = (gram - DMat3::from_diagonal(DVec3::splat(s2))) * (1.0 / s2);

@@ -1,0 +1,253 @@
+//! Shots that read the pipeline's USD (`[[usd]]`): a set written with Pixar's usd-core
+//! (tests/support/usd_set.py) renders alike from its usda, usdc and usdz, and as the same set
+//! written as rift's own shot file, OBJs and PNG; shot-file sections change USD prims by path;
+//! and bad layers are refused with a message naming the file and the prim or key.
+
+mod common;
+
+use common::{largest_difference, python_command, rift, root, stderr};
+use std::path::Path;
+
+/// Writes the set into `dir` (see tests/support/usd_set.py).
+fn make_set(dir: &Path) {
+    let out = python_command("python3")
+        .arg(root().join("tests/support/usd_set.py"))
+        .arg(dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "usd_set.py (usd-core comes from tests/requirements.txt): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Renders frame 1 of `shot` in `dir` to `image` at 16 samples a pixel; rift's standard error.
+fn render(dir: &Path, shot: &str, image: &str) -> String {
+    let out = rift(
+        dir,
+        &["render", shot, "-o", image, "--frames", "1", "--spp", "16"],
+    );
+    assert!(out.status.success(), "{shot}: {}", stderr(&out));
+    stderr(&out)
+}
+
+/// Mean R, G, B of an EXR's beauty over each third of its width.
+fn third_means(path: &Path) -> Vec<[f64; 3]> {
+    let layer = rift_render::frame::film::read_exr_layer(path).unwrap();
+    let (w, h) = (layer.size.0, layer.size.1);
+    (0..3)
+        .map(|third| {
+            let mut sum = [0.0f64; 3];
+            let columns = third * w / 3..(third + 1) * w / 3;
+            for (c, name) in ["R", "G", "B"].iter().enumerate() {
+                let values = &layer.channels[*name];
+                for y in 0..h {
+                    for x in columns.clone() {
+                        sum[c] += values[y * w + x] as f64;
+                    }
+                }
+                sum[c] /= (columns.len() * h) as f64;
+            }
+            sum
+        })
+        .collect()
+}
+
+/// Asserts two renders' means agree within `tolerance` (relative) in every third and channel.
+fn assert_means_agree(a: &Path, b: &Path, tolerance: f64) {
+    let (ma, mb) = (third_means(a), third_means(b));
+    for (third, (x, y)) in ma.iter().zip(&mb).enumerate() {
+        for c in 0..3 {
+            let d = (x[c] - y[c]).abs() / y[c].max(1e-3);
+            assert!(
+                d < tolerance,
+                "third {third}, channel {c}: {x:?} against {y:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_stage_renders_alike_in_every_encoding_and_as_its_shot_file() {
+    let dir = tempfile::tempdir().unwrap();
+    make_set(dir.path());
+    let said = render(dir.path(), "set_usda.toml", "usda.exr");
+    render(dir.path(), "set_usdc.toml", "usdc.exr");
+    render(dir.path(), "set_usdz.toml", "usdz.exr");
+    render(dir.path(), "set_toml.toml", "toml.exr");
+    let p = |name: &str| dir.path().join(name);
+    // One scene in three encodings (the usdz packs its texture): the same image, bit for bit.
+    assert_eq!(largest_difference(&p("usda.exr"), &p("usdc.exr")), 0.0);
+    assert_eq!(largest_difference(&p("usda.exr"), &p("usdz.exr")), 0.0);
+    // The same set as a shot file, OBJs and a PNG: walls from subsets, a box under a
+    // non-uniformly scaled parent, a moving ball and a deforming mesh (frame 1 blurs both),
+    // three lights and an emissive panel. The proxy and the invisible mesh, in view, are left
+    // out (the shot file has neither). Same samples: only the BVH's ties differ.
+    assert_means_agree(&p("usda.exr"), &p("toml.exr"), 2e-3);
+    // What rift does not read is said once, naming the layer and the prim.
+    assert_eq!(
+        said.matches("</World/Camera> is a Camera").count(),
+        1,
+        "{said}"
+    );
+    assert!(
+        !said.contains("Proxy") && !said.contains("Hidden"),
+        "{said}"
+    );
+}
+
+#[test]
+fn shot_file_sections_change_usd_prims_by_path() {
+    let dir = tempfile::tempdir().unwrap();
+    make_set(dir.path());
+    // The ball hidden from the camera, and a copy of the box moved beside it, named by path:
+    // in the USD shot by sections of their own, in the shot file's by its sections' keys.
+    let hide = "\n[[object]]\nname = \"/World/Ball\"\nvisibility = { camera = false }\n";
+    let copy = "\n[[object]]\nname = \"box_copy\"\ncopy_of = \"/World/Props/Box\"\n\
+                transform = { position = [1.2, 0.0, 0.3] }\n";
+    let read = |shot: &str| std::fs::read_to_string(dir.path().join(shot)).unwrap();
+    let usd = read("set_usda.toml") + hide + copy;
+    let own = read("set_toml.toml").replace(
+        "mesh = \"ball.obj\"\n",
+        "mesh = \"ball.obj\"\nvisibility = { camera = false }\n",
+    ) + copy;
+    // Both boxes stand in world space (the stage's baked at load): their copies move alike.
+    std::fs::write(dir.path().join("changed_set_usda.toml"), usd).unwrap();
+    std::fs::write(dir.path().join("changed_set_toml.toml"), own).unwrap();
+    render(dir.path(), "changed_set_usda.toml", "usda.exr");
+    render(dir.path(), "changed_set_toml.toml", "toml.exr");
+    render(dir.path(), "set_usda.toml", "plain.exr");
+    let p = |name: &str| dir.path().join(name);
+    assert_means_agree(&p("usda.exr"), &p("toml.exr"), 2e-3);
+    // And the changes show: the right third (the ball, the copied box) differs from the plain set.
+    let (changed, plain) = (third_means(&p("usda.exr")), third_means(&p("plain.exr")));
+    let d = (changed[2][0] - plain[2][0]).abs() / plain[2][0];
+    assert!(
+        d > 0.02,
+        "the right third barely changed: {changed:?} against {plain:?}"
+    );
+}
+
+/// Renders `shot` (text) in `dir` and returns rift's standard error, asserting it failed
+/// without writing the image.
+fn refused(dir: &Path, shot: &str) -> String {
+    std::fs::write(dir.join("bad.toml"), shot).unwrap();
+    let out = rift(
+        dir,
+        &["render", "bad.toml", "-o", "bad.exr", "--frames", "1"],
+    );
+    assert!(!out.status.success(), "rendered a bad shot:\n{shot}");
+    assert!(
+        !dir.join("bad.exr").exists(),
+        "wrote an image for a bad shot"
+    );
+    stderr(&out)
+}
+
+/// The set's shot header with `usd` as its layer section.
+fn shot_with(usd: &str) -> String {
+    let header = std::fs::read_to_string(root().join("tests/data/usd_shot_header.toml")).unwrap();
+    format!("{header}\n[[usd]]\n{usd}\n")
+}
+
+#[test]
+fn bad_layers_are_refused_naming_the_file_and_the_prim() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    make_set(d);
+    // A layer that is not there.
+    let e = refused(d, &shot_with("file = \"missing.usda\""));
+    assert!(
+        e.contains("usd[0].file") && e.contains("missing.usda"),
+        "{e}"
+    );
+    // A binary layer cut short, and a package that is not a zip.
+    let usdc = std::fs::read(d.join("set.usdc")).unwrap();
+    std::fs::write(d.join("short.usdc"), &usdc[..usdc.len() / 2]).unwrap();
+    let e = refused(d, &shot_with("file = \"short.usdc\""));
+    assert!(e.contains("usd[0].file") && e.contains("short.usdc"), "{e}");
+    std::fs::write(d.join("junk.usdz"), b"not a zip at all").unwrap();
+    let e = refused(d, &shot_with("file = \"junk.usdz\""));
+    assert!(e.contains("junk.usdz"), "{e}");
+    // 10^9 points declared where 86 are stored (the ball's): refused before it is read.
+    let count = 86u64.to_le_bytes();
+    let first_point: Vec<u8> = [0.0f32, 0.35, 0.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    let at = usdc
+        .windows(20)
+        .position(|w| w[..8] == count && w[8..] == first_point[..])
+        .expect("the ball's points in the usdc");
+    let mut huge = usdc.clone();
+    huge[at..at + 8].copy_from_slice(&1_000_000_000u64.to_le_bytes());
+    std::fs::write(d.join("huge.usdc"), huge).unwrap();
+    let e = refused(d, &shot_with("file = \"huge.usdc\""));
+    assert!(e.contains("huge.usdc") && e.contains("1000000000"), "{e}");
+    // A root prim that does not exist.
+    let e = refused(
+        d,
+        &shot_with("file = \"set.usda\"\nroot = \"/World/Nothing\""),
+    );
+    assert!(
+        e.contains("usd[0].root") && e.contains("/World/Nothing"),
+        "{e}"
+    );
+    // Layers that reference each other in a cycle.
+    std::fs::write(
+        d.join("a.usda"),
+        "#usda 1.0\ndef Xform \"A\" (references = @./b.usda@</B>) {}\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("b.usda"),
+        "#usda 1.0\ndef Xform \"B\" (references = @./a.usda@</A>) {}\n",
+    )
+    .unwrap();
+    let e = refused(d, &shot_with("file = \"a.usda\""));
+    assert!(
+        e.contains("a.usda") && e.to_lowercase().contains("cycl"),
+        "{e}"
+    );
+    // A mesh whose faces name points it does not have.
+    std::fs::write(
+        d.join("bad_mesh.usda"),
+        "#usda 1.0\ndef Mesh \"Tri\" {\n point3f[] points = [(0,0,0), (1,0,0), (0,1,0)]\n \
+         int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 7]\n}\n",
+    )
+    .unwrap();
+    let e = refused(d, &shot_with("file = \"bad_mesh.usda\""));
+    assert!(
+        e.contains("bad_mesh.usda") && e.contains("</Tri>.faceVertexIndices") && e.contains("7"),
+        "{e}"
+    );
+    // A key the section does not have.
+    let e = refused(d, &shot_with("file = \"set.usda\"\nlayer = \"x\""));
+    assert!(e.contains("usd[0]") && e.contains("layer"), "{e}");
+}
+
+#[test]
+fn a_prim_of_a_kind_rift_does_not_read_is_said_and_left_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("sphere.usda"),
+        "#usda 1.0\ndef Xform \"World\" {\n def Sphere \"Ball\" { double radius = 1 }\n \
+         def Mesh \"Floor\" {\n  point3f[] points = [(-5,0,-5), (5,0,-5), (5,0,5), (-5,0,5)]\n  \
+         int[] faceVertexCounts = [4]\n  int[] faceVertexIndices = [0, 3, 2, 1]\n  \
+         uniform token subdivisionScheme = \"none\"\n }\n def SphereLight \"Lamp\" {\n  \
+         float inputs:intensity = 50\n  double3 xformOp:translate = (0, 2, 0)\n  \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]\n }\n}\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("shot.toml"), shot_with("file = \"sphere.usda\"")).unwrap();
+    let said = render(d, "shot.toml", "out.exr");
+    assert!(
+        said.contains("</World/Ball> is a Sphere") && said.contains("export it as a mesh"),
+        "{said}"
+    );
+    // The floor (unbound: USD's 18% grey) is lit by the lamp.
+    let means = third_means(&d.join("out.exr"));
+    assert!(means[1][0] > 0.01, "{means:?}");
+}
