@@ -270,19 +270,47 @@ impl Crate<'_> {
             (self.u64(pos)?, pos + 8)
         };
         let size = element_size(kind);
-        if compressed && n >= 4 {
-            // Coded integers or a table and indices: at least two bits an entry, packed.
-            if n / 4 > self.after(data).saturating_mul(LZ4_RATIO) {
-                return Err(format!(
-                    "an array at {at} declares {n} entries, more than it holds"
-                ));
-            }
-        } else if n.saturating_mul(size) > self.after(data) {
-            return Err(format!(
+        self.allocation(n, size.max(8), "array entries")?;
+        match (compressed && n >= 4, kind) {
+            // Integers: coded, in one compressed block.
+            (true, 3..=6) => self.packed(data, n),
+            // Floating point: coded integers ('i'), or a table of values and coded indices ('t').
+            (true, 7..=9 | 56) => match self.byte(data)? {
+                b'i' => self.packed(data + 1, n),
+                b't' => {
+                    let entries = self.u32(data + 1)?;
+                    let table = entries.saturating_mul(size);
+                    if table > self.after(data + 5) {
+                        return Err(format!("an array's table at {at} runs past the end"));
+                    }
+                    self.packed(data + 5 + table, n)
+                }
+                code => Err(format!(
+                    "an array at {at} is packed by an unknown code {code}"
+                )),
+            },
+            _ if n.saturating_mul(size) > self.after(data) => Err(format!(
                 "an array at {at} declares {n} entries, more than it holds"
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// A compressed block of `n` coded integers at `at`: its size, then the bytes.
+    fn packed(&self, at: u64, n: u64) -> Result<(), String> {
+        let size = self.u64(at)?;
+        if size > self.after(at + 8) {
+            return Err(format!(
+                "a compressed block at {at} of {size} bytes runs past the end"
             ));
         }
-        self.allocation(n, size.max(8), "array entries")
+        // The integer coding takes two bits an entry at least.
+        if n / 4 > size.saturating_mul(LZ4_RATIO) + 64 {
+            return Err(format!(
+                "{n} coded integers declared at {at} cannot come from {size} packed bytes"
+            ));
+        }
+        Ok(())
     }
 }
 
