@@ -11,7 +11,8 @@ set_usda.toml, set_usdc.toml and set_usdz.toml, which differ only in the layer t
 The set exercises what the reader must get right: a room of quads whose walls take materials
 from GeomSubsets; a box under a parent with a non-uniform scale, textured through a
 UsdUVTexture on faceVarying UVs; a metal ball moving by time-sampled translate (motion blur);
-a deforming mesh (time-sampled points); an emissive panel; a rect light turned to face down, a
+a deforming mesh (time-sampled points); two instanceable crates sharing a prototype; an
+emissive panel; a rect light turned to face down, a
 sphere light and a spot (ShapingAPI cone); and prims rift must leave out (a proxy, an invisible
 mesh) or say it does not read (a camera).
 """
@@ -158,6 +159,8 @@ BLOB_AT = (0.9, 0.0, -3.3)
 PANEL = dict(center=(0.0, 1.3, -3.99), width=0.6, height=0.4)
 KEY_LIGHT = dict(position=(0.0, 2.45, -2.0), width=1.0, height=0.5, intensity=12.0)
 FILL = dict(position=(-1.2, 1.8, -1.0), radius=0.1, intensity=30.0, color=(1.0, 0.85, 0.7))
+CRATES = [(1.4, 0.0, -1.6), (1.5, 0.0, -2.6)]
+CRATE_SIZE = 0.3
 SPOT = dict(position=(1.2, 2.2, -3.0), radius=0.05, intensity=60.0, cone=30.0, softness=0.2)
 
 
@@ -213,6 +216,16 @@ def write_stage(path, texture):
 
     c, w, h = PANEL["center"], PANEL["width"] / 2, PANEL["height"] / 2
     mesh(stage, "/World/Panel", [(c[0] - w, c[1] - h, c[2]), (c[0] + w, c[1] - h, c[2]), (c[0] + w, c[1] + h, c[2]), (c[0] - w, c[1] + h, c[2])], [(0, 1, 2, 3)], looks["panel"])
+
+    # Scene-graph instancing: two instanceable crates sharing one prototype (a class).
+    proto = stage.CreateClassPrim("/Prototypes/Crate")
+    v, faces, _ = cube()
+    crate = mesh(stage, "/Prototypes/Crate/Body", [tuple(CRATE_SIZE * c + (CRATE_SIZE / 2 if i == 1 else 0) for i, c in enumerate(p)) for p in v], faces, looks["clay"])
+    for i, at in enumerate(CRATES):
+        inst = UsdGeom.Xform.Define(stage, f"/World/Crate{i}")
+        inst.GetPrim().GetInherits().AddInherit(proto.GetPath())
+        inst.GetPrim().SetInstanceable(True)
+        inst.AddTranslateOp().Set(Gf.Vec3d(*at))
 
     # What a render leaves out: a proxy and an invisible mesh, both in the camera's view.
     proxy = mesh(stage, "/World/Proxy", [(-0.3, 0.5, -1.5), (0.3, 0.5, -1.5), (0, 1.0, -1.5)], [(0, 1, 2)], looks["red"])
@@ -316,6 +329,10 @@ def write_toml_scene():
         v, faces = blob(frame)
         v = [tuple(p[i] + BLOB_AT[i] for i in range(3)) for p in v]
         write_obj(os.path.join(OUT, f"blob.{frame:04d}.obj"), [("/World/Looks/Clay", v, faces, None)])
+    v, faces, _ = cube()
+    for i, at in enumerate(CRATES):
+        placed = [tuple(CRATE_SIZE * c + (CRATE_SIZE / 2 if k == 1 else 0) + at[k] for k, c in enumerate(p)) for p in v]
+        write_obj(os.path.join(OUT, f"crate{i}.obj"), [("/World/Looks/Clay", placed, faces, None)])
     c, w, h = PANEL["center"], PANEL["width"] / 2, PANEL["height"] / 2
     write_obj(os.path.join(OUT, "panel.obj"), [("/World/Looks/Panel", [(c[0] - w, c[1] - h, c[2]), (c[0] + w, c[1] - h, c[2]), (c[0] + w, c[1] + h, c[2]), (c[0] - w, c[1] + h, c[2])], [(0, 1, 2, 3)], None)])
     ball_keys = ", ".join(f"{{ frame = {f}, position = [{p[0]}, {p[1]}, {p[2]}] }}" for f, p in BALL_KEYS.items())
@@ -369,6 +386,12 @@ mesh = "blob.####.obj"
 [[object]]
 name = "/World/Panel"
 mesh = "panel.obj"
+[[object]]
+name = "/World/Crate0/Body"
+mesh = "crate0.obj"
+[[object]]
+name = "/World/Crate1/Body"
+mesh = "crate1.obj"
 
 [[light]]
 name = "/World/Lights/Key"
