@@ -236,7 +236,10 @@ fn a_prim_of_a_kind_rift_does_not_read_is_said_and_left_out() {
         "#usda 1.0\ndef Xform \"World\" {\n def Sphere \"Ball\" { double radius = 1 }\n \
          def Mesh \"Floor\" {\n  point3f[] points = [(-5,0,-5), (5,0,-5), (5,0,5), (-5,0,5)]\n  \
          int[] faceVertexCounts = [4]\n  int[] faceVertexIndices = [0, 3, 2, 1]\n  \
-         uniform token subdivisionScheme = \"none\"\n }\n def SphereLight \"Lamp\" {\n  \
+         uniform token subdivisionScheme = \"none\"\n }\n def Mesh \"Rock\" {\n  \
+         point3f[] points = [(0,0,-1), (0.3,0,-1), (0,0.3,-1)]\n  \
+         normal3f[] normals = [(0,0,1), (0,0,1), (0,0,1)]\n  \
+         int[] faceVertexCounts = [3]\n  int[] faceVertexIndices = [0, 1, 2]\n }\n def SphereLight \"Lamp\" {\n  \
          float inputs:intensity = 50\n  double3 xformOp:translate = (0, 2, 0)\n  \
          uniform token[] xformOpOrder = [\"xformOp:translate\"]\n }\n}\n",
     )
@@ -245,6 +248,13 @@ fn a_prim_of_a_kind_rift_does_not_read_is_said_and_left_out() {
     let said = render(d, "shot.toml", "out.exr");
     assert!(
         said.contains("</World/Ball> is a Sphere") && said.contains("export it as a mesh"),
+        "{said}"
+    );
+    // A mesh without a subdivision scheme is Catmull-Clark in USD; rift says which it
+    // renders as their cages, and which author normals, once for the stage.
+    assert!(
+        said.contains("1 mesh is a subdivision surface (</World/Rock>)")
+            && said.contains("1 mesh authors normals (</World/Rock>)"),
         "{said}"
     );
     // The floor (unbound: USD's 18% grey) is lit by the lamp.

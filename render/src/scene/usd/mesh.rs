@@ -14,12 +14,15 @@ use glam::{DMat4, Vec2, Vec3};
 use openusd::sdf::Value;
 use openusd::usd::{Prim, TimeCode};
 
-/// A mesh prim as read: its shape (parts without material names yet) and, per part, the
-/// USD material bound to it.
+/// A mesh prim as read: its shape (parts without material names yet), per part the USD
+/// material bound to it, and what of it rift renders otherwise than USD says.
 pub struct ReadMesh {
     pub shape: Shape,
     pub bindings: Vec<Option<String>>,
-    pub warnings: Vec<String>,
+    /// Its subdivision scheme, when not "none" (rendered as its control cage).
+    pub subdivision: Option<String>,
+    /// It authors normals (rift shades each triangle by its own).
+    pub normals: bool,
 }
 
 impl Shape {
@@ -71,16 +74,16 @@ enum Interpolation {
 pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadMesh, RenderError> {
     let path = prim.path().as_str();
     let code = source.codes()[0];
-    let mut warnings = Vec::new();
     let scheme = token(prim, "subdivisionScheme", code)
         .map_err(|e| source.read_error(path, e))?
         .unwrap_or_else(|| "catmullClark".into());
-    if scheme != "none" {
-        warnings.push(format!(
-            "{}: <{path}> is a {scheme} subdivision surface; rendered as its control cage",
-            source.layer.display()
-        ));
-    }
+    let authored = |name: &str| {
+        prim.attribute(name)
+            .get_at::<Value>(TimeCode::new(code))
+            .map(|v| v.is_some())
+            .map_err(|e| source.read_error(path, e))
+    };
+    let normals = authored("normals")? || authored("primvars:normals")?;
     let (topology, bindings) = topology(prim, source, code)?;
     let uvs = uvs(prim, source, code)?;
     let times = point_times(prim, source).map_err(|e| source.read_error(path, e))?;
@@ -106,7 +109,8 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
     Ok(ReadMesh {
         shape,
         bindings,
-        warnings,
+        subdivision: (scheme != "none").then_some(scheme),
+        normals,
     })
 }
 

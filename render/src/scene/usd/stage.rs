@@ -119,6 +119,8 @@ pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result
         source,
         out,
         materials: HashMap::new(),
+        subdivided: Vec::new(),
+        with_normals: Vec::new(),
     };
     let mut stack: Vec<Prim> = children(source, &root)?;
     stack.reverse();
@@ -129,6 +131,7 @@ pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result
             stack.extend(kids);
         }
     }
+    walk.say_once();
     // References and payloads are composed as their prims are reached: a cycle, or a layer
     // that is missing, is known only now.
     match stage.composition_errors().first() {
@@ -171,6 +174,9 @@ struct Walk<'a> {
     /// Materials already made, by the USD material's path: their name among the scene's
     /// materials.
     materials: HashMap<String, String>,
+    /// Meshes that are subdivision surfaces, and meshes that author normals (said once).
+    subdivided: Vec<String>,
+    with_normals: Vec<String>,
 }
 
 impl Walk<'_> {
@@ -216,12 +222,40 @@ impl Walk<'_> {
         for binding in &read.bindings {
             part_materials.push(self.material(prim, binding.as_deref())?);
         }
-        self.out.warnings.extend(read.warnings);
+        if read.subdivision.is_some() {
+            self.subdivided.push(path.to_owned());
+        }
+        if read.normals {
+            self.with_normals.push(path.to_owned());
+        }
         let shape = read.shape.with_materials(&part_materials);
         self.out
             .objects
             .push(placement.object(path.to_owned(), std::sync::Arc::new(shape)));
         Ok(())
+    }
+
+    /// Says once for the stage which meshes rift renders otherwise than USD says.
+    fn say_once(&mut self) {
+        let layer = self.source.layer.display();
+        if !self.subdivided.is_empty() {
+            self.out.warnings.push(format!(
+                "{layer}: {} ({}); rift renders the control cage, without subdividing",
+                meshes(
+                    self.subdivided.len(),
+                    "is a subdivision surface",
+                    "are subdivision surfaces"
+                ),
+                examples(&self.subdivided)
+            ));
+        }
+        if !self.with_normals.is_empty() {
+            self.out.warnings.push(format!(
+                "{layer}: {} ({}): rift shades each triangle by its own normal",
+                meshes(self.with_normals.len(), "authors normals", "author normals"),
+                examples(&self.with_normals)
+            ));
+        }
     }
 
     /// The scene material's name for a mesh part bound to the USD material at `bound`
@@ -242,6 +276,23 @@ impl Walk<'_> {
         self.out.materials.push(made.entry);
         self.materials.insert(key, made.name.clone());
         Ok(made.name)
+    }
+}
+
+/// "1 mesh <one>" or "n meshes <many>".
+fn meshes(n: usize, one: &str, many: &str) -> String {
+    match n {
+        1 => format!("1 mesh {one}"),
+        _ => format!("{n} meshes {many}"),
+    }
+}
+
+/// Up to three of `paths`, then how many more.
+fn examples(paths: &[String]) -> String {
+    let shown: Vec<String> = paths.iter().take(3).map(|p| format!("<{p}>")).collect();
+    match paths.len() {
+        n if n > 3 => format!("{} and {} more", shown.join(", "), n - 3),
+        _ => shown.join(", "),
     }
 }
 
