@@ -83,7 +83,7 @@ pub fn material(stage: &Stage, path: &str, source: &Source) -> Result<Made, Rend
                 "a mesh binds it, but it is not a Material".into(),
             )
         })?;
-    let shader = material.compute_surface_source().map_err(read)?;
+    let shader = surface_shader(&material, source)?;
     let id = match &shader {
         Some(s) => s.id().map_err(read)?,
         None => None,
@@ -123,6 +123,25 @@ pub fn material(stage: &Stage, path: &str, source: &Source) -> Result<Made, Rend
     made.entry.table = surface.table;
     made.warnings = surface.warnings;
     Ok(made)
+}
+
+/// The shader `material`'s `outputs:surface` connects to (followed here, each target checked
+/// well-formed, rather than by the crate, whose composition loops on a malformed one).
+fn surface_shader(material: &Material, source: &Source) -> Result<Option<Shader>, RenderError> {
+    let path = material.prim().path().as_str();
+    let read = |e| source.read_error(path, e);
+    let output = material.prim().attribute("outputs:surface");
+    let Some(target) = output.connections().map_err(read)?.into_iter().next() else {
+        return Ok(None);
+    };
+    if !well_formed(&target) {
+        return Err(source.error(
+            path,
+            Some("outputs:surface"),
+            format!("it connects to a malformed path {:?}", target.as_str()),
+        ));
+    }
+    Shader::get(material.prim().stage(), target.prim_path()).map_err(read)
 }
 
 fn grey(name: &str) -> toml::Table {
