@@ -80,7 +80,7 @@ impl Sections {
             textures: &mut textures,
             budget: overrides.memory_budget,
         };
-        let mut materials = materials::materials(
+        let materials = materials::materials(
             &Entry::of_shot(file, "material", &sections.materials),
             &mut reader,
         )?;
@@ -94,10 +94,10 @@ impl Sections {
             key: "environment".into(),
             table: table.clone(),
         });
-        let (mut environment, mut environment_group) =
+        let (environment, environment_group) =
             environment::environment_section(shot_environment.as_ref(), base, &mut groups)?;
         let shot_lights = Entry::of_shot(file, "light", &sections.lights);
-        let (mut shape_lights, mut suns) = lights::lights(shot, &shot_lights, &mut groups)?;
+        let (shape_lights, suns) = lights::lights(shot, &shot_lights, &mut groups)?;
         let (portals, strand_looks) = portals::portals(
             shot,
             shutter,
@@ -105,37 +105,17 @@ impl Sections {
             rings.as_ref(),
             &mut groups,
         )?;
-        // The pipeline's layers: what the shot file says of the same names wins.
-        let imported = usd::import(
+        let mut imported = usd::import(
             shot,
             portals.times(),
             portals.largest_time_offset(),
             overrides.memory_budget,
         )?;
-        let usd_materials: Vec<Entry> = (imported.materials.into_iter())
-            .filter(|e| {
-                !materials
-                    .iter()
-                    .any(|m| Some(m.name.as_str()) == entry_name(e))
-            })
-            .collect();
-        let mut reader = TextureReader {
-            file,
-            textures: &mut textures,
-            budget: overrides.memory_budget,
-        };
-        materials.extend(materials::materials(&usd_materials, &mut reader)?);
-        let (more_lights, more_suns) = lights::lights(shot, &imported.lights, &mut groups)?;
-        shape_lights.extend(more_lights);
-        suns.extend(more_suns);
-        if environment.is_none() {
-            (environment, environment_group) =
-                environment::environment_section(imported.environment.as_ref(), base, &mut groups)?;
-        }
-        let imported_objects = imported.objects.len();
-        let objects = objects::object_sections(file, &sections.objects, imported.objects)?;
+        let usd_objects = std::mem::take(&mut imported.objects);
+        let imported_objects = usd_objects.len();
+        let objects = objects::object_sections(file, &sections.objects, usd_objects)?;
         let names: Vec<&str> = objects.iter().map(|o| o.name.as_str()).collect();
-        Ok(Self {
+        let mut read = Self {
             cull_volumes: portals::cull_volumes(shot, &names)?,
             clip: camera::clip(file, sections.camera_clip.as_ref())?,
             stereo: camera::stereo(file, sections.camera_stereo.as_ref())?,
@@ -153,15 +133,58 @@ impl Sections {
             portals,
             strand_looks,
             objects,
-            warnings: imported.warnings,
+            warnings: Vec::new(),
             imported: imported_objects,
-        })
+        };
+        read.add_imported(shot, imported, overrides.memory_budget)?;
+        Ok(read)
     }
-}
 
-/// The `name` an entry's table gives.
-fn entry_name(e: &Entry) -> Option<&str> {
-    e.table.get("name").and_then(|n| n.as_str())
+    /// What USD layers bring beside their objects: their materials and lights after the
+    /// shot's (what the shot file says of the same name wins), their dome where the shot gives
+    /// no environment, and what they hold that rift does not read.
+    fn add_imported(
+        &mut self,
+        shot: &Shot,
+        imported: usd::Imported,
+        budget: Option<u64>,
+    ) -> Result<(), RenderError> {
+        let file = &shot.source;
+        let named = |e: &Entry| {
+            e.table
+                .get("name")
+                .and_then(|n| n.as_str())
+                .map(str::to_owned)
+        };
+        let materials: Vec<Entry> = (imported.materials.into_iter())
+            .filter(|e| {
+                !self
+                    .materials
+                    .iter()
+                    .any(|m| Some(&m.name) == named(e).as_ref())
+            })
+            .collect();
+        let mut reader = TextureReader {
+            file,
+            textures: &mut self.textures,
+            budget,
+        };
+        self.materials
+            .extend(materials::materials(&materials, &mut reader)?);
+        let (shapes, suns) = lights::lights(shot, &imported.lights, &mut self.groups)?;
+        self.shape_lights.extend(shapes);
+        self.suns.extend(suns);
+        if self.environment.is_none() {
+            let base = file.parent().unwrap_or(Path::new("."));
+            (self.environment, self.environment_group) = environment::environment_section(
+                imported.environment.as_ref(),
+                base,
+                &mut self.groups,
+            )?;
+        }
+        self.warnings = imported.warnings;
+        Ok(())
+    }
 }
 
 /// Where the frame's rings come from: `--rings`, else the shot's `[render] rings` or its

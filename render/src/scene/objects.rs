@@ -119,6 +119,15 @@ pub enum Carried<'a> {
     Back(&'a str),
 }
 
+/// An object's mesh: its name for messages, its path (empty for a shape a USD layer gave),
+/// its parts and its deformation.
+struct ObjectMesh<'o> {
+    name: &'o str,
+    path: PathBuf,
+    parts: Vec<mesh::MeshPart>,
+    deformation: Option<Arc<Deformation>>,
+}
+
 /// What loading objects needs from the rest of the scene.
 pub(super) struct Loader<'a> {
     pub shot: &'a Shot,
@@ -219,35 +228,12 @@ impl Loader<'_> {
         reader: &mut TextureReader,
     ) -> Result<Part, RenderError> {
         let key = self.key(i, o);
-        let (mesh_name, mesh_path, mesh_parts, deformation) = match (&o.mesh, &o.shape) {
-            (Some(mesh_name), _) => {
-                let mesh_path = self.base.join(mesh_name);
-                let sequence = sequences.get(&mesh_path);
-                let mesh_parts = match sequence {
-                    Some(s) => s.parts.clone(),
-                    // A mesh's own error (its file, line or element) under the key that names it.
-                    None => super::load_mesh(&mesh_path)
-                        .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
-                };
-                let deformation = sequence.map(|s| s.mesh.clone());
-                (mesh_name.as_str(), mesh_path, mesh_parts, deformation)
-            }
-            (None, Some(shape)) => {
-                let deformation = shape.deformation.clone();
-                (
-                    o.name.as_str(),
-                    PathBuf::new(),
-                    shape.parts.clone(),
-                    deformation,
-                )
-            }
-            (None, None) => {
-                return Err(self.error(
-                    format!("{key}.mesh"),
-                    "missing: give `mesh`, or `copy_of` another object".into(),
-                ));
-            }
-        };
+        let ObjectMesh {
+            name: mesh_name,
+            path: mesh_path,
+            parts: mesh_parts,
+            deformation,
+        } = self.mesh(&key, o, sequences)?;
         // A deforming object is an instance whether or not it also moves.
         let moves = deformation.is_some() || motion.moves_during(self.times);
         let placed = motion.at(self.times[0]);
@@ -298,6 +284,45 @@ impl Loader<'_> {
             }
         }
         Ok(part)
+    }
+
+    /// Object `o`'s mesh (its `key` names it in messages).
+    fn mesh<'o>(
+        &self,
+        key: &str,
+        o: &'o ObjectSection,
+        sequences: &HashMap<PathBuf, Sequence>,
+    ) -> Result<ObjectMesh<'o>, RenderError> {
+        Ok(match (&o.mesh, &o.shape) {
+            (Some(mesh_name), _) => {
+                let mesh_path = self.base.join(mesh_name);
+                let sequence = sequences.get(&mesh_path);
+                let mesh_parts = match sequence {
+                    Some(s) => s.parts.clone(),
+                    // A mesh's own error (its file, line or element) under the key that names it.
+                    None => super::load_mesh(&mesh_path)
+                        .map_err(|e| self.error(format!("{key}.mesh"), e.to_string()))?,
+                };
+                ObjectMesh {
+                    name: mesh_name,
+                    path: mesh_path,
+                    parts: mesh_parts,
+                    deformation: sequence.map(|s| s.mesh.clone()),
+                }
+            }
+            (None, Some(shape)) => ObjectMesh {
+                name: &o.name,
+                path: PathBuf::new(),
+                parts: shape.parts.clone(),
+                deformation: shape.deformation.clone(),
+            },
+            (None, None) => {
+                return Err(self.error(
+                    format!("{key}.mesh"),
+                    "missing: give `mesh`, or `copy_of` another object".into(),
+                ));
+            }
+        })
     }
 
     /// What one part of object `key`'s mesh asks of its `material`: MTL maps rift does not
