@@ -37,11 +37,9 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
     let fuzz = root().join("fuzz");
     // Building needs what libFuzzer needs (a C++ compiler); a machine without it skips, while
     // the targets' code itself is built and tested on stable by the other tests.
-    // One binary holds every reader (fuzz_targets/readers.rs): one link instead of one per
-    // reader, each the size of the renderer under the sanitizer.
     let build = Command::new("cargo")
         .current_dir(&fuzz)
-        .args(["+nightly", "fuzz", "build", "-O", "-a", "readers"])
+        .args(["+nightly", "fuzz", "build", "-O", "-a"])
         .output()
         .unwrap();
     if !build.status.success() {
@@ -101,8 +99,7 @@ fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String
     let regressions = Some(fuzz.join("regressions").join(target)).filter(|d| d.is_dir());
     let out = Command::new("cargo")
         .current_dir(fuzz)
-        .env("RIFT_FUZZ_TARGET", target)
-        .args(["+nightly", "fuzz", "run", "-O", "-a", "readers"])
+        .args(["+nightly", "fuzz", "run", "-O", "-a", target])
         .arg(&scratch)
         .arg(fuzz.join("corpus").join(target))
         .args(regressions)

@@ -1,6 +1,6 @@
 //! Opening a stage within bounds, and walking its prims into objects, materials and lights.
 
-use super::{Imported, Source, lights, mesh, shading, xform};
+use super::{Imported, Source, lights, mesh, shading, well_formed, xform};
 use crate::error::{RenderError, key_error};
 use openusd::ar::{self, Asset, ResolvedPath, Resolver};
 use openusd::usd::{Prim, Stage};
@@ -103,6 +103,7 @@ pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result
         Some(path) => {
             let prim = openusd::sdf::path(path)
                 .ok()
+                .filter(well_formed)
                 .map(|p| stage.prim(p))
                 .filter(|p| p.is_valid().unwrap_or(false));
             prim.ok_or_else(|| {
@@ -151,6 +152,9 @@ fn children(source: &Source, prim: &Prim) -> Result<Vec<Prim>, RenderError> {
     let mut out = Vec::with_capacity(all.len());
     for child in all {
         let p = child.path().as_str().to_owned();
+        if !well_formed(child.path()) {
+            return Err(source.error(&path, None, format!("a child has a malformed path {p:?}")));
+        }
         let active = child.is_active().map_err(|e| source.read_error(&p, e))?;
         let defined = child.is_defined().map_err(|e| source.read_error(&p, e))?;
         let abstract_ = child.is_abstract().map_err(|e| source.read_error(&p, e))?;

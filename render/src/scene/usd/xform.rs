@@ -248,7 +248,8 @@ fn chain(prim: &Prim) -> Vec<Placed> {
 
 /// The time codes `prim`'s world transform is read at: every time sample of the ops of it
 /// and its ancestors within the span, with the nearest one outside each end; the span's
-/// start alone when nothing is sampled there.
+/// start alone when nothing is sampled there. Every op's name is checked here, before
+/// [`world`] has the crate compose them.
 fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
     let [start, end] = source.codes();
     let mut all: Vec<f64> = Vec::new();
@@ -257,6 +258,11 @@ fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
             let name = op.strip_prefix("!invert!").unwrap_or(&op);
             if name == "!resetXformStack!" {
                 continue;
+            }
+            // Checked before the crate composes it (its composition loops on a malformed one).
+            let plain = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == ':';
+            if name.is_empty() || name.len() > 256 || !name.chars().all(plain) {
+                anyhow::bail!("xformOpOrder names a malformed op {op:?}");
             }
             all.extend(placed.prim().attribute(name).time_sample_times()?);
         }
