@@ -39,7 +39,7 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
     // the targets' code itself is built and tested on stable by the other tests.
     let build = Command::new("cargo")
         .current_dir(&fuzz)
-        .args(["+nightly", "fuzz", "build", "-O", "-a"])
+        .args(["+nightly", "fuzz", "build", "--dev"])
         .output()
         .unwrap();
     if !build.status.success() {
@@ -93,13 +93,14 @@ fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String
     // Findings are kept (fuzz/artifacts is not committed) to be reproduced and fixed.
     let artifacts = fuzz.join("artifacts").join(target);
     std::fs::create_dir_all(&artifacts).unwrap();
-    // Optimised, with debug assertions and overflow checks (`-a`), which the stable replay
-    // of the corpora (`fuzz_corpora.rs`, a release build) does not have; the inputs that
-    // once crashed a target run there too.
+    // Lightly optimised (fuzz/Cargo.toml's dev profile: the build dominates a short run), with
+    // debug assertions and overflow checks, which the stable replay of the corpora
+    // (`fuzz_corpora.rs`, a release build) does not have; the inputs that once crashed a
+    // target run there too.
     let regressions = Some(fuzz.join("regressions").join(target)).filter(|d| d.is_dir());
     let out = Command::new("cargo")
         .current_dir(fuzz)
-        .args(["+nightly", "fuzz", "run", "-O", "-a", target])
+        .args(["+nightly", "fuzz", "run", "--dev", target])
         .arg(&scratch)
         .arg(fuzz.join("corpus").join(target))
         .args(regressions)

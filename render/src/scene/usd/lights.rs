@@ -24,29 +24,21 @@ pub fn read(
         table: toml::Table::new(),
         warnings: Vec::new(),
     };
-    let entry = match kind {
-        "DomeLight" => {
-            light.dome()?;
-            let entry = light.entry();
-            if out.environment.is_some() {
-                return Err(source.error(
-                    path,
-                    None,
-                    "a second dome light: rift's environment is one (or give it in the shot)"
-                        .into(),
-                ));
-            }
-            out.warnings.append(&mut light.warnings);
-            out.environment = Some(entry);
-            return Ok(());
+    if kind == "DomeLight" {
+        if out.environment.is_some() {
+            return Err(source.error(
+                path,
+                None,
+                "a second dome light: rift's environment is one (or give it in the shot)".into(),
+            ));
         }
-        _ => {
-            light.shape(kind)?;
-            light.entry()
-        }
-    };
+        light.dome()?;
+        out.environment = Some(light.entry());
+    } else {
+        light.shape(kind)?;
+        out.lights.push(light.entry());
+    }
     out.warnings.append(&mut light.warnings);
-    out.lights.push(entry);
     Ok(())
 }
 
