@@ -261,3 +261,48 @@ fn a_prim_of_a_kind_rift_does_not_read_is_said_and_left_out() {
     let means = third_means(&d.join("out.exr"));
     assert!(means[1][0] > 0.01, "{means:?}");
 }
+
+#[test]
+fn a_set_blender_exports_renders_with_what_it_does_not_read_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = python_command("python3")
+        .arg(root().join("tests/support/blender_set.py"))
+        .arg(d)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "blender_set.py (bpy comes from tests/requirements.txt): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Blender's stage is Z-up: the shot's camera is placed in its axes, as Blender's is.
+    let shot = "[shot]\nname = \"blender\"\nfps = 24.0\nframes = [1, 1]\n[camera]\n\
+                resolution = [64, 48]\nfov_degrees = 39.6\n[camera.transform]\n\
+                position = [0.0, -5.0, 2.5]\nlook_at = [0.0, 0.0, 0.17]\nup = [0.0, 0.0, 1.0]\n\
+                [render]\nspp = 16\n[[usd]]\nfile = \"blender.usda\"\n";
+    std::fs::write(d.join("shot.toml"), shot).unwrap();
+    let said = render(d, "shot.toml", "out.exr");
+    for expected in [
+        "the stage's up axis is Z",
+        "</root/Camera/Camera> is a Camera",
+        "3 meshes author normals",
+        "enableColorTemperature",
+    ] {
+        assert!(said.contains(expected), "{expected:?} not said:\n{said}");
+    }
+    // The floor's texture (orange and grey squares) reaches the image: the lower half, all
+    // floor, has both orange (red well above blue) and grey pixels.
+    let layer = rift_render::frame::film::read_exr_layer(&d.join("out.exr")).unwrap();
+    let (w, h) = (layer.size.0, layer.size.1);
+    let (r, b) = (&layer.channels["R"], &layer.channels["B"]);
+    let lower = (h * 3 / 4..h).flat_map(|y| (0..w).map(move |x| y * w + x));
+    let (mut orange, mut grey) = (0, 0);
+    for i in lower {
+        match r[i] > 3.0 * b[i] {
+            true => orange += 1,
+            false => grey += 1,
+        }
+    }
+    assert!(orange > 20 && grey > 20, "orange {orange}, grey {grey}");
+}
