@@ -150,15 +150,15 @@ fn read_stage(
             ),
         ));
     }
-    if let Ok(Some(openusd::sdf::Value::Token(axis))) = stage.stage_metadata("upAxis") {
-        if axis.as_str() != "Y" {
-            out.warnings.push(format!(
-                "{}: the stage's up axis is {}; rift reads it as authored, in a world whose up \
-                 is +Y (place the shot's camera and openings in the stage's own axes)",
-                layer.path.display(),
-                axis.as_str()
-            ));
-        }
+    if let Ok(Some(openusd::sdf::Value::Token(axis))) = stage.stage_metadata("upAxis")
+        && axis.as_str() != "Y"
+    {
+        out.warnings.push(format!(
+            "{}: the stage's up axis is {}; rift reads it as authored, in a world whose up is \
+             +Y (place the shot's camera and openings in the stage's own axes)",
+            layer.path.display(),
+            axis.as_str()
+        ));
     }
     let source = Source {
         layer: layer.path,
