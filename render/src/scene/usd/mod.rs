@@ -16,7 +16,7 @@ mod stage;
 mod values;
 mod xform;
 
-pub use stage::{StageLimits, open_stage};
+use stage::{StageLimits, open_stage};
 
 use super::Entry;
 use super::schema::{ObjectSection, UsdSection};
