@@ -222,6 +222,19 @@ fn bad_layers_are_refused_naming_the_file_and_the_prim() {
         e.contains("bad_mesh.usda") && e.contains("</Tri>.faceVertexIndices") && e.contains("7"),
         "{e}"
     );
+    // A deforming mesh whose later sample has fewer points than its faces name.
+    std::fs::write(
+        d.join("shrinking.usda"),
+        "#usda 1.0\ndef Mesh \"Tri\" {\n point3f[] points.timeSamples = {\n  \
+         1: [(0,0,0), (1,0,0), (0,1,0)],\n  2: [(0,0,0), (1,0,0)],\n }\n \
+         int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n}\n",
+    )
+    .unwrap();
+    let e = refused(d, &shot_with("file = \"shrinking.usda\""));
+    assert!(
+        e.contains("</Tri>.faceVertexIndices") && e.contains("2 points at time code 2"),
+        "{e}"
+    );
     // A key the section does not have.
     let e = refused(d, &shot_with("file = \"set.usda\"\nlayer = \"x\""));
     assert!(e.contains("usd[0]") && e.contains("layer"), "{e}");

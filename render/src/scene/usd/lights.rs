@@ -4,7 +4,7 @@
 
 use super::Source;
 use super::xform::{light_placement, placement};
-use super::{Entry, Imported};
+use super::{Entry, Imported, values};
 use crate::error::RenderError;
 use glam::{DMat3, DVec3};
 use openusd::sdf::Value;
@@ -73,14 +73,13 @@ impl Light<'_> {
 
     /// `inputs:<name>` as a number, at the span's start.
     fn number(&mut self, name: &str) -> Result<Option<f64>, RenderError> {
-        let v = self.value(name)?;
-        Ok(match v {
-            Some(Value::Float(f)) => Some(f as f64),
-            Some(Value::Double(d)) => Some(d),
-            Some(Value::Half(h)) => Some(h.to_f32() as f64),
-            Some(Value::Int(i)) => Some(i as f64),
-            _ => None,
-        })
+        Ok(self.value(name)?.as_ref().and_then(values::number))
+    }
+
+    /// `inputs:<name>` as a colour, at the span's start.
+    fn color(&mut self, name: &str) -> Result<Option<[f64; 3]>, RenderError> {
+        let c = self.value(name)?.as_ref().and_then(values::color);
+        Ok(c.map(|c| c.map(f64::from)))
     }
 
     /// `inputs:<name>` at the span's start; keyed values are said once (not blurred).
@@ -110,9 +109,8 @@ impl Light<'_> {
 
     /// The colour × intensity × 2^exposure inputs and `normalize`, as authored.
     fn emission(&mut self) -> Result<(), RenderError> {
-        if let Some(Value::Vec3f(c)) = self.value("inputs:color")? {
-            self.table
-                .insert("color".into(), vec3([c.x as f64, c.y as f64, c.z as f64]));
+        if let Some(c) = self.color("inputs:color")? {
+            self.table.insert("color".into(), vec3(c));
         }
         for (usd, key) in [
             ("inputs:intensity", "intensity"),
@@ -224,10 +222,7 @@ impl Light<'_> {
             );
         }
         let turn = forward.x.atan2(forward.z).to_degrees();
-        let color = match self.value("inputs:color")? {
-            Some(Value::Vec3f(c)) => [c.x as f64, c.y as f64, c.z as f64],
-            _ => [1.0; 3],
-        };
+        let color = self.color("inputs:color")?.unwrap_or([1.0; 3]);
         let scale = self.number("inputs:intensity")?.unwrap_or(1.0)
             * self.number("inputs:exposure")?.unwrap_or(0.0).exp2();
         match self.value("inputs:texture:file")? {

@@ -4,7 +4,7 @@
 //! time-sampled points (with their velocities) as a deforming mesh.
 
 use super::Source;
-use super::values::{array_len, int_array, token, vec2_array, vec3_array};
+use super::values::{int_array, token, vec2_array, vec3_array};
 use super::xform::{Placement, within};
 use crate::error::RenderError;
 use crate::scene::mesh::Shape;
@@ -91,6 +91,7 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
     let mut samples = Vec::with_capacity(times.len());
     for &t in &times {
         let points = points(prim, source, "points", t)?;
+        check_indices(source, path, &topology, (t, points.len()))?;
         let velocities = match times.len() > 1 {
             true => velocities(prim, source, t, points.len())?,
             false => None,
@@ -174,6 +175,27 @@ fn check_memory(
     }
 }
 
+/// Refuses faces that name points past the `count` the points have at time code `code` (each
+/// sample is checked: a sample may hold fewer points than another).
+fn check_indices(
+    source: &Source,
+    path: &str,
+    topology: &Topology,
+    (code, count): (f64, usize),
+) -> Result<(), RenderError> {
+    let Some(i) = topology.indices.iter().position(|&i| i as usize >= count) else {
+        return Ok(());
+    };
+    Err(source.error(
+        path,
+        Some("faceVertexIndices"),
+        format!(
+            "index {} (entry {i}) is past the mesh's {count} points at time code {code}",
+            topology.indices[i]
+        ),
+    ))
+}
+
 /// The mesh's polygons and, per part, the material bound to it: the mesh's own first, then
 /// each `materialBind` subset's.
 fn topology(
@@ -189,11 +211,6 @@ fn topology(
     };
     let counts = read("faceVertexCounts")?;
     let indices = read("faceVertexIndices")?;
-    let points = prim
-        .attribute("points")
-        .get_at::<Value>(TimeCode::new(code))
-        .map_err(|e| source.read_error(path, e))?
-        .map_or(0, |v| array_len(&v));
     let mut starts = Vec::with_capacity(counts.len());
     let mut at = 0usize;
     for (f, &c) in counts.iter().enumerate() {
@@ -214,16 +231,6 @@ fn topology(
             format!(
                 "holds {} indices where faceVertexCounts add up to {at}",
                 indices.len()
-            ),
-        ));
-    }
-    if let Some(i) = indices.iter().position(|&i| i as usize >= points) {
-        return Err(source.error(
-            path,
-            Some("faceVertexIndices"),
-            format!(
-                "index {} (entry {i}) is past the mesh's {points} points",
-                indices[i]
             ),
         ));
     }

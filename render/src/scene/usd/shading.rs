@@ -4,7 +4,7 @@
 //! colour space and channel. An unbound mesh takes its display colour, as USD viewers show it.
 
 use super::Entry;
-use super::values::token;
+use super::values::{self, token};
 use super::{Source, well_formed};
 use crate::error::RenderError;
 use openusd::schemas::shade::{Material, Shader};
@@ -49,10 +49,10 @@ pub fn display_color(prim: &Prim, source: &Source) -> Result<Made, RenderError> 
         .attribute("primvars:displayColor")
         .get_at::<Value>(TimeCode::new(source.codes()[0]))
         .map_err(|e| source.read_error(path, e))?;
-    let color = match value {
+    let color = match &value {
         Some(Value::Vec3fVec(c)) if !c.is_empty() => [c[0].x, c[0].y, c[0].z],
-        Some(Value::Vec3f(c)) => [c.x, c.y, c.z],
-        _ => [0.18; 3],
+        Some(v) => values::color(v).unwrap_or([0.18; 3]),
+        None => [0.18; 3],
     };
     let name = format!("{path}#displayColor");
     let mut table = toml::Table::new();
@@ -274,33 +274,19 @@ impl Surface<'_> {
 
     /// The number at `inputs:<name>`, unconnected.
     fn number(&self, name: &str) -> Result<Option<f32>, Problem> {
-        let v = self
-            .shader
-            .prim()
-            .attribute(format!("inputs:{name}"))
-            .get::<Value>()?;
-        Ok(match v {
-            Some(Value::Float(f)) => Some(f),
-            Some(Value::Double(d)) => Some(d as f32),
-            Some(Value::Half(h)) => Some(h.to_f32()),
-            Some(Value::Int(i)) => Some(i as f32),
-            _ => None,
-        })
+        let v = self.authored(name)?;
+        Ok(v.as_ref().and_then(values::number).map(|n| n as f32))
     }
 
     /// The colour at `inputs:<name>`, unconnected.
     fn color(&self, name: &str) -> Result<Option<[f32; 3]>, Problem> {
-        let v = self
-            .shader
-            .prim()
-            .attribute(format!("inputs:{name}"))
-            .get::<Value>()?;
-        Ok(match v {
-            Some(Value::Vec3f(c)) => Some([c.x, c.y, c.z]),
-            Some(Value::Vec3d(c)) => Some([c.x as f32, c.y as f32, c.z as f32]),
-            Some(Value::Vec3h(c)) => Some([c.x.to_f32(), c.y.to_f32(), c.z.to_f32()]),
-            _ => None,
-        })
+        Ok(self.authored(name)?.as_ref().and_then(values::color))
+    }
+
+    /// The value authored at `inputs:<name>`.
+    fn authored(&self, name: &str) -> Result<Option<Value>, Problem> {
+        let attr = self.shader.prim().attribute(format!("inputs:{name}"));
+        Ok(attr.get::<Value>()?)
     }
 
     /// What `inputs:<name>` connects to: the source prim and its output's name.

@@ -38,9 +38,25 @@ fn kind(v: &Value) -> String {
     debug.split('(').next().unwrap_or("?").to_owned()
 }
 
-/// The length of a 3-vector array value (0 for anything else).
-pub fn array_len(v: &Value) -> usize {
-    vec3_array(v).map_or(0, |a| a.len())
+/// A number of any precision.
+pub fn number(v: &Value) -> Option<f64> {
+    match *v {
+        Value::Float(f) => Some(f as f64),
+        Value::Double(d) => Some(d),
+        Value::Half(h) => Some(h.to_f32() as f64),
+        Value::Int(i) => Some(i as f64),
+        _ => None,
+    }
+}
+
+/// A colour (a 3-vector) of any precision.
+pub fn color(v: &Value) -> Option<[f32; 3]> {
+    match v {
+        Value::Vec3f(c) => Some([c.x, c.y, c.z]),
+        Value::Vec3d(c) => Some([c.x as f32, c.y as f32, c.z as f32]),
+        Value::Vec3h(c) => Some([c.x.to_f32(), c.y.to_f32(), c.z.to_f32()]),
+        _ => None,
+    }
 }
 
 /// A 3-vector array of any precision.

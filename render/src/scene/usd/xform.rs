@@ -119,13 +119,8 @@ impl Placement {
 /// (animated non-uniform scale or shear) is refused: rift blurs rigid motion and uniform scale.
 pub fn placement(prim: &Prim, source: &Source) -> Result<Placement, RenderError> {
     let path = prim.path().as_str();
-    let codes = sample_codes(prim, source).map_err(|e| source.read_error(path, e))?;
-    let matrices: Vec<DMat4> = codes
-        .iter()
-        .map(|&c| world(prim, c))
-        .collect::<anyhow::Result<_>>()
-        .map_err(|e| source.read_error(path, e))?;
-    let bake = matrices[0];
+    let samples = world_samples(prim, source)?;
+    let bake = samples[0].1;
     if !bake.is_finite() || bake.determinant() == 0.0 {
         return Err(source.error(
             path,
@@ -133,16 +128,16 @@ pub fn placement(prim: &Prim, source: &Source) -> Result<Placement, RenderError>
             "its world transform is singular or not finite".into(),
         ));
     }
-    if matrices.iter().all(|m| *m == bake) {
+    if samples.iter().all(|(_, m)| *m == bake) {
         return Ok(Placement {
             bake,
             keys: Vec::new(),
         });
     }
     let inverse = bake.inverse();
-    let mut keys = Vec::with_capacity(codes.len());
-    for (&code, m) in codes.iter().zip(&matrices) {
-        let relative = *m * inverse;
+    let mut keys = Vec::with_capacity(samples.len());
+    for &(code, m) in &samples {
+        let relative = m * inverse;
         if !is_similarity(DMat3::from_mat4(relative)) {
             return Err(source.error(
                 path,
@@ -162,8 +157,8 @@ pub fn placement(prim: &Prim, source: &Source) -> Result<Placement, RenderError>
 /// size the light) taken out, the rest as keys of similarities from the origin.
 pub fn light_placement(prim: &Prim, source: &Source) -> Result<(Placement, DVec3), RenderError> {
     let path = prim.path().as_str();
-    let codes = sample_codes(prim, source).map_err(|e| source.read_error(path, e))?;
-    let first = world(prim, codes[0]).map_err(|e| source.read_error(path, e))?;
+    let samples = world_samples(prim, source)?;
+    let first = samples[0].1;
     let axes = DMat3::from_mat4(first);
     let scales = DVec3::new(
         axes.x_axis.length(),
@@ -178,9 +173,9 @@ pub fn light_placement(prim: &Prim, source: &Source) -> Result<(Placement, DVec3
         ));
     }
     let unscale = DMat4::from_scale(1.0 / scales);
-    let mut keys = Vec::with_capacity(codes.len());
-    for &code in &codes {
-        let m = world(prim, code).map_err(|e| source.read_error(path, e))? * unscale;
+    let mut keys = Vec::with_capacity(samples.len());
+    for &(code, m) in &samples {
+        let m = m * unscale;
         if !is_similarity(DMat3::from_mat4(m)) {
             return Err(source.error(
                 path,
@@ -216,6 +211,17 @@ fn is_similarity(m: DMat3) -> bool {
     }
     let off = (gram - DMat3::from_diagonal(DVec3::splat(s2))) * (1.0 / s2);
     off.to_cols_array().iter().all(|x| x.abs() < 1e-5)
+}
+
+/// `prim`'s world transform at each of its [`sample_codes`] (at least one): the time code
+/// and the matrix.
+fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, RenderError> {
+    let read = |e| source.read_error(prim.path().as_str(), e);
+    let codes = sample_codes(prim, source).map_err(read)?;
+    codes
+        .into_iter()
+        .map(|code| Ok((code, world(prim, code).map_err(read)?)))
+        .collect()
 }
 
 /// `prim`'s local-to-world transform at time `code`, column-vector.
