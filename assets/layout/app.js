@@ -111,6 +111,7 @@ function show(data) {
     `${previewDepth()} of ${data.maxPortalDepth} opening levels` +
     (data.unsaved ? '; unsaved edits' : ''));
   showKeys();
+  requestDraw();
 }
 
 async function load(frame) {
@@ -173,9 +174,22 @@ function resize(view, camera) {
   }
 }
 
-// Waiting for the next frame drawn.
+// Views are drawn when something changed (a scene shown, the orbit camera moved, the page
+// used, an edit), never in a loop: an open page that nobody touches costs no processor time.
+let drawPending = false;
+function requestDraw() {
+  if (drawPending) return;
+  drawPending = true;
+  requestAnimationFrame(draw);
+}
+// Waiting for the next frame drawn (asking for one).
 let drawnWaiters = [];
-const nextDraw = () => new Promise(done => drawnWaiters.push(done));
+const nextDraw = () => {
+  const drawn = new Promise(done => drawnWaiters.push(done));
+  requestDraw();
+  return drawn;
+};
+state.redraw = () => nextDraw();
 
 // Moves the shot camera (position and a point it looks at, world space, up +Y) as a drag in
 // the page would; the pre-pass follows at the next frame drawn. Resolves with the
@@ -286,6 +300,7 @@ state.idPass = (width, height) => {
 };
 
 function draw() {
+  drawPending = false;
   resize(orbitView, orbitCamera);
   resize(shotView, shotCamera);
   controls.update();
@@ -319,7 +334,23 @@ function draw() {
   // The check render sits exactly over the letterboxed film.
   Object.assign(checkImage.style, {
     left: `${(w - vw) / 2}px`, top: `${(h - vh) / 2}px`, width: `${vw}px`, height: `${vh}px` });
-  requestAnimationFrame(draw);
+}
+
+// What changes the views: the orbit controls, the window's size, anything done with the
+// pointer or the keyboard, and every call of the page's API (the buttons' and the tests'),
+// once it is made and again once it has finished.
+controls.addEventListener('change', requestDraw);
+for (const kind of ['resize', 'pointerdown', 'pointermove', 'pointerup', 'wheel', 'keydown']) {
+  window.addEventListener(kind, requestDraw);
+}
+for (const [name, f] of Object.entries(state)) {
+  if (typeof f !== 'function' || name === 'redraw') continue;
+  state[name] = (...args) => {
+    requestDraw();
+    const result = f(...args);
+    Promise.resolve(result).then(requestDraw, requestDraw);
+    return result;
+  };
 }
 
 let playing = null;
@@ -357,4 +388,4 @@ window.addEventListener('keydown', e => {
 
 const start = new URLSearchParams(location.search).get('frame');
 load(start);
-requestAnimationFrame(draw);
+requestDraw();

@@ -2,17 +2,31 @@
 //! (cargo-fuzz needs it; it is installed here when missing). Long campaigns are run by hand:
 //! `cd fuzz && cargo +nightly fuzz run -O -a TARGET`. Anything it finds is a failure; the input
 //! that found it goes into `fuzz/regressions/TARGET/` once fixed.
+//!
+//! The build is the long part, and `tests/setup.sh` starts it in the background at the lowest
+//! priority, so that it takes the processor time the main build and the earlier tests leave
+//! idle (the browser tests leave much); this test, among the last the test command runs, then
+//! waits for it (cargo's lock on the build folder) instead of building from scratch. Its
+//! options here and there must stay the same, or the build is done twice.
 
-mod common;
-
-use common::root;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Seconds each target runs for.
-const SECONDS: u32 = 5;
+const SECONDS: u32 = 4;
+
+/// The options of the fuzz build, here and in `tests/setup.sh`: lightly optimised
+/// (fuzz/Cargo.toml's dev profile, with debug assertions and overflow checks, which the stable
+/// replay of the corpora, `tests/fuzz_corpora.rs`, a release build, does not have), and without
+/// AddressSanitizer (a third of the build; the readers are safe Rust, and long campaigns run
+/// with it).
+const BUILD: [&str; 3] = ["--dev", "--sanitizer", "none"];
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
 
 fn succeeds(command: &mut Command) -> bool {
     command.output().is_ok_and(|o| o.status.success())
@@ -39,7 +53,8 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
     // the targets' code itself is built and tested on stable by the other tests.
     let build = Command::new("cargo")
         .current_dir(&fuzz)
-        .args(["+nightly", "fuzz", "build", "--dev"])
+        .args(["+nightly", "fuzz", "build"])
+        .args(BUILD)
         .output()
         .unwrap();
     if !build.status.success() {
@@ -93,14 +108,13 @@ fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String
     // Findings are kept (fuzz/artifacts is not committed) to be reproduced and fixed.
     let artifacts = fuzz.join("artifacts").join(target);
     std::fs::create_dir_all(&artifacts).unwrap();
-    // Lightly optimised (fuzz/Cargo.toml's dev profile: the build dominates a short run), with
-    // debug assertions and overflow checks, which the stable replay of the corpora
-    // (`fuzz_corpora.rs`, a release build) does not have; the inputs that once crashed a
-    // target run there too.
+    // The inputs that once crashed a target run here too.
     let regressions = Some(fuzz.join("regressions").join(target)).filter(|d| d.is_dir());
     let out = Command::new("cargo")
         .current_dir(fuzz)
-        .args(["+nightly", "fuzz", "run", "--dev", target])
+        .args(["+nightly", "fuzz", "run"])
+        .args(BUILD)
+        .arg(target)
         .arg(&scratch)
         .arg(fuzz.join("corpus").join(target))
         .args(regressions)
