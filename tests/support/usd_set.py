@@ -11,7 +11,9 @@ set_usda.toml, set_usdc.toml and set_usdz.toml, which differ only in the layer t
 The set exercises what the reader must get right: a room of quads whose walls take materials
 from GeomSubsets; a box under a parent with a non-uniform scale, textured through a
 UsdUVTexture on faceVarying UVs; a metal ball moving by time-sampled translate (motion blur);
-a deforming mesh (time-sampled points); two instanceable crates sharing a prototype; an
+a deforming mesh (time-sampled points); two instanceable crates sharing a prototype; a
+PointInstancer of pebbles and blocks (two prototypes under it, orientations in half precision,
+uniform scales, one stretched, one hidden by invisibleIds, one moving by its velocity); an
 emissive panel; a rect light turned to face down, a
 sphere light and a spot (ShapingAPI cone); and prims rift must leave out (a proxy, an invisible
 mesh) or say it does not read (a camera).
@@ -161,7 +163,38 @@ KEY_LIGHT = dict(position=(0.0, 2.45, -2.0), width=1.0, height=0.5, intensity=12
 FILL = dict(position=(-1.2, 1.8, -1.0), radius=0.1, intensity=30.0, color=(1.0, 0.85, 0.7))
 CRATES = [(1.4, 0.0, -1.6), (1.5, 0.0, -2.6)]
 CRATE_SIZE = 0.3
+# PointInstancer instances: prototype (0 pebble, 1 block), position, orientation (w, x, y, z),
+# scale. Instance 3 is hidden; instance 4 is stretched; instance 5 moves by PEBBLE_VELOCITY.
+PEBBLES = [
+    (0, (-1.2, 0.1, -1.5), (1, 0, 0, 0), 1.0),
+    (1, (-0.6, 0.0, -1.4), (0.9239, 0, 0.3827, 0), 1.2),
+    (0, (0.0, 0.1, -1.6), (0.7071, 0.7071, 0, 0), 0.8),
+    (1, (0.5, 0.0, -1.5), (1, 0, 0, 0), 1.0),
+    (0, (1.0, 0.12, -1.8), (0.9659, 0, 0, 0.2588), (1.5, 0.6, 1.0)),
+    (0, (-0.3, 0.1, -2.0), (1, 0, 0, 0), 1.0),
+]
+PEBBLE_VELOCITY = (2.4, 0.0, 0.0)
 SPOT = dict(position=(1.2, 2.2, -3.0), radius=0.05, intensity=60.0, cone=30.0, softness=0.2)
+
+
+def point_instancer(stage, looks):
+    """The pebbles: a PointInstancer whose prototypes live under it (not rendered on their own):
+    a pebble mesh with a transform of its own, and a block (an Xform over a mesh)."""
+    pi = UsdGeom.PointInstancer.Define(stage, "/World/Pebbles")
+    v, faces = sphere(radius=0.1, rings=6, segments=8)
+    pebble = mesh(stage, "/World/Pebbles/Prototypes/Pebble", v, faces, looks["clay"])
+    pebble.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.02, 0.0))
+    UsdGeom.Xform.Define(stage, "/World/Pebbles/Prototypes/Block")
+    v, faces, _ = cube()
+    mesh(stage, "/World/Pebbles/Prototypes/Block/Body", [tuple(0.2 * c + (0.1 if i == 1 else 0) for i, c in enumerate(p)) for p in v], faces, looks["gold"])
+    pi.CreatePrototypesRel().SetTargets(["/World/Pebbles/Prototypes/Pebble", "/World/Pebbles/Prototypes/Block"])
+    pi.CreateProtoIndicesAttr([p[0] for p in PEBBLES])
+    pi.CreatePositionsAttr([Gf.Vec3f(*p[1]) for p in PEBBLES])
+    pi.CreateOrientationsAttr([Gf.Quath(p[2][0], Gf.Vec3h(*p[2][1:])) for p in PEBBLES])
+    pi.CreateScalesAttr([Gf.Vec3f(*(p[3] if isinstance(p[3], tuple) else (p[3],) * 3)) for p in PEBBLES])
+    pi.CreateVelocitiesAttr([Gf.Vec3f(*(PEBBLE_VELOCITY if i == 5 else (0, 0, 0))) for i in range(len(PEBBLES))])
+    pi.CreateIdsAttr([10 + i for i in range(len(PEBBLES))])
+    pi.CreateInvisibleIdsAttr([13])
 
 
 def write_stage(path, texture):
@@ -227,6 +260,8 @@ def write_stage(path, texture):
         inst.GetPrim().SetInstanceable(True)
         inst.AddTranslateOp().Set(Gf.Vec3d(*at))
 
+    point_instancer(stage, looks)
+
     # What a render leaves out: a proxy and an invisible mesh, both in the camera's view.
     proxy = mesh(stage, "/World/Proxy", [(-0.3, 0.5, -1.5), (0.3, 0.5, -1.5), (0, 1.0, -1.5)], [(0, 1, 2)], looks["red"])
     proxy.CreatePurposeAttr(UsdGeom.Tokens.proxy)
@@ -258,6 +293,43 @@ def write_stage(path, texture):
 
 
 # --- the same set without USD -----------------------------------------------------------------
+
+def write_pebbles():
+    """Each visible pebble as its own OBJ, placed by usd-core's own instance transforms (the
+    moving one at the shutter's opening, keyed to where its velocity takes it at its close);
+    their [[object]] sections."""
+    stage = Usd.Stage.Open(os.path.join(OUT, "set.usda"))
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Pebbles"))
+    xforms = pi.ComputeInstanceTransformsAtTime(1.0, 1.0, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask)
+    prototypes = ["/World/Pebbles/Prototypes/Pebble", "/World/Pebbles/Prototypes/Block/Body"]
+    sections = []
+    for i, m in enumerate(xforms):
+        if i == 3:
+            continue
+        kind = PEBBLES[i][0]
+        body = UsdGeom.Mesh(stage.GetPrimAtPath(prototypes[kind]))
+        inner = body.GetLocalTransformation() if kind == 1 else Gf.Matrix4d(1.0)
+        points = [inner.Transform(Gf.Vec3d(p)) for p in body.GetPointsAttr().Get(1.0)]
+        faces, counts = body.GetFaceVertexIndicesAttr().Get(), body.GetFaceVertexCountsAttr().Get()
+        polys, at = [], 0
+        for n in counts:
+            polys.append(tuple(faces[at:at + n]))
+            at += n
+        material = "/World/Looks/Gold" if kind == 1 else "/World/Looks/Clay"
+        name = f"pebble{i}"
+        if i == 5:
+            # Object space (its orientation and scale are the identity), keyed positions.
+            t = m.ExtractTranslation()
+            write_obj(os.path.join(OUT, f"{name}.obj"), [(material, [tuple(p) for p in points], polys, None)])
+            end = [t[k] + PEBBLE_VELOCITY[k] * 0.5 / 24.0 for k in range(3)]
+            keys = f"{{ frame = 1, position = {list(t)} }}, {{ frame = 1.5, position = {end} }}"
+            sections.append(f'[[object]]\nname = "{name}"\nmesh = "{name}.obj"\ntransform = {{ interpolation = "linear", keys = [{keys}] }}\n')
+        else:
+            placed = [tuple(m.Transform(p)) for p in points]
+            write_obj(os.path.join(OUT, f"{name}.obj"), [(material, placed, polys, None)])
+            sections.append(f'[[object]]\nname = "{name}"\nmesh = "{name}.obj"\n')
+    return "\n".join(sections)
+
 
 def rotate_y(p, degrees):
     a = math.radians(degrees)
@@ -333,6 +405,7 @@ def write_toml_scene():
     for i, at in enumerate(CRATES):
         placed = [tuple(CRATE_SIZE * c + (CRATE_SIZE / 2 if k == 1 else 0) + at[k] for k, c in enumerate(p)) for p in v]
         write_obj(os.path.join(OUT, f"crate{i}.obj"), [("/World/Looks/Clay", placed, faces, None)])
+    pebble_objects = write_pebbles()
     c, w, h = PANEL["center"], PANEL["width"] / 2, PANEL["height"] / 2
     write_obj(os.path.join(OUT, "panel.obj"), [("/World/Looks/Panel", [(c[0] - w, c[1] - h, c[2]), (c[0] + w, c[1] - h, c[2]), (c[0] + w, c[1] + h, c[2]), (c[0] - w, c[1] + h, c[2])], [(0, 1, 2, 3)], None)])
     ball_keys = ", ".join(f"{{ frame = {f}, position = [{p[0]}, {p[1]}, {p[2]}] }}" for f, p in BALL_KEYS.items())
@@ -392,7 +465,7 @@ mesh = "crate0.obj"
 [[object]]
 name = "/World/Crate1/Body"
 mesh = "crate1.obj"
-
+{pebble_objects}
 [[light]]
 name = "/World/Lights/Key"
 type = "rect"

@@ -1,6 +1,9 @@
-//! A moving object: its triangles in object space under their own BVH, placed in the world by a
-//! keyframed similarity that is evaluated at each ray's time. Rays are taken into object space
-//! rather than the triangles into world space, so motion blur costs one transform per visit.
+//! A moving or instanced object: its triangles in object space under their own BVH, placed in
+//! the world by a keyframed similarity that is evaluated at each ray's time. Rays are taken into
+//! object space rather than the triangles into world space, so motion blur costs one transform
+//! per visit. The instances of one prototype share its BVH (and its triangles in the scene), so
+//! a hundred thousand of them cost their placements and little more; one that stands still
+//! keeps its placement ready rather than evaluating keys per ray.
 //! A deforming object's triangles also change shape with time ([`Deformation`], shared by its
 //! copies); each copy reads the shape at its own time (a copy through an opening that delays
 //! rays sees the object as it was that much earlier).
@@ -21,6 +24,8 @@ const BOUND_STEPS: usize = 64;
 /// An object with a time-varying placement.
 pub struct MovingInstance {
     transform: ObjectMotion,
+    /// The placement at every time, where it does not change over the rays' times.
+    fixed: Option<Placement>,
     shape: Shape,
     /// World bounds over every time a ray can have.
     pub bounds: Aabb,
@@ -28,7 +33,8 @@ pub struct MovingInstance {
 
 /// An instance's triangles in object space.
 enum Shape {
-    Rigid(TriangleBvh),
+    /// Shared by every instance of one prototype.
+    Rigid(Arc<TriangleBvh>),
     /// Scene-wide indices of its triangles start at `first_id`.
     Deforming {
         mesh: Arc<Deformation>,
@@ -65,8 +71,24 @@ impl MovingInstance {
         transform: ObjectMotion,
         times: [f64; 2],
     ) -> Self {
-        let shape = Shape::Rigid(TriangleBvh::build(triangles, first_id));
-        Self::placed(shape, &object_corners(triangles), transform, times)
+        let shape = TriangleBvh::build(triangles, first_id);
+        Self::sharing(
+            &Arc::new(shape),
+            &object_corners(triangles),
+            transform,
+            times,
+        )
+    }
+
+    /// An instance of the prototype under `bvh`, whose object-space box has the `corners`,
+    /// placed by `transform`; `times` as for [`Self::new`].
+    pub fn sharing(
+        bvh: &Arc<TriangleBvh>,
+        corners: &[Vec3; 8],
+        transform: ObjectMotion,
+        times: [f64; 2],
+    ) -> Self {
+        Self::placed(Shape::Rigid(bvh.clone()), corners, transform, times)
     }
 
     /// A deforming object's copy at `transform`, its triangles (scene-wide indices from
@@ -89,18 +111,29 @@ impl MovingInstance {
     /// `shape`, whose object-space box has the `corners`, placed by `transform`, with its
     /// world bounds over `times`.
     fn placed(shape: Shape, corners: &[Vec3; 8], transform: ObjectMotion, times: [f64; 2]) -> Self {
-        let bounds = swept_bounds(
-            corners,
-            |t| transform.at(t),
-            &transform.key_times(),
-            times,
-            BOUND_STEPS,
-        );
+        let fixed = (!transform.moves_during(times)).then(|| transform.at(times[0]));
+        let bounds = match &fixed {
+            Some(s) => swept_bounds(corners, |_| *s, &[], times, 1),
+            None => swept_bounds(
+                corners,
+                |t| transform.at(t),
+                &transform.key_times(),
+                times,
+                BOUND_STEPS,
+            ),
+        };
         Self {
+            fixed: fixed.as_ref().map(Placement::new),
             transform,
             shape,
             bounds,
         }
+    }
+
+    /// Object-space corners of the triangles' box (those of a prototype, for
+    /// [`Self::sharing`]).
+    pub fn corners(triangles: &[Triangle]) -> [Vec3; 8] {
+        object_corners(triangles)
     }
 
     /// True when the instance's triangles change shape with time.
@@ -142,8 +175,12 @@ impl MovingInstance {
     }
 
     /// The placement at time `t`.
+    #[inline]
     pub fn placement(&self, t: f64) -> Placement {
-        Placement::new(&self.transform.at(t))
+        match self.fixed {
+            Some(p) => p,
+            None => Placement::new(&self.transform.at(t)),
+        }
     }
 
     /// A world-space ray's origin and direction in object space at its time (direction not

@@ -232,8 +232,10 @@ impl Scene {
             loader.parts(&s.objects, &mut s.materials, &mut s.groups, &mut reader)?;
         let grids = grids::load(&loader, &s.media.grids, frame, overrides.memory_budget)?;
         let triangles = objects::triangle_count(&parts);
-        let other_bytes =
-            grids.bytes() as u64 + s.textures.bytes() + objects::deformation_bytes(&parts);
+        let other_bytes = grids.bytes() as u64
+            + s.textures.bytes()
+            + objects::deformation_bytes(&parts)
+            + objects::instance_bytes(&parts);
         check_memory(file, triangles, other_bytes, overrides.memory_budget)?;
         let selection = overrides.light_selection.unwrap_or_default();
         Self::assemble(shot, frame, s, (parts, flags), grids, rig, selection)

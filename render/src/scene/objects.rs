@@ -10,6 +10,7 @@ use super::schema::ObjectSection;
 use super::sequence::{self, Sequence};
 use super::{flags, mesh, parse, within_single_precision};
 use crate::error::{RenderError, key_error};
+use crate::geometry::triangle_bvh::TriangleBvh;
 use crate::geometry::{Deformation, MovingInstance, ObjectMotion, STATIC, Triangle};
 use crate::lights::emitters::Emitter;
 use crate::material::inputs::{ColorInput, Lookup};
@@ -24,6 +25,7 @@ use rift_fx::shot::check;
 use rift_fx::shot::pose::{self, Facing};
 use rift_fx::{Invalid, Shot};
 use std::collections::HashMap;
+use std::ops::Range;
 use std::path::Path;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -40,6 +42,9 @@ pub(super) struct Part {
     motion: ObjectMotion,
     /// Its mesh's shape over time, where it comes from a mesh sequence (shared by copies).
     deformation: Option<Arc<Deformation>>,
+    /// Where its mesh is instanced (its triangles and BVH shared by all): the placement of
+    /// each instance; empty for an object placed once by `motion`.
+    instances: Vec<ObjectMotion>,
     /// Whether it moves within the times rays can reach (else its triangles are baked to
     /// world space).
     moves: bool,
@@ -92,6 +97,9 @@ pub(super) fn object_sections(
             o.mesh = o.mesh.or_else(|| from.mesh.clone());
             o.material = o.material.or_else(|| from.material.clone());
             o.transform = o.transform.or_else(|| from.transform.clone());
+            if o.transform.is_none() {
+                o.instances = from.instances.clone();
+            }
         }
         out.push(o);
     }
@@ -163,7 +171,8 @@ impl Loader<'_> {
             } else {
                 self::flags(o.visibility)
             });
-            let mut part = self.part(i, o, motion, &sequences, materials, reader)?;
+            let placed = (motion, self.instance_motions(&self.key(i, o), o)?);
+            let mut part = self.part(i, o, placed, &sequences, materials, reader)?;
             let key = format!("{}.light_group", self.key(i, o));
             part.group = groups.index(&self.shot.source, &key, o.light_group.as_deref())?;
             parts.push(part);
@@ -217,12 +226,13 @@ impl Loader<'_> {
         Ok(out)
     }
 
-    /// Object `i`'s triangles, placed by `motion` and with their materials.
+    /// Object `i`'s triangles, placed by `motion` (or at each of its `instances`) and with
+    /// their materials.
     fn part(
         &self,
         i: usize,
         o: &ObjectSection,
-        motion: ObjectMotion,
+        (motion, instances): (ObjectMotion, Vec<ObjectMotion>),
         sequences: &HashMap<PathBuf, Sequence>,
         materials: &mut Vec<Material>,
         reader: &mut TextureReader,
@@ -234,8 +244,15 @@ impl Loader<'_> {
             parts: mesh_parts,
             deformation,
         } = self.mesh(&key, o, sequences)?;
-        // A deforming object is an instance whether or not it also moves.
-        let moves = deformation.is_some() || motion.moves_during(self.times);
+        if deformation.is_some() && !instances.is_empty() {
+            return Err(self.error(
+                format!("{key}.mesh"),
+                format!("{mesh_name} deforms and is instanced, which rift does not do yet"),
+            ));
+        }
+        // A deforming or instanced object is an instance whether or not it also moves.
+        let moves =
+            deformation.is_some() || !instances.is_empty() || motion.moves_during(self.times);
         let placed = motion.at(self.times[0]);
         let mut part = Part {
             object: i as u32,
@@ -244,6 +261,7 @@ impl Loader<'_> {
             materials: Vec::new(),
             motion,
             deformation,
+            instances,
             moves,
             group: 0,
             warnings: Vec::new(),
@@ -384,18 +402,53 @@ impl Loader<'_> {
     /// The object's placement over time: its keyed transform, carried through an opening (or
     /// back through one) by the constraint solver.
     fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
-        let carried = match (&o.through, &o.back_through) {
-            (Some(_), Some(_)) => {
-                return Err(self.error(
-                    format!("{key}.back_through"),
-                    "give `through` or `back_through`, not both".into(),
-                ));
-            }
-            (Some(name), None) => Some(Carried::Through(name)),
-            (None, Some(name)) => Some(Carried::Back(name)),
-            (None, None) => None,
-        };
+        let carried = self.carried(key, o)?;
         self.placement(key, o.transform.as_ref(), carried)
+    }
+
+    /// Where each instance of an instanced object is over time, each carried through the
+    /// object's opening like a single object; empty for an object that is not instanced.
+    fn instance_motions(
+        &self,
+        key: &str,
+        o: &ObjectSection,
+    ) -> Result<Vec<ObjectMotion>, RenderError> {
+        if o.instances.is_empty() {
+            return Ok(Vec::new());
+        }
+        if o.transform.is_some() {
+            return Err(self.error(
+                format!("{key}.transform"),
+                format!(
+                    "{:?} is instanced ({} instances), each placed by its instancer; \
+                     give the instancer's prim a transform in USD instead",
+                    o.name,
+                    o.instances.len()
+                ),
+            ));
+        }
+        let carried = self.carried(key, o)?;
+        o.instances
+            .iter()
+            .map(|placed| self.carry(key, placed.clone(), carried))
+            .collect()
+    }
+
+    /// The opening a section says its object is carried through, if any.
+    fn carried<'o>(
+        &self,
+        key: &str,
+        o: &'o ObjectSection,
+    ) -> Result<Option<Carried<'o>>, RenderError> {
+        match (&o.through, &o.back_through) {
+            (Some(_), Some(_)) => Err(self.error(
+                format!("{key}.back_through"),
+                "give `through` or `back_through`, not both".into(),
+            )),
+            (Some(name), None) => Ok(Some(Carried::Through(name))),
+            (None, Some(name)) => Ok(Some(Carried::Back(name))),
+            (None, None) => Ok(None),
+        }
     }
 
     /// A placement over time from a section's `transform` key and the opening it is carried
@@ -416,6 +469,16 @@ impl Loader<'_> {
             .map_err(|e| self.invalid(e))?,
             None => AnimatedTransform::constant(Similarity::IDENTITY),
         };
+        self.carry(key, transform, carried)
+    }
+
+    /// `transform`, carried through the opening `carried` names (under `key`).
+    fn carry(
+        &self,
+        key: &str,
+        transform: AnimatedTransform,
+        carried: Option<Carried<'_>>,
+    ) -> Result<ObjectMotion, RenderError> {
         let Some(carried) = carried else {
             return Ok(ObjectMotion::new(transform));
         };
@@ -497,6 +560,16 @@ pub(super) fn deformation_bytes(parts: &[Part]) -> u64 {
         as u64
 }
 
+/// Bytes the instances of instanced objects take beyond their shared triangles: each one's
+/// placement, its keys and its box in the top-level BVH.
+pub(super) fn instance_bytes(parts: &[Part]) -> u64 {
+    const PER_KEY: usize = 64;
+    let placements = parts.iter().flat_map(|p| &p.instances);
+    placements
+        .map(|m| size_of::<MovingInstance>() + 2 * 32 + PER_KEY * m.key_times().len().max(1))
+        .sum::<usize>() as u64
+}
+
 /// Triangles in all `parts`.
 pub(super) fn triangle_count(parts: &[Part]) -> usize {
     parts.iter().map(|p| p.triangles.len()).sum()
@@ -509,7 +582,11 @@ pub(super) struct Geometry {
     /// Per triangle, its corners' UVs; empty when no mesh gives any.
     pub triangle_uvs: Vec<[Vec2; 3]>,
     pub triangle_material: Vec<u32>,
+    /// The moving instance of each triangle (an instanced object's: its first instance),
+    /// or [`STATIC`].
     pub triangle_instance: Vec<u32>,
+    /// Instanced objects: the range of their (shared) triangles, and of their instances.
+    pub instanced: Vec<(Range<u32>, Range<u32>)>,
     pub triangle_object: Vec<u32>,
     pub triangle_group: Vec<u8>,
     pub instances: Vec<MovingInstance>,
@@ -531,6 +608,7 @@ impl Geometry {
             triangle_uvs: Vec::new(),
             triangle_material: Vec::new(),
             triangle_instance: Vec::new(),
+            instanced: Vec::new(),
             triangle_object: Vec::new(),
             triangle_group: Vec::new(),
             instances: Vec::new(),
@@ -545,7 +623,9 @@ impl Geometry {
             g.moving[part.object as usize] = part.moves;
             g.placements[part.object as usize] = part.motion.clone();
             let first = g.triangles.len() as u32;
-            let instance = if part.moves {
+            let instance = if !part.instances.is_empty() {
+                g.instance_all(&part, first, times)
+            } else if part.moves {
                 let moving = match part.deformation {
                     Some(mesh) => MovingInstance::deforming(mesh, first, part.motion, times),
                     None => MovingInstance::new(&part.triangles, first, part.motion, times),
@@ -574,6 +654,35 @@ impl Geometry {
         }
         g
     }
+
+    /// One moving instance per placement of an instanced `part` (whose triangles start at
+    /// `first`), all sharing one BVH: the first instance's index.
+    fn instance_all(&mut self, part: &Part, first: u32, times: [f64; 2]) -> u32 {
+        let bvh = Arc::new(TriangleBvh::build(&part.triangles, first));
+        let corners = MovingInstance::corners(&part.triangles);
+        let start = self.instances.len() as u32;
+        self.instances.extend(
+            part.instances
+                .iter()
+                .map(|m| MovingInstance::sharing(&bvh, &corners, m.clone(), times)),
+        );
+        let triangles = first..first + part.triangles.len() as u32;
+        self.instanced
+            .push((triangles, start..self.instances.len() as u32));
+        start
+    }
+
+    /// The moving instances triangle `i` is placed by: one, several for an instanced
+    /// object's, none (an empty range) for a static one.
+    fn instances_of(&self, i: u32) -> Range<u32> {
+        if let Some((_, instances)) = self.instanced.iter().find(|(t, _)| t.contains(&i)) {
+            return instances.clone();
+        }
+        match self.triangle_instance[i as usize] {
+            STATIC => 0..0,
+            instance => instance..instance + 1,
+        }
+    }
 }
 
 /// The emissive triangles (of non-zero area) as emitters; a textured one's radiance is its
@@ -584,26 +693,35 @@ pub(super) fn emitters(
     materials: &[Material],
     textures: &[Texture],
 ) -> Vec<Emitter> {
-    g.triangles
-        .iter()
-        .enumerate()
-        .filter_map(|(i, tri)| {
-            let m = &materials[g.triangle_material[i] as usize];
-            (m.emits() && tri.area() > 0.0).then(|| Emitter {
-                triangle: i as u32,
-                instance: g.triangle_instance[i],
-                radiance: match (m.emission_map(), g.triangle_uvs.get(i)) {
-                    (Some(map), Some(&uvs)) => mean_emission(map, textures, uvs),
-                    _ => m.emission,
-                },
-                textured: m.emission_map().is_some(),
-                two_sided: m.two_sided_emission,
-                vertices: *tri,
-                normal: normals[i],
-                area: tri.area(),
-            })
-        })
-        .collect()
+    let mut out = Vec::new();
+    for (i, tri) in g.triangles.iter().enumerate() {
+        let m = &materials[g.triangle_material[i] as usize];
+        if !m.emits() || tri.area() <= 0.0 {
+            continue;
+        }
+        let emitter = Emitter {
+            triangle: i as u32,
+            instance: g.triangle_instance[i],
+            radiance: match (m.emission_map(), g.triangle_uvs.get(i)) {
+                (Some(map), Some(&uvs)) => mean_emission(map, textures, uvs),
+                _ => m.emission,
+            },
+            textured: m.emission_map().is_some(),
+            two_sided: m.two_sided_emission,
+            vertices: *tri,
+            normal: normals[i],
+            area: tri.area(),
+        };
+        // An instanced object's emissive triangle is a light at each of its instances.
+        match g.instances_of(i as u32) {
+            r if r.len() > 1 => out.extend(r.map(|instance| Emitter {
+                instance,
+                ..emitter
+            })),
+            _ => out.push(emitter),
+        }
+    }
+    out
 }
 
 /// A textured emitter's mean radiance over its triangle of UVs `[a, b, c]`, which sets how

@@ -360,6 +360,10 @@ pub struct ObjectSection {
     /// The shape of an object a USD layer brings (never a shot-file key).
     #[serde(skip)]
     pub shape: Option<std::sync::Arc<super::mesh::Shape>>,
+    /// Where a USD layer instances the shape (each instance's world placement, the shape and
+    /// its BVH shared); empty for an object placed once (never a shot-file key).
+    #[serde(skip)]
+    pub instances: Vec<rift_fx::rig::AnimatedTransform>,
 }
 
 /// `[object.visibility]`: which rays see the object (each defaults to true).

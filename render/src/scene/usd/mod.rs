@@ -9,6 +9,7 @@
 //! What the stage holds that rift does not read is said once per prim, never skipped silently.
 
 mod crate_check;
+mod instancing;
 mod lights;
 mod mesh;
 mod shading;

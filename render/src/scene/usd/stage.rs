@@ -122,6 +122,7 @@ pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result
         materials: HashMap::new(),
         subdivided: Vec::new(),
         with_normals: Vec::new(),
+        shared: Default::default(),
     };
     let mut stack: Vec<Prim> = children(source, &root)?;
     stack.reverse();
@@ -146,7 +147,7 @@ pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result
 }
 
 /// The active, defined children of `prim` (instances expanded into their prototypes' prims).
-fn children(source: &Source, prim: &Prim) -> Result<Vec<Prim>, RenderError> {
+pub(super) fn children(source: &Source, prim: &Prim) -> Result<Vec<Prim>, RenderError> {
     let path = prim.path().as_str().to_owned();
     let all = prim.children().map_err(|e| source.read_error(&path, e))?;
     let mut out = Vec::with_capacity(all.len());
@@ -172,15 +173,17 @@ enum Descend {
 }
 
 /// The walk over a stage's prims.
-struct Walk<'a> {
-    source: &'a Source<'a>,
-    out: &'a mut Imported,
+pub(super) struct Walk<'a> {
+    pub source: &'a Source<'a>,
+    pub out: &'a mut Imported,
     /// Materials already made, by the USD material's path: their name among the scene's
     /// materials.
     materials: HashMap<String, String>,
     /// Meshes that are subdivision surfaces, and meshes that author normals (said once).
     subdivided: Vec<String>,
     with_normals: Vec<String>,
+    /// Prototype meshes already read, shared by their instances.
+    pub shared: super::instancing::Shared,
 }
 
 impl Walk<'_> {
@@ -194,6 +197,13 @@ impl Walk<'_> {
         if !xform::rendered(prim).map_err(|e| self.source.read_error(&path, e))? {
             return Ok(Descend::No);
         }
+        if prim
+            .is_instance()
+            .map_err(|e| self.source.read_error(&path, e))?
+        {
+            self.instance(prim)?;
+            return Ok(Descend::No);
+        }
         match kind.as_str() {
             "" | "Xform" | "Scope" | "SkelRoot" => Ok(Descend::Yes),
             // Read where meshes bind them.
@@ -201,6 +211,10 @@ impl Walk<'_> {
             "Mesh" => {
                 self.mesh(prim, &path)?;
                 Ok(Descend::Yes)
+            }
+            "PointInstancer" => {
+                self.point_instancer(prim)?;
+                Ok(Descend::No)
             }
             "SphereLight" | "DiskLight" | "RectLight" | "DistantLight" | "DomeLight" => {
                 lights::read(prim, &kind, self.source, self.out)?;
@@ -221,7 +235,22 @@ impl Walk<'_> {
     /// A mesh prim into an object, with the materials it binds.
     fn mesh(&mut self, prim: &Prim, path: &str) -> Result<(), RenderError> {
         let placement = xform::placement(prim, self.source)?;
-        let read = mesh::read(prim, self.source, &placement)?;
+        let shape = self.mesh_shape(prim, path, &placement)?;
+        self.out
+            .objects
+            .push(placement.object(path.to_owned(), std::sync::Arc::new(shape)));
+        Ok(())
+    }
+
+    /// The shape of the mesh `prim` (at `path`), its points baked by `placement`, with the
+    /// materials it binds made.
+    pub fn mesh_shape(
+        &mut self,
+        prim: &Prim,
+        path: &str,
+        placement: &xform::Placement,
+    ) -> Result<crate::scene::mesh::Shape, RenderError> {
+        let read = mesh::read(prim, self.source, placement)?;
         let mut part_materials = Vec::with_capacity(read.bindings.len());
         for binding in &read.bindings {
             part_materials.push(self.material(prim, binding.as_deref())?);
@@ -232,11 +261,7 @@ impl Walk<'_> {
         if read.normals {
             self.with_normals.push(path.to_owned());
         }
-        let shape = read.shape.with_materials(&part_materials);
-        self.out
-            .objects
-            .push(placement.object(path.to_owned(), std::sync::Arc::new(shape)));
-        Ok(())
+        Ok(read.shape.with_materials(&part_materials))
     }
 
     /// Says once for the stage which meshes rift renders otherwise than USD says.
@@ -305,7 +330,6 @@ fn unread_hint(kind: &str) -> &'static str {
     match kind {
         "Camera" => " (the shot's [camera] frames the shot)",
         "Sphere" | "Cube" | "Cylinder" | "Cone" | "Capsule" | "Plane" => " (export it as a mesh)",
-        "PointInstancer" => " (export its instances as meshes)",
         _ => "",
     }
 }

@@ -6,9 +6,10 @@ use super::Source;
 use crate::error::RenderError;
 use crate::scene::mesh::Shape;
 use crate::scene::schema::ObjectSection;
-use glam::{DMat3, DMat4, DVec3};
+use glam::{DAffine3, DMat3, DMat4, DVec3};
 use openusd::schemas::geom::{Imageable, Purpose, Visibility, Xformable};
 use openusd::usd::{Prim, SchemaBase, SchemaKind, TimeCode};
+use rift_fx::rig::{AnimatedTransform, Interpolation, Similarity, TransformKey};
 use rift_fx::shot::schema::{InterpolationSpec, PoseSpec};
 use std::sync::Arc;
 
@@ -57,6 +58,7 @@ impl Placement {
             visibility: None,
             light_group: None,
             shape: Some(shape),
+            instances: Vec::new(),
         }
     }
 
@@ -95,31 +97,56 @@ impl Placement {
 
     /// The keys as a shot-file pose (none when it stands still).
     pub fn pose(&self) -> Option<PoseSpec> {
-        if self.keys.len() < 2 {
-            return None;
-        }
-        let keys = self
-            .keys
-            .iter()
-            .map(|&(frame, m)| PoseSpec {
-                frame: Some(frame),
-                matrix: Some(m.transpose().to_cols_array_2d()),
-                ..PoseSpec::default()
-            })
-            .collect();
-        Some(PoseSpec {
-            keys: Some(keys),
-            interpolation: Some(InterpolationSpec::Linear),
+        (self.keys.len() >= 2).then(|| keyed_pose(&self.keys))
+    }
+}
+
+/// Similarities at shot frames as a shot-file pose: one matrix, or linear keys.
+fn keyed_pose(keys: &[(f64, DMat4)]) -> PoseSpec {
+    let matrix = |m: DMat4| Some(m.transpose().to_cols_array_2d());
+    if let [(_, m)] = keys {
+        return PoseSpec {
+            matrix: matrix(*m),
+            ..PoseSpec::default()
+        };
+    }
+    let keys = keys
+        .iter()
+        .map(|&(frame, m)| PoseSpec {
+            frame: Some(frame),
+            matrix: matrix(m),
             ..PoseSpec::default()
         })
+        .collect();
+    PoseSpec {
+        keys: Some(keys),
+        interpolation: Some(InterpolationSpec::Linear),
+        ..PoseSpec::default()
     }
+}
+
+/// World transforms (similarities) at time codes as a shot-file pose.
+pub fn pose_of(source: &Source, samples: &[(f64, DMat4)]) -> PoseSpec {
+    let keys: Vec<(f64, DMat4)> = samples
+        .iter()
+        .map(|&(code, m)| (source.clock.frame(code), m))
+        .collect();
+    keyed_pose(&keys)
 }
 
 /// Where `prim` is over the times rays reach. A transform whose shape changes over time
 /// (animated non-uniform scale or shear) is refused: rift blurs rigid motion and uniform scale.
 pub fn placement(prim: &Prim, source: &Source) -> Result<Placement, RenderError> {
-    let path = prim.path().as_str();
-    let samples = world_samples(prim, source)?;
+    of_samples(prim.path().as_str(), source, &world_samples(prim, source)?)
+}
+
+/// The placement of the prim at `path` whose world transform has the `samples` (time code and
+/// matrix, at least one), as [`placement`] splits it.
+pub fn of_samples(
+    path: &str,
+    source: &Source,
+    samples: &[(f64, DMat4)],
+) -> Result<Placement, RenderError> {
     let bake = samples[0].1;
     if !bake.is_finite() || bake.determinant() == 0.0 {
         return Err(source.error(
@@ -136,7 +163,7 @@ pub fn placement(prim: &Prim, source: &Source) -> Result<Placement, RenderError>
     }
     let inverse = bake.inverse();
     let mut keys = Vec::with_capacity(samples.len());
-    for &(code, m) in &samples {
+    for &(code, m) in samples {
         let relative = m * inverse;
         if !is_similarity(DMat3::from_mat4(relative)) {
             return Err(source.error(
@@ -202,6 +229,26 @@ pub fn light_placement(prim: &Prim, source: &Source) -> Result<(Placement, DVec3
     ))
 }
 
+/// World transforms at time codes (each a similarity) as an animated transform in shot
+/// seconds; `None` when one of them stretches or shears (then it cannot be shared).
+pub fn animated(source: &Source, samples: &[(f64, DMat4)]) -> Option<AnimatedTransform> {
+    let mut keys = Vec::with_capacity(samples.len());
+    for &(code, m) in samples {
+        if !is_similarity(DMat3::from_mat4(m)) {
+            return None;
+        }
+        let value = Similarity::from_affine(&DAffine3::from_mat4(m)).ok()?;
+        keys.push(TransformKey {
+            time: source.clock.seconds(code),
+            value,
+        });
+    }
+    Some(match keys.as_slice() {
+        [only] => AnimatedTransform::constant(only.value),
+        _ => AnimatedTransform::new(keys, Interpolation::Linear),
+    })
+}
+
 /// True when `m` is a rotation times a uniform scale (columns orthogonal, of one length).
 fn is_similarity(m: DMat3) -> bool {
     let gram = m.transpose() * m;
@@ -215,7 +262,7 @@ fn is_similarity(m: DMat3) -> bool {
 
 /// `prim`'s world transform at each of its [`sample_codes`] (at least one): the time code
 /// and the matrix.
-fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, RenderError> {
+pub fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, RenderError> {
     let read = |e| source.read_error(prim.path().as_str(), e);
     let codes = sample_codes(prim, source).map_err(read)?;
     codes
@@ -225,7 +272,7 @@ fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, Rend
 }
 
 /// `prim`'s local-to-world transform at time `code`, column-vector.
-fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
+pub fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
     let mut m = DMat4::IDENTITY;
     for placed in chain(prim) {
         let local = placed.local_to_parent_transform(TimeCode::new(code))?;

@@ -1,0 +1,458 @@
+//! Instances: prims marked instanceable (each an instance of a prototype the stage composes once)
+//! and PointInstancers (arrays of placements of prototype prims). Each prototype mesh is read
+//! once, in its prototype's space, and becomes one object that its `instances` place: the scene
+//! shares its triangles and BVH among all of them. An instance whose placement stretches or
+//! shears (a non-uniform scale) cannot share the mesh and gets its own copy, baked; so does
+//! each instance of a deforming mesh (copies share the deformation).
+
+use super::stage::Walk;
+use super::{values, xform};
+use crate::error::RenderError;
+use crate::scene::schema::ObjectSection;
+use glam::{DMat4, DQuat, DVec3};
+use openusd::sdf::Value;
+use openusd::usd::{Prim, TimeCode};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Bytes each shared instance takes while it is read and placed (its keys, its placement and
+/// its box), for the memory check before a PointInstancer's instances are made.
+const BYTES_PER_INSTANCE: u64 = 512;
+
+/// Prototype meshes already made into objects, by the mesh prim's path and the transform baked
+/// into its points: the object's index among the imported objects.
+#[derive(Default)]
+pub struct Shared(HashMap<(String, [u64; 16]), usize>);
+
+/// A mesh inside a prototype: its prim, its transform relative to the prototype's placement,
+/// its path below the prototype (which names it under each instance), and what its instances
+/// share it by (with the transform baked into its points).
+struct ProtoMesh {
+    prim: Prim,
+    local: DMat4,
+    relative: String,
+    key: String,
+}
+
+impl Walk<'_> {
+    /// A scene-graph instance: the meshes under it (its prototype's, which the stage shows in
+    /// the instance's namespace), placed where the instance is and shared with every other
+    /// instance of its prototype.
+    pub(super) fn instance(&mut self, prim: &Prim) -> Result<(), RenderError> {
+        let path = prim.path().as_str().to_owned();
+        let read = |e| self.source.read_error(&path, e);
+        // Instances of one prototype share its meshes; without one, the instance is alone.
+        let prototype = prim.prototype().map_err(read)?;
+        let shared_by = prototype.map_or_else(|| path.clone(), |p| p.as_str().to_owned());
+        let samples = xform::world_samples(prim, self.source)?;
+        // The meshes relative to the instance where the span starts (they move with it).
+        let at_start = xform::world(prim, self.source.codes()[0]).map_err(read)?;
+        let inverse = invertible(at_start).ok_or_else(|| self.singular(&path))?;
+        for mesh in self.meshes_below(prim, inverse, &shared_by)? {
+            let name = format!("{path}{}", mesh.relative);
+            self.place(&mesh, &name, &samples)?;
+        }
+        Ok(())
+    }
+
+    /// The meshes under `root` (it included), each with its transform taken relative by
+    /// `inverse` (the inverse of what places `root`'s frame), its path below `root`, and its
+    /// key among shared meshes: `shared_by` followed by that path.
+    fn meshes_below(
+        &mut self,
+        root: &Prim,
+        inverse: DMat4,
+        shared_by: &str,
+    ) -> Result<Vec<ProtoMesh>, RenderError> {
+        let root_path = root.path().as_str().to_owned();
+        let code = self.source.codes()[0];
+        let mut out = Vec::new();
+        let mut stack = vec![root.clone()];
+        while let Some(prim) = stack.pop() {
+            let path = prim.path().as_str().to_owned();
+            let read = |e| self.source.read_error(&path, e);
+            if !xform::rendered(&prim).map_err(read)? {
+                continue;
+            }
+            let relative = path[root_path.len()..].to_owned();
+            let kind = prim.type_name().map_err(read)?;
+            match kind.as_ref().map_or("", |t| t.as_str()) {
+                "Mesh" => out.push(ProtoMesh {
+                    local: inverse * xform::world(&prim, code).map_err(read)?,
+                    key: format!("{shared_by}{relative}"),
+                    prim: prim.clone(),
+                    relative,
+                }),
+                "" | "Xform" | "Scope" => {}
+                "Material" | "Shader" | "NodeGraph" | "GeomSubset" => continue,
+                other => {
+                    self.unread(&path, other);
+                    continue;
+                }
+            }
+            let mut kids = super::stage::children(self.source, &prim)?;
+            kids.reverse();
+            stack.extend(kids);
+        }
+        Ok(out)
+    }
+
+    /// Places `mesh` at the world transforms `samples` (time code and matrix) under `name`:
+    /// as one more instance of its shared object, or as its own copy.
+    fn place(
+        &mut self,
+        mesh: &ProtoMesh,
+        name: &str,
+        samples: &[(f64, DMat4)],
+    ) -> Result<(), RenderError> {
+        let Some(motion) = xform::animated(self.source, samples) else {
+            // A stretched instance: its own copy, the stretch baked into its points.
+            let placed: Vec<(f64, DMat4)> =
+                samples.iter().map(|&(c, m)| (c, m * mesh.local)).collect();
+            let placement = xform::of_samples(name, self.source, &placed)?;
+            let shape = self.mesh_shape(&mesh.prim, mesh.prim.path().as_str(), &placement)?;
+            let object = placement.object(name.to_owned(), Arc::new(shape));
+            self.out.objects.push(object);
+            return Ok(());
+        };
+        let key = (
+            mesh.key.clone(),
+            mesh.local.to_cols_array().map(f64::to_bits),
+        );
+        let index = match self.shared.0.get(&key) {
+            Some(&i) => i,
+            None => {
+                let placement = xform::Placement {
+                    bake: mesh.local,
+                    keys: Vec::new(),
+                };
+                let shape = self.mesh_shape(&mesh.prim, mesh.prim.path().as_str(), &placement)?;
+                let object = placement.object(name.to_owned(), Arc::new(shape));
+                self.out.objects.push(object);
+                self.shared.0.insert(key, self.out.objects.len() - 1);
+                self.out.objects.len() - 1
+            }
+        };
+        let object = &mut self.out.objects[index];
+        if object
+            .shape
+            .as_ref()
+            .is_some_and(|s| s.deformation.is_some())
+        {
+            // A deforming prototype: a copy per instance, all sharing its deformation.
+            let copy = ObjectSection {
+                name: name.to_owned(),
+                transform: Some(xform::pose_of(self.source, samples)),
+                instances: Vec::new(),
+                ..object.clone()
+            };
+            if object.instances.is_empty() && object.transform.is_none() && object.name == name {
+                *object = copy;
+            } else {
+                self.out.objects.push(copy);
+            }
+            return Ok(());
+        }
+        object.instances.push(motion);
+        Ok(())
+    }
+
+    /// A PointInstancer: each of its instances places its prototype's meshes.
+    pub(super) fn point_instancer(&mut self, prim: &Prim) -> Result<(), RenderError> {
+        let path = prim.path().as_str().to_owned();
+        let read = |e| self.source.read_error(&path, e);
+        let prototypes = prim.relationship("prototypes").targets().map_err(read)?;
+        let arrays = self.instance_arrays(prim, prototypes.len())?;
+        let n = arrays.proto_indices.len();
+        self.check_instances(&path, n)?;
+        let world = xform::world_samples(prim, self.source)?;
+        let mut prototype_meshes = Vec::with_capacity(prototypes.len());
+        for target in &prototypes {
+            let proto = prim.stage().prim(target.clone());
+            let parent_world = match target.parent().filter(|p| !p.is_abs_root()) {
+                Some(parent) => xform::world(&prim.stage().prim(parent), self.source.codes()[0])
+                    .map_err(read)?,
+                None => DMat4::IDENTITY,
+            };
+            let inverse = invertible(parent_world).ok_or_else(|| self.singular(&path))?;
+            let name = target.as_str().rsplit('/').next().unwrap_or_default();
+            let meshes = self.meshes_below(&proto, inverse, target.as_str())?;
+            prototype_meshes.push((format!("{path}/{name}"), meshes));
+        }
+        let hidden = arrays.hidden();
+        for i in 0..n {
+            if hidden.get(i).copied().unwrap_or(false) {
+                continue;
+            }
+            let (base, meshes) = &prototype_meshes[arrays.proto_indices[i] as usize];
+            let samples = arrays.placements(i, &world, self.source);
+            for mesh in meshes {
+                let shared = format!("{base}{}", mesh.relative);
+                let name = match xform::animated(self.source, &samples) {
+                    Some(_) => shared,
+                    None => format!("{shared}[{i}]"),
+                };
+                self.place(mesh, &name, &samples)?;
+            }
+        }
+        if arrays.angular_velocities {
+            self.out.warnings.push(format!(
+                "{}: <{path}> gives angularVelocities, which rift does not blur yet (its \
+                 instances turn at their first sample's orientation)",
+                self.source.layer.display()
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses a PointInstancer of `n` instances whose placements would not fit in the memory
+    /// budget, before any is made.
+    fn check_instances(&self, path: &str, n: usize) -> Result<(), RenderError> {
+        let need = n as u64 * BYTES_PER_INSTANCE;
+        match self.source.budget {
+            Some(budget) if need > budget => Err(self.source.error(
+                path,
+                Some("protoIndices"),
+                format!(
+                    "its {n} instances need about {} MiB, more than the memory budget of {} \
+                     MiB (--max-memory)",
+                    need >> 20,
+                    budget >> 20
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The per-instance arrays of a PointInstancer of `prototypes` prototypes, checked.
+    fn instance_arrays(
+        &self,
+        prim: &Prim,
+        prototypes: usize,
+    ) -> Result<InstanceArrays, RenderError> {
+        let path = prim.path().as_str();
+        let code = self.source.codes()[0];
+        let error =
+            |attribute: &str, message: String| self.source.error(path, Some(attribute), message);
+        let read = |e| self.source.read_error(path, e);
+        let proto_indices = values::int_array(prim, "protoIndices", code)
+            .map_err(read)?
+            .ok_or_else(|| error("protoIndices", "missing: a PointInstancer needs it".into()))?;
+        let n = proto_indices.len();
+        if let Some((i, &p)) = proto_indices
+            .iter()
+            .enumerate()
+            .find(|&(_, &p)| p as usize >= prototypes)
+        {
+            return Err(error(
+                "protoIndices",
+                format!("entry {i} is {p}, past the {prototypes} prototypes it targets"),
+            ));
+        }
+        let vectors = |name: &str| -> Result<Option<Vec<DVec3>>, RenderError> {
+            let Some(v) = attribute(prim, name, code).map_err(read)? else {
+                return Ok(None);
+            };
+            let array = values::vec3_array(&v)
+                .ok_or_else(|| error(name, "expected an array of 3-vectors".into()))?;
+            match array.len() == n {
+                true => Ok(Some(array.into_iter().map(|p| p.as_dvec3()).collect())),
+                false => Err(error(
+                    name,
+                    format!("it has {} entries for {n} instances", array.len()),
+                )),
+            }
+        };
+        let positions = vectors("positions")?
+            .ok_or_else(|| error("positions", "missing: a PointInstancer needs it".into()))?;
+        let scales = vectors("scales")?;
+        let velocities = vectors("velocities")?;
+        let orientations = self.orientations(prim, n)?;
+        let ids = values::int_array(prim, "ids", code).map_err(read)?;
+        let invisible = values::int_array(prim, "invisibleIds", code).map_err(read)?;
+        let angular_velocities = attribute(prim, "angularVelocities", code)
+            .map_err(read)?
+            .is_some();
+        let animated = ["positions", "orientations", "orientationsf", "scales"]
+            .iter()
+            .find(|name| {
+                prim.attribute(**name)
+                    .time_sample_times()
+                    .is_ok_and(|t| xform::within(&t, self.source.codes()).len() > 1)
+            });
+        if let Some(name) = animated {
+            return Err(error(
+                name,
+                "it is sampled over time, which rift does not read yet; give velocities for \
+                 motion blur"
+                    .into(),
+            ));
+        }
+        Ok(InstanceArrays {
+            proto_indices,
+            positions,
+            orientations,
+            scales,
+            velocities,
+            ids,
+            invisible,
+            angular_velocities,
+        })
+    }
+
+    /// A PointInstancer's orientations (half or single precision), one per instance.
+    fn orientations(&self, prim: &Prim, n: usize) -> Result<Option<Vec<DQuat>>, RenderError> {
+        let path = prim.path().as_str();
+        let code = self.source.codes()[0];
+        let read = |e| self.source.read_error(path, e);
+        for name in ["orientations", "orientationsf"] {
+            let Some(v) = attribute(prim, name, code).map_err(read)? else {
+                continue;
+            };
+            let quats: Vec<DQuat> = match v {
+                Value::QuathVec(q) => q
+                    .iter()
+                    .map(|q| quat(q.w.to_f64(), q.x.to_f64(), q.y.to_f64(), q.z.to_f64()))
+                    .collect(),
+                Value::QuatfVec(q) => q
+                    .iter()
+                    .map(|q| quat(q.w as f64, q.x as f64, q.y as f64, q.z as f64))
+                    .collect(),
+                Value::QuatdVec(q) => q.iter().map(|q| quat(q.w, q.x, q.y, q.z)).collect(),
+                _ => {
+                    return Err(self.source.error(
+                        path,
+                        Some(name),
+                        "expected an array of quaternions".into(),
+                    ));
+                }
+            };
+            if quats.len() != n {
+                return Err(self.source.error(
+                    path,
+                    Some(name),
+                    format!("it has {} entries for {n} instances", quats.len()),
+                ));
+            }
+            if let Some(i) = quats
+                .iter()
+                .position(|q| !q.is_finite() || q.length() == 0.0)
+            {
+                return Err(self.source.error(
+                    path,
+                    Some(name),
+                    format!("entry {i} is not a rotation"),
+                ));
+            }
+            return Ok(Some(quats.into_iter().map(DQuat::normalize).collect()));
+        }
+        Ok(None)
+    }
+
+    /// Says that a prim of type `kind` inside an instance is not read.
+    fn unread(&mut self, path: &str, kind: &str) {
+        self.out.warnings.push(format!(
+            "{}: <{path}> (in an instance) is a {kind}, which rift does not read from USD \
+             inside instances yet; rendered without it",
+            self.source.layer.display()
+        ));
+    }
+
+    fn singular(&self, path: &str) -> RenderError {
+        self.source.error(
+            path,
+            Some("xformOp"),
+            "its world transform is singular or not finite".into(),
+        )
+    }
+}
+
+/// A PointInstancer's per-instance arrays, each as long as `proto_indices`.
+struct InstanceArrays {
+    proto_indices: Vec<u32>,
+    positions: Vec<DVec3>,
+    orientations: Option<Vec<DQuat>>,
+    scales: Option<Vec<DVec3>>,
+    velocities: Option<Vec<DVec3>>,
+    ids: Option<Vec<u32>>,
+    invisible: Option<Vec<u32>>,
+    angular_velocities: bool,
+}
+
+impl InstanceArrays {
+    /// Per instance, whether `invisibleIds` hides it (by its id, or its index without ids).
+    fn hidden(&self) -> Vec<bool> {
+        let Some(invisible) = &self.invisible else {
+            return Vec::new();
+        };
+        let invisible: std::collections::HashSet<u32> = invisible.iter().copied().collect();
+        (0..self.proto_indices.len())
+            .map(|i| {
+                let id = self.ids.as_ref().and_then(|ids| ids.get(i)).copied();
+                invisible.contains(&id.unwrap_or(i as u32))
+            })
+            .collect()
+    }
+
+    /// Instance `i`'s world transform at each of the instancer's `world` samples (time code
+    /// and matrix), moved by its velocity where it has one: then at the span's ends.
+    fn placements(
+        &self,
+        i: usize,
+        world: &[(f64, DMat4)],
+        source: &super::Source,
+    ) -> Vec<(f64, DMat4)> {
+        let rotation = self.orientations.as_ref().map_or(DQuat::IDENTITY, |q| q[i]);
+        let scale = self.scales.as_ref().map_or(DVec3::ONE, |s| s[i]);
+        let at = |offset: DVec3| {
+            DMat4::from_scale_rotation_translation(scale, rotation, self.positions[i] + offset)
+        };
+        match self.velocities.as_ref().map(|v| v[i]) {
+            Some(v) if v != DVec3::ZERO => {
+                let [start, end] = source.codes();
+                let first = source.clock.seconds(start);
+                let world_at = |code: f64| nearest(world, code);
+                let codes = if end > start {
+                    vec![start, end]
+                } else {
+                    vec![start]
+                };
+                codes
+                    .iter()
+                    .map(|&c| {
+                        let dt = source.clock.seconds(c) - first;
+                        (c, world_at(c) * at(v * dt))
+                    })
+                    .collect()
+            }
+            _ => world
+                .iter()
+                .map(|&(c, m)| (c, m * at(DVec3::ZERO)))
+                .collect(),
+        }
+    }
+}
+
+/// The sample of `samples` (time code and matrix, sorted) nearest `code` at or before it.
+fn nearest(samples: &[(f64, DMat4)], code: f64) -> DMat4 {
+    let i = samples
+        .partition_point(|(c, _)| *c <= code)
+        .saturating_sub(1);
+    samples[i].1
+}
+
+/// `m`'s inverse, where it has one.
+fn invertible(m: DMat4) -> Option<DMat4> {
+    let d = m.determinant();
+    (d.is_finite() && d != 0.0).then(|| m.inverse())
+}
+
+/// A quaternion from USD's real part first.
+fn quat(w: f64, x: f64, y: f64, z: f64) -> DQuat {
+    DQuat::from_xyzw(x, y, z, w)
+}
+
+/// An attribute's value at `code`, if authored.
+fn attribute(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Value>> {
+    prim.attribute(name).get_at::<Value>(TimeCode::new(code))
+}
