@@ -240,6 +240,90 @@ fn bad_layers_are_refused_naming_the_file_and_the_prim() {
     assert!(e.contains("usd[0]") && e.contains("layer"), "{e}");
 }
 
+/// A stage with a PointInstancer of one triangle prototype whose own attributes are `body`.
+fn instancer(body: &str) -> String {
+    format!(
+        "#usda 1.0\ndef PointInstancer \"Scatter\" {{\n rel prototypes = [</Scatter/Tri>]\n \
+         {body}\n def Mesh \"Tri\" {{\n  point3f[] points = [(0,0,0), (1,0,0), (0,1,0)]\n  \
+         int[] faceVertexCounts = [3]\n  int[] faceVertexIndices = [0, 1, 2]\n }}\n}}\n"
+    )
+}
+
+#[test]
+fn bad_instancers_are_refused_naming_the_prim_and_the_attribute() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cases = [
+        (
+            "int[] protoIndices = [0, 1]\n point3f[] positions = [(0,0,0), (1,0,0)]",
+            vec!["</Scatter>.protoIndices", "entry 1 is 1", "1 prototypes"],
+        ),
+        (
+            "int[] protoIndices = [0, 0]\n point3f[] positions = [(0,0,0)]",
+            vec!["</Scatter>.positions", "1 entries for 2 instances"],
+        ),
+        (
+            "int[] protoIndices = [0]",
+            vec!["</Scatter>.positions", "missing"],
+        ),
+        (
+            "int[] protoIndices = [0]\n point3f[] positions = [(0,0,0)]\n \
+             quath[] orientations = [(0, 0, 0, 0)]",
+            vec!["</Scatter>.orientations", "entry 0 is not a rotation"],
+        ),
+        (
+            "int[] protoIndices = [0]\n point3f[] positions.timeSamples = {\n  \
+             1: [(0,0,0)],\n  2: [(1,0,0)],\n }",
+            vec!["</Scatter>.positions", "sampled over time", "velocities"],
+        ),
+    ];
+    for (i, (body, expected)) in cases.iter().enumerate() {
+        let name = format!("instancer{i}.usda");
+        std::fs::write(d.join(&name), instancer(body)).unwrap();
+        let e = refused(d, &shot_with(&format!("file = \"{name}\"")));
+        for part in expected {
+            assert!(e.contains(&name) && e.contains(part), "{body}: {e}");
+        }
+    }
+    // Instances that would not fit in the memory budget: refused before they are made.
+    let many = format!(
+        "int[] protoIndices = [{}]\n point3f[] positions = [{}]",
+        vec!["0"; 20000].join(", "),
+        vec!["(0,0,0)"; 20000].join(", ")
+    );
+    std::fs::write(d.join("many.usda"), instancer(&many)).unwrap();
+    std::fs::write(d.join("bad.toml"), shot_with("file = \"many.usda\"")).unwrap();
+    let out = rift(
+        d,
+        &[
+            "render",
+            "bad.toml",
+            "-o",
+            "bad.exr",
+            "--frames",
+            "1",
+            "--max-memory",
+            "8M",
+        ],
+    );
+    let e = stderr(&out);
+    assert!(!out.status.success() && !d.join("bad.exr").exists(), "{e}");
+    assert!(
+        e.contains("</Scatter>.protoIndices") && e.contains("20000 instances"),
+        "{e}"
+    );
+    // An instanced prim cannot be moved from the shot file: its instancer places it.
+    let fine = "int[] protoIndices = [0, 0]\n point3f[] positions = [(0,0,0), (2,0,0)]";
+    std::fs::write(d.join("fine.usda"), instancer(fine)).unwrap();
+    let moved = shot_with("file = \"fine.usda\"")
+        + "\n[[object]]\nname = \"/Scatter/Tri\"\ntransform = { position = [0, 1, 0] }\n";
+    let e = refused(d, &moved);
+    assert!(
+        e.contains("</Scatter/Tri>.transform") && e.contains("2 instances"),
+        "{e}"
+    );
+}
+
 #[test]
 fn a_prim_of_a_kind_rift_does_not_read_is_said_and_left_out() {
     let dir = tempfile::tempdir().unwrap();
@@ -299,7 +383,8 @@ fn a_set_blender_exports_renders_with_what_it_does_not_read_said() {
     for expected in [
         "the stage's up axis is Z",
         "</root/Camera/Camera> is a Camera",
-        "3 meshes author normals",
+        // The floor, the sphere, the cube, and the pebble that 300 instances share.
+        "4 meshes author normals",
         "enableColorTemperature",
     ] {
         assert!(said.contains(expected), "{expected:?} not said:\n{said}");

@@ -9,7 +9,7 @@ use super::stage::Walk;
 use super::{values, xform};
 use crate::error::RenderError;
 use crate::scene::schema::ObjectSection;
-use glam::{DMat4, DQuat, DVec3};
+use glam::{DMat3, DMat4, DQuat, DVec3};
 use openusd::sdf::Value;
 use openusd::usd::{Prim, TimeCode};
 use std::collections::HashMap;
@@ -19,10 +19,11 @@ use std::sync::Arc;
 /// its box), for the memory check before a PointInstancer's instances are made.
 const BYTES_PER_INSTANCE: u64 = 512;
 
-/// Prototype meshes already made into objects, by the mesh prim's path and the transform baked
-/// into its points: the object's index among the imported objects.
+/// Prototype meshes already made into objects, by the mesh's key, the transform baked into its
+/// points, and the stretch its instances share (rounded): the object's index among the
+/// imported objects, and that stretch.
 #[derive(Default)]
-pub struct Shared(HashMap<(String, [u64; 16]), usize>);
+pub struct Shared(HashMap<(String, [i64; 16], Option<[i64; 9]>), (usize, DMat3)>);
 
 /// A mesh inside a prototype: its prim, its transform relative to the prototype's placement,
 /// its path below the prototype (which names it under each instance), and what its instances
@@ -50,7 +51,7 @@ impl Walk<'_> {
         let inverse = invertible(at_start).ok_or_else(|| self.singular(&path))?;
         for mesh in self.meshes_below(prim, inverse, &shared_by)? {
             let name = format!("{path}{}", mesh.relative);
-            self.place(&mesh, &name, &samples)?;
+            self.place(&mesh, (&name, &name), &samples)?;
         }
         Ok(())
     }
@@ -97,41 +98,44 @@ impl Walk<'_> {
         Ok(out)
     }
 
-    /// Places `mesh` at the world transforms `samples` (time code and matrix) under `name`:
-    /// as one more instance of its shared object, or as its own copy.
+    /// Places `mesh` at the world transforms `samples` (time code and matrix): as one more
+    /// instance of its shared object (called `names.0` when this makes it), or as a copy of its
+    /// own (called `names.1`). Instances that stretch
+    /// their prototype alike (a Blender object scaled in one axis, instanced) share it too, the
+    /// stretch baked into its points: what places each of them is then a similarity.
     fn place(
         &mut self,
         mesh: &ProtoMesh,
-        name: &str,
+        (name, copy_name): (&str, &str),
         samples: &[(f64, DMat4)],
     ) -> Result<(), RenderError> {
-        let Some(motion) = xform::animated(self.source, samples) else {
-            // A stretched instance: its own copy, the stretch baked into its points.
-            let placed: Vec<(f64, DMat4)> =
-                samples.iter().map(|&(c, m)| (c, m * mesh.local)).collect();
-            let placement = xform::of_samples(name, self.source, &placed)?;
-            let shape = self.mesh_shape(&mesh.prim, mesh.prim.path().as_str(), &placement)?;
-            let object = placement.object(name.to_owned(), Arc::new(shape));
-            self.out.objects.push(object);
-            return Ok(());
-        };
+        let stretch = unit_stretch(samples[0].1);
         let key = (
             mesh.key.clone(),
-            mesh.local.to_cols_array().map(f64::to_bits),
+            quantized(mesh.local.to_cols_array()),
+            stretch.map(|p| quantized(p.to_cols_array())),
         );
-        let index = match self.shared.0.get(&key) {
-            Some(&i) => i,
+        let (index, stretch) = match self.shared.0.get(&key) {
+            Some(&shared) => shared,
             None => {
+                let stretch = stretch.unwrap_or(DMat3::IDENTITY);
                 let placement = xform::Placement {
-                    bake: mesh.local,
+                    bake: DMat4::from_mat3(stretch) * mesh.local,
                     keys: Vec::new(),
                 };
                 let shape = self.mesh_shape(&mesh.prim, mesh.prim.path().as_str(), &placement)?;
                 let object = placement.object(name.to_owned(), Arc::new(shape));
                 self.out.objects.push(object);
-                self.shared.0.insert(key, self.out.objects.len() - 1);
-                self.out.objects.len() - 1
+                let shared = (self.out.objects.len() - 1, stretch);
+                self.shared.0.insert(key, shared);
+                shared
             }
+        };
+        let unstretch = DMat4::from_mat3(stretch.inverse());
+        let placed: Vec<(f64, DMat4)> = samples.iter().map(|&(c, m)| (c, m * unstretch)).collect();
+        let Some(motion) = xform::animated(self.source, &placed) else {
+            // Its stretch changes over time, or it mirrors its prototype: a copy of its own.
+            return self.copy(mesh, copy_name, samples);
         };
         let object = &mut self.out.objects[index];
         if object
@@ -141,12 +145,13 @@ impl Walk<'_> {
         {
             // A deforming prototype: a copy per instance, all sharing its deformation.
             let copy = ObjectSection {
-                name: name.to_owned(),
-                transform: Some(xform::pose_of(self.source, samples)),
+                name: copy_name.to_owned(),
+                transform: Some(xform::pose_of(self.source, &placed)),
                 instances: Vec::new(),
                 ..object.clone()
             };
-            if object.instances.is_empty() && object.transform.is_none() && object.name == name {
+            // The object as made (at no transform) becomes the first copy.
+            if object.instances.is_empty() && object.transform.is_none() {
                 *object = copy;
             } else {
                 self.out.objects.push(copy);
@@ -154,6 +159,22 @@ impl Walk<'_> {
             return Ok(());
         }
         object.instances.push(motion);
+        Ok(())
+    }
+
+    /// `mesh` placed at `samples` as an object of its own, the part of its placement that is
+    /// not a similarity baked into its points.
+    fn copy(
+        &mut self,
+        mesh: &ProtoMesh,
+        name: &str,
+        samples: &[(f64, DMat4)],
+    ) -> Result<(), RenderError> {
+        let placed: Vec<(f64, DMat4)> = samples.iter().map(|&(c, m)| (c, m * mesh.local)).collect();
+        let placement = xform::of_samples(name, self.source, &placed)?;
+        let shape = self.mesh_shape(&mesh.prim, mesh.prim.path().as_str(), &placement)?;
+        let object = placement.object(name.to_owned(), Arc::new(shape));
+        self.out.objects.push(object);
         Ok(())
     }
 
@@ -188,11 +209,7 @@ impl Walk<'_> {
             let samples = arrays.placements(i, &world, self.source);
             for mesh in meshes {
                 let shared = format!("{base}{}", mesh.relative);
-                let name = match xform::animated(self.source, &samples) {
-                    Some(_) => shared,
-                    None => format!("{shared}[{i}]"),
-                };
-                self.place(mesh, &name, &samples)?;
+                self.place(mesh, (&shared, &format!("{shared}[{i}]")), &samples)?;
             }
         }
         if arrays.angular_velocities {
@@ -439,6 +456,41 @@ fn nearest(samples: &[(f64, DMat4)], code: f64) -> DMat4 {
         .partition_point(|(c, _)| *c <= code)
         .saturating_sub(1);
     samples[i].1
+}
+
+/// The stretch of `m`'s linear part A = U·P (U a rotation times a uniform scale, P symmetric):
+/// P scaled to determinant 1; `None` where A is a similarity already, mirrors or is singular.
+fn unit_stretch(m: DMat4) -> Option<DMat3> {
+    let a = DMat3::from_mat4(m);
+    if !a.is_finite() || a.determinant() <= 0.0 {
+        return None;
+    }
+    // Newton's iteration for the orthogonal polar factor.
+    let mut u = a * (1.0 / a.determinant().cbrt());
+    for _ in 0..64 {
+        let next = (u + u.inverse().transpose()) * 0.5;
+        let change = (next - u)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        u = next;
+        if change < 1e-14 {
+            break;
+        }
+    }
+    let p = u.transpose() * a;
+    let p = p * (1.0 / p.determinant().cbrt());
+    let off_identity = (p - DMat3::IDENTITY)
+        .to_cols_array()
+        .iter()
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    (off_identity > 1e-6).then_some(p)
+}
+
+/// A matrix rounded to six decimals: instances that place a prototype alike up to rounding
+/// (each instance's transforms composed in its own order) share it.
+fn quantized<const N: usize>(m: [f64; N]) -> [i64; N] {
+    m.map(|x| (x * 1e6).round() as i64)
 }
 
 /// `m`'s inverse, where it has one.
