@@ -23,7 +23,11 @@ const BYTES_PER_INSTANCE: u64 = 512;
 /// points, and the stretch its instances share (rounded): the object's index among the
 /// imported objects, and that stretch.
 #[derive(Default)]
-pub struct Shared(HashMap<(String, [i64; 16], Option<[i64; 9]>), (usize, DMat3)>);
+pub struct Shared(HashMap<SharedKey, (usize, DMat3)>);
+
+/// A prototype mesh's key, the transform baked into its points and its instances' stretch,
+/// rounded ([`quantized`]).
+type SharedKey = (String, [i64; 16], Option<[i64; 9]>);
 
 /// A mesh inside a prototype: its prim, its transform relative to the prototype's placement,
 /// its path below the prototype (which names it under each instance), and what its instances
