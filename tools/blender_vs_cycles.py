@@ -1,0 +1,114 @@
+"""A client's files: the set tests/support/blender_set.py builds in Blender (image-textured floor,
+gold metal sphere, clay cube, 300 instanced pebbles, point, spot, area and sun lights), rendered
+by Cycles from the .blend and by rift from the USD Blender's own exporter writes, with the same
+camera (camera.toml), no denoising, clamping off, 12 bounces. Each light alone too, so that a
+difference is traced to one light. Per region (a 3x3 grid) and channel: rift / Cycles - 1, and
+the noise (half the difference between two seeds of each, combined).
+
+    tests/.venv/bin/python3 tools/blender_vs_cycles.py [RIFT] [SPP]
+"""
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+import OpenEXR
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RIFT = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "target/release/rift"))
+SPP = int(sys.argv[2]) if len(sys.argv) > 2 else 256
+GRID = 3
+
+# Run inside Blender's Python (bpy): renders the .blend with Cycles, each light alone as well,
+# exporting each variant's USD beside it.
+CYCLES = r'''
+import os, sys
+import bpy
+import addon_utils  # importable once bpy has set up Blender's paths
+blend, folder, spp = sys.argv[-3], sys.argv[-2], int(sys.argv[-1])
+addon_utils.enable("cycles", default_set=True)
+bpy.ops.wm.open_mainfile(filepath=blend)
+s = bpy.context.scene
+s.render.engine = "CYCLES"
+c = s.cycles
+c.device, c.samples, c.use_adaptive_sampling, c.use_denoising = "CPU", spp, False, False
+c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 12
+c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+s.view_settings.view_transform = "Standard"
+s.render.image_settings.file_format = "OPEN_EXR"
+s.render.image_settings.color_depth = "32"
+lights = [o for o in bpy.data.objects if o.type == "LIGHT"]
+energy = {o.name: o.data.energy for o in lights}
+for only in [None] + [o.name for o in lights]:
+    for o in lights:
+        o.data.energy = energy[o.name] if only in (None, o.name) else 0.0
+    out = os.path.join(folder, only or "all")
+    os.makedirs(out, exist_ok=True)
+    bpy.ops.wm.usd_export(filepath=os.path.join(out, "blender.usda"), export_materials=True,
+                          use_instancing=True)
+    for seed in (1, 2):
+        c.seed = seed
+        s.render.filepath = os.path.join(out, f"cycles{seed}.exr")
+        bpy.ops.render.render(write_still=True)
+'''
+
+SHOT = """[shot]
+name = "blender"
+fps = 24.0
+frames = [1, 1]
+[render]
+spp = {spp}
+seed = {seed}
+max_bounces = 12
+[[usd]]
+file = "blender.usda"
+"""
+
+
+def image(path):
+    return np.asarray(OpenEXR.File(path).parts[0].channels["RGBA"].pixels)[..., :3].astype(np.float64)
+
+
+def regions(img):
+    h, w, _ = img.shape
+    return np.array([[img[j * h // GRID:(j + 1) * h // GRID, i * w // GRID:(i + 1) * w // GRID]
+                      .reshape(-1, 3).mean(0) for i in range(GRID)] for j in range(GRID)])
+
+
+def compare(folder):
+    rift = [regions(image(os.path.join(folder, f"rift{s}.exr"))) for s in (1, 2)]
+    cycles = [regions(image(os.path.join(folder, f"cycles{s}.exr"))) for s in (1, 2)]
+    r, c = (rift[0] + rift[1]) / 2, (cycles[0] + cycles[1]) / 2
+    noise = np.hypot((rift[0] - rift[1]) / 2, (cycles[0] - cycles[1]) / 2) / np.maximum(c, 1e-6)
+    return r / np.maximum(c, 1e-6) - 1, noise, r.mean(axis=(0, 1)) / c.mean(axis=(0, 1)) - 1
+
+
+with tempfile.TemporaryDirectory() as folder:
+    python = sys.executable
+    subprocess.run([python, os.path.join(ROOT, "tests/support/blender_set.py"), folder],
+                   check=True, capture_output=True)
+    script = os.path.join(folder, "render_with_cycles.py")
+    with open(script, "w") as f:
+        f.write(CYCLES)
+    subprocess.run([python, script, os.path.join(folder, "blender.blend"), folder, str(SPP)],
+                   check=True, capture_output=True)
+    camera = open(os.path.join(folder, "camera.toml")).read()
+    print(f"rift / Cycles - 1 per region ({GRID}x{GRID}, rows top first) and channel; "
+          f"noise in brackets; {SPP} spp each, two seeds")
+    for variant in ["all", "Point", "Spot", "Area", "Sun"]:
+        out = os.path.join(folder, variant)
+        for name in os.listdir(folder):
+            if name.endswith(".png"):
+                os.symlink(os.path.join(folder, name), os.path.join(out, name))
+        for seed in (1, 2):
+            with open(os.path.join(out, f"shot{seed}.toml"), "w") as f:
+                f.write(camera + SHOT.format(spp=SPP, seed=seed))
+            subprocess.run([RIFT, "render", f"shot{seed}.toml", "-o", f"rift{seed}.exr"],
+                           cwd=out, check=True, capture_output=True)
+        diff, noise, whole = compare(out)
+        print(f"\n{variant}: whole image R/G/B {whole[0]:+.3f} {whole[1]:+.3f} {whole[2]:+.3f}")
+        for j in range(GRID):
+            print("  " + "   ".join(
+                "/".join(f"{diff[j, i, k]:+.3f}" for k in range(3))
+                + f" ({max(noise[j, i]):.3f})" for i in range(GRID)))
