@@ -15,6 +15,7 @@ mod processor;
 mod progress;
 mod render_cmd;
 mod resume;
+mod reveal_cmd;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -46,6 +47,9 @@ enum Command {
     /// Stage a shot in the browser: a local server showing it from its camera and an orbit
     /// view, at any frame.
     Layout(layout::LayoutArgs),
+    /// What each opening shows over a range of frames: the objects seen through it and their
+    /// share of the image, marking those the camera sees only through openings.
+    Reveal(reveal_cmd::RevealArgs),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +62,7 @@ fn main() -> ExitCode {
         Command::Farm(cmd) => farm::run(cmd),
         Command::Bench(cmd) => bench::run(cmd),
         Command::Layout(args) => layout::run(args),
+        Command::Reveal(args) => reveal_cmd::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

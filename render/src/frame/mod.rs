@@ -5,6 +5,7 @@ pub mod checkpoint;
 pub mod cryptomatte;
 pub mod film;
 pub mod passes;
+pub mod reveal;
 
 pub use film::{Image, Metadata, Window};
 pub use passes::{RenderOptions, Rendered, Sums, render, render_resumable};

@@ -12,22 +12,11 @@ use crate::scene::schema::ObjectSection;
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use openusd::sdf::Value;
 use openusd::usd::{Prim, TimeCode};
-use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Bytes each shared instance takes while it is read and placed (its keys, its placement and
 /// its box), for the memory check before a PointInstancer's instances are made.
 const BYTES_PER_INSTANCE: u64 = 512;
-
-/// Prototype meshes already made into objects, by the mesh's key, the transform baked into its
-/// points, and the stretch its instances share (rounded): the object's index among the
-/// imported objects, and that stretch.
-#[derive(Default)]
-pub struct Shared(HashMap<SharedKey, (usize, DMat3)>);
-
-/// A prototype mesh's key, the transform baked into its points and its instances' stretch,
-/// rounded ([`quantized`]).
-type SharedKey = (String, [i64; 16], Option<[i64; 9]>);
 
 /// A mesh inside a prototype: its prim, its transform relative to the prototype's placement,
 /// its path below the prototype (which names it under each instance), and what its instances

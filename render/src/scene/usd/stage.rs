@@ -172,6 +172,16 @@ enum Descend {
     No,
 }
 
+/// Prototype meshes already made into objects, by the mesh's key, the transform baked into its
+/// points, and the stretch its instances share (rounded): the object's index among the
+/// imported objects, and that stretch.
+#[derive(Default)]
+pub struct Shared(pub HashMap<SharedKey, (usize, glam::DMat3)>);
+
+/// A prototype mesh's key, the transform baked into its points and its instances' stretch,
+/// rounded (`instancing.rs`).
+pub type SharedKey = (String, [i64; 16], Option<[i64; 9]>);
+
 /// The walk over a stage's prims.
 pub(super) struct Walk<'a> {
     pub source: &'a Source<'a>,
@@ -183,7 +193,7 @@ pub(super) struct Walk<'a> {
     subdivided: Vec<String>,
     with_normals: Vec<String>,
     /// Prototype meshes already read, shared by their instances.
-    pub shared: super::instancing::Shared,
+    pub shared: Shared,
 }
 
 impl Walk<'_> {
