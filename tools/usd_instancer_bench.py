@@ -7,13 +7,12 @@ instances should cost their prototype's triangles once and a few hundred bytes e
     tests/.venv/bin/python3 tools/usd_instancer_bench.py [RIFT] [ROUNDS] [INSTANCES]
 """
 import os
-import re
 import statistics
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
+from timed_run import timed_run
 from pxr import Gf, Usd, UsdGeom, Vt
 
 RIFT = sys.argv[1] if len(sys.argv) > 1 else "target/release/rift"
@@ -77,16 +76,6 @@ def write(folder, count, name):
     return 2 * N * N
 
 
-def run(folder, shot):
-    out = subprocess.run(["/usr/bin/time", "-v", os.path.abspath(RIFT), "render", shot, "-o", "o.exr"],
-                         cwd=folder, capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr
-    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (?:(\d+):)?(\d+):([\d.]+)", out.stderr)
-    seconds = int(wall.group(1) or 0) * 3600 + int(wall.group(2)) * 60 + float(wall.group(3))
-    rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", out.stderr).group(1)) / 1024
-    return seconds, rss
-
-
 with tempfile.TemporaryDirectory() as folder:
     triangles = write(folder, 1, "one.usdc")
     write(folder, INSTANCES, "many.usdc")
@@ -94,7 +83,7 @@ with tempfile.TemporaryDirectory() as folder:
     results = {"one": [], "many": []}
     for _ in range(ROUNDS):
         for kind in ("one", "many"):
-            results[kind].append(run(folder, f"{kind}.toml"))
+            results[kind].append(timed_run(RIFT, folder, f"{kind}.toml"))
     print(f"prototype of {triangles} triangles; {INSTANCES} instances ({size} MiB usdc) against one;"
           f" as copies they would be {triangles * INSTANCES:.2e} triangles; medians of {ROUNDS}, alternated")
     print("| stage | wall s (load + 64x64 at 4 spp) | peak RSS MiB |")

@@ -6,13 +6,12 @@ Runs of the two alternate; medians are printed.
     tests/.venv/bin/python3 tools/usd_load_bench.py [RIFT] [ROUNDS]
 """
 import os
-import re
 import statistics
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
+from timed_run import timed_run
 from pxr import Usd, UsdGeom, Vt
 
 RIFT = sys.argv[1] if len(sys.argv) > 1 else "target/release/rift"
@@ -76,23 +75,13 @@ def write(folder):
     return len(tris)
 
 
-def run(folder, shot):
-    out = subprocess.run(["/usr/bin/time", "-v", os.path.abspath(RIFT), "render", shot, "-o", "o.exr"],
-                         cwd=folder, capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr
-    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (?:(\d+):)?(\d+):([\d.]+)", out.stderr)
-    seconds = int(wall.group(1) or 0) * 3600 + int(wall.group(2)) * 60 + float(wall.group(3))
-    rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", out.stderr).group(1)) / 1024
-    return seconds, rss
-
-
 with tempfile.TemporaryDirectory() as folder:
     triangles = write(folder)
     sizes = {k: os.path.getsize(os.path.join(folder, f"grid.{k}")) >> 20 for k in ("usdc", "ply")}
     times = {"usd": [], "ply": []}
     for _ in range(ROUNDS):
         for kind in ("usd", "ply"):
-            times[kind].append(run(folder, f"{kind}.toml"))
+            times[kind].append(timed_run(RIFT, folder, f"{kind}.toml"))
     print(f"{triangles} triangles; usdc {sizes['usdc']} MiB, PLY {sizes['ply']} MiB; medians of {ROUNDS}, alternated")
     print("| input | wall s (load + 32x32 at 1 spp) | peak RSS MiB |")
     print("|---|---|---|")
