@@ -35,3 +35,19 @@ pub fn with_threads<T: Send>(
     }
     Ok(builder.build()?.install(f))
 }
+
+/// Reads and checks the shot file at `path`, with its USD camera read where `[camera] usd`
+/// names one (what is read otherwise than USD says goes to standard error under `command`).
+pub fn load_shot(path: &std::path::Path, command: &str) -> anyhow::Result<rift_fx::Shot> {
+    with_usd_camera(rift_fx::Shot::load(path)?, command)
+}
+
+/// `shot` with the USD camera its `[camera] usd` names read in (a shot with a camera of its own
+/// as it is).
+pub fn with_usd_camera(mut shot: rift_fx::Shot, command: &str) -> anyhow::Result<rift_fx::Shot> {
+    let budget = crate::memory::budget(None);
+    for warning in rift_render::scene::usd::camera::read_camera(&mut shot, budget)? {
+        eprintln!("rift {command}: warning: {warning}");
+    }
+    Ok(shot)
+}

@@ -5,9 +5,9 @@ use crate::progress::Progress;
 use anyhow::bail;
 use clap::Args;
 use rayon::prelude::*;
+use rift_fx::FrameRange;
 use rift_fx::export::{self, Format};
 use rift_fx::ring::RingGenerator;
-use rift_fx::{FrameRange, Shot};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -45,7 +45,7 @@ pub struct FxArgs {
 
 /// Runs `rift fx`.
 pub fn run(args: FxArgs) -> anyhow::Result<()> {
-    let mut shot = Shot::load(&args.shot)?;
+    let mut shot = crate::cli::load_shot(&args.shot, "fx")?;
     if let Some(res) = &args.res {
         shot.camera.projection.resolution = crate::cli::parse_res(res)?;
     }

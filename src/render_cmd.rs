@@ -148,7 +148,7 @@ impl From<EyeArg> for Eye {
 
 /// Runs `rift render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let mut shot = Shot::load(&args.shot)?;
+    let mut shot = crate::cli::load_shot(&args.shot, "render")?;
     if let Some(res) = &args.res {
         shot.camera.projection.resolution = parse_res(res)?;
     }

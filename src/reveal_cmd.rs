@@ -1,7 +1,7 @@
 //! `rift reveal`: what each opening shows over a range of frames, for the set dressers and the
 //! lighters who must dress and light it (camera rays only: `rift_render::frame::reveal`).
 
-use rift_fx::{FrameRange, Shot};
+use rift_fx::FrameRange;
 use rift_render::Scene;
 use rift_render::frame::reveal::{Seen, reveal};
 use serde_json::json;
@@ -39,7 +39,7 @@ struct Shown {
 }
 
 pub fn run(args: RevealArgs) -> anyhow::Result<()> {
-    let shot = Shot::load(&args.shot)?;
+    let shot = crate::cli::load_shot(&args.shot, "reveal")?;
     let range = match &args.frames {
         Some(text) => FrameRange::parse(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
         None => shot.frames,

@@ -98,6 +98,67 @@ fn a_stage_renders_alike_in_every_encoding_and_as_its_shot_file() {
 }
 
 #[test]
+fn a_usd_camera_frames_the_shot_as_the_same_camera_written_in_the_shot_file() {
+    let dir = tempfile::tempdir().unwrap();
+    make_set(dir.path());
+    // Moving during the shutter (blur), a 35 mm lens at f/2.8 focused at 3 m (depth of field),
+    // a clipping range: from the stage, and as the shot file's own [camera].
+    render(dir.path(), "cam_usda.toml", "usda.exr");
+    render(dir.path(), "cam_toml.toml", "toml.exr");
+    let p = |name: &str| dir.path().join(name);
+    assert_means_agree(&p("usda.exr"), &p("toml.exr"), 2e-3);
+    // It frames the shot otherwise than the set's default camera.
+    render(dir.path(), "set_usda.toml", "plain.exr");
+    let (usd, plain) = (third_means(&p("usda.exr")), third_means(&p("plain.exr")));
+    let most = (0..3)
+        .flat_map(|t| (0..3).map(move |c| (t, c)))
+        .map(|(t, c)| (usd[t][c] - plain[t][c]).abs() / plain[t][c])
+        .fold(0.0, f64::max);
+    assert!(most > 0.03, "{usd:?} against {plain:?}");
+}
+
+#[test]
+fn bad_usd_cameras_are_refused_naming_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    make_set(d);
+    let text = std::fs::read_to_string(d.join("cam_usda.toml")).unwrap();
+    for (from, to, expected) in [
+        (
+            "/World/ShotCam",
+            "/World/Nothing",
+            vec!["camera.usd", "/World/Nothing"],
+        ),
+        // A prim that is not a camera.
+        (
+            "/World/ShotCam",
+            "/World/Ball",
+            vec!["camera.usd", "/World/Ball"],
+        ),
+        (
+            "/World/ShotCam",
+            "World/ShotCam",
+            vec!["camera.usd", "absolute"],
+        ),
+        (
+            "usd = ",
+            "fov_degrees = 40.0\nusd = ",
+            vec!["camera.fov_degrees", "/World/ShotCam"],
+        ),
+        (
+            "[[usd]]\nfile = \"set.usda\"\n",
+            "",
+            vec!["camera.usd", "/World/ShotCam"],
+        ),
+    ] {
+        let e = refused(d, &text.replace(from, to));
+        for part in &expected {
+            assert!(e.contains("bad.toml") && e.contains(part), "{to}: {e}");
+        }
+    }
+}
+
+#[test]
 fn shot_file_sections_change_usd_prims_by_path() {
     let dir = tempfile::tempdir().unwrap();
     make_set(dir.path());
@@ -403,4 +464,36 @@ fn a_set_blender_exports_renders_with_what_it_does_not_read_said() {
         }
     }
     assert!(orange > 20 && grey > 20, "orange {orange}, grey {grey}");
+    // Blender's animated camera, read from the stage: at frame 1 it frames the set as the
+    // shot file's camera at Blender's frame-1 pose does; by frame 24 it has moved.
+    let camera = std::fs::read_to_string(d.join("camera.toml")).unwrap();
+    let head = "[shot]\nname = \"blender\"\nfps = 24.0\nframes = [1, 24]\nshutter = [0.0, 0.0]\n";
+    let tail = "[render]\nspp = 16\n[[usd]]\nfile = \"blender.usda\"\n";
+    let own = format!("{head}{camera}{tail}");
+    let usd =
+        format!("{head}[camera]\nresolution = [160, 90]\nusd = \"/root/Camera/Camera\"\n{tail}");
+    std::fs::write(d.join("own.toml"), own).unwrap();
+    std::fs::write(d.join("usd.toml"), usd).unwrap();
+    let said = render(d, "usd.toml", "usd.exr");
+    assert!(
+        !said.contains("is a Camera"),
+        "the shot's camera is read, not said: {said}"
+    );
+    render(d, "own.toml", "own.exr");
+    assert_means_agree(&d.join("usd.exr"), &d.join("own.exr"), 2e-3);
+    let out = rift(
+        d,
+        &[
+            "render", "usd.toml", "-o", "late.exr", "--frames", "24", "--spp", "16",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let (early, late) = (
+        third_means(&d.join("usd.exr")),
+        third_means(&d.join("late.exr")),
+    );
+    assert!(
+        (early[1][0] - late[1][0]).abs() / early[1][0] > 0.02,
+        "{early:?} against {late:?}"
+    );
 }

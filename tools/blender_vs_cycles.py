@@ -1,7 +1,8 @@
 """A client's files: the set tests/support/blender_set.py builds in Blender (image-textured floor,
 gold metal sphere, clay cube, 300 instanced pebbles, point, spot, area and sun lights), rendered
-by Cycles from the .blend and by rift from the USD Blender's own exporter writes, with the same
-camera (camera.toml), no denoising, clamping off, 12 bounces. Each light alone too, so that a
+by Cycles from the .blend and by rift from the USD Blender's own exporter writes, framed by the
+same camera (rift reads Blender's animated camera from the stage) at frame 1, no denoising,
+clamping off, 12 bounces. Each light alone too, so that a
 difference is traced to one light. Per region (a 3x3 grid) and channel: rift / Cycles - 1, and
 the noise (half the difference between two seeds of each, combined).
 
@@ -46,7 +47,7 @@ for only in [None] + [o.name for o in lights]:
     out = os.path.join(folder, only or "all")
     os.makedirs(out, exist_ok=True)
     bpy.ops.wm.usd_export(filepath=os.path.join(out, "blender.usda"), export_materials=True,
-                          use_instancing=True)
+                          use_instancing=True, export_animation=True)
     for seed in (1, 2):
         c.seed = seed
         s.render.filepath = os.path.join(out, f"cycles{seed}.exr")
@@ -57,6 +58,10 @@ SHOT = """[shot]
 name = "blender"
 fps = 24.0
 frames = [1, 1]
+shutter = [0.0, 0.0]
+[camera]
+resolution = [160, 90]
+usd = "/root/Camera/Camera"
 [render]
 spp = {spp}
 seed = {seed}
@@ -93,7 +98,6 @@ with tempfile.TemporaryDirectory() as folder:
         f.write(CYCLES)
     subprocess.run([python, script, os.path.join(folder, "blender.blend"), folder, str(SPP)],
                    check=True, capture_output=True)
-    camera = open(os.path.join(folder, "camera.toml")).read()
     print(f"rift / Cycles - 1 per region ({GRID}x{GRID}, rows top first) and channel; "
           f"noise in brackets; {SPP} spp each, two seeds")
     for variant in ["all", "Point", "Spot", "Area", "Sun"]:
@@ -103,7 +107,7 @@ with tempfile.TemporaryDirectory() as folder:
                 os.symlink(os.path.join(folder, name), os.path.join(out, name))
         for seed in (1, 2):
             with open(os.path.join(out, f"shot{seed}.toml"), "w") as f:
-                f.write(camera + SHOT.format(spp=SPP, seed=seed))
+                f.write(SHOT.format(spp=SPP, seed=seed))
             subprocess.run([RIFT, "render", f"shot{seed}.toml", "-o", f"rift{seed}.exr"],
                            cwd=out, check=True, capture_output=True)
         diff, noise, whole = compare(out)

@@ -138,6 +138,7 @@ pub fn usd(bytes: &[u8]) {
         key: "usd[0]",
         shot_file: Path::new("fuzz.toml"),
         root: None,
+        shot_camera: None,
     };
     let mut out = crate::scene::usd::Imported::default();
     let previous = std::sync::Arc::new(std::panic::take_hook());

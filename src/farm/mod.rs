@@ -11,7 +11,7 @@ mod yaml;
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
-use rift_fx::{FrameRange, Shot};
+use rift_fx::FrameRange;
 use rift_render::scene::{Overrides, Settings};
 use std::path::{Path, PathBuf};
 
@@ -160,7 +160,7 @@ fn text(s: &str) -> Arg {
 
 impl Plan {
     fn new(args: &FarmArgs) -> anyhow::Result<Self> {
-        let shot = Shot::load(&args.shot)?;
+        let shot = crate::cli::load_shot(&args.shot, "farm")?;
         let frames = match &args.frames {
             Some(t) => FrameRange::parse(t).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
             None => shot.frames,

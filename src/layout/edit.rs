@@ -212,7 +212,13 @@ enum Placed<'a> {
 /// The pose that holds `target`, and what places the target from it.
 fn locate<'a>(doc: &'a DocumentMut, target: &Target) -> Result<(Holder, Placed<'a>), String> {
     match target {
-        Target::Camera => Ok((Holder::Camera, Placed::AsIs)),
+        Target::Camera => match doc.get("camera").and_then(|c| c.get("usd")) {
+            Some(prim) => Err(format!(
+                "the camera is the USD camera {}: move it in the layer that holds it",
+                prim.to_string().trim()
+            )),
+            None => Ok((Holder::Camera, Placed::AsIs)),
+        },
         Target::Opening { name, side } => {
             let i = portal_index(doc, name)?;
             let portal = portals(doc)?.get(i).expect("an index found above");

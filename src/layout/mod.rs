@@ -69,7 +69,7 @@ const FILES: [(&str, &[u8]); 9] = [
 
 /// Serves the page until Ctrl-C (or SIGTERM).
 pub fn run(args: LayoutArgs) -> anyhow::Result<()> {
-    let shot = Shot::load(&args.shot)?;
+    let shot = crate::cli::load_shot(&args.shot, "layout")?;
     let frame = args.frame.unwrap_or(shot.frames.first);
     if !(shot.frames.first..=shot.frames.last).contains(&frame) {
         anyhow::bail!(

@@ -52,6 +52,7 @@ impl ShotFile {
         edit::apply(&mut doc, edit, shot)
             .map_err(|e| format!("{}: {}: {e}", self.path.display(), edit.what()))?;
         let shot = Shot::parse(&doc.to_string(), &self.path).map_err(|e| e.to_string())?;
+        let shot = crate::cli::with_usd_camera(shot, "layout").map_err(|e| format!("{e:#}"))?;
         Ok((doc, shot))
     }
 
@@ -84,6 +85,7 @@ impl ShotFile {
     pub fn revert(&mut self) -> Result<Shot, String> {
         let fresh = Self::open(&self.path)?;
         let shot = Shot::parse(&fresh.saved, &self.path).map_err(|e| e.to_string())?;
+        let shot = crate::cli::with_usd_camera(shot, "layout").map_err(|e| format!("{e:#}"))?;
         *self = fresh;
         Ok(shot)
     }

@@ -76,12 +76,22 @@ bpy.ops.object.light_add(type="AREA", location=(0, 0, 3)); bpy.context.object.da
 bpy.ops.object.light_add(type="SUN", rotation=(math.radians(30), 0, 0)); bpy.context.object.data.energy = 2
 bpy.ops.object.camera_add(location=(0, -5, 2.5), rotation=(math.radians(65), 0, 0))
 scene.camera = bpy.context.object
+# The camera dollies in and pans over the shot's 24 frames (keyed at the first and last).
+cam = scene.camera
+cam.keyframe_insert("location", frame=1)
+cam.keyframe_insert("rotation_euler", frame=1)
+cam.location = (1.0, -3.5, 2.0)
+cam.rotation_euler = (math.radians(70), 0, math.radians(15))
+cam.keyframe_insert("location", frame=24)
+cam.keyframe_insert("rotation_euler", frame=24)
+scene.frame_start, scene.frame_end = 1, 24
+scene.frame_set(1)
 scene.render.resolution_x, scene.render.resolution_y = 160, 90
 bpy.ops.wm.usd_export(filepath=os.path.join(out, "blender.usda"), export_materials=True,
-                      use_instancing=True)
+                      use_instancing=True, export_animation=True)
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out, "blender.blend"))
-# The camera as rift's shot file has it (the stage's own Z-up axes): where it is, a point it
-# looks at, its up, and its lens (Blender's sensor fits the image's width here).
+# The camera at frame 1 as rift's shot file has it (the stage's own Z-up axes): where it is, a
+# point it looks at, its up, and its lens (Blender's sensor fits the image's width here).
 cam = scene.camera
 m = cam.matrix_world
 at = m.translation - m.col[2].xyz

@@ -197,6 +197,46 @@ def point_instancer(stage, looks):
     pi.CreateInvisibleIdsAttr([13])
 
 
+# The shot camera: moving during the shutter, a 35 mm lens on a 36 mm aperture (USD's tenths of
+# a scene unit: 0.35 and 0.36 in this stage of metres), f/2.8 focused at 3 m, clipping range.
+SHOT_CAMERA = dict(keys={1: (0.0, 1.25, 1.2), 2: (0.3, 1.25, 1.2)}, tilt=-5.0, focal=0.35,
+                   aperture=0.36, f_stop=2.8, focus=3.0, clip=(0.5, 100.0))
+
+
+def shot_camera(stage):
+    cam = UsdGeom.Camera.Define(stage, "/World/ShotCam")
+    op = cam.AddTranslateOp()
+    for frame, at in SHOT_CAMERA["keys"].items():
+        op.Set(Gf.Vec3d(*at), frame)
+    cam.AddRotateXOp().Set(SHOT_CAMERA["tilt"])
+    cam.CreateFocalLengthAttr(SHOT_CAMERA["focal"])
+    cam.CreateHorizontalApertureAttr(SHOT_CAMERA["aperture"])
+    cam.CreateFStopAttr(SHOT_CAMERA["f_stop"])
+    cam.CreateFocusDistanceAttr(SHOT_CAMERA["focus"])
+    cam.CreateClippingRangeAttr(Gf.Vec2f(*SHOT_CAMERA["clip"]))
+
+
+def camera_shots():
+    """The set framed by its USD camera (cam_usda.toml), and by the same camera written as the
+    shot file's own (cam_toml.toml, from set_toml.toml's scene)."""
+    header, usd = SHOT.split("[camera]")[0], "[camera]\nresolution = [96, 64]\n"
+    render = "[render]" + SHOT.split("[render]")[1]
+    with open(os.path.join(OUT, "cam_usda.toml"), "w") as f:
+        f.write(header + usd + 'usd = "/World/ShotCam"\n\n' + render + '\n[[usd]]\nfile = "set.usda"\n')
+    c = SHOT_CAMERA
+    keys = ", ".join(f"{{ frame = {f}, position = {list(p)}, rotation_degrees = [{c['tilt']}, 0.0, 0.0] }}"
+                     for f, p in c["keys"].items())
+    own = (usd + f"focal_length_mm = {c['focal'] * 100}\nsensor_width_mm = {c['aperture'] * 100}\n"
+           f"fstop = {c['f_stop']}\nfocus_distance = {c['focus']}\n"
+           f"[camera.clip]\nnear = {c['clip'][0]}\nfar = {c['clip'][1]}\n"
+           f'[camera.transform]\ninterpolation = "linear"\nkeys = [{keys}]\n\n')
+    text = open(os.path.join(OUT, "set_toml.toml")).read()
+    scene = text.split("[render]")[1]
+    scene = scene[scene.index("\n[["):]
+    with open(os.path.join(OUT, "cam_toml.toml"), "w") as f:
+        f.write(header + own + render + scene)
+
+
 def write_stage(path, texture):
     stage = Usd.Stage.CreateNew(path)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
@@ -268,6 +308,7 @@ def write_stage(path, texture):
     hidden = mesh(stage, "/World/Hidden", [(-0.3, 1.2, -1.5), (0.3, 1.2, -1.5), (0, 1.7, -1.5)], [(0, 1, 2)], looks["red"])
     hidden.CreateVisibilityAttr(UsdGeom.Tokens.invisible)
     UsdGeom.Camera.Define(stage, "/World/Camera")
+    shot_camera(stage)
 
     key = UsdLux.RectLight.Define(stage, "/World/Lights/Key")
     key.AddTranslateOp().Set(Gf.Vec3d(*KEY_LIGHT["position"]))
@@ -504,4 +545,5 @@ for kind in ("usda", "usdc", "usdz"):
     with open(os.path.join(OUT, f"set_{kind}.toml"), "w") as f:
         f.write(SHOT + f'\n[[usd]]\nfile = "set.{kind}"\n')
 write_toml_scene()
+camera_shots()
 print("ok")

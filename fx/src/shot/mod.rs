@@ -8,7 +8,7 @@ pub mod pose;
 pub mod schema;
 
 use crate::error::{FxError, Invalid};
-use crate::rig::{Camera, Opening, Projection, Rig, ThereFrame};
+use crate::rig::{AnimatedTransform, Camera, Opening, Projection, Rig, Similarity, ThereFrame};
 use crate::ring::look::{ColorLook, NoiseLook, SpeedLook};
 use crate::ring::{ColorRamp, RingLook};
 use pose::Facing;
@@ -113,6 +113,11 @@ pub struct Shot {
     /// Shutter open and close, in frames relative to each frame.
     pub shutter: [f64; 2],
     pub camera: Camera,
+    /// The UsdGeomCamera `[camera] usd` names, whose lens and transform the renderer reads into
+    /// `camera` (`rift_render::scene::usd::camera`); until then `camera` is a stand-in and
+    /// `camera_read` is false.
+    pub camera_prim: Option<String>,
+    pub camera_read: bool,
     pub rig: Rig,
     /// The ring look of each opening (same order as `rig.openings`), if it has a ring.
     pub rings: Vec<Option<RingLook>>,
@@ -192,6 +197,7 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
     }
 
     let camera = camera(&raw.camera, fps)?;
+    let camera_prim = raw.camera.usd.clone();
     let fx = fx_settings(&raw.fx)?;
     let (rig, rings) = rig(&raw.portals, fps)?;
     let render = RenderSections {
@@ -213,7 +219,9 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
         fps,
         frames,
         shutter,
+        camera_read: camera_prim.is_none(),
         camera,
+        camera_prim,
         rig,
         rings,
         fx,
@@ -222,6 +230,9 @@ fn from_raw(raw: ShotFile, path: &Path) -> Result<Shot, Invalid> {
 }
 
 fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
+    if let Some(prim) = &c.usd {
+        return usd_camera_stand_in(c, prim);
+    }
     let w = check::integer(
         "camera.resolution[0]",
         c.resolution[0],
@@ -301,7 +312,13 @@ fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
         }
         None => 1.0,
     };
-    let transform = pose::animated("camera.transform", &c.transform, Facing::NegativeZ, fps)?;
+    let Some(spec) = &c.transform else {
+        return Err(Invalid::new(
+            "camera",
+            "missing field `transform` (or `usd`, a camera of the shot's USD layers)",
+        ));
+    };
+    let transform = pose::animated("camera.transform", spec, Facing::NegativeZ, fps)?;
     Ok(Camera {
         transform,
         projection: Projection {
@@ -309,6 +326,57 @@ fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
             fov_y,
             aperture_radius,
             focus_distance,
+        },
+    })
+}
+
+/// The camera of a shot whose `[camera]` names a USD camera, until the renderer reads it: the
+/// resolution, at the origin with a 40° lens. Keys the USD camera gives are refused here.
+fn usd_camera_stand_in(c: &schema::CameraSection, prim: &str) -> Result<Camera, Invalid> {
+    let given = [
+        ("fov_degrees", c.fov_degrees.is_some()),
+        ("focal_length_mm", c.focal_length_mm.is_some()),
+        ("sensor_width_mm", c.sensor_width_mm.is_some()),
+        ("fov_axis", c.fov_axis.is_some()),
+        ("fstop", c.fstop.is_some()),
+        ("aperture_radius", c.aperture_radius.is_some()),
+        ("focus_distance", c.focus_distance.is_some()),
+        ("transform", c.transform.is_some()),
+    ];
+    if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
+        return Err(Invalid::new(
+            format!("camera.{key}"),
+            format!("the USD camera {prim:?} gives it; leave it out or leave out `usd`"),
+        ));
+    }
+    if !prim.starts_with('/') {
+        return Err(Invalid::new(
+            "camera.usd",
+            format!("{prim:?} is not an absolute prim path (`/World/Camera`)"),
+        ));
+    }
+    let w = check::integer(
+        "camera.resolution[0]",
+        c.resolution[0],
+        1,
+        65536,
+        "a positive integer",
+    )?;
+    let h = check::integer(
+        "camera.resolution[1]",
+        c.resolution[1],
+        1,
+        65536,
+        "a positive integer",
+    )?;
+    let aspect = w as f64 / h as f64;
+    Ok(Camera {
+        transform: AnimatedTransform::constant(Similarity::IDENTITY),
+        projection: Projection {
+            resolution: [w, h],
+            fov_y: 2.0 * ((20f64).to_radians().tan() / aspect).atan(),
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
         },
     })
 }

@@ -19,6 +19,10 @@
 //!   { frame = 1001, position = [0.0, 1.6, 9.0], look_at = [0.0, 1.4, 0.0] },
 //!   { frame = 1096, position = [3.0, 1.8, 7.0], look_at = [0.0, 1.4, 0.0] },
 //! ]
+//! # Or the pipeline's camera, a UsdGeomCamera of the shot's [[usd]] layers (its transform and
+//! # its time samples, focal length over aperture, f-stop, focus distance and clipping range),
+//! # in place of the lens keys and [camera.transform]; resolution stays here:
+//! # usd = "/World/Cameras/shotCam"
 //!
 //! [fx]                          # ring tessellation (all optional)
 //! chord_error_px = 0.25         # largest distance in pixels between a strand and its polyline
@@ -130,7 +134,10 @@ pub struct CameraSection {
     pub fstop: Option<f64>,
     pub aperture_radius: Option<f64>,
     pub focus_distance: Option<f64>,
-    pub transform: PoseSpec,
+    pub transform: Option<PoseSpec>,
+    /// A UsdGeomCamera of the shot's `[[usd]]` layers, by prim path, in place of the lens and
+    /// transform keys (the renderer reads it: `Shot::camera_prim`).
+    pub usd: Option<String>,
     /// `[camera.clip]` and `[camera.stereo]` belong to the renderer.
     pub clip: Option<toml::Table>,
     pub stereo: Option<toml::Table>,

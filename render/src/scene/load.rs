@@ -210,6 +210,16 @@ impl Scene {
     /// [`crate::prepare::Prepared`].
     pub fn load_with(shot: &Shot, frame: i64, overrides: &Overrides) -> Result<Self, RenderError> {
         let file = &shot.source;
+        if let Some(prim) = shot.camera_prim.as_ref().filter(|_| !shot.camera_read) {
+            return Err(key_error(
+                file,
+                "camera.usd",
+                format!(
+                    "the USD camera {prim:?} has not been read into the shot \
+                     (scene::usd::camera::read_camera)"
+                ),
+            ));
+        }
         let mut s = Sections::read(shot, frame, overrides)?;
         // Every time a ray can have: objects that move within it are blurred, the rest baked.
         let times = s.portals.times();

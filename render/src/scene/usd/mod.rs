@@ -8,6 +8,7 @@
 //! tables are and checked by the same code, their messages naming the layer and the prim.
 //! What the stage holds that rift does not read is said once per prim, never skipped silently.
 
+pub mod camera;
 mod crate_check;
 mod instancing;
 mod lights;
@@ -23,7 +24,7 @@ use super::Entry;
 use super::schema::{ObjectSection, UsdSection};
 use crate::error::{RenderError, key_error};
 use rift_fx::Shot;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// What the `[[usd]]` sections bring, as the shot's own sections would say it.
 #[derive(Default)]
@@ -74,12 +75,12 @@ pub struct Layer<'a> {
     pub shot_file: &'a Path,
     /// Only the prims under this one.
     pub root: Option<&'a str>,
+    /// The camera prim the shot frames itself with, if any.
+    pub shot_camera: Option<&'a str>,
 }
 
 /// Reads the stage of `layer` into `out`: time codes at `offset` seconds and `fps` frames a
-/// second, for rays at `span` (seconds), within `budget` bytes. The crate's parser can panic on
-/// a malformed file (an assertion, an index past an array); such a panic is caught and
-/// reported as a malformed layer, so bad input never ends the program.
+/// second, for rays at `span` (seconds), within `budget` bytes ([`caught`]).
 pub fn read_layer(
     layer: &Layer,
     clock: (f64, f64),
@@ -87,27 +88,33 @@ pub fn read_layer(
     budget: Option<u64>,
     out: &mut Imported,
 ) -> Result<(), RenderError> {
-    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+    let read = caught(layer, || {
         let mut read = Imported::default();
         read_stage(layer, clock, span, budget, &mut read).map(|()| read)
-    }));
-    match read {
-        Ok(result) => {
-            let read = result?;
-            out.objects.extend(read.objects);
-            out.materials.extend(read.materials);
-            out.lights.extend(read.lights);
-            out.warnings.extend(read.warnings);
-            if read.environment.is_some() && out.environment.is_some() {
-                return Err(key_error(
-                    layer.shot_file,
-                    format!("{}.file", layer.key),
-                    "a second dome light: rift's environment is one (or give it in the shot)",
-                ));
-            }
-            out.environment = out.environment.take().or(read.environment);
-            Ok(())
-        }
+    })?;
+    out.objects.extend(read.objects);
+    out.materials.extend(read.materials);
+    out.lights.extend(read.lights);
+    out.warnings.extend(read.warnings);
+    if read.environment.is_some() && out.environment.is_some() {
+        return Err(key_error(
+            layer.shot_file,
+            format!("{}.file", layer.key),
+            "a second dome light: rift's environment is one (or give it in the shot)",
+        ));
+    }
+    out.environment = out.environment.take().or(read.environment);
+    Ok(())
+}
+
+/// `read` of `layer`, a panic of the USD crate's parser (an assertion, an index past an array,
+/// on a malformed file) reported as a malformed layer, so bad input never ends the program.
+pub(super) fn caught<T>(
+    layer: &Layer,
+    read: impl FnOnce() -> Result<T, RenderError>,
+) -> Result<T, RenderError> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)) {
+        Ok(result) => result,
         Err(panic) => {
             let what = panic
                 .downcast_ref::<String>()
@@ -126,13 +133,13 @@ pub fn read_layer(
     }
 }
 
-fn read_stage(
+/// Opens the stage of `layer` within `budget`, with its clock (time codes at `offset` seconds
+/// and `fps` frames a second).
+fn open_layer(
     layer: &Layer,
     (offset, fps): (f64, f64),
-    span: [f64; 2],
     budget: Option<u64>,
-    out: &mut Imported,
-) -> Result<(), RenderError> {
+) -> Result<(openusd::usd::Stage, Clock), RenderError> {
     let stage = open_stage(layer.path, StageLimits::from_budget(budget))
         .map_err(|message| key_error(layer.shot_file, format!("{}.file", layer.key), message))?;
     let clock = Clock {
@@ -151,6 +158,17 @@ fn read_stage(
             ),
         ));
     }
+    Ok((stage, clock))
+}
+
+fn read_stage(
+    layer: &Layer,
+    clock: (f64, f64),
+    span: [f64; 2],
+    budget: Option<u64>,
+    out: &mut Imported,
+) -> Result<(), RenderError> {
+    let (stage, clock) = open_layer(layer, clock, budget)?;
     if let Ok(Some(openusd::sdf::Value::Token(axis))) = stage.stage_metadata("upAxis")
         && axis.as_str() != "Y"
     {
@@ -169,6 +187,7 @@ fn read_stage(
         clock,
         span,
         budget,
+        shot_camera: layer.shot_camera,
     };
     stage::read(&stage, &source, out)
 }
@@ -197,6 +216,8 @@ pub struct Source<'a> {
     /// Shot seconds rays can reach.
     pub span: [f64; 2],
     pub budget: Option<u64>,
+    /// The camera the shot frames itself with (`[camera] usd`), read elsewhere.
+    pub shot_camera: Option<&'a str>,
 }
 
 impl Source<'_> {
@@ -228,9 +249,47 @@ pub fn import(
     margin: f64,
     budget: Option<u64>,
 ) -> Result<Imported, RenderError> {
+    let mut out = Imported::default();
+    for section in sections(shot)? {
+        let layer_source = section.layer(shot);
+        let span = [times[0] - margin, times[1] + margin];
+        read_layer(
+            &layer_source,
+            (section.offset, shot.fps),
+            span,
+            budget,
+            &mut out,
+        )?;
+    }
+    Ok(out)
+}
+
+/// A `[[usd]]` section, checked: its key, its layer (absolute), root prim and time offset
+/// (seconds).
+pub(super) struct Section {
+    pub key: String,
+    pub layer: PathBuf,
+    pub root: Option<String>,
+    pub offset: f64,
+}
+
+impl Section {
+    pub fn layer<'a>(&'a self, shot: &'a Shot) -> Layer<'a> {
+        Layer {
+            path: &self.layer,
+            key: &self.key,
+            shot_file: &shot.source,
+            root: self.root.as_deref(),
+            shot_camera: shot.camera_prim.as_deref(),
+        }
+    }
+}
+
+/// The shot's `[[usd]]` sections, checked.
+pub(super) fn sections(shot: &Shot) -> Result<Vec<Section>, RenderError> {
     let file = &shot.source;
     let base = file.parent().unwrap_or(Path::new("."));
-    let mut out = Imported::default();
+    let mut out = Vec::new();
     for (i, table) in shot.render.usd.iter().enumerate() {
         let key = format!("usd[{i}]");
         let section: UsdSection = super::parse(file, &key, table)?;
@@ -248,14 +307,12 @@ pub fn import(
         // Absolute, so the textures and maps it names are found from any folder.
         let layer = base.join(&section.file);
         let layer = std::fs::canonicalize(&layer).unwrap_or(layer);
-        let layer_source = Layer {
-            path: &layer,
-            key: &key,
-            shot_file: file,
-            root: section.root.as_deref(),
-        };
-        let span = [times[0] - margin, times[1] + margin];
-        read_layer(&layer_source, (offset, shot.fps), span, budget, &mut out)?;
+        out.push(Section {
+            key,
+            layer,
+            root: section.root,
+            offset,
+        });
     }
     Ok(out)
 }

@@ -222,6 +222,8 @@ impl Walk<'_> {
                 self.mesh(prim, &path)?;
                 Ok(Descend::Yes)
             }
+            // The shot's own camera is read as the shot camera (`camera.rs`).
+            "Camera" if self.source.shot_camera == Some(path.as_str()) => Ok(Descend::No),
             "PointInstancer" => {
                 self.point_instancer(prim)?;
                 Ok(Descend::No)
@@ -338,7 +340,7 @@ fn examples(paths: &[String]) -> String {
 /// What a user can do about a prim type rift does not read.
 fn unread_hint(kind: &str) -> &'static str {
     match kind {
-        "Camera" => " (the shot's [camera] frames the shot)",
+        "Camera" => " (`usd = \"<path>\"` in the shot's [camera] frames the shot with it)",
         "Sphere" | "Cube" | "Cylinder" | "Cone" | "Capsule" | "Plane" => " (export it as a mesh)",
         _ => "",
     }
