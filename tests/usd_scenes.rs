@@ -118,6 +118,40 @@ fn a_usd_camera_frames_the_shot_as_the_same_camera_written_in_the_shot_file() {
 }
 
 #[test]
+fn the_fx_stage_holds_the_set_beneath_camera_and_rings() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    make_set(d);
+    // The set's shot with an opening and its ring, its layer offset by two frames.
+    let shot = std::fs::read_to_string(d.join("set_usda.toml")).unwrap()
+        + "time_offset = 2.0\n\n[[portal]]\nname = \"door\"\n\
+           here = { position = [0.0, 1.2, -3.9] }\nthere = { position = [0.0, 1.2, 20.0] }\n\
+           [portal.ring]\nradius = 0.5\npreset = \"calm\"\n";
+    std::fs::write(d.join("fx.toml"), shot).unwrap();
+    let out = rift(d, &["fx", "fx.toml", "-o", "fx_out", "--format", "usd"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // One stage opens set, camera and rings together, the set's animation two frames later.
+    let check = "import sys\nfrom pxr import Usd, UsdGeom\n\
+        s = Usd.Stage.Open(sys.argv[1])\n\
+        ball = UsdGeom.Xformable(s.GetPrimAtPath('/World/Ball'))\n\
+        at = lambda f: ball.ComputeLocalToWorldTransform(f).ExtractTranslation()[0]\n\
+        print(s.GetPrimAtPath('/usd_set/camera').IsValid(), s.GetPrimAtPath('/usd_set/door').IsValid(), round(at(3.0), 6), round(at(4.0), 6))\n";
+    let out = python_command("python3")
+        .args(["-c", check])
+        .arg(d.join("fx_out/usd_set.usda"))
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    // The ball is keyed at x = 0.6 (frame 1) and 0.9 (frame 2): offset by 2, frames 3 and 4.
+    assert_eq!(
+        said.trim(),
+        "True True 0.6 0.9",
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
 fn bad_usd_cameras_are_refused_naming_the_key() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

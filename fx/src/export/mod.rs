@@ -74,10 +74,47 @@ pub fn write_stage(
         let file = usda_path(Path::new("."), &shot.name, f);
         file.to_string_lossy().into_owned()
     };
+    let sets = set_layers(shot, dir);
     atomic::write(&path, |w| {
-        usd_stage::write(w, shot, frames, meshes, frame_file)
+        usd_stage::write(w, shot, frames, (meshes, &sets), frame_file)
     })?;
     Ok(path)
+}
+
+/// The shot's `[[usd]]` layers as the stage in `dir` finds them (relative paths where both are
+/// under one root, else absolute), with their time offsets in frames. A section the renderer
+/// would refuse is left out here; rendering says why.
+fn set_layers(shot: &crate::Shot, dir: &Path) -> Vec<(String, f64)> {
+    let base = shot.source.parent().unwrap_or(Path::new("."));
+    let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
+    let stage_dir = absolute(dir);
+    shot.render
+        .usd
+        .iter()
+        .filter_map(|table| {
+            let file = table.get("file")?.as_str()?;
+            let offset = table.get("time_offset").map_or(Some(0.0), |v| {
+                v.as_float().or_else(|| v.as_integer().map(|i| i as f64))
+            })?;
+            let layer = absolute(&base.join(file));
+            let shown = relative(&layer, &stage_dir).unwrap_or(layer);
+            let text = shown.to_string_lossy().replace('\\', "/");
+            // An asset path cannot hold `@`; such a layer is left out of the stage.
+            (!text.contains('@')).then_some((text, offset))
+        })
+        .collect()
+}
+
+/// `path` relative to the folder `from` (both absolute), through `..` where needed.
+fn relative(path: &Path, from: &Path) -> Option<PathBuf> {
+    let (p, f): (Vec<_>, Vec<_>) = (path.components().collect(), from.components().collect());
+    let common = p.iter().zip(&f).take_while(|(a, b)| a == b).count();
+    if common == 0 {
+        return None;
+    }
+    let mut out: PathBuf = f[common..].iter().map(|_| "..").collect();
+    out.extend(&p[common..]);
+    Some(out)
 }
 
 /// One PLY per opening and frame.

@@ -9,7 +9,7 @@
 //! Clips carry time samples only, so the stage declares what they cannot: the curves' `type` and
 //! `wrap`, and each primvar with its interpolation.
 
-use super::usda::{fmt_time, matrix, write_header};
+use super::usda::{fmt_time, matrix, write_header_over};
 use crate::FrameRange;
 use crate::rig::Similarity;
 use crate::shot::Shot;
@@ -40,12 +40,14 @@ pub fn sample_frames(shot: &Shot, frames: FrameRange) -> Vec<f64> {
 }
 
 /// Writes the stage for `frames` of `shot` with its deforming `meshes`; `frame_file(f)` is the
-/// per-frame file of frame `f` (a path relative to the stage).
+/// per-frame file of frame `f` (a path relative to the stage). The shot's `[[usd]]` layers,
+/// `sets` (asset paths as the stage finds them, and their time offsets in frames), lie beneath
+/// it as sublayers: one stage holds set, characters, camera and rings.
 pub fn write(
     w: &mut dyn Write,
     shot: &Shot,
     frames: FrameRange,
-    meshes: &[StageMesh],
+    (meshes, sets): (&[StageMesh], &[(String, f64)]),
     frame_file: impl Fn(i64) -> String,
 ) -> io::Result<()> {
     let name = &shot.name;
@@ -53,7 +55,8 @@ pub fn write(
         "rift fx: shot {name}, frames {}-{}: camera, openings and rings",
         frames.first, frames.last
     );
-    write_header(w, name, &doc, [frames.first, frames.last], shot.fps)?;
+    let range = [frames.first, frames.last];
+    write_header_over(w, name, &doc, (range, shot.fps), sets)?;
     writeln!(w, "def Xform \"{name}\"")?;
     writeln!(w, "{{")?;
     write_camera(w, shot, frames)?;

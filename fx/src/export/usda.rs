@@ -37,10 +37,28 @@ pub(crate) fn write_header(
     range: [i64; 2],
     fps: f64,
 ) -> io::Result<()> {
+    write_header_over(w, shot, doc, (range, fps), &[])
+}
+
+/// [`write_header`], with `sublayers` (asset paths, and the frames each is offset by) beneath.
+pub(crate) fn write_header_over(
+    w: &mut dyn Write,
+    shot: &str,
+    doc: &str,
+    (range, fps): ([i64; 2], f64),
+    sublayers: &[(String, f64)],
+) -> io::Result<()> {
     writeln!(w, "#usda 1.0")?;
     writeln!(w, "(")?;
     writeln!(w, "    defaultPrim = \"{shot}\"")?;
     writeln!(w, "    doc = \"{doc}\"")?;
+    if !sublayers.is_empty() {
+        writeln!(w, "    subLayers = [")?;
+        for (path, offset) in sublayers {
+            writeln!(w, "        @{path}@ (offset = {offset})")?;
+        }
+        writeln!(w, "    ]")?;
+    }
     writeln!(w, "    startTimeCode = {}", range[0])?;
     writeln!(w, "    endTimeCode = {}", range[1])?;
     writeln!(w, "    framesPerSecond = {fps}")?;
