@@ -2,8 +2,9 @@
 gold metal sphere, clay cube, 300 instanced pebbles, point, spot, area and sun lights), rendered
 by Cycles from the .blend and by rift from the USD Blender's own exporter writes, framed by the
 same camera (rift reads Blender's animated camera from the stage) at frame 1, no denoising,
-clamping off, 12 bounces. Each light alone too, so that a
-difference is traced to one light. Per region (a 3x3 grid) and channel: rift / Cycles - 1, and
+clamping off, 12 bounces. Each light alone too, so that a difference is traced to one light;
+and "flat", the point light alone where the material models agree (Lambertian non-metals, the
+floor's texture replaced by a flat colour). Per region (a 3x3 grid) and channel: rift / Cycles - 1, and
 the noise (half the difference between two seeds of each, combined).
 
     tests/.venv/bin/python3 tools/blender_vs_cycles.py [RIFT] [SPP]
@@ -41,10 +42,28 @@ s.render.image_settings.file_format = "OPEN_EXR"
 s.render.image_settings.color_depth = "32"
 lights = [o for o in bpy.data.objects if o.type == "LIGHT"]
 energy = {o.name: o.data.energy for o in lights}
-for only in [None] + [o.name for o in lights]:
+
+def flatten():
+    """Where the material models agree: Lambertian non-metals (IOR 1, no specular layer) and
+    the floor's texture replaced by its orange."""
+    for m in bpy.data.materials:
+        b = m.node_tree.nodes.get("Principled BSDF")
+        if b and b.inputs["Metallic"].default_value == 0.0:
+            b.inputs["IOR"].default_value = 1.0
+    floor = bpy.data.materials["Floor"].node_tree
+    for link in list(floor.links):
+        if link.to_socket.name == "Base Color":
+            floor.links.remove(link)
+    floor.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.79, 0.216, 0.0103, 1)
+
+
+for variant in ["all"] + [o.name for o in lights] + ["flat"]:
+    if variant == "flat":
+        flatten()
+    only = "Point" if variant == "flat" else variant
     for o in lights:
-        o.data.energy = energy[o.name] if only in (None, o.name) else 0.0
-    out = os.path.join(folder, only or "all")
+        o.data.energy = energy[o.name] if only in ("all", o.name) else 0.0
+    out = os.path.join(folder, variant)
     os.makedirs(out, exist_ok=True)
     bpy.ops.wm.usd_export(filepath=os.path.join(out, "blender.usda"), export_materials=True,
                           use_instancing=True, export_animation=True)
@@ -100,7 +119,7 @@ with tempfile.TemporaryDirectory() as folder:
                    check=True, capture_output=True)
     print(f"rift / Cycles - 1 per region ({GRID}x{GRID}, rows top first) and channel; "
           f"noise in brackets; {SPP} spp each, two seeds")
-    for variant in ["all", "Point", "Spot", "Area", "Sun"]:
+    for variant in ["all", "Point", "Spot", "Area", "Sun", "flat"]:
         out = os.path.join(folder, variant)
         for name in os.listdir(folder):
             if name.endswith(".png"):
