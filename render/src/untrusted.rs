@@ -117,7 +117,8 @@ pub fn texture(bytes: &[u8]) {
 }
 
 /// A USD layer (usda, usdc or usdz, told by its first bytes), written to a scratch file (the
-/// crate opens layers by path) and read into objects, materials and lights within 256 MiB.
+/// crate opens layers by path) and read into objects, materials and lights within 256 MiB, then
+/// read for the shot's camera.
 /// The reader catches a panic of the USD crate's parser and reports a malformed layer; the
 /// fuzzer's own panic hook (which aborts, a finding) is passed over for panics inside that
 /// crate only, so what is fuzzed is the contract (rift returns, whatever the bytes) and any
@@ -153,6 +154,15 @@ pub fn usd(bytes: &[u8]) {
     }));
     let _ =
         crate::scene::usd::read_layer(&layer, (0.0, 24.0), [0.0, 0.02], Some(256 << 20), &mut out);
+    // The same layer as the shot's camera (the test set's, `/World/ShotCam`).
+    let shot = format!(
+        "[shot]\nname = \"fuzz\"\nfps = 24.0\nframes = [1, 2]\n[camera]\nresolution = [8, 8]\n\
+         usd = \"/World/ShotCam\"\n[[usd]]\nfile = {:?}\n",
+        path.display().to_string()
+    );
+    if let Ok(mut shot) = rift_fx::Shot::parse(&shot, Path::new("fuzz.toml")) {
+        let _ = crate::scene::usd::camera::read_camera(&mut shot, Some(256 << 20));
+    }
     let _ = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| previous(info)));
     let _ = std::fs::remove_file(&path);
