@@ -13,10 +13,10 @@ from GeomSubsets; a box under a parent with a non-uniform scale, textured throug
 UsdUVTexture on faceVarying UVs; a metal ball moving by time-sampled translate (motion blur);
 a deforming mesh (time-sampled points); two instanceable crates sharing a prototype; a
 PointInstancer of pebbles and blocks (two prototypes under it, orientations in half precision,
-uniform scales, one stretched, one hidden by invisibleIds, one moving by its velocity); an
-emissive panel; a rect light turned to face down, a
-sphere light and a spot (ShapingAPI cone); and prims rift must leave out (a proxy, an invisible
-mesh) or say it does not read (a camera).
+uniform scales, one stretched, one mirrored, one hidden by invisibleIds, one moving by its
+velocity); an emissive panel; a rect light turned to face down, a sphere light and a spot
+(ShapingAPI cone); a shot camera (moving, with depth of field and a clipping range); and prims
+rift must leave out (a proxy, an invisible mesh) or say it does not read (a camera).
 """
 import math
 import os
@@ -164,7 +164,8 @@ FILL = dict(position=(-1.2, 1.8, -1.0), radius=0.1, intensity=30.0, color=(1.0, 
 CRATES = [(1.4, 0.0, -1.6), (1.5, 0.0, -2.6)]
 CRATE_SIZE = 0.3
 # PointInstancer instances: prototype (0 pebble, 1 block), position, orientation (w, x, y, z),
-# scale. Instance 3 is hidden; instance 4 is stretched; instance 5 moves by PEBBLE_VELOCITY.
+# scale. Instance 3 is hidden; instance 4 is stretched; instance 5 moves by PEBBLE_VELOCITY;
+# instance 6 is mirrored.
 PEBBLES = [
     (0, (-1.2, 0.1, -1.5), (1, 0, 0, 0), 1.0),
     (1, (-0.6, 0.0, -1.4), (0.9239, 0, 0.3827, 0), 1.2),
@@ -172,6 +173,7 @@ PEBBLES = [
     (1, (0.5, 0.0, -1.5), (1, 0, 0, 0), 1.0),
     (0, (1.0, 0.12, -1.8), (0.9659, 0, 0, 0.2588), (1.5, 0.6, 1.0)),
     (0, (-0.3, 0.1, -2.0), (1, 0, 0, 0), 1.0),
+    (1, (0.9, 0.0, -2.4), (0.9659, 0, 0.2588, 0), (-1.0, 1.0, 1.0)),
 ]
 PEBBLE_VELOCITY = (2.4, 0.0, 0.0)
 SPOT = dict(position=(1.2, 2.2, -3.0), radius=0.05, intensity=60.0, cone=30.0, softness=0.2)

@@ -1,9 +1,10 @@
 //! Instances: prims marked instanceable (each an instance of a prototype the stage composes once)
 //! and PointInstancers (arrays of placements of prototype prims). Each prototype mesh is read
 //! once, in its prototype's space, and becomes one object that its `instances` place: the scene
-//! shares its triangles and BVH among all of them. An instance whose placement stretches or
-//! shears (a non-uniform scale) cannot share the mesh and gets its own copy, baked; so does
-//! each instance of a deforming mesh (copies share the deformation).
+//! shares its triangles and BVH among all of them. Instances that stretch their prototype alike
+//! (a non-uniform scale inside them) share it too, the stretch baked into its points; one whose
+//! stretch differs from the others', or changes over time, gets its own copy, baked; so does each
+//! instance of a deforming mesh (the copies share the deformation).
 
 use super::stage::Walk;
 use super::{values, xform};
@@ -93,9 +94,9 @@ impl Walk<'_> {
 
     /// Places `mesh` at the world transforms `samples` (time code and matrix): as one more
     /// instance of its shared object (called `names.0` when this makes it), or as a copy of its
-    /// own (called `names.1`). Instances that stretch
-    /// their prototype alike (a Blender object scaled in one axis, instanced) share it too, the
-    /// stretch baked into its points: what places each of them is then a similarity.
+    /// own (called `names.1`). Instances that stretch their prototype alike (a Blender object
+    /// scaled in one axis, instanced) share it too, the stretch baked into its points: what
+    /// places each of them is then a similarity.
     fn place(
         &mut self,
         mesh: &ProtoMesh,
@@ -108,10 +109,18 @@ impl Walk<'_> {
             quantized(mesh.local.to_cols_array()),
             stretch.map(|p| quantized(p.to_cols_array())),
         );
-        let (index, stretch) = match self.shared.0.get(&key) {
-            Some(&shared) => shared,
+        let existing = self.shared.0.get(&key).copied();
+        // The stretch the shared object bakes in: the first such instance's.
+        let stretch = existing.map_or(stretch.unwrap_or(DMat3::IDENTITY), |(_, s)| s);
+        let unstretch = DMat4::from_mat3(stretch.inverse());
+        let placed: Vec<(f64, DMat4)> = samples.iter().map(|&(c, m)| (c, m * unstretch)).collect();
+        let Some(motion) = xform::animated(self.source, &placed) else {
+            // Its stretch changes over time, or it mirrors its prototype: a copy of its own.
+            return self.copy(mesh, copy_name, samples);
+        };
+        let index = match existing {
+            Some((index, _)) => index,
             None => {
-                let stretch = stretch.unwrap_or(DMat3::IDENTITY);
                 let placement = xform::Placement {
                     bake: DMat4::from_mat3(stretch) * mesh.local,
                     keys: Vec::new(),
@@ -119,16 +128,10 @@ impl Walk<'_> {
                 let shape = self.mesh_shape(&mesh.prim, mesh.prim.path().as_str(), &placement)?;
                 let object = placement.object(name.to_owned(), Arc::new(shape));
                 self.out.objects.push(object);
-                let shared = (self.out.objects.len() - 1, stretch);
-                self.shared.0.insert(key, shared);
-                shared
+                let index = self.out.objects.len() - 1;
+                self.shared.0.insert(key, (index, stretch));
+                index
             }
-        };
-        let unstretch = DMat4::from_mat3(stretch.inverse());
-        let placed: Vec<(f64, DMat4)> = samples.iter().map(|&(c, m)| (c, m * unstretch)).collect();
-        let Some(motion) = xform::animated(self.source, &placed) else {
-            // Its stretch changes over time, or it mirrors its prototype: a copy of its own.
-            return self.copy(mesh, copy_name, samples);
         };
         let object = &mut self.out.objects[index];
         if object
