@@ -233,20 +233,7 @@ fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
     if let Some(prim) = &c.usd {
         return usd_camera_stand_in(c, prim);
     }
-    let w = check::integer(
-        "camera.resolution[0]",
-        c.resolution[0],
-        1,
-        65536,
-        "a positive integer",
-    )?;
-    let h = check::integer(
-        "camera.resolution[1]",
-        c.resolution[1],
-        1,
-        65536,
-        "a positive integer",
-    )?;
+    let [w, h] = resolution(c)?;
     let aspect = w as f64 / h as f64;
     let sensor_mm = match c.sensor_width_mm {
         Some(v) => check::positive("camera.sensor_width_mm", v)?,
@@ -330,6 +317,20 @@ fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
     })
 }
 
+/// `camera.resolution`, checked.
+fn resolution(c: &schema::CameraSection) -> Result<[u32; 2], Invalid> {
+    let side = |i: usize| {
+        check::integer(
+            &format!("camera.resolution[{i}]"),
+            c.resolution[i],
+            1,
+            65536,
+            "a positive integer",
+        )
+    };
+    Ok([side(0)?, side(1)?])
+}
+
 /// The camera of a shot whose `[camera]` names a USD camera, until the renderer reads it: the
 /// resolution, at the origin with a 40° lens. Keys the USD camera gives are refused here.
 fn usd_camera_stand_in(c: &schema::CameraSection, prim: &str) -> Result<Camera, Invalid> {
@@ -355,20 +356,7 @@ fn usd_camera_stand_in(c: &schema::CameraSection, prim: &str) -> Result<Camera, 
             format!("{prim:?} is not an absolute prim path (`/World/Camera`)"),
         ));
     }
-    let w = check::integer(
-        "camera.resolution[0]",
-        c.resolution[0],
-        1,
-        65536,
-        "a positive integer",
-    )?;
-    let h = check::integer(
-        "camera.resolution[1]",
-        c.resolution[1],
-        1,
-        65536,
-        "a positive integer",
-    )?;
+    let [w, h] = resolution(c)?;
     let aspect = w as f64 / h as f64;
     Ok(Camera {
         transform: AnimatedTransform::constant(Similarity::IDENTITY),
