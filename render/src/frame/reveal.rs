@@ -5,6 +5,7 @@
 
 use crate::camera::Lens;
 use crate::geometry::Ray;
+use crate::integrator::PORTAL_TIE;
 use crate::portals::RayClass;
 use crate::scene::{Scene, SceneHit};
 use glam::Vec2;
@@ -62,7 +63,7 @@ fn follow(scene: &Scene, mut ray: Ray) -> (Option<usize>, Seen) {
         let hit = scene.intersect(&ray, class);
         let hit_t = hit.as_ref().map(hit_distance);
         // As the path loop does: an opening just behind the hit still counts (ties).
-        let limit = hit_t.map_or(ray.t_max, |t| t * (1.0 + 1e-4));
+        let limit = hit_t.map_or(ray.t_max, |t| t * (1.0 + PORTAL_TIE));
         let mut from = ray.t_min;
         let mut teleported = false;
         while let Some(ph) = portals.intersect(&ray.between(from, limit)) {

@@ -130,12 +130,6 @@ impl MovingInstance {
         }
     }
 
-    /// Object-space corners of the triangles' box (those of a prototype, for
-    /// [`Self::sharing`]).
-    pub fn corners(triangles: &[Triangle]) -> [Vec3; 8] {
-        object_corners(triangles)
-    }
-
     /// True when the instance's triangles change shape with time.
     pub fn deforms(&self) -> bool {
         self.deformation().is_some()
@@ -261,8 +255,9 @@ pub(crate) fn swept_bounds(
     bounds
 }
 
-/// The eight corners of the triangles' object-space box.
-fn object_corners(triangles: &[Triangle]) -> [Vec3; 8] {
+/// The eight corners of the triangles' object-space box (a prototype's, for
+/// [`MovingInstance::sharing`]).
+pub(crate) fn object_corners(triangles: &[Triangle]) -> [Vec3; 8] {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for v in triangles.iter().flat_map(|t| t.v) {
         lo = lo.min(v);

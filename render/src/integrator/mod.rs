@@ -48,7 +48,7 @@ use glam::Vec3;
 
 /// A tie between an opening and a surface within this relative distance goes to the opening, so
 /// an opening placed flat on a wall works.
-const PORTAL_TIE: f32 = 1e-4;
+pub(crate) const PORTAL_TIE: f32 = 1e-4;
 /// What paths are traced in: the scene, and what preparing it measured for light sampling
 /// ([`crate::prepare`]).
 #[derive(Clone, Copy)]

@@ -659,7 +659,7 @@ impl Geometry {
     /// `first`), all sharing one BVH: the first instance's index.
     fn instance_all(&mut self, part: &Part, first: u32, times: [f64; 2]) -> u32 {
         let bvh = Arc::new(TriangleBvh::build(&part.triangles, first));
-        let corners = MovingInstance::corners(&part.triangles);
+        let corners = crate::geometry::instance::object_corners(&part.triangles);
         let start = self.instances.len() as u32;
         self.instances.extend(
             part.instances

@@ -8,7 +8,7 @@
 use super::{Section, Source, caught, open_layer, sections, values, xform};
 use crate::error::{RenderError, key_error};
 use openusd::sdf::Value;
-use openusd::usd::{Prim, TimeCode};
+use openusd::usd::Prim;
 use rift_fx::Shot;
 use rift_fx::rig::{Camera, Projection};
 
@@ -105,10 +105,7 @@ fn read(shot: &Shot, prim: &Prim, source: &Source) -> Result<Read, RenderError> 
     })?;
     let code = source.codes()[0];
     let number = |name: &str, default: f64| -> Result<f64, RenderError> {
-        let value = prim
-            .attribute(name)
-            .get_at::<Value>(TimeCode::new(code))
-            .map_err(|e| source.read_error(path, e))?;
+        let value = values::value(prim, name, code).map_err(|e| source.read_error(path, e))?;
         match value {
             None => Ok(default),
             Some(v) => values::number(&v)
@@ -116,10 +113,8 @@ fn read(shot: &Shot, prim: &Prim, source: &Source) -> Result<Read, RenderError> 
                 .ok_or_else(|| source.error(path, Some(name), "expected a finite number".into())),
         }
     };
-    if let Some(Value::Token(t)) = prim
-        .attribute("projection")
-        .get_at::<Value>(TimeCode::new(code))
-        .map_err(|e| source.read_error(path, e))?
+    if let Some(Value::Token(t)) =
+        values::value(prim, "projection", code).map_err(|e| source.read_error(path, e))?
         && t.as_str() != "perspective"
     {
         return Err(source.error(
@@ -173,10 +168,8 @@ fn read(shot: &Shot, prim: &Prim, source: &Source) -> Result<Read, RenderError> 
 /// The clipping range, where the camera authors one, as a `[camera.clip]` table.
 fn clip(prim: &Prim, source: &Source, code: f64) -> Result<Option<toml::Table>, RenderError> {
     let path = prim.path().as_str();
-    let value = prim
-        .attribute("clippingRange")
-        .get_at::<Value>(TimeCode::new(code))
-        .map_err(|e| source.read_error(path, e))?;
+    let value =
+        values::value(prim, "clippingRange", code).map_err(|e| source.read_error(path, e))?;
     let range = match value {
         None => return Ok(None),
         Some(Value::Vec2f(v)) => [v.x as f64, v.y as f64],

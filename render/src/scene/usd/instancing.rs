@@ -12,7 +12,7 @@ use crate::error::RenderError;
 use crate::scene::schema::ObjectSection;
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use openusd::sdf::Value;
-use openusd::usd::{Prim, TimeCode};
+use openusd::usd::Prim;
 use std::sync::Arc;
 
 /// Bytes each shared instance takes while it is read and placed (its keys, its placement and
@@ -263,7 +263,7 @@ impl Walk<'_> {
             ));
         }
         let vectors = |name: &str| -> Result<Option<Vec<DVec3>>, RenderError> {
-            let Some(v) = attribute(prim, name, code).map_err(read)? else {
+            let Some(v) = values::value(prim, name, code).map_err(read)? else {
                 return Ok(None);
             };
             let array = values::vec3_array(&v)
@@ -283,7 +283,7 @@ impl Walk<'_> {
         let orientations = self.orientations(prim, n)?;
         let ids = values::int_array(prim, "ids", code).map_err(read)?;
         let invisible = values::int_array(prim, "invisibleIds", code).map_err(read)?;
-        let angular_velocities = attribute(prim, "angularVelocities", code)
+        let angular_velocities = values::value(prim, "angularVelocities", code)
             .map_err(read)?
             .is_some();
         let animated = ["positions", "orientations", "orientationsf", "scales"]
@@ -319,7 +319,7 @@ impl Walk<'_> {
         let code = self.source.codes()[0];
         let read = |e| self.source.read_error(path, e);
         for name in ["orientations", "orientationsf"] {
-            let Some(v) = attribute(prim, name, code).map_err(read)? else {
+            let Some(v) = values::value(prim, name, code).map_err(read)? else {
                 continue;
             };
             let quats: Vec<DQuat> = match v {
@@ -498,9 +498,4 @@ fn invertible(m: DMat4) -> Option<DMat4> {
 /// A quaternion from USD's real part first.
 fn quat(w: f64, x: f64, y: f64, z: f64) -> DQuat {
     DQuat::from_xyzw(x, y, z, w)
-}
-
-/// An attribute's value at `code`, if authored.
-fn attribute(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Value>> {
-    prim.attribute(name).get_at::<Value>(TimeCode::new(code))
 }

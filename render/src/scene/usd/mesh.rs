@@ -4,7 +4,7 @@
 //! time-sampled points (with their velocities) as a deforming mesh.
 
 use super::Source;
-use super::values::{int_array, token, vec2_array, vec3_array};
+use super::values::{int_array, token, value, vec2_array, vec3_array};
 use super::xform::{Placement, within};
 use crate::error::RenderError;
 use crate::scene::mesh::Shape;
@@ -78,8 +78,7 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
         .map_err(|e| source.read_error(path, e))?
         .unwrap_or_else(|| "catmullClark".into());
     let authored = |name: &str| {
-        prim.attribute(name)
-            .get_at::<Value>(TimeCode::new(code))
+        value(prim, name, code)
             .map(|v| v.is_some())
             .map_err(|e| source.read_error(path, e))
     };
@@ -447,9 +446,7 @@ fn uv_corners(
 /// A `point3f[]` attribute at time `code`, each point finite.
 fn points(prim: &Prim, source: &Source, name: &str, code: f64) -> Result<Vec<Vec3>, RenderError> {
     let path = prim.path().as_str();
-    let value = prim
-        .attribute(name)
-        .get_at::<Value>(TimeCode::new(code))
+    let value = value(prim, name, code)
         .map_err(|e| source.read_error(path, e))?
         .ok_or_else(|| source.error(path, Some(name), "missing".into()))?;
     let points = vec3_array(&value)
@@ -474,13 +471,7 @@ fn velocities(
     code: f64,
     count: usize,
 ) -> Result<Option<Vec<Vec3>>, RenderError> {
-    if prim
-        .attribute("velocities")
-        .get_at::<Value>(TimeCode::new(code))
-        .ok()
-        .flatten()
-        .is_none()
-    {
+    if value(prim, "velocities", code).ok().flatten().is_none() {
         return Ok(None);
     }
     let v = points(prim, source, "velocities", code)?;

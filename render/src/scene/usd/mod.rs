@@ -79,6 +79,13 @@ pub struct Layer<'a> {
     pub shot_camera: Option<&'a str>,
 }
 
+impl Layer<'_> {
+    /// An error about the layer, under its section's `file` key.
+    fn error(&self, message: String) -> RenderError {
+        key_error(self.shot_file, format!("{}.file", self.key), message)
+    }
+}
+
 /// Reads the stage of `layer` into `out`: time codes at `offset` seconds and `fps` frames a
 /// second, for rays at `span` (seconds), within `budget` bytes ([`caught`]).
 pub fn read_layer(
@@ -97,10 +104,8 @@ pub fn read_layer(
     out.lights.extend(read.lights);
     out.warnings.extend(read.warnings);
     if read.environment.is_some() && out.environment.is_some() {
-        return Err(key_error(
-            layer.shot_file,
-            format!("{}.file", layer.key),
-            "a second dome light: rift's environment is one (or give it in the shot)",
+        return Err(layer.error(
+            "a second dome light: rift's environment is one (or give it in the shot)".into(),
         ));
     }
     out.environment = out.environment.take().or(read.environment);
@@ -121,14 +126,10 @@ pub(super) fn caught<T>(
                 .map(String::as_str)
                 .or_else(|| panic.downcast_ref::<&str>().copied())
                 .unwrap_or("no message");
-            Err(key_error(
-                layer.shot_file,
-                format!("{}.file", layer.key),
-                format!(
-                    "{}: the layer is malformed: the USD reader stopped ({what})",
-                    layer.path.display()
-                ),
-            ))
+            Err(layer.error(format!(
+                "{}: the layer is malformed: the USD reader stopped ({what})",
+                layer.path.display()
+            )))
         }
     }
 }
@@ -141,22 +142,18 @@ fn open_layer(
     budget: Option<u64>,
 ) -> Result<(openusd::usd::Stage, Clock), RenderError> {
     let stage = open_stage(layer.path, StageLimits::from_budget(budget))
-        .map_err(|message| key_error(layer.shot_file, format!("{}.file", layer.key), message))?;
+        .map_err(|message| layer.error(message))?;
     let clock = Clock {
         codes_per_second: stage.time_codes_per_second(),
         offset,
         fps,
     };
     if !(clock.codes_per_second.is_finite() && clock.codes_per_second > 0.0) {
-        return Err(key_error(
-            layer.shot_file,
-            format!("{}.file", layer.key),
-            format!(
-                "{}: timeCodesPerSecond is {}; expected a positive number",
-                layer.path.display(),
-                clock.codes_per_second
-            ),
-        ));
+        return Err(layer.error(format!(
+            "{}: timeCodesPerSecond is {}; expected a positive number",
+            layer.path.display(),
+            clock.codes_per_second
+        )));
     }
     Ok((stage, clock))
 }

@@ -9,7 +9,7 @@ use super::{Source, well_formed};
 use crate::error::RenderError;
 use openusd::schemas::shade::{Material, Shader};
 use openusd::sdf::{self, Value};
-use openusd::usd::{Prim, SchemaBase, Stage, TimeCode};
+use openusd::usd::{Prim, SchemaBase, Stage};
 use std::path::Path;
 
 /// A material made from the stage: its scene name, its section and what it could not say.
@@ -45,9 +45,7 @@ pub fn bound_material(prim: &Prim) -> anyhow::Result<Option<String>> {
 /// An unbound mesh's material: its constant `primvars:displayColor`, else USD's 18% grey.
 pub fn display_color(prim: &Prim, source: &Source) -> Result<Made, RenderError> {
     let path = prim.path().as_str();
-    let value = prim
-        .attribute("primvars:displayColor")
-        .get_at::<Value>(TimeCode::new(source.codes()[0]))
+    let value = super::values::value(prim, "primvars:displayColor", source.codes()[0])
         .map_err(|e| source.read_error(path, e))?;
     let color = match &value {
         Some(Value::Vec3fVec(c)) if !c.is_empty() => [c[0].x, c[0].y, c[0].z],

@@ -4,9 +4,15 @@ use glam::{Vec2, Vec3};
 use openusd::sdf::Value;
 use openusd::usd::{Prim, TimeCode};
 
+/// An attribute's value at `code`, of whatever type it is authored with; `None` when it is not
+/// authored.
+pub fn value(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Value>> {
+    prim.attribute(name).get_at::<Value>(TimeCode::new(code))
+}
+
 /// An integer array attribute at `code`.
 pub fn int_array(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Vec<u32>>> {
-    let Some(value) = prim.attribute(name).get_at::<Value>(TimeCode::new(code))? else {
+    let Some(value) = value(prim, name, code)? else {
         return Ok(None);
     };
     let ints: Vec<i64> = match value {
@@ -23,13 +29,11 @@ pub fn int_array(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Ve
 
 /// A token (or string) attribute at `code`.
 pub fn token(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<String>> {
-    Ok(
-        match prim.attribute(name).get_at::<Value>(TimeCode::new(code))? {
-            Some(Value::Token(t)) => Some(t.as_str().to_owned()),
-            Some(Value::String(s)) => Some(s),
-            _ => None,
-        },
-    )
+    Ok(match value(prim, name, code)? {
+        Some(Value::Token(t)) => Some(t.as_str().to_owned()),
+        Some(Value::String(s)) => Some(s),
+        _ => None,
+    })
 }
 
 /// A short name of a value's type, for messages.
