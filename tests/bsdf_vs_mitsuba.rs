@@ -9,7 +9,7 @@
 //! the relMSE against Mitsuba's image must be what the two noises alone explain; a wrong Fresnel
 //! term, Jacobian or pdf shifts a region by several of those.
 
-mod common;
+use crate::common;
 
 use common::{rift, root, stderr};
 use glam::{DVec3, Vec3};

@@ -5,7 +5,7 @@
 //! coverage of the copy, seen through the opening, grows across frames as the original's
 //! shrinks).
 
-mod common;
+use crate::common;
 
 use common::{python_command, root};
 use rift_fx::Shot;

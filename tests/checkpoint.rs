@@ -3,7 +3,7 @@
 //! resumed, finishes with exactly the pixels of an uninterrupted render; checkpoints of
 //! anything else are refused; a full disk leaves no partial image.
 
-mod common;
+use crate::common;
 
 use common::{files_in, largest_difference, rift, root, signal, start, stderr, wait_for_progress};
 use rift_render::frame::film::read_exr_layer;

@@ -1,6 +1,6 @@
 //! `rift fx` end to end: outputs, determinism, and bad input.
 
-mod common;
+use crate::common;
 
 use common::{files_in, fx_frames, rift, root, stderr};
 

@@ -1,6 +1,6 @@
 //! `rift render` end to end: determinism across thread counts and bad input.
 
-mod common;
+use crate::common;
 
 use common::{cornell_dir, files_in, rift, stderr};
 

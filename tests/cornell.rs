@@ -2,7 +2,7 @@
 //! (Mitsuba 3 at 16384 spp; Cycles agrees to 0.1%). An unbiased renderer matches its per-channel
 //! mean to a few tenths of a percent, and its relative MSE falls as 1/spp.
 
-mod common;
+use crate::common;
 
 use common::{cornell_dir, rift, root, stderr};
 use glam::DVec3;

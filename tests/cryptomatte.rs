@@ -3,7 +3,7 @@
 //! header names the layer and its manifest maps every object to its ID; what cannot be counted
 //! is refused.
 
-mod common;
+use crate::common;
 
 use common::{rift, stderr};
 use rift_render::frame::cryptomatte::id;

@@ -2,7 +2,7 @@
 //! resolves (a file, and a heading where the link names one), and every repository path they
 //! name in backticks exists, so a renamed file or folder cannot leave the docs behind.
 
-mod common;
+use crate::common;
 
 use common::root;
 use std::path::{Path, PathBuf};

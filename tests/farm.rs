@@ -4,7 +4,7 @@
 //! root, where slurm and munge are installed; skipped with a message otherwise). Both give the
 //! frames a direct render gives, to float rounding.
 
-mod common;
+use crate::common;
 
 use common::{largest_difference, python_command, rift, root, stderr};
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! (`fuzz/corpus/<target>/`, `fuzz/regressions/<target>/`), replayed on stable through the same
 //! entry points (`rift_render::untrusted`): each must return without panicking.
 
-mod common;
+use crate::common;
 
 use common::root;
 

@@ -3,10 +3,10 @@
 //!
 //! Every 6th vertex of every strand of two frames is compared (position, velocity,
 //! acceleration, width, colour, intensity), plus every strand's vertex count. After an intended
-//! change to the effect, re-bless with `RIFT_BLESS=1 cargo test --release --test golden` and
+//! change to the effect, re-bless with `RIFT_BLESS=1 cargo test --release --test all golden::` and
 //! commit tests/golden/*.csv.
 
-mod common;
+use crate::common;
 
 use rift_fx::Shot;
 use rift_fx::ring::RingGenerator;

@@ -2,7 +2,7 @@
 //! port), and the page in headless Chromium (skipped, saying so, where Chromium or the test's
 //! Node packages are missing; tests/setup.sh installs both).
 
-mod common;
+use crate::common;
 
 use common::root;
 use rift_render::frame::film::read_exr_layer;

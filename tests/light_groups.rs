@@ -3,7 +3,7 @@
 //! openings included (a room lit only through a window and a ringed door; the showcase's two
 //! rings). Split renders merge them like the beauty, and checkpoints carry them.
 
-mod common;
+use crate::common;
 
 use common::{largest_difference, rift, root, signal, start, stderr, wait_for_progress};
 use rift_render::frame::film::read_exr_layer;

@@ -2,7 +2,7 @@
 //! (`--crop`) and both, through `rift merge`, equal one render to float rounding on the beauty,
 //! the through-openings layers and every AOV; parts that do not make up one render are refused.
 
-mod common;
+use crate::common;
 
 use common::{files_in, largest_difference, rift, root, stderr};
 use rift_render::frame::film::read_exr_layer;

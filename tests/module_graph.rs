@@ -11,7 +11,7 @@
 //!
 //! The same holds, without layers, for the effects crate (`fx/src`) and the program (`src`).
 //!
-//! `cargo test --release --test module_graph -- --nocapture` prints the graphs.
+//! `cargo test --release --test all module_graph:: -- --nocapture` prints the graphs.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! adds is absolute and names the committed profile. `echo` stands in for rustc, so the test
 //! reads the command line the wrapper would run.
 
-mod common;
+use crate::common;
 
 use common::root;
 use std::process::Command;

@@ -4,7 +4,7 @@
 //! build for any x86-64; it passes this machine, and any processor when RUSTFLAGS picks the
 //! target.
 
-mod common;
+use crate::common;
 
 use common::{root, stderr};
 use std::path::Path;

@@ -4,7 +4,7 @@
 //! (`tests/support/requirements_check.py`). A package that arrived as another's dependency, or
 //! was installed by hand, does not count, so a fresh machine gets everything the scripts need.
 
-mod common;
+use crate::common;
 
 use common::{python_command, root};
 use std::path::{Path, PathBuf};

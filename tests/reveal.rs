@@ -2,7 +2,7 @@
 //! (an object seen only through an opening covers as much of the image in both), objects seen
 //! only through openings told from those also seen directly, and bad arguments refused.
 
-mod common;
+use crate::common;
 
 use common::{rift, root, stderr};
 use rift_render::frame::cryptomatte::id;

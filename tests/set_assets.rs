@@ -4,7 +4,7 @@
 //! it). And the example shot that dresses them renders: through the opening the lit study
 //! shows its textured wall and floor.
 
-mod common;
+use crate::common;
 
 use common::{python_command, root};
 use rift_fx::Shot;

@@ -4,7 +4,7 @@
 //! command installs into the suite's own environment; without it this test fails rather than
 //! skipping.
 
-mod common;
+use crate::common;
 
 use common::{fx_frames, python_command, rift, root, stderr};
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! written as rift's own shot file, OBJs and PNG; shot-file sections change USD prims by path;
 //! and bad layers are refused with a message naming the file and the prim or key.
 
-mod common;
+use crate::common;
 
 use common::{largest_difference, python_command, rift, root, stderr};
 use std::path::Path;

@@ -1,6 +1,6 @@
 //! Analytic radiometry tests (in the spirit of pbrt's integrator tests): results known exactly.
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use std::fmt::Write as _;

@@ -2,7 +2,7 @@
 //! expectation, through openings, media and light sampling through openings as in the plain
 //! box (whose mean against the reference tests/cornell.rs checks).
 
-mod common;
+use crate::common;
 
 use common::assert_statistically_equal;
 use rift_render::Scene;

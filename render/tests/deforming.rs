@@ -2,7 +2,7 @@
 //! against their closed-form coverage, a deforming copy through an opening (with and without a
 //! time offset) against a sequence already carried and delayed, and bad sequences refused.
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use rift_render::Scene;

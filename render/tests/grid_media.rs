@@ -2,7 +2,7 @@
 //! furnace), moving and teleported grids, and bad inputs. The VDB files in tests/data/vdb are
 //! written by OpenVDB itself (tools/make_vdb_fixtures.py).
 
-mod common;
+use crate::common;
 
 use common::{
     assert_identity_opening_changes_nothing, box_obj, equivalence, render_shot, render_shot_with,

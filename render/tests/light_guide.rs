@@ -2,7 +2,7 @@
 //! know are hidden, keep the estimate (the same means, less noise), and learn the same guide
 //! whatever the thread count.
 
-mod common;
+use crate::common;
 
 use common::{assert_statistically_equal, box_obj};
 use glam::Vec3;

@@ -3,7 +3,7 @@
 //! light's form gives there. Then light sampling against rays that scatter (MIS), light groups,
 //! and the refusals of bad input.
 
-mod common;
+use crate::common;
 
 use common::render_at;
 use glam::Vec3;

@@ -1,7 +1,7 @@
 //! Participating media: a homogeneous medium filling the scene, against closed forms (furnaces,
 //! transmittance), through openings, and its bad inputs.
 
-mod common;
+use crate::common;
 
 use common::{
     assert_identity_opening_changes_nothing, box_obj, equivalence, lamp_wall, render_shot, square,

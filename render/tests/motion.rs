@@ -2,7 +2,7 @@
 //! coverage profile, a moving camera gives the same profile, and light sampling of a moving
 //! emitter at each ray's time is unbiased.
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! between looking through an opening and looking from the camera the constraint solver places
 //! on the other side.
 
-mod common;
+use crate::common;
 
 use common::{
     assert_identity_opening_changes_nothing, assert_statistically_equal, equivalence, render_at,

@@ -2,7 +2,7 @@
 //! show its whole ring at every level (the strands, the mask and the time of each ray agreeing
 //! through every teleport), and nothing may turn into NaN on the way.
 
-mod common;
+use crate::common;
 
 use common::{box_obj, render_shot_with};
 use glam::Vec3;

@@ -1,7 +1,7 @@
 //! Ring strands in the renderer: emission radiometry against analytic values, light selection
 //! agreeing with itself, visibility and intensity keys, and motion blur coverage.
 
-mod common;
+use crate::common;
 
 use common::square;
 use glam::Vec3;

@@ -4,7 +4,7 @@
 //! the footprint filtering; a roughness map of one value is that roughness; an OBJ's map_Kd is
 //! the same texture as a `[[material]]`'s; and bad textures are refused by file and key.
 
-mod common;
+use crate::common;
 
 use common::render_at;
 use rift_render::Scene;

@@ -1,7 +1,7 @@
 //! Light sampling through openings: the estimate must not change (same means with the new
 //! sampling on and off, per region), only its noise, for every kind of opening and emitter.
 
-mod common;
+use crate::common;
 
 use common::{box_obj, render_at};
 use glam::{DVec2, DVec3, Vec3};

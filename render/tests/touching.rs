@@ -5,7 +5,7 @@
 //! 1 m block), near the origin and 10 km from it, where the offset that keeps a ray off its
 //! own surface is a thousand times wider than the gap.
 
-mod common;
+use crate::common;
 
 use common::{box_obj, render_at};
 use std::path::Path;

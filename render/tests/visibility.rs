@@ -2,7 +2,7 @@
 //! behind openings with there-side copies placed by the constraint solver, and per-opening time
 //! offsets. Each is checked against a scene built without the feature that must look the same.
 
-mod common;
+use crate::common;
 
 use common::{assert_statistically_equal, box_obj, render_at, render_shot, tunnel_shot};
 use glam::Vec3;
