@@ -1,7 +1,7 @@
 //! `rift reveal`: what each opening shows over a range of frames, for the set dressers and the
 //! lighters who must dress and light it (camera rays only: `rift_render::frame::reveal`).
 
-use rift_fx::FrameRange;
+use rift_fx::{FrameRange, Shot};
 use rift_render::Scene;
 use rift_render::frame::reveal::{Seen, reveal};
 use serde_json::json;
@@ -38,27 +38,23 @@ struct Shown {
     coverage_max: f64,
 }
 
-pub fn run(args: RevealArgs) -> anyhow::Result<()> {
-    let shot = crate::cli::load_shot(&args.shot, "reveal")?;
-    let range = match &args.frames {
-        Some(text) => FrameRange::parse(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
-        None => shot.frames,
-    };
-    let frames: Vec<i64> = range
-        .iter()
-        .filter(|f| (f - range.first) % args.step as i64 == 0 || *f == range.last)
-        .collect();
-    // By (opening name, or "" for the camera's direct view; object name).
-    let mut shown: BTreeMap<(String, String), Shown> = BTreeMap::new();
-    let mut size = (0, 0);
-    for &frame in &frames {
-        let scene = Scene::load(&shot, frame)?;
+/// What the camera's rays see over some frames, through each opening and directly; the layout
+/// page asks for one frame's ([`Report::json`]).
+#[derive(Default)]
+pub struct Report {
+    /// By (opening name, or "" for the camera's direct view; object name).
+    shown: BTreeMap<(String, String), Shown>,
+    frames: Vec<i64>,
+    /// The ray grid of the last frame.
+    size: (u32, u32),
+}
+
+impl Report {
+    /// Adds what `scene` (the shot's at `frame`) shows to `width` camera rays across.
+    pub fn add_frame(&mut self, shot: &Shot, scene: &Scene, frame: i64, width: u32) {
         let aspect = scene.camera.projection.aspect();
-        size = (
-            args.width,
-            ((args.width as f64 / aspect).round() as u32).max(1),
-        );
-        let revealed = reveal(&scene, size.0, size.1);
+        self.size = (width, ((width as f64 / aspect).round() as u32).max(1));
+        let revealed = reveal(scene, self.size.0, self.size.1);
         let names = |seen: Seen| {
             seen.map_or("(nothing)".to_owned(), |o| {
                 scene.id_names[o as usize].clone()
@@ -66,7 +62,7 @@ pub fn run(args: RevealArgs) -> anyhow::Result<()> {
         };
         for (&(opening, seen), &pixels) in &revealed.counts {
             let opening = opening.map_or(String::new(), |i| shot.rig.openings[i].name.clone());
-            let entry = shown.entry((opening, names(seen))).or_default();
+            let entry = self.shown.entry((opening, names(seen))).or_default();
             let coverage = pixels as f64 / revealed.pixels as f64;
             entry.coverage_sum += coverage;
             entry.coverage_max = entry.coverage_max.max(coverage);
@@ -75,34 +71,59 @@ pub fn run(args: RevealArgs) -> anyhow::Result<()> {
                 None => (frame, frame),
             });
         }
+        self.frames.push(frame);
     }
-    let direct: Vec<&String> = shown
-        .keys()
-        .filter(|(opening, _)| opening.is_empty())
-        .map(|(_, object)| object)
-        .collect();
-    let rows: Vec<serde_json::Value> = shown
-        .iter()
-        .filter(|((opening, object), _)| !opening.is_empty() && object != "(nothing)")
-        .map(|((opening, object), s)| {
-            let (first, last) = s.frames.unwrap_or_default();
-            json!({
-                "opening": opening,
-                "object": object,
-                "frames": [first, last],
-                "mean_coverage": s.coverage_sum / frames.len() as f64,
-                "max_coverage": s.coverage_max,
-                "only_through_openings": !direct.contains(&object),
+
+    /// One row per object an opening shows: the opening, the object, the frames it shows in,
+    /// its mean and largest coverage, and whether the camera sees it only through openings.
+    pub fn rows(&self) -> Vec<serde_json::Value> {
+        let direct: Vec<&String> = self
+            .shown
+            .keys()
+            .filter(|(opening, _)| opening.is_empty())
+            .map(|(_, object)| object)
+            .collect();
+        self.shown
+            .iter()
+            .filter(|((opening, object), _)| !opening.is_empty() && object != "(nothing)")
+            .map(|((opening, object), s)| {
+                let (first, last) = s.frames.unwrap_or_default();
+                json!({
+                    "opening": opening,
+                    "object": object,
+                    "frames": [first, last],
+                    "mean_coverage": s.coverage_sum / self.frames.len() as f64,
+                    "max_coverage": s.coverage_max,
+                    "only_through_openings": !direct.contains(&object),
+                })
             })
-        })
-        .collect();
+            .collect()
+    }
+
+    /// The report as `rift reveal --json` prints it, `range` and `step` as asked.
+    pub fn json(&self, range: FrameRange, step: u32) -> serde_json::Value {
+        json!({ "frames": [range.first, range.last], "step": step,
+                "rays": [self.size.0, self.size.1], "seen": self.rows() })
+    }
+}
+
+pub fn run(args: RevealArgs) -> anyhow::Result<()> {
+    let shot = crate::cli::load_shot(&args.shot, "reveal")?;
+    let range = match &args.frames {
+        Some(text) => FrameRange::parse(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?,
+        None => shot.frames,
+    };
+    let mut report = Report::default();
+    for frame in range
+        .iter()
+        .filter(|f| (f - range.first) % args.step as i64 == 0 || *f == range.last)
+    {
+        let scene = Scene::load(&shot, frame)?;
+        report.add_frame(&shot, &scene, frame, args.width);
+    }
     let text = match args.json {
-        true => {
-            let out = json!({ "frames": [range.first, range.last], "step": args.step,
-                              "rays": [size.0, size.1], "seen": rows });
-            serde_json::to_string_pretty(&out)? + "\n"
-        }
-        false => table(&rows, &frames, size),
+        true => serde_json::to_string_pretty(&report.json(range, args.step))? + "\n",
+        false => table(&report.rows(), &report.frames, report.size),
     };
     // A reader that stops early (`| head`) is not an error.
     match std::io::stdout().write_all(text.as_bytes()) {

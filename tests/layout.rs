@@ -852,6 +852,88 @@ fn the_check_render_path_traces_the_view_the_page_shows() {
     assert!(page["pageErrors"].as_array().unwrap().is_empty(), "{page}");
 }
 
+#[test]
+fn the_page_tints_what_the_openings_reveal_as_rift_reveal_finds_it() {
+    let shot = root().join("examples/shots/showcase.toml");
+    let layout = Layout::start(&shot, &[]);
+    let (status, body) = layout.get("/api/reveal?frame=12", "");
+    assert_eq!(status, 200, "{body}");
+    let served: serde_json::Value = serde_json::from_str(&body).unwrap();
+    // The server's answer is `rift reveal`'s for that frame, with as many rays.
+    let out = Command::new(env!("CARGO_BIN_EXE_rift"))
+        .args([
+            "reveal",
+            shot.to_str().unwrap(),
+            "--frames",
+            "12",
+            "--width",
+            "128",
+        ])
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(served["seen"], printed["seen"]);
+    let seen = served["seen"].as_array().unwrap();
+    let only: Vec<&str> = seen
+        .iter()
+        .filter(|r| r["only_through_openings"] == true)
+        .map(|r| r["object"].as_str().unwrap())
+        .collect();
+    assert!(
+        !only.is_empty(),
+        "the showcase's openings show something only they show: {served}"
+    );
+    for bad in ["/api/reveal?frame=0", "/api/reveal?frame=x"] {
+        assert_eq!(layout.get(bad, "").0, 400, "{bad}");
+    }
+    // The page's button: every object an opening shows tinted, those seen only through
+    // openings orange; cleared again.
+    let steps = r#"[["reveal"], ["highlighted"], ["clearReveal"], ["highlighted"]]"#;
+    let Some(page) = run_page(&format!("{}?frame=12", layout.url()), &["--steps", steps]) else {
+        return;
+    };
+    assert!(page["pageErrors"].as_array().unwrap().is_empty(), "{page}");
+    let results = page["results"].as_array().unwrap();
+    assert_eq!(
+        results[0], served["seen"],
+        "the page shows what the server found"
+    );
+    let mut tinted: Vec<(&str, &str)> = results[1]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|h| (h["name"].as_str().unwrap(), h["tint"].as_str().unwrap()))
+        .collect();
+    tinted.sort();
+    // Of what the openings show, the page draws the objects (not the rings).
+    let objects = scene_names(&layout, 12);
+    let mut expected: Vec<(&str, &str)> = seen
+        .iter()
+        .map(|r| r["object"].as_str().unwrap())
+        .filter(|o| objects.iter().any(|name| name == o))
+        .map(|o| {
+            (
+                o,
+                if only.contains(&o) {
+                    "ff7a1a"
+                } else {
+                    "2a4f80"
+                },
+            )
+        })
+        .collect();
+    expected.sort();
+    expected.dedup();
+    assert_eq!(tinted, expected);
+    assert_eq!(results[3], serde_json::json!([]), "{page}");
+}
+
 /// A similarity from the scene JSON as a matrix.
 fn similarity(v: &serde_json::Value) -> glam::DMat4 {
     let f = |k: &str| -> Vec<f64> {

@@ -100,6 +100,8 @@ function show(data) {
   state.scene = data;
   state.frame = data.frame;
   state.lookAt = null;
+  // A new scene has new materials: any reveal was of the frame before.
+  state.revealed = null;
   build(data);
   state.loads += 1;
   const timeline = document.getElementById('timeline');
@@ -267,6 +269,41 @@ state.checkRender = async (passes = [1, 4, 16]) => {
   return [checkImage.naturalWidth, checkImage.naturalHeight];
 };
 
+// What the openings reveal at this frame (the server's `rift reveal` of it): every object an
+// opening shows is tinted in both views, those the camera sees only through openings (which
+// set dressers and lighters must dress) strongest, and named in the status line. Resolves with
+// the rows; `clearReveal` takes the tints off.
+const REVEAL_TINT = { only: 0xff7a1a, also: 0x2a4f80 };
+state.revealed = null;
+state.reveal = async () => {
+  const response = await fetch(`/api/reveal?frame=${state.frame}`);
+  const data = await response.json().catch(() => ({ error: `HTTP ${response.status}` }));
+  if (!response.ok || data.error) {
+    showError(data.error || `HTTP ${response.status}`);
+    return null;
+  }
+  const only = new Set(data.seen.filter(r => r.only_through_openings).map(r => r.object));
+  const also = new Set(data.seen.filter(r => !r.only_through_openings).map(r => r.object));
+  for (const o of model.objects) {
+    const name = o.data.name;
+    const tint = only.has(name) ? REVEAL_TINT.only : also.has(name) ? REVEAL_TINT.also : 0;
+    o.mesh.userData.shaded.emissive.setHex(tint);
+  }
+  state.revealed = data;
+  status(`frame ${state.frame}: the openings show ${only.size + also.size} objects; ` +
+    `only through them (dress these): ${[...only].join(', ') || 'none'}`);
+  return data.seen;
+};
+state.clearReveal = () => {
+  for (const o of model.objects) o.mesh.userData.shaded.emissive.setHex(0);
+  state.revealed = null;
+  status('');
+};
+// The objects tinted now, with their tint (as hex).
+state.highlighted = () => model.objects
+  .filter(o => o.mesh.userData.shaded.emissive.getHex() !== 0)
+  .map(o => ({ name: o.data.name, tint: o.mesh.userData.shaded.emissive.getHexString() }));
+
 // The shot camera's view as object indices (−1: nothing), `width` x `height`, rows top first:
 // the ID pass the tests compare with the path tracer's Cryptomatte.
 state.idPass = (width, height) => {
@@ -370,6 +407,7 @@ button('check', () => {
   if (checkImage.style.display === 'block') checkImage.style.display = 'none';
   else state.checkRender();
 });
+button('reveal', () => (state.revealed ? state.clearReveal() : state.reveal()));
 button('play', () => {
   if (playing) { clearInterval(playing); playing = null; return; }
   const fps = state.scene ? state.scene.fps : 24;

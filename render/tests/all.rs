@@ -16,6 +16,7 @@ mod motion;
 mod portals;
 mod recursion;
 mod ring_edge;
+mod shading_normals;
 mod stereo;
 mod strands;
 mod textures;

@@ -131,6 +131,12 @@ impl State {
                 Err(message) => Reply::text(400, &message),
             };
         }
+        if path == "/api/reveal" {
+            return match frame_param(query, &self.shot) {
+                Ok(frame) => self.reveal(frame),
+                Err(message) => Reply::text(400, &message),
+            };
+        }
         if path == "/api/render" {
             return match check::Request::parse(query, &self.shot) {
                 Ok(request) => match check::render(&self.shot, &request, &mut self.check) {
@@ -163,6 +169,24 @@ impl State {
         }
         match staged_scene(&self.shot, frame) {
             Ok(scene) => self.answer_scene(&scene, frame),
+            Err(e) => Reply::error(422, &e.to_string()),
+        }
+    }
+
+    /// What the camera sees through each opening at `frame`, as `rift reveal --json` gives it
+    /// for that frame (the shot as edited; 128 rays across).
+    fn reveal(&mut self, frame: i64) -> Reply {
+        const RAYS_ACROSS: u32 = 128;
+        match staged_scene(&self.shot, frame) {
+            Ok(scene) => {
+                let mut report = crate::reveal_cmd::Report::default();
+                report.add_frame(&self.shot, &scene, frame, RAYS_ACROSS);
+                let range = rift_fx::FrameRange {
+                    first: frame,
+                    last: frame,
+                };
+                Reply::json(&report.json(range, 1))
+            }
             Err(e) => Reply::error(422, &e.to_string()),
         }
     }

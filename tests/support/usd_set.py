@@ -10,7 +10,8 @@ set_usda.toml, set_usdc.toml and set_usdz.toml, which differ only in the layer t
 
 The set exercises what the reader must get right: a room of quads whose walls take materials
 from GeomSubsets; a box under a parent with a non-uniform scale, textured through a
-UsdUVTexture on faceVarying UVs; a metal ball moving by time-sampled translate (motion blur);
+UsdUVTexture on faceVarying UVs; a metal ball moving by time-sampled translate (motion blur),
+shaded smoothly by its authored vertex normals (`vn` in ball.obj);
 a deforming mesh (time-sampled points); two instanceable crates sharing a prototype; a
 PointInstancer of pebbles and blocks (two prototypes under it, orientations in half precision,
 uniform scales, one stretched, one mirrored, one hidden by invisibleIds, one moving by its
@@ -103,6 +104,11 @@ def sphere(radius=0.35, rings=8, segments=12):
             faces.append((ring(r, s), ring(r + 1, s), ring(r + 1, s + 1), ring(r, s + 1)))
     faces += [(ring(rings - 1, s), bottom, ring(rings - 1, s + 1)) for s in range(segments)]
     return v, faces
+
+
+def sphere_normal(p):
+    length = math.sqrt(sum(c * c for c in p))
+    return tuple(c / length for c in p)
 
 
 def blob(frame):
@@ -278,6 +284,8 @@ def write_stage(path, texture):
 
     v, faces = sphere()
     ball = mesh(stage, "/World/Ball", v, faces, looks["gold"])
+    ball.CreateNormalsAttr([Gf.Vec3f(*sphere_normal(p)) for p in v])
+    ball.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
     op = ball.AddTranslateOp()
     for frame, at in BALL_KEYS.items():
         op.Set(Gf.Vec3d(*at), frame)
@@ -390,17 +398,22 @@ def fan(face):
     return [(face[0], face[k], face[k + 1]) for k in range(1, len(face) - 1)]
 
 
-def write_obj(path, groups, uvs=None):
-    """groups: [(material, vertices, faces, face corner uvs or None)]."""
+def write_obj(path, groups, normals=None):
+    """groups: [(material, vertices, faces, face corner uvs or None)]; normals: one per vertex
+    of a single group, or None."""
     lines, base, tbase = [], 1, 1
+    if normals is not None:
+        lines += [f"vn {x:.9g} {y:.9g} {z:.9g}" for x, y, z in normals]
     for material, v, faces, corner_uv in groups:
         lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in v]
         lines.append(f"usemtl {material}")
         corner = 0
         for f in faces:
             for tri in fan(list(range(len(f)))):
-                if corner_uv is None:
+                if corner_uv is None and normals is None:
                     lines.append("f " + " ".join(str(base + f[k]) for k in tri))
+                elif corner_uv is None:
+                    lines.append("f " + " ".join(f"{base + f[k]}//{base + f[k]}" for k in tri))
                 else:
                     lines.append("f " + " ".join(f"{base + f[k]}/{tbase + corner + k}" for k in tri))
             corner += len(f)
@@ -439,7 +452,7 @@ def write_toml_scene():
     v, faces, uv = cube()
     write_obj(os.path.join(OUT, "box.obj"), [("/World/Looks/Checker", [box_world(p) for p in v], faces, uv)])
     v, faces = sphere()
-    write_obj(os.path.join(OUT, "ball.obj"), [("/World/Looks/Gold", v, faces, None)])
+    write_obj(os.path.join(OUT, "ball.obj"), [("/World/Looks/Gold", v, faces, None)], [sphere_normal(p) for p in v])
     for frame in (1, 2):
         v, faces = blob(frame)
         v = [tuple(p[i] + BLOB_AT[i] for i in range(3)) for p in v]

@@ -79,8 +79,9 @@ struct PathState {
     /// surface (see [`crate::geometry::Contacts`]), else [`NOT_TOUCHING`]: the next ray first
     /// looks there.
     touching: u32,
-    /// The normal a normal map gave the surface just reached (world space, around its front
-    /// side's normal), for [`scatter_at`]'s shading frame; `None` without a map.
+    /// The shading normal of the surface just reached (world space, on its front side): its
+    /// mesh's smooth normal, bent by its normal map, for [`scatter_at`]'s shading frame;
+    /// `None` for a flat surface without a map.
     mapped_normal: Option<Vec3>,
 }
 
@@ -137,7 +138,7 @@ impl PathState {
     }
 
     /// The shading frame where the path arrived, at geometric normal `n` on its `side`
-    /// (towards `wo`): around `n`, or around the normal map's normal the surface gave
+    /// (towards `wo`): around `n`, or around the shading normal the surface gave
     /// ([`Self::mapped_normal`], taken) bent as [`bent_normal`] says, and then true:
     /// directions must be checked against the geometry. `FULL` as for [`scatter_at`].
     #[inline(always)]
@@ -740,7 +741,7 @@ fn surface_emission<'b, const FULL: bool>(
         true => textured_bsdf(ctx, path, hit, &surface, material, textured),
         false => {
             if FULL {
-                path.mapped_normal = None;
+                path.mapped_normal = ctx.scene.shading_normal(hit, time, ng);
             }
             &material.bsdf
         }
@@ -773,8 +774,8 @@ fn surface_emission<'b, const FULL: bool>(
 
 /// The BSDF of the textured `material` where the path's ray met `hit` (at `surface`), its
 /// textures read at the hit's UV over the ray cone's footprint there, made in `slot` (the
-/// material's own where the mesh has no UVs); its normal map's normal goes to
-/// [`PathState::mapped_normal`].
+/// material's own where the mesh has no UVs); the shading normal (the mesh's smooth normal,
+/// bent by the normal map around it) goes to [`PathState::mapped_normal`].
 #[inline(never)]
 fn textured_bsdf<'b>(
     ctx: &'b Context,
@@ -784,7 +785,7 @@ fn textured_bsdf<'b>(
     material: &'b Material,
     slot: &'b mut Option<Bsdf>,
 ) -> &'b Bsdf {
-    path.mapped_normal = None;
+    path.mapped_normal = ctx.scene.shading_normal(hit, path.ray.time, surface.ng);
     let Some((uv, per_metre)) = ctx.scene.uv_at(hit, path.ray.time, surface.area_scale) else {
         return &material.bsdf;
     };
@@ -797,19 +798,21 @@ fn textured_bsdf<'b>(
     let textures = ctx.scene.textures.list();
     if let Some(local) = material.normal_at(textures, &at) {
         let tangents = ctx.scene.tangents(hit, path.ray.time);
-        path.mapped_normal = tangents.and_then(|t| tangent_to_world(local, t, surface.ng));
+        let around = path.mapped_normal.unwrap_or(surface.ng);
+        let mapped = tangents.and_then(|t| tangent_to_world(local, t, around));
+        path.mapped_normal = mapped.or(path.mapped_normal);
     }
     slot.insert(material.bsdf_at(textures, &at))
 }
 
 /// The tangent-space normal `local` in world space, on the tangent frame of ∂p/∂u and ∂p/∂v
-/// made orthonormal around the unit normal `ng` (keeping its handedness); `None` where the
-/// derivatives are degenerate.
-fn tangent_to_world(local: Vec3, (dpdu, dpdv): (Vec3, Vec3), ng: Vec3) -> Option<Vec3> {
-    let t = (dpdu - ng * ng.dot(dpdu)).try_normalize()?;
-    let b = ng.cross(t);
+/// made orthonormal around the unit normal `n` (the smooth or geometric normal; keeping the
+/// frame's handedness); `None` where the derivatives are degenerate.
+fn tangent_to_world(local: Vec3, (dpdu, dpdv): (Vec3, Vec3), n: Vec3) -> Option<Vec3> {
+    let t = (dpdu - n * n.dot(dpdu)).try_normalize()?;
+    let b = n.cross(t);
     let b = if b.dot(dpdv) < 0.0 { -b } else { b };
-    (t * local.x + b * local.y + ng * local.z).try_normalize()
+    (t * local.x + b * local.y + n * local.z).try_normalize()
 }
 
 /// The shading normal from a mapped normal `mapped` (turned to the side `n`, the geometric

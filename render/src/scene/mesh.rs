@@ -52,6 +52,9 @@ pub struct MeshPart {
     /// Per triangle, its corners' velocities in units per second (a PLY's `vx vy vz`, for a
     /// mesh sequence's motion between frames); empty without.
     pub velocities: Vec<[Vec3; 3]>,
+    /// Per triangle, its corners' authored normals (OBJ `vn`, PLY `nx ny nz`, USD `normals`),
+    /// unit length, interpolated across the triangle for smooth shading; empty without.
+    pub normals: Vec<[Vec3; 3]>,
     pub material: Option<MtlMaterial>,
 }
 
@@ -81,6 +84,7 @@ pub fn parse_obj(
         single_index: false,
         ..Default::default()
     };
+    check_face_corners(bytes)?;
     // What the MTL parser would panic on, found first.
     let mtl_problem = std::cell::RefCell::new(None);
     let declared = std::cell::RefCell::new(std::collections::HashSet::new());
@@ -133,6 +137,7 @@ pub fn parse_obj(
             ));
         }
         let uvs = part_uvs(&model)?;
+        let normals = part_normals(&model)?;
         let mut triangles = Vec::with_capacity(m.indices.len() / 3);
         for (f, idx) in m.indices.chunks_exact(3).enumerate() {
             let get = |k: usize| {
@@ -157,6 +162,7 @@ pub fn parse_obj(
             triangles,
             uvs,
             velocities: Vec::new(),
+            normals,
             material,
         });
     }
@@ -164,6 +170,43 @@ pub fn parse_obj(
         return Err("malformed OBJ: no faces".into());
     }
     Ok(parts)
+}
+
+/// The corner normals of each triangle of `model` (its `vn`s by the faces' normal indices);
+/// none when its faces give no normals.
+fn part_normals(model: &tobj::Model) -> Result<Vec<[Vec3; 3]>, String> {
+    let m = &model.mesh;
+    if m.normal_indices.is_empty() {
+        return Ok(Vec::new());
+    }
+    if m.normal_indices.len() != m.indices.len() {
+        return Err(format!(
+            "object {:?}: some faces give normals and others do not",
+            model.name
+        ));
+    }
+    let normal = |k: u32| -> Result<Vec3, String> {
+        let k = k as usize;
+        match m.normals.get(3 * k..3 * k + 3) {
+            Some(&[x, y, z]) => unit_normal(Vec3::new(x, y, z)).ok_or_else(|| {
+                format!("object {:?}: normal {k} is zero or not finite", model.name)
+            }),
+            _ => Err(format!(
+                "object {:?}: a face uses normal {k} of {}",
+                model.name,
+                m.normals.len() / 3
+            )),
+        }
+    };
+    m.normal_indices
+        .chunks_exact(3)
+        .map(|t| Ok([normal(t[0])?, normal(t[1])?, normal(t[2])?]))
+        .collect()
+}
+
+/// `n` made unit length; `None` when it is zero, too small to normalise, or not finite.
+pub(crate) fn unit_normal(n: Vec3) -> Option<Vec3> {
+    n.is_finite().then(|| n.try_normalize()).flatten()
 }
 
 /// The UVs of each triangle of `model` (its `vt`s by the faces' texture indices); none when
@@ -280,6 +323,41 @@ fn usemtl_names(obj: &[u8]) -> Vec<String> {
     names
 }
 
+/// Refuses an object (an `o` or `g` group) whose face corners give normals, or texture
+/// coordinates, at some corners and not at others: the OBJ parser would fill the missing ones
+/// with others, silently.
+fn check_face_corners(obj: &[u8]) -> Result<(), String> {
+    let mut given: [Option<bool>; 2] = [None, None];
+    for (i, line) in String::from_utf8_lossy(obj).lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("o") | Some("g") => given = [None, None],
+            Some("f") => {
+                for corner in words {
+                    let mut fields = corner.split('/').skip(1);
+                    let has =
+                        [fields.next(), fields.next()].map(|f| f.is_some_and(|f| !f.is_empty()));
+                    for (k, what) in ["texture coordinates", "normals"].iter().enumerate() {
+                        match given[k] {
+                            None => given[k] = Some(has[k]),
+                            Some(g) if g != has[k] => {
+                                return Err(format!(
+                                    "line {}: some face corners of its object give {what} and \
+                                     others do not",
+                                    i + 1
+                                ));
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
 /// The argument of every `keyword` line of an OBJ or MTL text.
 fn keyword_arguments(text: &[u8], keyword: &str) -> Vec<String> {
     String::from_utf8_lossy(text)
@@ -344,6 +422,26 @@ mod tests {
         let bare = b"usemtl glass\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
         let parts = parse_obj(bare, |_| None).unwrap();
         assert_eq!(parts[0].material.as_ref().unwrap().name, "glass");
+    }
+
+    #[test]
+    fn normals_follow_each_face_corner_made_unit_and_bad_ones_are_refused() {
+        let obj = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 2\nvn 1 0 1\n\
+                    f 1//1 2//2 3//2 4//1\n";
+        let parts = parse_obj(obj, |_| None).unwrap();
+        let (z, tilted) = (Vec3::Z, Vec3::new(1.0, 0.0, 1.0).normalize());
+        assert_eq!(parts[0].normals, [[z, tilted, tilted], [z, tilted, z]]);
+        let plain = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        assert!(parse_obj(plain, |_| None).unwrap()[0].normals.is_empty());
+        let zero = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 0\nf 1//1 2//1 3//1\n";
+        let err = parse_obj(zero, |_| None).unwrap_err();
+        assert!(err.contains("normal 0 is zero"), "{err}");
+        let mixed = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1 3 2\n";
+        let err = parse_obj(mixed, |_| None).unwrap_err();
+        assert!(
+            err.contains("line 6: some face corners of its object give normals and others do not"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -30,7 +30,7 @@ use crate::camera::{Clip, Stereo};
 use crate::error::{RenderError, key_error};
 use crate::geometry::ray::Ray;
 use crate::geometry::{
-    Accel, Hit, STATIC, StrandHit, Strands, Triangle, changes_during, every_triangle,
+    Accel, Hit, PackedNormal, STATIC, StrandHit, Strands, Triangle, changes_during, every_triangle,
 };
 use crate::lights::Lights;
 use crate::material::surface::Material;
@@ -108,6 +108,9 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     /// Per triangle, its corners' UVs; empty when no mesh gives any.
     pub triangle_uvs: Vec<[glam::Vec2; 3]>,
+    /// Per triangle, its corners' authored normals in the triangle's space, for smooth shading
+    /// ([`PackedNormal::NONE`]: shaded flat); empty when no mesh gives any.
+    pub triangle_normals: Vec<[PackedNormal; 3]>,
     /// The materials' textures, by index.
     pub textures: Textures,
     /// What the shot asks for that rift does not do yet, rendered without (for the user).
@@ -229,6 +232,7 @@ impl Scene {
             && !self.visibility.hides_anything()
             && !self.cut_out
             && !self.normal_maps
+            && self.triangle_normals.is_empty()
             && self.contacts.is_empty()
     }
 
@@ -399,6 +403,22 @@ impl Scene {
         let placement = self.accel.placement(hit.instance, time);
         let to_world = |v: Vec3| placement.to_world.transform_vector3(v);
         Some((to_world(dpdu), to_world(dpdv)))
+    }
+
+    /// The smooth-shading normal at `hit` at time `time`: its triangle's authored corner
+    /// normals interpolated, in world space, turned to the side of the geometric normal `ng`;
+    /// `None` where the mesh gives no normals.
+    #[inline]
+    pub fn shading_normal(&self, hit: &Hit, time: f64, ng: Vec3) -> Option<Vec3> {
+        let [a, b, c] = *self.triangle_normals.get(hit.triangle as usize)?;
+        let (a, b, c) = (a.get()?, b.unpack(), c.unpack());
+        let n = a * (1.0 - hit.b1 - hit.b2) + b * hit.b1 + c * hit.b2;
+        let n = match hit.instance {
+            STATIC => n,
+            instance => (self.accel.placement(instance, time).to_world).transform_vector3(n),
+        };
+        let n = n.try_normalize()?;
+        Some(if n.dot(ng) < 0.0 { -n } else { n })
     }
 
     /// The world-space point and normal of `hit` at time `time`.

@@ -11,7 +11,7 @@ use super::sequence::{self, Sequence};
 use super::{flags, mesh, parse, within_single_precision};
 use crate::error::{RenderError, key_error};
 use crate::geometry::triangle_bvh::TriangleBvh;
-use crate::geometry::{Deformation, MovingInstance, ObjectMotion, STATIC, Triangle};
+use crate::geometry::{Deformation, MovingInstance, ObjectMotion, PackedNormal, STATIC, Triangle};
 use crate::lights::emitters::Emitter;
 use crate::material::inputs::{ColorInput, Lookup};
 use crate::material::surface::Material;
@@ -37,6 +37,9 @@ pub(super) struct Part {
     triangles: Vec<Triangle>,
     /// Per triangle, its corners' UVs; empty when no part of its mesh gives any.
     uvs: Vec<[Vec2; 3]>,
+    /// Per triangle, its corners' shading normals in the triangles' space ([`PackedNormal::NONE`]
+    /// where its part gives none: shaded flat); empty when no part of its mesh gives any.
+    normals: Vec<[PackedNormal; 3]>,
     materials: Vec<u32>,
     /// Its placement over time.
     motion: ObjectMotion,
@@ -258,6 +261,7 @@ impl Loader<'_> {
             object: i as u32,
             triangles: Vec::new(),
             uvs: Vec::new(),
+            normals: Vec::new(),
             materials: Vec::new(),
             motion,
             deformation,
@@ -267,6 +271,7 @@ impl Loader<'_> {
             warnings: Vec::new(),
         };
         let any_uvs = mesh_parts.iter().any(|p| !p.uvs.is_empty());
+        let any_normals = self.shading_normals_kept(&key, mesh_name, &mesh_parts, &mut part);
         let folder = mesh_path.parent().unwrap_or(Path::new("."));
         for mesh_part in mesh_parts {
             let index =
@@ -279,6 +284,22 @@ impl Loader<'_> {
                 match mesh_part.uvs.is_empty() {
                     true => part.uvs.extend(std::iter::repeat_n([Vec2::ZERO; 3], n)),
                     false => part.uvs.extend_from_slice(&mesh_part.uvs),
+                }
+            }
+            if any_normals {
+                let n = mesh_part.triangles.len();
+                match mesh_part.normals.is_empty() {
+                    true => part
+                        .normals
+                        .extend(std::iter::repeat_n([PackedNormal::NONE; 3], n)),
+                    false => part.normals.extend(mesh_part.normals.iter().map(|corners| {
+                        // A static object's triangles are baked to world space: so are its normals.
+                        let placed_normal = |n: Vec3| match moves {
+                            true => n,
+                            false => (placed.rotation * n.as_dvec3()).as_vec3(),
+                        };
+                        corners.map(|n| PackedNormal::pack(placed_normal(n)))
+                    })),
                 }
             }
             for tri in mesh_part.triangles {
@@ -302,6 +323,27 @@ impl Loader<'_> {
             }
         }
         Ok(part)
+    }
+
+    /// True when the mesh's authored normals shade `part` smoothly: some part of it gives
+    /// normals and it does not deform (a deforming mesh's normals would have to deform with it;
+    /// it is shaded flat, and `part` says so).
+    fn shading_normals_kept(
+        &self,
+        key: &str,
+        mesh_name: &str,
+        mesh_parts: &[mesh::MeshPart],
+        part: &mut Part,
+    ) -> bool {
+        let given = mesh_parts.iter().any(|p| !p.normals.is_empty());
+        if given && part.deformation.is_some() {
+            part.warnings.push(format!(
+                "{key}.mesh: {mesh_name} deforms; its authored normals are not used yet, and \
+                 each triangle is shaded by its own normal"
+            ));
+            return false;
+        }
+        given
     }
 
     /// Object `o`'s mesh (its `key` names it in messages).
@@ -581,6 +623,9 @@ pub(super) struct Geometry {
     pub triangles: Vec<Triangle>,
     /// Per triangle, its corners' UVs; empty when no mesh gives any.
     pub triangle_uvs: Vec<[Vec2; 3]>,
+    /// Per triangle, its corners' shading normals in the triangle's space
+    /// ([`PackedNormal::NONE`]: shaded flat); empty when no mesh gives any.
+    pub triangle_normals: Vec<[PackedNormal; 3]>,
     pub triangle_material: Vec<u32>,
     /// The moving instance of each triangle (an instanced object's: its first instance),
     /// or [`STATIC`].
@@ -603,9 +648,11 @@ impl Geometry {
     pub fn assemble(mut parts: Vec<Part>, objects: usize, times: [f64; 2]) -> Self {
         parts.sort_by_key(|p| p.moves);
         let any_uvs = parts.iter().any(|p| !p.uvs.is_empty());
+        let any_normals = parts.iter().any(|p| !p.normals.is_empty());
         let mut g = Geometry {
             triangles: Vec::new(),
             triangle_uvs: Vec::new(),
+            triangle_normals: Vec::new(),
             triangle_material: Vec::new(),
             triangle_instance: Vec::new(),
             instanced: Vec::new(),
@@ -647,6 +694,14 @@ impl Geometry {
                         .triangle_uvs
                         .extend(std::iter::repeat_n([Vec2::ZERO; 3], n)),
                     false => g.triangle_uvs.extend(part.uvs),
+                }
+            }
+            if any_normals {
+                match part.normals.is_empty() {
+                    true => g
+                        .triangle_normals
+                        .extend(std::iter::repeat_n([PackedNormal::NONE; 3], n)),
+                    false => g.triangle_normals.extend(part.normals),
                 }
             }
             g.triangles.extend(part.triangles);

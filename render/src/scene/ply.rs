@@ -1,6 +1,7 @@
 //! PLY polygon meshes (ASCII and binary, either byte order, read by fx's PLY table reader): the
 //! `vertex` element's x, y, z (and texture coordinates `u v`, `s t` or `texture_u texture_v`
-//! when it has them; velocities `vx vy vz`, units per second, for mesh sequences) and the `face`
+//! when it has them; normals `nx ny nz` for smooth shading; velocities `vx vy vz`, units per
+//! second, for mesh sequences) and the `face`
 //! element's index list, polygons split into triangle fans. Other elements and properties are
 //! ignored.
 
@@ -31,8 +32,10 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
     };
     let velocities = vectors(&table, ["vx", "vy", "vz"], "'s velocity")?;
     let texcoords = texcoords(&table)?;
+    let normals = normals(&table)?;
     let mut triangles = Vec::new();
     let mut uvs = Vec::new();
+    let mut corner_normals = Vec::new();
     let mut corner_velocities = Vec::new();
     if let Some(face) = table.element("face") {
         let faces = face
@@ -53,6 +56,10 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
                     let uv = |v: f64| t[v as usize];
                     uvs.push([uv(list[0]), uv(list[i]), uv(list[i + 1])]);
                 }
+                if let Some(n) = &normals {
+                    let at = |v: f64| n[v as usize];
+                    corner_normals.push([at(list[0]), at(list[i]), at(list[i + 1])]);
+                }
                 if let Some(vel) = &velocities {
                     let at = |v: f64| vel[v as usize];
                     corner_velocities.push([at(list[0]), at(list[i]), at(list[i + 1])]);
@@ -68,8 +75,25 @@ pub fn parse(bytes: &[u8]) -> Result<Vec<MeshPart>, String> {
         triangles,
         uvs,
         velocities: corner_velocities,
+        normals: corner_normals,
         material: None,
     }])
+}
+
+/// The vertex element's normals `nx ny nz`, each made unit length (`None` without them); a
+/// zero normal is an error.
+fn normals(table: &ply_table::Table) -> Result<Option<Vec<Vec3>>, String> {
+    let Some(normals) = vectors(table, ["nx", "ny", "nz"], "'s normal")? else {
+        return Ok(None);
+    };
+    normals
+        .into_iter()
+        .enumerate()
+        .map(|(i, n)| {
+            super::mesh::unit_normal(n).ok_or_else(|| format!("vertex {i}'s normal is zero"))
+        })
+        .collect::<Result<_, _>>()
+        .map(Some)
 }
 
 /// The vertex element's vectors from the three properties `names` (`None` when it lacks any
@@ -145,6 +169,29 @@ mod tests {
                 [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::Y]
             ]
         );
+    }
+
+    #[test]
+    fn vertex_normals_reach_each_corner_made_unit_and_a_zero_one_is_refused() {
+        let with = |normals: [&str; 4]| {
+            let header = SQUARE[..SQUARE.find("end_header\n").unwrap() + 11].replace(
+                "property uchar red\n",
+                "property float nx\nproperty float ny\nproperty float nz\n",
+            );
+            let corners = ["0 0 0", "1 0 0", "1 1 0", "0 1 0"];
+            let vertices: String = corners
+                .iter()
+                .zip(normals)
+                .map(|(p, n)| format!("{p} {n}\n"))
+                .collect();
+            header + &vertices + "4 0 1 2 3\n"
+        };
+        let parts = parse(with(["0 0 3", "1 0 1", "1 0 1", "0 0 1"]).as_bytes()).unwrap();
+        let (z, tilted) = (Vec3::Z, Vec3::new(1.0, 0.0, 1.0).normalize());
+        assert_eq!(parts[0].normals, [[z, tilted, tilted], [z, tilted, z]]);
+        assert!(parse(SQUARE.as_bytes()).unwrap()[0].normals.is_empty());
+        let err = parse(with(["0 0 1", "0 0 0", "0 0 1", "0 0 1"]).as_bytes()).unwrap_err();
+        assert!(err.contains("vertex 1's normal is zero"), "{err}");
     }
 
     #[test]

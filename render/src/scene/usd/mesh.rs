@@ -1,6 +1,7 @@
 //! UsdGeomMesh prims into mesh parts: polygons triangulated as fans (holes left out, a
-//! left-handed mesh's winding turned), `primvars:st` as UVs at any interpolation (indexed or
-//! not), one part per material (the mesh's binding and its `materialBind` subsets), and
+//! left-handed mesh's winding turned), `primvars:st` as UVs and `normals` (or
+//! `primvars:normals`) as smooth-shading normals at any interpolation (indexed or not), one part
+//! per material (the mesh's binding and its `materialBind` subsets), and
 //! time-sampled points (with their velocities) as a deforming mesh.
 
 use super::Source;
@@ -21,8 +22,6 @@ pub struct ReadMesh {
     pub bindings: Vec<Option<String>>,
     /// Its subdivision scheme, when not "none" (rendered as its control cage).
     pub subdivision: Option<String>,
-    /// It authors normals (rift shades each triangle by its own).
-    pub normals: bool,
 }
 
 impl Shape {
@@ -50,16 +49,15 @@ struct Topology {
     left_handed: bool,
 }
 
-/// Texture coordinates and how they are spread over the mesh.
-enum Uvs {
-    None,
-    /// One per point, face, face corner, or for the whole mesh; each looked up through
-    /// `indices` when the primvar is indexed.
-    Given {
-        values: Vec<Vec2>,
-        indices: Option<Vec<u32>>,
-        interpolation: Interpolation,
-    },
+/// A primvar (texture coordinates, normals) and how it is spread over the mesh: one value per
+/// point, face, face corner, or for the whole mesh, each looked up through `indices` when the
+/// primvar is indexed.
+struct Primvar<T> {
+    /// The attribute it was read from, for errors.
+    name: &'static str,
+    values: Vec<T>,
+    indices: Option<Vec<u32>>,
+    interpolation: Interpolation,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -77,14 +75,11 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
     let scheme = token(prim, "subdivisionScheme", code)
         .map_err(|e| source.read_error(path, e))?
         .unwrap_or_else(|| "catmullClark".into());
-    let authored = |name: &str| {
-        value(prim, name, code)
-            .map(|v| v.is_some())
-            .map_err(|e| source.read_error(path, e))
-    };
-    let normals = authored("normals")? || authored("primvars:normals")?;
     let (topology, bindings) = topology(prim, source, code)?;
-    let uvs = uvs(prim, source, code)?;
+    let primvars = Primvars {
+        uvs: uvs(prim, source, code)?,
+        normals: normals(prim, source, code, placement.bake)?,
+    };
     let times = point_times(prim, source).map_err(|e| source.read_error(path, e))?;
     check_memory(source, path, &topology, times.len())?;
     let mut samples = Vec::with_capacity(times.len());
@@ -98,7 +93,7 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
         let parts = parts(
             path,
             source,
-            (&topology, &uvs, bindings.len()),
+            (&topology, &primvars, bindings.len()),
             &points,
             velocities.as_deref(),
             placement.bake,
@@ -110,7 +105,6 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
         shape,
         bindings,
         subdivision: (scheme != "none").then_some(scheme),
-        normals,
     })
 }
 
@@ -305,56 +299,142 @@ fn subsets(
     Ok(())
 }
 
+/// The primvars a mesh's triangles carry to their corners.
+struct Primvars {
+    uvs: Option<Primvar<Vec2>>,
+    /// Unit length, in the space the mesh's points are placed in.
+    normals: Option<Primvar<Vec3>>,
+}
+
 /// The mesh's UVs: `primvars:st`, else Blender's `primvars:UVMap`.
-fn uvs(prim: &Prim, source: &Source, code: f64) -> Result<Uvs, RenderError> {
+fn uvs(prim: &Prim, source: &Source, code: f64) -> Result<Option<Primvar<Vec2>>, RenderError> {
     let path = prim.path().as_str();
     for name in ["primvars:st", "primvars:UVMap"] {
-        let attr = prim.attribute(name);
-        let value = attr
-            .get_at::<Value>(TimeCode::new(code))
-            .map_err(|e| source.read_error(path, e))?;
-        let Some(value) = value else { continue };
-        let Some(values) = vec2_array(&value) else {
-            return Err(source.error(
+        let Some((value, interpolation)) = primvar(prim, source, name, code, FACE_VARYING)? else {
+            continue;
+        };
+        let values = vec2_array(&value).ok_or_else(|| {
+            source.error(
                 path,
                 Some(name),
                 "expected texture coordinates (float2[])".into(),
-            ));
+            )
+        })?;
+        if let Some(i) = values.iter().position(|uv| !uv.is_finite()) {
+            let message = format!("texture coordinate {i} is not finite");
+            return Err(source.error(path, Some(name), message));
+        }
+        return Ok(Some(Primvar {
+            name,
+            values,
+            indices: indices(prim, source, name, code)?,
+            interpolation,
+        }));
+    }
+    Ok(None)
+}
+
+/// The mesh's normals for smooth shading: `primvars:normals` (which wins, as in USD), else
+/// `normals` (per point unless it says otherwise), carried through the linear part of
+/// `bake` as normals are (its inverse transpose) and made unit length.
+fn normals(
+    prim: &Prim,
+    source: &Source,
+    code: f64,
+    bake: DMat4,
+) -> Result<Option<Primvar<Vec3>>, RenderError> {
+    let path = prim.path().as_str();
+    let to_placed = glam::DMat3::from_mat4(bake).inverse().transpose();
+    for (name, default) in [
+        ("primvars:normals", Interpolation::Constant),
+        ("normals", Interpolation::Vertex),
+    ] {
+        let Some((value, interpolation)) = primvar(prim, source, name, code, default)? else {
+            continue;
         };
-        let interpolation = match attr
-            .get_metadata::<openusd::tf::Token>("interpolation")
-            .map_err(|e| source.read_error(path, e))?
-            .as_ref()
-            .map(|t| t.as_str())
-        {
-            Some("constant") => Interpolation::Constant,
-            Some("uniform") => Interpolation::Uniform,
-            Some("vertex") | Some("varying") => Interpolation::Vertex,
-            Some("faceVarying") | None => Interpolation::FaceVarying,
-            Some(other) => {
-                return Err(source.error(
+        let given = vec3_array(&value).ok_or_else(|| {
+            source.error(path, Some(name), "expected normals (normal3f[])".into())
+        })?;
+        let mut values = Vec::with_capacity(given.len());
+        for (i, n) in given.into_iter().enumerate() {
+            let placed = (to_placed * n.as_dvec3()).as_vec3();
+            let unit = crate::scene::mesh::unit_normal(placed).ok_or_else(|| {
+                source.error(
                     path,
                     Some(name),
-                    format!("interpolation {other:?} is not one rift reads"),
-                ));
-            }
-        };
-        let indices = int_array(prim, &format!("{name}:indices"), code)
-            .map_err(|e| source.read_error(path, e))?;
-        return Ok(Uvs::Given {
+                    format!("normal {i} is zero or not finite"),
+                )
+            })?;
+            values.push(unit);
+        }
+        return Ok(Some(Primvar {
+            name,
             values,
-            indices,
+            indices: indices(prim, source, name, code)?,
             interpolation,
-        });
+        }));
     }
-    Ok(Uvs::None)
+    Ok(None)
+}
+
+/// USD's default interpolation of texture coordinates as Blender and most tools write them.
+const FACE_VARYING: Interpolation = Interpolation::FaceVarying;
+
+/// The value of primvar `name` at `code` with its interpolation (`default` where it names
+/// none); `None` when it is not authored.
+fn primvar(
+    prim: &Prim,
+    source: &Source,
+    name: &str,
+    code: f64,
+    default: Interpolation,
+) -> Result<Option<(Value, Interpolation)>, RenderError> {
+    let path = prim.path().as_str();
+    let attr = prim.attribute(name);
+    let value = attr
+        .get_at::<Value>(TimeCode::new(code))
+        .map_err(|e| source.read_error(path, e))?;
+    let Some(value) = value else {
+        return Ok(None);
+    };
+    let interpolation = match attr
+        .get_metadata::<openusd::tf::Token>("interpolation")
+        .map_err(|e| source.read_error(path, e))?
+        .as_ref()
+        .map(|t| t.as_str())
+    {
+        None => default,
+        Some("constant") => Interpolation::Constant,
+        Some("uniform") => Interpolation::Uniform,
+        Some("vertex") | Some("varying") => Interpolation::Vertex,
+        Some("faceVarying") => Interpolation::FaceVarying,
+        Some(other) => {
+            return Err(source.error(
+                path,
+                Some(name),
+                format!("interpolation {other:?} is not one rift reads"),
+            ));
+        }
+    };
+    Ok(Some((value, interpolation)))
+}
+
+/// The `:indices` of primvar `name`, when it is indexed.
+fn indices(
+    prim: &Prim,
+    source: &Source,
+    name: &str,
+    code: f64,
+) -> Result<Option<Vec<u32>>, RenderError> {
+    int_array(prim, &format!("{name}:indices"), code)
+        .map_err(|e| source.read_error(prim.path().as_str(), e))
 }
 
 /// The triangles of each part, their points placed by `bake`.
 fn parts(
     path: &str,
     source: &Source,
-    (topology, uvs, count): (&Topology, &Uvs, usize),
+    (topology, primvars, count): (&Topology, &Primvars, usize),
     points: &[Vec3],
     velocities: Option<&[Vec3]>,
     bake: DMat4,
@@ -375,6 +455,7 @@ fn parts(
             triangles: Vec::new(),
             uvs: Vec::new(),
             velocities: Vec::new(),
+            normals: Vec::new(),
             material: None,
         })
         .collect();
@@ -393,9 +474,15 @@ fn parts(
             if let Some(moved) = &moved {
                 part.velocities.push(tri.map(|c| moved[vertex(c)]));
             }
-            if let Some(uv) = uv_corners(uvs, f, tri, vertex) {
-                part.uvs
-                    .push(uv.map_err(|m| source.error(path, Some("primvars:st"), m))?);
+            let error = |name, m| source.error(path, Some(name), m);
+            if let Some(uvs) = &primvars.uvs {
+                let corners = uvs.corners(f, tri, vertex);
+                part.uvs.push(corners.map_err(|m| error(uvs.name, m))?);
+            }
+            if let Some(normals) = &primvars.normals {
+                let corners = normals.corners(f, tri, vertex);
+                part.normals
+                    .push(corners.map_err(|m| error(normals.name, m))?);
             }
         }
     }
@@ -403,44 +490,37 @@ fn parts(
     Ok(out)
 }
 
-/// The UVs at a triangle's corners (`tri`: indices into the face-vertex list), or `None` when
-/// the mesh has none; an index past the values is an error.
-fn uv_corners(
-    uvs: &Uvs,
-    face: usize,
-    tri: [usize; 3],
-    vertex: impl Fn(usize) -> usize,
-) -> Option<Result<[Vec2; 3], String>> {
-    let Uvs::Given {
-        values,
-        indices,
-        interpolation,
-    } = uvs
-    else {
-        return None;
-    };
-    let element = |corner: usize| match interpolation {
-        Interpolation::Constant => 0,
-        Interpolation::Uniform => face,
-        Interpolation::Vertex => vertex(corner),
-        Interpolation::FaceVarying => corner,
-    };
-    let lookup = |corner: usize| -> Result<Vec2, String> {
-        let e = element(corner);
-        let i = match indices {
-            Some(ix) => *ix
-                .get(e)
-                .ok_or_else(|| format!("its indices have no entry {e}"))?
-                as usize,
-            None => e,
+impl<T: Copy> Primvar<T> {
+    /// Its values at a triangle's corners (`tri`: indices into the face-vertex list) of face
+    /// `face`; an index past the values is an error.
+    fn corners(
+        &self,
+        face: usize,
+        tri: [usize; 3],
+        vertex: impl Fn(usize) -> usize,
+    ) -> Result<[T; 3], String> {
+        let element = |corner: usize| match self.interpolation {
+            Interpolation::Constant => 0,
+            Interpolation::Uniform => face,
+            Interpolation::Vertex => vertex(corner),
+            Interpolation::FaceVarying => corner,
         };
-        values
-            .get(i)
-            .copied()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("entry {i} is missing or not finite"))
-    };
-    Some((|| Ok([lookup(tri[0])?, lookup(tri[1])?, lookup(tri[2])?]))())
+        let lookup = |corner: usize| -> Result<T, String> {
+            let e = element(corner);
+            let i = match &self.indices {
+                Some(ix) => *ix
+                    .get(e)
+                    .ok_or_else(|| format!("its indices have no entry {e}"))?
+                    as usize,
+                None => e,
+            };
+            self.values
+                .get(i)
+                .copied()
+                .ok_or_else(|| format!("entry {i} is missing"))
+        };
+        Ok([lookup(tri[0])?, lookup(tri[1])?, lookup(tri[2])?])
+    }
 }
 
 /// A `point3f[]` attribute at time `code`, each point finite.

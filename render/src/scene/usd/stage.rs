@@ -121,7 +121,6 @@ pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result
         out,
         materials: HashMap::new(),
         subdivided: Vec::new(),
-        with_normals: Vec::new(),
         shared: Default::default(),
     };
     let mut stack: Vec<Prim> = children(source, &root)?;
@@ -189,9 +188,8 @@ pub(super) struct Walk<'a> {
     /// Materials already made, by the USD material's path: their name among the scene's
     /// materials.
     materials: HashMap<String, String>,
-    /// Meshes that are subdivision surfaces, and meshes that author normals (said once).
+    /// Meshes that are subdivision surfaces (said once).
     subdivided: Vec<String>,
-    with_normals: Vec<String>,
     /// Prototype meshes already read, shared by their instances.
     pub shared: Shared,
 }
@@ -270,9 +268,6 @@ impl Walk<'_> {
         if read.subdivision.is_some() {
             self.subdivided.push(path.to_owned());
         }
-        if read.normals {
-            self.with_normals.push(path.to_owned());
-        }
         Ok(read.shape.with_materials(&part_materials))
     }
 
@@ -288,13 +283,6 @@ impl Walk<'_> {
                     "are subdivision surfaces"
                 ),
                 examples(&self.subdivided)
-            ));
-        }
-        if !self.with_normals.is_empty() {
-            self.out.warnings.push(format!(
-                "{layer}: {} ({}): rift shades each triangle by its own normal",
-                meshes(self.with_normals.len(), "authors normals", "author normals"),
-                examples(&self.with_normals)
             ));
         }
     }
