@@ -80,6 +80,21 @@ fn a_stage_renders_alike_in_every_encoding_and_as_its_shot_file() {
     // One scene in three encodings (the usdz packs its texture): the same image, bit for bit.
     assert_eq!(largest_difference(&p("usda.exr"), &p("usdc.exr")), 0.0);
     assert_eq!(largest_difference(&p("usda.exr"), &p("usdz.exr")), 0.0);
+    // The set as a sublayer of a root layer in another folder: its texture, authored relative
+    // to the set's layer, is found beside that layer.
+    std::fs::create_dir(p("stack")).unwrap();
+    std::fs::write(
+        p("stack/root.usda"),
+        "#usda 1.0\n(\n    defaultPrim = \"World\"\n    upAxis = \"Y\"\n    \
+         timeCodesPerSecond = 24\n    startTimeCode = 1\n    endTimeCode = 2\n    \
+         subLayers = [@../set.usda@]\n)\n",
+    )
+    .unwrap();
+    let shot = std::fs::read_to_string(p("set_usda.toml")).unwrap();
+    let stacked = shot.replace("file = \"set.usda\"", "file = \"stack/root.usda\"");
+    std::fs::write(p("set_stack.toml"), stacked).unwrap();
+    render(dir.path(), "set_stack.toml", "stack.exr");
+    assert_eq!(largest_difference(&p("usda.exr"), &p("stack.exr")), 0.0);
     // The same set as a shot file, OBJs and a PNG: walls from subsets, a box under a
     // non-uniformly scaled parent, a moving ball and a deforming mesh (frame 1 blurs both),
     // three lights and an emissive panel. The proxy and the invisible mesh, in view, are left

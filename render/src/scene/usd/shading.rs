@@ -10,7 +10,7 @@ use crate::error::RenderError;
 use openusd::schemas::shade::{Material, Shader};
 use openusd::sdf::{self, Value};
 use openusd::usd::{Prim, SchemaBase, Stage};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A material made from the stage: its scene name, its section and what it could not say.
 pub struct Made {
@@ -417,7 +417,7 @@ impl Surface<'_> {
     }
 }
 
-/// A UsdUVTexture's file (resolved against the layer's folder) and how it is read.
+/// A UsdUVTexture's file (resolved against the layer that authored it) and how it is read.
 struct Texture {
     path: String,
     /// Which of its outputs the input reads: "rgb", "r", "g", "b" or "a".
@@ -430,9 +430,15 @@ struct Texture {
 
 impl Texture {
     fn read(prim: &Prim, output: String, source: &Source) -> Result<Self, Problem> {
-        let file = match prim.attribute("inputs:file").get::<Value>()? {
-            Some(Value::AssetPath(a)) => a.authored_path,
-            Some(Value::String(s)) => s,
+        // The stage resolves an asset path against the layer that authored it (a sublayer or
+        // reference in another folder); a file it cannot find keeps the authored path, anchored
+        // to the root layer's folder below, whose error names it.
+        let (file, resolved) = match prim.attribute("inputs:file").get::<Value>()? {
+            Some(Value::AssetPath(a)) => {
+                let resolved = a.resolved_path().map(PathBuf::from);
+                (a.authored_path, resolved)
+            }
+            Some(Value::String(s)) => (s, None),
             _ => {
                 return Err(Problem::Refused(
                     "inputs:file".into(),
@@ -444,6 +450,8 @@ impl Texture {
         let path = if source.layer.extension().is_some_and(|e| e == "usdz") {
             // Packed beside the layer in its package, named as USD names packed files.
             format!("{}[{relative}]", source.layer.display()).into()
+        } else if let Some(resolved) = resolved {
+            resolved
         } else {
             let folder = source.layer.parent().unwrap_or(Path::new("."));
             folder.join(relative)
