@@ -51,3 +51,59 @@ pub fn with_usd_camera(mut shot: rift_fx::Shot, command: &str) -> anyhow::Result
     }
     Ok(shot)
 }
+
+/// `--denoise` and its quality, for `rift render` and `rift merge`.
+#[derive(clap::Args, Clone, Copy)]
+pub struct DenoiseArgs {
+    /// Denoise the finished frame with Intel Open Image Denoise (its ray-tracing filter, the
+    /// albedo and normal AOVs cleaned first and used as guides); the noisy beauty is kept as
+    /// the EXR layer `noisy`, and light groups and the through-openings layers still sum to
+    /// the beauty. Needs OIDN 2 (`python3 -m pip install pyoidn`, or RIFT_OIDN_LIBRARY).
+    #[arg(long)]
+    pub denoise: bool,
+    /// OIDN's quality: `high` for final frames, `balanced`, `fast` for previews.
+    #[arg(long, value_enum, default_value_t = DenoiseQuality::High)]
+    pub denoise_quality: DenoiseQuality,
+}
+
+/// `--denoise-quality`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum DenoiseQuality {
+    High,
+    Balanced,
+    Fast,
+}
+
+impl From<DenoiseQuality> for rift_render::platform::oidn::Quality {
+    fn from(q: DenoiseQuality) -> Self {
+        use rift_render::platform::oidn::Quality;
+        match q {
+            DenoiseQuality::High => Quality::High,
+            DenoiseQuality::Balanced => Quality::Balanced,
+            DenoiseQuality::Fast => Quality::Fast,
+        }
+    }
+}
+
+/// Refuses to start work that would end in denoising where Open Image Denoise cannot be
+/// loaded: before anything is rendered or written.
+pub fn ensure_denoiser() -> anyhow::Result<()> {
+    rift_render::platform::oidn::ensure_loaded().map_err(|e| anyhow::anyhow!("--denoise: {e}"))
+}
+
+/// Denoises `image` at `quality` on `threads` threads (all by default), saying how long it
+/// took under `label`.
+pub fn denoise_frame(
+    image: &mut rift_render::frame::Image,
+    quality: DenoiseQuality,
+    threads: Option<usize>,
+    label: &str,
+) -> anyhow::Result<()> {
+    let done = rift_render::frame::denoise::denoise(image, quality.into(), threads.unwrap_or(0))
+        .map_err(|e| anyhow::anyhow!("{label}: denoising: {e}"))?;
+    eprintln!(
+        "{label}: denoised in {:.2} s ({} filter runs)",
+        done.seconds, done.runs
+    );
+    Ok(())
+}

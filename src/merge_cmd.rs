@@ -36,6 +36,9 @@ pub struct MergeArgs {
     /// available); parts that need more are refused before their pixels are read.
     #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
     max_memory: Option<u64>,
+    /// Denoise the merged frame (parts never are).
+    #[command(flatten)]
+    denoise: crate::cli::DenoiseArgs,
 }
 
 /// One part, read and checked.
@@ -79,10 +82,14 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
                 parts: args.parts.iter().map(numbered).collect(),
                 frame: None,
                 max_memory: args.max_memory,
+                denoise: args.denoise,
             }
         }
         None => args,
     };
+    if args.denoise.denoise {
+        crate::cli::ensure_denoiser()?;
+    }
     ensure_parts_fit(&args.parts, args.max_memory)?;
     let parts = args
         .parts
@@ -91,7 +98,11 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     check_compatible(&parts)?;
     let (window, total) = check_coverage(&parts)?;
-    let image = merge(&parts, window, total);
+    let mut image = merge(&parts, window, total);
+    if args.denoise.denoise {
+        let quality = args.denoise.denoise_quality;
+        crate::cli::denoise_frame(&mut image, quality, None, "rift merge")?;
+    }
     image
         .write_exr(&args.output)
         .with_context(|| format!("writing {}", args.output.display()))?;
@@ -441,6 +452,7 @@ impl Accumulator {
                 })
                 .collect(),
             cryptomatte: None,
+            noisy: None,
             spp: self.count.iter().map(|&c| c as u32).collect(),
             discarded: parts
                 .iter()

@@ -110,6 +110,8 @@ pub struct RenderArgs {
     /// rendered, named by `%v` in the output (or `.left` / `.right` before the frame number).
     #[arg(long, value_enum)]
     eye: Option<EyeArg>,
+    #[command(flatten)]
+    denoise: crate::cli::DenoiseArgs,
 }
 
 /// `--light-selection`.
@@ -154,6 +156,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let frames = frames(&args, &shot)?;
     let samples = sample_range(&args)?;
+    if args.denoise.denoise {
+        crate::cli::ensure_denoiser()?;
+    }
     let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
     let crop = match &args.crop {
         Some(text) => {
@@ -226,6 +231,13 @@ fn sample_range(args: &RenderArgs) -> anyhow::Result<Option<[u32; 2]>> {
         bail!(
             "--samples: a sample range is a fixed share of a render; --target-error and \
              --time-limit choose sample counts as they go, so they cannot split one"
+        );
+    }
+    if args.denoise.denoise && samples.is_some() {
+        bail!(
+            "--denoise: a sample range is a part of a frame for rift merge, and parts are never \
+             denoised (a denoiser does not add up); denoise the merged frame with `rift merge \
+             --denoise`"
         );
     }
     if args.cryptomatte && (samples.is_some() || args.checkpoint.is_some() || args.resume) {
@@ -447,6 +459,7 @@ fn render_one(
         Some(eye) => format!("frame {frame} {}", eye.name()),
         None => format!("frame {frame}"),
     };
+    let denoise = denoises(args, scene, &label)?;
     let checkpoint_file = crate::resume::checkpoint_path(path);
     let resumed = match (run.resume, &run.key) {
         (true, Some(key)) => load_checkpoint(&checkpoint_file, key, window)?,
@@ -499,6 +512,10 @@ fn render_one(
     let mut image = rendered.image;
     image.metadata.shot_id = part.shot_id;
     let seconds = started.elapsed().as_secs_f64();
+    if denoise {
+        let quality = args.denoise.denoise_quality;
+        crate::cli::denoise_frame(&mut image, quality, args.threads, &label)?;
+    }
     image.write_exr(path)?;
     if args.png {
         image.write_png(&path.with_extension("png"))?;
@@ -508,6 +525,24 @@ fn render_one(
     }
     report(&image, &label, spp, seconds, path);
     Ok(())
+}
+
+/// Whether the frame is denoised: `--denoise` or `[render] denoise`, except in a sample-range
+/// part (the shot's setting is then left to `rift merge --denoise`, and said).
+/// Checked before the frame is rendered, so a missing denoiser costs no render.
+fn denoises(args: &RenderArgs, scene: &Scene, label: &str) -> anyhow::Result<bool> {
+    if !(args.denoise.denoise || scene.settings.denoise) {
+        return Ok(false);
+    }
+    if args.samples.is_some() {
+        eprintln!(
+            "{label}: not denoised: a sample-range part never is (`rift merge --denoise` \
+             denoises the merged frame)"
+        );
+        return Ok(false);
+    }
+    crate::cli::ensure_denoiser()?;
+    Ok(true)
 }
 
 /// The error of a render a signal stopped: where its state was saved, or why it was not.

@@ -12,6 +12,7 @@ mod cli_fx;
 mod cli_render;
 mod cornell;
 mod cryptomatte;
+mod denoise;
 mod docs;
 mod farm;
 mod fuzz_corpora;

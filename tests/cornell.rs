@@ -10,7 +10,7 @@ use rift_render::frame::film::{channel_mean, relative_mse};
 use rift_render::texture::read_exr_rgb;
 use std::path::PathBuf;
 
-fn reference() -> PathBuf {
+pub(crate) fn reference() -> PathBuf {
     let path = root().join("../shared/reference/cornell/reference.exr");
     assert!(
         path.is_file(),

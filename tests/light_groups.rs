@@ -43,7 +43,7 @@ fn group(t: &mut toml::Table, section: &str, name: &str, inner: &[&str], group: 
 }
 
 /// The lit-through room with its two lamps and the door's ring in groups of their own.
-fn lit_through(dir: &Path) -> PathBuf {
+pub(crate) fn lit_through(dir: &Path) -> PathBuf {
     shot_with(dir, "lit_through", |t| {
         group(t, "object", "lamp", &[], "lamp");
         group(t, "object", "blue_lamp", &[], "blue");
@@ -51,7 +51,7 @@ fn lit_through(dir: &Path) -> PathBuf {
     })
 }
 
-fn render(dir: &Path, shot: &Path, out: &str, extra: &[&str]) {
+pub(crate) fn render(dir: &Path, shot: &Path, out: &str, extra: &[&str]) {
     let mut args = vec![
         "render",
         shot.to_str().unwrap(),
@@ -68,7 +68,7 @@ fn render(dir: &Path, shot: &Path, out: &str, extra: &[&str]) {
 
 /// Checks that the image's light-group layers are `expect` and sum to its beauty pixel by
 /// pixel; returns each group's mean.
-fn assert_groups_sum_to_beauty(path: &Path, expect: &[&str]) -> Vec<(String, f64)> {
+pub(crate) fn assert_groups_sum_to_beauty(path: &Path, expect: &[&str]) -> Vec<(String, f64)> {
     let layer = read_exr_layer(path).unwrap();
     let c = &layer.channels;
     let mut names: Vec<&str> = c

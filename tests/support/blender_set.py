@@ -49,6 +49,8 @@ floor = bpy.context.object
 floor.data.materials.append(material("Floor", texture=img))
 bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(-0.8, 0, 0.5))
 bpy.context.object.data.materials.append(material("Gold", (1.0, 0.78, 0.34), 1.0, 0.3))
+# Shaded smooth, as a modeller leaves a sphere: the exporter writes its normals per corner.
+bpy.ops.object.shade_smooth()
 bpy.ops.mesh.primitive_cube_add(size=0.8, location=(0.8, 0.3, 0.4))
 bpy.context.object.data.materials.append(material("Clay", (0.5, 0.45, 0.4), 0.0, 0.8))
 # Pebbles: one collection (a flattened sphere), instanced 300 times over the floor's front half.

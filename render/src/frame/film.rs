@@ -106,6 +106,8 @@ pub const BACKGROUND_DEPTH: f32 = 1e10;
 /// beauty, so a compositor can rebalance light spilling through a window or door.
 pub const THROUGH_LAYER: &str = "throughOpenings";
 pub const LOCAL_LAYER: &str = "notThroughOpenings";
+/// The layer of a denoised frame's beauty as rendered.
+pub const NOISY_LAYER: &str = "noisy";
 
 /// EXR layers of light groups are named this followed by the group's name.
 pub const LIGHT_GROUP_PREFIX: &str = "lightgroup.";
@@ -150,6 +152,9 @@ pub struct Image {
     /// Object IDs ranked by coverage per pixel, when asked for: written as `CryptoObject00…`
     /// layers with the Cryptomatte header.
     pub cryptomatte: Option<crate::frame::cryptomatte::Cryptomatte>,
+    /// The beauty as rendered, when `rgb` has been denoised ([`crate::frame::denoise`]):
+    /// written as `noisy.R/G/B`.
+    pub noisy: Option<Vec<Vec3>>,
     /// Samples that count in each pixel's mean (adaptive sampling and time limits make them
     /// differ; non-finite samples are dropped and not counted).
     pub spp: Vec<u32>,
@@ -238,6 +243,11 @@ impl Image {
         if let Some(crypto) = &self.cryptomatte {
             for (name, values) in crypto.channels() {
                 channels.push(channel(&name, values));
+            }
+        }
+        if let Some(noisy) = &self.noisy {
+            for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
+                channels.push(channel(&format!("{NOISY_LAYER}.{suffix}"), split(noisy, k)));
             }
         }
         if let Some(through) = &self.through {

@@ -1,8 +1,9 @@
 //! A frame: render passes over tiles of pixels, the film they fill and write, checkpoints of
-//! their running sums, and Cryptomatte object IDs.
+//! their running sums, Cryptomatte object IDs, and denoising the finished frame.
 
 pub mod checkpoint;
 pub mod cryptomatte;
+pub mod denoise;
 pub mod film;
 pub mod passes;
 pub mod reveal;

@@ -606,6 +606,7 @@ fn finish(
             .iter()
             .map(|p| (p.portal_depth as f64 / kept(p)) as f32)
             .collect(),
+        noisy: None,
         light_groups: light_group_means(scene, sums, first),
         cryptomatte: (!sums.ids.is_empty()).then(|| Cryptomatte {
             names: scene.id_names.clone(),

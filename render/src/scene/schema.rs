@@ -16,6 +16,8 @@
 //!                               # an opening met past the limit ends the path (black)
 //! light_through_openings = true # light sampling also looks through openings (false: only BSDF
 //!                               # sampling finds light through them; for A/B and as an escape)
+//! denoise = false               # denoise finished frames with Open Image Denoise (the noisy
+//!                               # beauty kept as the layer noisy.R/G/B); as `--denoise`
 //! output = "out/shot.####.exr"  # frame number replaces the #s; relative to the working directory
 //! rings = "cache/shot.####.ringcache"  # ring caches written by `rift fx` (relative to the shot
 //!                               # file), or its point clouds: "cache/shot.%o.####.ply" (%o: the
@@ -235,6 +237,7 @@ pub struct RenderSection {
     pub indirect_samples: Option<i64>,
     pub max_portal_depth: Option<i64>,
     pub light_through_openings: Option<bool>,
+    pub denoise: Option<bool>,
     pub output: Option<String>,
     pub rings: Option<String>,
 }

@@ -22,6 +22,8 @@ pub struct Settings {
     pub max_portal_depth: u32,
     /// Light sampling also looks through openings (see [`crate::through::strategies`]).
     pub light_through_openings: bool,
+    /// Denoise finished frames (`rift render --denoise` asks the same).
+    pub denoise: bool,
     /// Output path pattern; `#`s become the frame number.
     pub output: String,
     /// `[render] rings`: where the shot's rings come from (`None`: generated in memory).
@@ -68,6 +70,7 @@ impl Settings {
             )
             .map_err(invalid)?,
             light_through_openings: render.light_through_openings.unwrap_or(true),
+            denoise: render.denoise.unwrap_or(false),
             output: render
                 .output
                 .unwrap_or_else(|| format!("out/{}.####.exr", shot.name)),

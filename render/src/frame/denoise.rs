@@ -1,0 +1,136 @@
+//! Denoising a finished frame with Open Image Denoise ([`crate::platform::oidn`]), keeping it
+//! a compositor's frame: the noisy beauty stays as its own layer (`noisy.R/G/B`, as Cycles
+//! keeps "Noisy Image"), and every part of the beauty that is written as a layer (each light
+//! group, the light through openings and the rest) is denoised with the same auxiliary images
+//! and then rescaled, pixel by pixel and channel by channel, so the parts still sum to the
+//! denoised beauty.
+
+use crate::frame::film::Image;
+use crate::platform::oidn::{Device, Images, Quality, Settings};
+use glam::Vec3;
+
+/// What denoising took, for the report.
+pub struct Denoised {
+    pub seconds: f64,
+    /// Filter runs: the two auxiliary images, the beauty and each layer.
+    pub runs: usize,
+}
+
+/// Denoises `image` in place at `quality` on `threads` threads (0: all): the albedo and normal
+/// are cleaned first (OIDN's advice for auxiliaries that carry noise: depth of field, motion
+/// blur, glossy first hits), then the beauty and each layer are filtered with them.
+pub fn denoise(image: &mut Image, quality: Quality, threads: usize) -> Result<Denoised, String> {
+    let started = std::time::Instant::now();
+    let device = Device::new(threads)?;
+    let size = (image.window.width(), image.window.height());
+    let albedo = cleaned(&device, "albedo", &image.albedo, size, quality)?;
+    let normal = cleaned(&device, "normal", &image.normal, size, quality)?;
+    let filter = |pixels: &mut [Vec3]| {
+        let images = Images {
+            color: pixels,
+            albedo: Some(&albedo),
+            normal: Some(&normal),
+            size,
+        };
+        let settings = Settings {
+            hdr: true,
+            clean_aux: true,
+            quality,
+        };
+        device.filter(images, settings)
+    };
+    let noisy = image.rgb.clone();
+    filter(&mut image.rgb)?;
+    for v in &mut image.rgb {
+        *v = v.max(Vec3::ZERO);
+    }
+    let mut runs = 3;
+    if !image.light_groups.is_empty() {
+        let mut parts: Vec<Vec<Vec3>> = image.light_groups.iter().map(|(_, g)| g.clone()).collect();
+        for part in &mut parts {
+            filter(part)?;
+        }
+        runs += parts.len();
+        rescale(&mut parts, &image.rgb);
+        for ((_, group), part) in image.light_groups.iter_mut().zip(parts) {
+            *group = part;
+        }
+    }
+    if let Some(through) = &mut image.through {
+        let local: Vec<Vec3> = noisy
+            .iter()
+            .zip(through.iter())
+            .map(|(c, t)| c - t)
+            .collect();
+        let mut parts = vec![std::mem::take(through), local];
+        for part in &mut parts {
+            filter(part)?;
+        }
+        runs += 2;
+        rescale(&mut parts, &image.rgb);
+        *through = parts.swap_remove(0);
+    }
+    image.noisy = Some(noisy);
+    Ok(Denoised {
+        seconds: started.elapsed().as_secs_f64(),
+        runs,
+    })
+}
+
+/// A copy of the auxiliary image `name` ("albedo" or "normal") with its noise filtered out.
+fn cleaned(
+    device: &Device,
+    name: &str,
+    image: &[Vec3],
+    size: (usize, usize),
+    quality: Quality,
+) -> Result<Vec<Vec3>, String> {
+    let mut out = image.to_vec();
+    device.prefilter(name, &mut out, size, quality)?;
+    Ok(out)
+}
+
+/// Scales `parts` (each denoised on its own, so they no longer add up) so that at every pixel
+/// and channel they sum to `total`: each part keeps its share of their sum (negative values,
+/// which filters can leave, count as zero). Where they sum to nothing but the total is
+/// positive, the first part takes it all.
+fn rescale(parts: &mut [Vec<Vec3>], total: &[Vec3]) {
+    for (i, &t) in total.iter().enumerate() {
+        for k in 0..3 {
+            let sum: f32 = parts.iter().map(|p| p[i][k].max(0.0)).sum();
+            for (j, part) in parts.iter_mut().enumerate() {
+                let v = part[i][k].max(0.0);
+                part[i][k] = match sum > 0.0 {
+                    true => v / sum * t[k],
+                    false if j == 0 => t[k],
+                    false => 0.0,
+                };
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rescaled_parts_sum_to_the_total_and_keep_their_shares() {
+        let total = vec![Vec3::new(2.0, 0.0, 1.0), Vec3::new(3.0, 4.0, 0.0)];
+        let mut parts = vec![
+            vec![Vec3::new(1.0, 0.5, 0.0), Vec3::new(-1.0, 1.0, 2.0)],
+            vec![Vec3::new(3.0, 0.5, 0.0), Vec3::new(2.0, 3.0, 2.0)],
+        ];
+        rescale(&mut parts, &total);
+        for (i, t) in total.iter().enumerate() {
+            let sum = parts[0][i] + parts[1][i];
+            assert!(sum.abs_diff_eq(*t, 1e-6), "pixel {i}: {sum} against {t}");
+        }
+        // Shares kept: 1 of 4, and the negative value counted as nothing.
+        assert_eq!(parts[0][0].x, 0.5);
+        assert_eq!(parts[0][1].x, 0.0);
+        // Parts that sum to nothing: the first takes a positive total.
+        assert_eq!(parts[0][0].z, 1.0);
+        assert_eq!(parts[1][0].z, 0.0);
+    }
+}
