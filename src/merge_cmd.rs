@@ -2,7 +2,8 @@
 //! `--crop`, or both) back into the image one render would have made.
 //!
 //! Each part's pixels are means over the samples that counted (its `spp` channel). Radiance-like
-//! channels (beauty, through-openings light, alpha, portal depth) merge as means weighted by
+//! channels (beauty, through-openings light, directly seen emission, alpha, portal depth) merge
+//! as means weighted by
 //! those counts; first-hit AOVs (albedo, normal, depth) are means over the samples that hit,
 //! so they are weighted by count × alpha. The not-through-openings layer is written again as
 //! beauty − through. Light-group layers (`lightgroup.<name>`) merge like the beauty, and every
@@ -57,10 +58,13 @@ const SHARED: [(&str, &str); 3] = [
 ];
 
 /// Channels every part must hold.
-const REQUIRED: [&str; 13] = [
+const REQUIRED: [&str; 16] = [
     "R",
     "G",
     "B",
+    "emission.R",
+    "emission.G",
+    "emission.B",
     "A",
     "Z",
     "spp",
@@ -328,7 +332,7 @@ fn merge(parts: &[Part], window: Window, total: u32) -> Image {
                 c[&format!("{prefix}B")].as_slice(),
             ]
         };
-        let (beauty, albedo) = (rgb(""), rgb("albedo."));
+        let (beauty, albedo, emitted) = (rgb(""), rgb("albedo."), rgb("emission."));
         let light = through.then(|| rgb(&format!("{THROUGH_LAYER}.")));
         let group_layers: Vec<_> = groups
             .iter()
@@ -348,6 +352,7 @@ fn merge(parts: &[Part], window: Window, total: u32) -> Image {
                 acc.count[o] += count;
                 acc.hits[o] += hits;
                 acc.rgb[o] += at(beauty, i) * count;
+                acc.emitted[o] += at(emitted, i) * count;
                 if let Some(light) = light {
                     acc.through[o] += at(light, i) * count;
                 }
@@ -371,6 +376,7 @@ struct Accumulator {
     count: Vec<f64>,
     hits: Vec<f64>,
     rgb: Vec<glam::DVec3>,
+    emitted: Vec<glam::DVec3>,
     through: Vec<glam::DVec3>,
     portal_depth: Vec<f64>,
     albedo: Vec<glam::DVec3>,
@@ -386,6 +392,7 @@ impl Accumulator {
             count: vec![0.0; n],
             hits: vec![0.0; n],
             rgb: vec![glam::DVec3::ZERO; n],
+            emitted: vec![glam::DVec3::ZERO; n],
             through: vec![glam::DVec3::ZERO; n],
             portal_depth: vec![0.0; n],
             albedo: vec![glam::DVec3::ZERO; n],
@@ -414,6 +421,9 @@ impl Accumulator {
             window,
             rgb: (0..n)
                 .map(|i| (self.rgb[i] / per_sample(i)).as_vec3())
+                .collect(),
+            emitted: (0..n)
+                .map(|i| (self.emitted[i] / per_sample(i)).as_vec3())
                 .collect(),
             through: through.then(|| {
                 (0..n)

@@ -1,6 +1,7 @@
 //! Denoising (`--denoise`: Open Image Denoise, loaded from the pyoidn package tests/setup.sh
 //! installs in tests/.venv): the denoised frame is closer to a converged one than the noisy
-//! frame it came from, which is kept as the `noisy` layer; light groups and the
+//! frame it came from, which is kept as the `noisy` layer, and the emission the camera sees
+//! directly is left as rendered; light groups and the
 //! through-openings layers still sum to the denoised beauty; a split render merged and
 //! denoised equals the single render denoised; and what cannot work is refused before anything
 //! is rendered or written.
@@ -83,7 +84,7 @@ fn a_denoised_cornell_box_is_closer_to_the_reference_and_keeps_the_noisy_frame()
     let shot = root().join("examples/cornell.toml");
     let shot = shot.to_str().unwrap();
     for (out, extra) in [("noisy.exr", None), ("denoised.exr", Some("--denoise"))] {
-        let mut args = vec!["render", shot, "-o", out, "--spp", "4"];
+        let mut args = vec!["render", shot, "-o", out, "--spp", "16"];
         args.extend(extra);
         let r = rift_with(d, &oidn_library(), &args);
         assert!(r.status.success(), "{}", stderr(&r));

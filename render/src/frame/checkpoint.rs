@@ -236,6 +236,7 @@ impl Checkpoint {
         for (k, c) in RGB.iter().enumerate() {
             wide(&format!("sum{c}"), &|px| px.sum[k]);
             wide(&format!("through{c}"), &|px| px.through[k]);
+            wide(&format!("emitted{c}"), &|px| px.emitted[k]);
         }
         wide("lumSq", &|px| px.lum_sq);
         wide("depth", &|px| px.depth);
@@ -297,6 +298,7 @@ impl<'a> StateChannels<'a> {
         for c in RGB {
             state.wide(&format!("sum{c}"))?;
             state.wide(&format!("through{c}"))?;
+            state.wide(&format!("emitted{c}"))?;
             state.floats(&format!("state.albedo{c}"))?;
             state.floats(&format!("state.normal{c}"))?;
         }
@@ -372,9 +374,10 @@ impl<'a> StateChannels<'a> {
             let [r, g, b] = RGB.map(|c| floats(&format!("state.{prefix}{c}")));
             move |i: usize| Vec3::new(r[i], g[i], b[i])
         };
-        let (sum, through, albedo, normal) = (
+        let (sum, through, emitted, albedo, normal) = (
             dvec3("sum"),
             dvec3("through"),
+            dvec3("emitted"),
             vec3("albedo"),
             vec3("normal"),
         );
@@ -385,6 +388,7 @@ impl<'a> StateChannels<'a> {
             .map(|i| Pixel {
                 sum: sum(i),
                 through: through(i),
+                emitted: emitted(i),
                 lum_sq: lum_sq[i],
                 hits: hits[i],
                 albedo: albedo(i),

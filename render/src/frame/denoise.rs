@@ -1,5 +1,5 @@
 //! Denoising a finished frame with Open Image Denoise ([`crate::platform::oidn`]), keeping it
-//! a compositor's frame: the noisy beauty stays as its own layer (`noisy.R/G/B`, as Cycles
+//! a compositor's frame: the emission the camera sees directly is kept out of the filter, the noisy beauty stays as its own layer (`noisy.R/G/B`, as Cycles
 //! keeps "Noisy Image"), and every part of the beauty that is written as a layer (each light
 //! group, the light through openings and the rest) is denoised with the same auxiliary images
 //! and then rescaled, pixel by pixel and channel by channel, so the parts still sum to the
@@ -39,10 +39,16 @@ pub fn denoise(image: &mut Image, quality: Quality, threads: usize) -> Result<De
         };
         device.filter(images, settings)
     };
+    // What the camera sees emitted directly (a lamp, a ring a pixel wide) is left out of the
+    // filter and added back: to the filter a thin bright emitter is a firefly, which it would
+    // spread over the dark pixels beside it.
     let noisy = image.rgb.clone();
+    for (v, e) in image.rgb.iter_mut().zip(&image.emitted) {
+        *v = (*v - *e).max(Vec3::ZERO);
+    }
     filter(&mut image.rgb)?;
-    for v in &mut image.rgb {
-        *v = v.max(Vec3::ZERO);
+    for (v, e) in image.rgb.iter_mut().zip(&image.emitted) {
+        *v = v.max(Vec3::ZERO) + *e;
     }
     let mut runs = 3;
     if !image.light_groups.is_empty() {

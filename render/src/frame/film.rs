@@ -106,6 +106,8 @@ pub const BACKGROUND_DEPTH: f32 = 1e10;
 /// beauty, so a compositor can rebalance light spilling through a window or door.
 pub const THROUGH_LAYER: &str = "throughOpenings";
 pub const LOCAL_LAYER: &str = "notThroughOpenings";
+/// The layer of the emission the camera sees directly.
+pub const EMISSION_LAYER: &str = "emission";
 /// The layer of a denoised frame's beauty as rendered.
 pub const NOISY_LAYER: &str = "noisy";
 
@@ -152,6 +154,9 @@ pub struct Image {
     /// Object IDs ranked by coverage per pixel, when asked for: written as `CryptoObject00…`
     /// layers with the Cryptomatte header.
     pub cryptomatte: Option<crate::frame::cryptomatte::Cryptomatte>,
+    /// The part of `rgb` the camera saw emitted directly (lamps, rings, the sky, through
+    /// openings too): written as `emission.R/G/B`, and left out of denoising.
+    pub emitted: Vec<Vec3>,
     /// The beauty as rendered, when `rgb` has been denoised ([`crate::frame::denoise`]):
     /// written as `noisy.R/G/B`.
     pub noisy: Option<Vec<Vec3>>,
@@ -244,6 +249,10 @@ impl Image {
             for (name, values) in crypto.channels() {
                 channels.push(channel(&name, values));
             }
+        }
+        for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
+            let values = split(&self.emitted, k);
+            channels.push(channel(&format!("{EMISSION_LAYER}.{suffix}"), values));
         }
         if let Some(noisy) = &self.noisy {
             for (k, suffix) in ["R", "G", "B"].iter().enumerate() {

@@ -25,10 +25,10 @@ const TILE: usize = 16;
 
 /// Bytes the film of a frame of `pixels` pixels takes at its peak: the per-pixel sums (held in
 /// tiles while sampling, then once more in rows), the finished image with its AOVs, and the
-/// EXR writer's channels (about 23 floats a pixel, which the encoder copies once more).
+/// EXR writer's channels (about 26 floats a pixel, which the encoder copies once more).
 pub fn film_bytes(pixels: usize) -> u64 {
-    const EXR_CHANNEL_BYTES: usize = 2 * 23 * std::mem::size_of::<f32>();
-    let image = 4 * std::mem::size_of::<Vec3>() + 4 * std::mem::size_of::<f32>();
+    const EXR_CHANNEL_BYTES: usize = 2 * 26 * std::mem::size_of::<f32>();
+    let image = 5 * std::mem::size_of::<Vec3>() + 4 * std::mem::size_of::<f32>();
     let per_pixel = 2 * std::mem::size_of::<Pixel>() + image + EXR_CHANNEL_BYTES;
     (pixels as u64).saturating_mul(per_pixel as u64)
 }
@@ -125,6 +125,8 @@ pub struct Pixel {
     pub(crate) sum: DVec3,
     /// The part of `sum` that arrived through openings.
     pub(crate) through: DVec3,
+    /// The part of `sum` the camera saw emitted directly.
+    pub(crate) emitted: DVec3,
     /// Sum of squared luminance, for the error estimate.
     pub(crate) lum_sq: f64,
     pub(crate) hits: u32,
@@ -527,6 +529,7 @@ impl<'a> FrameSampler<'a> {
             let c = sample.radiance.as_dvec3();
             px.sum += c;
             px.through += sample.through.as_dvec3();
+            px.emitted += sample.direct_emission().as_dvec3();
             px.lum_sq += luminance_f64(c) * luminance_f64(c);
             px.portal_depth += sample.portal_depth;
             for (sum, light) in groups.iter_mut().zip(&sample.groups) {
@@ -580,6 +583,10 @@ fn finish(
         height: h,
         window,
         rgb: pixels.iter().map(|p| (p.sum / kept(p)).as_vec3()).collect(),
+        emitted: pixels
+            .iter()
+            .map(|p| (p.emitted / kept(p)).as_vec3())
+            .collect(),
         through: (!scene.portals.is_empty()).then(|| {
             pixels
                 .iter()

@@ -150,6 +150,17 @@ pub struct PathSample {
     pub first: Option<FirstHit>,
     /// Teleports before the camera path's first scattering event.
     pub portal_depth: u32,
+    /// `radiance` as it stood when the camera path first scattered: the emission the camera
+    /// sees directly (lamps, rings, the sky, through openings too). `None` until it scatters,
+    /// so all of `radiance` when it never does ([`Self::direct_emission`]).
+    pub emitted: Option<Vec3>,
+}
+
+impl PathSample {
+    /// The emission the camera sees directly, which a denoiser must leave as it is.
+    pub fn direct_emission(&self) -> Vec3 {
+        self.emitted.unwrap_or(self.radiance)
+    }
 }
 
 /// The surface a camera ray hit (through any openings on the way).
