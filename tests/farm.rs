@@ -186,7 +186,18 @@ fn the_slurm_script_is_valid_shell_with_chained_arrays() {
         "'--resume'",
     ] {
         assert!(script.contains(expect), "no {expect:?} in:\n{script}");
-    }
+    } // Denoising goes into the merge step alone: parts are never denoised.
+    let mut args = job_args("slurm", shot.to_str().unwrap(), "denoised.sh");
+    args.push("--denoise");
+    let made = rift(d, &args);
+    assert!(made.status.success(), "{}", stderr(&made));
+    let script = std::fs::read_to_string(d.join("denoised.sh")).unwrap();
+    let denoising: Vec<&str> = script
+        .lines()
+        .filter(|l| l.contains("'--denoise'"))
+        .collect();
+    assert_eq!(denoising.len(), 1, "{script}");
+    assert!(denoising[0].contains("'merge'"), "{script}");
 }
 
 /// A single-node Slurm cluster of the test's own, shut down when dropped.

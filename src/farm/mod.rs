@@ -54,6 +54,11 @@ pub struct FarmArgs {
     /// Seconds between a render task's checkpoints (a retried task resumes from its last).
     #[arg(long, default_value_t = 60, value_name = "S")]
     checkpoint: u32,
+    /// Denoise each finished frame in its merge step (as `[render] denoise = true` asks too);
+    /// the render tasks' sample-range parts never are. The merge machines need Open Image
+    /// Denoise (see `rift render --denoise`).
+    #[arg(long)]
+    denoise: bool,
     /// The rift program the farm runs (default: this one).
     #[arg(long, value_name = "PATH")]
     rift: Option<PathBuf>,
@@ -137,6 +142,8 @@ pub struct Plan {
     /// Whether a `rift fx` step bakes the rings into caches first.
     bake_rings: bool,
     checkpoint: u32,
+    /// Whether the merge step denoises.
+    denoise: bool,
 }
 
 /// A value in a task's command line: text, or something the job system fills in.
@@ -208,6 +215,7 @@ impl Plan {
             res,
             bake_rings: shot.rings.iter().any(Option::is_some) && settings.rings.is_none(),
             checkpoint: args.checkpoint,
+            denoise: args.denoise || settings.denoise,
         })
     }
 
@@ -273,6 +281,9 @@ impl Plan {
         ];
         for chunk in &self.chunks {
             args.push(self.part(Piece::Text(chunk.clone())));
+        }
+        if self.denoise {
+            args.push(text("--denoise"));
         }
         args
     }

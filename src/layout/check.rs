@@ -3,6 +3,7 @@
 //! again with more samples for a progressively cleaner image, so the artist sees the preview
 //! and the final render agree.
 
+use rift_render::platform::oidn::Quality;
 use rift_render::Scene;
 use rift_render::frame::passes::RenderOptions;
 use rift_render::prepare::Prepared;
@@ -90,7 +91,8 @@ struct View {
     pose: Option<([f64; 3], [f64; 3])>,
 }
 
-/// Renders the request as an sRGB PNG, reusing `built` when it is the same view.
+/// Renders the request as an sRGB PNG, reusing `built` when it is the same view, denoised
+/// (at OIDN's fast quality, a preview's) where Open Image Denoise can be loaded.
 pub fn render(
     shot: &Shot,
     request: &Request,
@@ -111,7 +113,10 @@ pub fn render(
         });
     }
     let prepared = &built.as_ref().expect("built just above").prepared;
-    let image = rift_render::frame::render(prepared, &RenderOptions::new(request.spp));
+    let mut image = rift_render::frame::render(prepared, &RenderOptions::new(request.spp));
+    if rift_render::platform::oidn::ensure_loaded().is_ok() {
+        rift_render::frame::denoise::denoise(&mut image, Quality::Fast, 0)?;
+    }
     rift_render::frame::film::encode_srgb_png(image.width, image.height, &image.rgb)
 }
 
