@@ -9,6 +9,7 @@ mod analytic;
 mod branches;
 mod deforming;
 mod grid_media;
+mod guides;
 mod light_guide;
 mod lights;
 mod media;

@@ -3,9 +3,9 @@
 //! again with more samples for a progressively cleaner image, so the artist sees the preview
 //! and the final render agree.
 
-use rift_render::platform::oidn::Quality;
 use rift_render::Scene;
 use rift_render::frame::passes::RenderOptions;
+use rift_render::platform::oidn::Quality;
 use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use rift_render::rift_fx::rig::AnimatedTransform;

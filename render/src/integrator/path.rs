@@ -83,6 +83,10 @@ struct PathState {
     /// mesh's smooth normal, bent by its normal map, for [`scatter_at`]'s shading frame;
     /// `None` for a flat surface without a map.
     mapped_normal: Option<Vec3>,
+    /// The camera path has met only mirror-like surfaces (smooth glass, mirrors) since the
+    /// camera: the next surface it meets gives the albedo and normal guides a denoiser reads,
+    /// as what the camera sees in a mirror or through glass is that surface.
+    guides_follow: bool,
 }
 
 /// [`PathState::touching`] when the path did not leave a surface that touches another.
@@ -123,6 +127,7 @@ impl PathState {
             spread,
             touching: NOT_TOUCHING,
             mapped_normal: None,
+            guides_follow: false,
         }
     }
 
@@ -747,11 +752,8 @@ fn surface_emission<'b, const FULL: bool>(
         }
     };
     // Checked here too, so later bounces skip the albedo and object lookups.
-    if path.bounce == 0 {
-        let facing = if cos_o >= 0.0 { ng } else { -ng };
-        let object = ctx.scene.object_of(hit.triangle);
-        let albedo = if black { Vec3::ZERO } else { bsdf.albedo() };
-        path.first_hit(out, hit.t, facing, albedo, object);
+    if path.bounce == 0 || path.guides_follow {
+        record_first_hit(ctx, path, out, hit, (ng, cos_o, black), bsdf);
     }
     if material.emits() && material.emits_towards(cos_o) {
         let le = match material.emission_map() {
@@ -770,6 +772,33 @@ fn surface_emission<'b, const FULL: bool>(
         }
     }
     (!black).then_some((p, ng, bsdf))
+}
+
+/// Records the camera path's first hit (`hit`, geometric normal `ng` at cosine `cos_o` with
+/// the way back, a `black` back side, `bsdf`) for alpha, depth, object IDs and the guides, or,
+/// past mirror-like surfaces, the guides alone: the albedo (times the throughput, which holds
+/// the glass's tint) and the shading normal facing the way back.
+#[inline(never)]
+fn record_first_hit(
+    ctx: &Context,
+    path: &mut PathState,
+    out: &mut PathSample,
+    hit: &Hit,
+    (ng, cos_o, black): (Vec3, f32, bool),
+    bsdf: &Bsdf,
+) {
+    let shading = path.mapped_normal.unwrap_or(ng);
+    let facing = if cos_o >= 0.0 { shading } else { -shading };
+    let albedo = if black { Vec3::ZERO } else { bsdf.albedo() };
+    if path.bounce == 0 {
+        let object = ctx.scene.object_of(hit.triangle);
+        path.first_hit(out, hit.t, facing, albedo, object);
+    } else if let Some(first) = &mut out.first {
+        // The throughput without the radiance compression of entering glass.
+        first.albedo = (path.beta * path.eta_scale * albedo).min(Vec3::ONE);
+        first.normal = facing;
+    }
+    path.guides_follow = bsdf.is_delta();
 }
 
 /// The BSDF of the textured `material` where the path's ray met `hit` (at `surface`), its

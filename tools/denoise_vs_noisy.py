@@ -1,0 +1,85 @@
+#!/usr/bin/env python3
+"""Denoised against noisy frames, error against time: a shot rendered at a few sample counts
+with --denoise (its noisy beauty is the `noisy` layer of the same file) and without, each
+compared with a converged render (relMSE with the usual 0.01 floor), with wall-clock seconds.
+Also the mean absolute error in a band of pixels along the bright emitters' edges (the pixels
+within two of one whose directly seen emission is above 1), denoised against noisy: edges a
+denoiser must keep sharp.
+
+    tests/.venv/bin/python3 tools/denoise_vs_noisy.py SHOT [--crop x0,x1,y0,y1] [--res W H]
+        [--spp 4,16,64] [--reference-spp 1024] [--rift BINARY]
+
+RIFT_OIDN_LIBRARY must point at libOpenImageDenoise.so.2 unless the python3 on the path has
+pyoidn (tests/setup.sh installs it in tests/.venv). The converged render is kept beside the
+shot's name in the temporary folder only for the run.
+"""
+import argparse
+import os
+import subprocess
+import tempfile
+import time
+
+import numpy as np
+import OpenEXR
+
+
+def layer(path, name):
+    channels = OpenEXR.File(path).channels()
+    group = channels.get(name) or channels.get(name + "A")
+    return group.pixels[..., :3].astype(np.float64)
+
+
+def relmse(image, reference):
+    return float(np.mean((image - reference) ** 2 / (reference**2 + 1e-2)))
+
+
+def render(rift, shot, out, spp, extra):
+    started = time.perf_counter()
+    subprocess.run([rift, "render", shot, "-o", out, "--spp", str(spp), *extra], check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - started
+
+
+def edge_band(emission):
+    bright = emission.max(-1) > 1.0
+    band = np.zeros_like(bright)
+    for dy in range(-2, 3):
+        for dx in range(-2, 3):
+            band |= np.roll(np.roll(bright, dy, 0), dx, 1)
+    return band & ~bright
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("shot")
+    parser.add_argument("--crop")
+    parser.add_argument("--res", nargs=2)
+    parser.add_argument("--spp", default="4,16,64")
+    parser.add_argument("--reference-spp", type=int, default=1024)
+    parser.add_argument("--rift", default=os.path.join(os.path.dirname(__file__), "../target/release/rift"))
+    args = parser.parse_args()
+    extra = (["--crop", args.crop] if args.crop else []) + (["--res", *args.res] if args.res else [])
+    with tempfile.TemporaryDirectory() as d:
+        reference_file = os.path.join(d, "reference.exr")
+        seconds = render(args.rift, args.shot, reference_file, args.reference_spp, extra)
+        reference = layer(reference_file, "RGB")
+        band = edge_band(layer(reference_file, "emission."))
+        print(f"{args.shot}: reference {args.reference_spp} spp in {seconds:.1f} s; "
+              f"edge band {band.sum()} pixels")
+        print("spp  noisy relMSE (s)    denoised relMSE (s)   4x spp noisy relMSE (s)   "
+              "edge MAE noisy / denoised")
+        for spp in map(int, args.spp.split(",")):
+            out = os.path.join(d, f"d{spp}.exr")
+            t_denoised = render(args.rift, args.shot, out, spp, extra + ["--denoise"])
+            noisy, denoised = layer(out, "noisy."), layer(out, "RGB")
+            t_noisy = render(args.rift, args.shot, os.path.join(d, f"n{spp}.exr"), spp, extra)
+            more = os.path.join(d, f"m{spp}.exr")
+            t_more = render(args.rift, args.shot, more, 4 * spp, extra)
+            edge = lambda image: float(np.abs(image - reference)[band].mean()) if band.any() else float("nan")
+            print(f"{spp:4d}  {relmse(noisy, reference):.5f} ({t_noisy:5.1f})   "
+                  f"{relmse(denoised, reference):.5f} ({t_denoised:5.1f})   "
+                  f"{relmse(layer(more, 'RGB'), reference):.5f} ({t_more:5.1f})   "
+                  f"{edge(noisy):.4f} / {edge(denoised):.4f}")
+
+
+main()
