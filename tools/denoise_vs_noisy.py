@@ -6,7 +6,7 @@ Also the mean absolute error in a band of pixels along the bright emitters' edge
 within two of one whose directly seen emission is above 1), denoised against noisy: edges a
 denoiser must keep sharp.
 
-    tests/.venv/bin/python3 tools/denoise_vs_noisy.py SHOT [--crop x0,x1,y0,y1] [--res W H]
+    tests/.venv/bin/python3 tools/denoise_vs_noisy.py SHOT [--frame F] [--crop x0,x1,y0,y1] [--res W H]
         [--spp 4,16,64] [--reference-spp 1024] [--rift BINARY]
 
 RIFT_OIDN_LIBRARY must point at libOpenImageDenoise.so.2 unless the python3 on the path has
@@ -25,6 +25,7 @@ import OpenEXR
 
 def layer(path, name):
     channels = OpenEXR.File(path).channels()
+    name = name.rstrip(".")
     group = channels.get(name) or channels.get(name + "A")
     return group.pixels[..., :3].astype(np.float64)
 
@@ -52,6 +53,7 @@ def edge_band(emission):
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("shot")
+    parser.add_argument("--frame")
     parser.add_argument("--crop")
     parser.add_argument("--res", nargs=2)
     parser.add_argument("--spp", default="4,16,64")
@@ -59,10 +61,12 @@ def main():
     parser.add_argument("--rift", default=os.path.join(os.path.dirname(__file__), "../target/release/rift"))
     args = parser.parse_args()
     extra = (["--crop", args.crop] if args.crop else []) + (["--res", *args.res] if args.res else [])
+    extra += ["--frame", args.frame] if args.frame else []
     with tempfile.TemporaryDirectory() as d:
         reference_file = os.path.join(d, "reference.exr")
         seconds = render(args.rift, args.shot, reference_file, args.reference_spp, extra)
         reference = layer(reference_file, "RGB")
+        # The emission layer groups as "emission"; the beauty as "RGBA".
         band = edge_band(layer(reference_file, "emission."))
         print(f"{args.shot}: reference {args.reference_spp} spp in {seconds:.1f} s; "
               f"edge band {band.sum()} pixels")
