@@ -7,12 +7,12 @@
 //! is rendered or written.
 
 use crate::common;
-use crate::light_groups::{assert_groups_sum_to_beauty, lit_through};
+use crate::light_groups::{assert_groups_sum_to_beauty, lit_through, render_env};
 
-use common::{root, stderr};
+use common::{rift_env, root, stderr};
 use rift_render::frame::film::{ExrLayer, read_exr_layer};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 /// libOpenImageDenoise.so.2 inside tests/.venv's pyoidn.
 fn oidn_library() -> PathBuf {
@@ -32,28 +32,13 @@ fn oidn_library() -> PathBuf {
 
 /// `rift` in `dir` with `args`, OIDN found through RIFT_OIDN_LIBRARY = `library`.
 fn rift_with(dir: &Path, library: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rift"))
-        .args(args)
-        .current_dir(dir)
-        .env("RIFT_OIDN_LIBRARY", library)
-        .output()
-        .unwrap()
+    rift_env(dir, args, &[("RIFT_OIDN_LIBRARY", library)])
 }
 
-/// Renders `shot` at 64x36 into `out` with `extra`; panics with rift's error on failure.
+/// Renders `shot` at 64x36 into `out` with `extra`, OIDN found in tests/.venv.
 fn render(dir: &Path, shot: &Path, out: &str, extra: &[&str]) {
-    let mut args = vec![
-        "render",
-        shot.to_str().unwrap(),
-        "-o",
-        out,
-        "--res",
-        "64",
-        "36",
-    ];
-    args.extend_from_slice(extra);
-    let r = rift_with(dir, &oidn_library(), &args);
-    assert!(r.status.success(), "{args:?}: {}", stderr(&r));
+    let library = oidn_library();
+    render_env(dir, shot, out, extra, &[("RIFT_OIDN_LIBRARY", &library)]);
 }
 
 /// The layer `prefix` ("" for the beauty, "noisy." for the noisy one) as RGB triples.

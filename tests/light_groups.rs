@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use common::{largest_difference, rift, root, signal, start, stderr, wait_for_progress};
+use common::{largest_difference, rift, rift_env, root, signal, start, stderr, wait_for_progress};
 use rift_render::frame::film::read_exr_layer;
 use std::path::{Path, PathBuf};
 
@@ -52,6 +52,17 @@ pub(crate) fn lit_through(dir: &Path) -> PathBuf {
 }
 
 pub(crate) fn render(dir: &Path, shot: &Path, out: &str, extra: &[&str]) {
+    render_env(dir, shot, out, extra, &[]);
+}
+
+/// [`render`] with the environment variables `env` set.
+pub(crate) fn render_env(
+    dir: &Path,
+    shot: &Path,
+    out: &str,
+    extra: &[&str],
+    env: &[(&str, &Path)],
+) {
     let mut args = vec![
         "render",
         shot.to_str().unwrap(),
@@ -62,7 +73,7 @@ pub(crate) fn render(dir: &Path, shot: &Path, out: &str, extra: &[&str]) {
         "36",
     ];
     args.extend_from_slice(extra);
-    let r = rift(dir, &args);
+    let r = rift_env(dir, &args, env);
     assert!(r.status.success(), "{args:?}: {}", stderr(&r));
 }
 

@@ -11,9 +11,15 @@ pub fn root() -> PathBuf {
 
 /// Runs the `rift` binary with `args` in `cwd`.
 pub fn rift(cwd: &Path, args: &[&str]) -> Output {
+    rift_env(cwd, args, &[])
+}
+
+/// [`rift`] with the environment variables `env` set.
+pub fn rift_env(cwd: &Path, args: &[&str], env: &[(&str, &Path)]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_rift"))
         .args(args)
         .current_dir(cwd)
+        .envs(env.iter().copied())
         .output()
         .expect("the rift binary runs")
 }
