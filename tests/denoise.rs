@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 /// libOpenImageDenoise.so.2 inside tests/.venv's pyoidn.
-fn oidn_library() -> PathBuf {
+pub(crate) fn oidn_library() -> PathBuf {
     let lib = root().join("tests/.venv/lib");
     let found = std::fs::read_dir(&lib)
         .ok()
@@ -52,7 +52,7 @@ fn rgb(layer: &ExrLayer, prefix: &str) -> Vec<[f64; 3]> {
 
 /// Relative MSE of `image` against `reference` (a small floor keeps dark pixels from
 /// dominating, as the bench's does).
-fn relative_mse(image: &[[f64; 3]], reference: &[[f64; 3]]) -> f64 {
+pub(crate) fn relative_mse(image: &[[f64; 3]], reference: &[[f64; 3]]) -> f64 {
     let mut sum = 0.0;
     for (p, q) in image.iter().zip(reference) {
         for k in 0..3 {

@@ -32,11 +32,17 @@ fn read_port(child: &mut Child) -> Result<u16, String> {
 
 impl Layout {
     fn start(shot: &Path, extra: &[&str]) -> Self {
+        Self::start_env(shot, extra, &[])
+    }
+
+    /// As [`Layout::start`], with `env` added to the server's environment.
+    fn start_env(shot: &Path, extra: &[&str], env: &[(&str, &Path)]) -> Self {
         let mut child = Command::new(env!("CARGO_BIN_EXE_rift"))
             .arg("layout")
             .arg(shot)
             .args(["--port", "0", "--no-browser"])
             .args(extra)
+            .envs(env.iter().copied())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -47,21 +53,34 @@ impl Layout {
 
     /// Sends `request` (raw bytes) and returns the status code and body.
     fn raw(&self, request: &str) -> (u16, String) {
+        let (status, _, body) = self.exchange(request);
+        (status, String::from_utf8_lossy(&body).into_owned())
+    }
+
+    /// Sends `request` and returns the status code, the headers (lower-cased names) and the
+    /// body's bytes.
+    fn exchange(&self, request: &str) -> (u16, Vec<(String, String)>, Vec<u8>) {
         let mut stream = TcpStream::connect(("127.0.0.1", self.port)).unwrap();
         stream.write_all(request.as_bytes()).unwrap();
         let mut bytes = Vec::new();
         stream.read_to_end(&mut bytes).unwrap();
-        let response = String::from_utf8_lossy(&bytes).into_owned();
-        let status = response
+        let split = bytes
+            .windows(4)
+            .position(|w| w == b"\r\n\r\n")
+            .map_or(bytes.len(), |at| at + 4);
+        let head = String::from_utf8_lossy(&bytes[..split]).into_owned();
+        let status = head
             .split_whitespace()
             .nth(1)
             .and_then(|s| s.parse().ok())
             .unwrap_or(0);
-        let body = response
-            .split_once("\r\n\r\n")
-            .map_or("", |(_, b)| b)
-            .to_owned();
-        (status, body)
+        let headers = head
+            .lines()
+            .skip(1)
+            .filter_map(|line| line.split_once(':'))
+            .map(|(k, v)| (k.trim().to_ascii_lowercase(), v.trim().to_owned()))
+            .collect();
+        (status, headers, bytes[split..].to_vec())
     }
 
     /// POST `body` to `path`; returns the status code and body.
@@ -850,6 +869,66 @@ fn the_check_render_path_traces_the_view_the_page_shows() {
     };
     assert_eq!(page["size"], serde_json::json!([480, 270]), "{page}");
     assert!(page["pageErrors"].as_array().unwrap().is_empty(), "{page}");
+}
+
+/// A check render of the showcase's frame 12 at 96x54 from `layout`: what the server says of
+/// denoising, and the image as linear RGB.
+fn check_render(layout: &Layout, spp: u32, denoise: u8) -> (String, Vec<[f64; 3]>) {
+    let url = format!("/api/render?frame=12&width=96&height=54&spp={spp}&denoise={denoise}");
+    let (status, headers, body) = layout.exchange(&format!(
+        "GET {url} HTTP/1.0\r\nHost: 127.0.0.1:{}\r\n\r\n",
+        layout.port
+    ));
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
+    let said = headers
+        .iter()
+        .find(|(k, _)| k == "x-rift-denoised")
+        .map(|(_, v)| v.clone())
+        .unwrap_or_default();
+    let mut reader = png::Decoder::new(std::io::Cursor::new(body))
+        .read_info()
+        .unwrap();
+    let mut bytes = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut bytes).unwrap();
+    assert_eq!((info.width, info.height), (96, 54));
+    let linear = |v: u8| {
+        let c = v as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let channels = info.color_type.samples();
+    let pixels = bytes[..info.buffer_size()]
+        .chunks(channels)
+        .map(|p| [linear(p[0]), linear(p[1]), linear(p[2])])
+        .collect();
+    (said, pixels)
+}
+
+#[test]
+fn the_check_render_denoises_where_open_image_denoise_loads_and_says_so() {
+    let shot = root().join("examples/shots/showcase.toml");
+    let library = crate::denoise::oidn_library();
+    let layout = Layout::start_env(&shot, &[], &[("RIFT_OIDN_LIBRARY", &library)]);
+    let (said, denoised) = check_render(&layout, 4, 1);
+    assert_eq!(said, "fast");
+    let (said, noisy) = check_render(&layout, 4, 0);
+    assert_eq!(said, "off");
+    let (_, reference) = check_render(&layout, 128, 0);
+    let error = |image: &[[f64; 3]]| crate::denoise::relative_mse(image, &reference);
+    assert!(
+        error(&denoised) < 0.5 * error(&noisy),
+        "denoised relMSE {} against noisy {}",
+        error(&denoised),
+        error(&noisy)
+    );
+    // A server that cannot load the library renders noisy and says why.
+    let missing = Path::new("/nonexistent/libOpenImageDenoise.so.2");
+    let layout = Layout::start_env(&shot, &[], &[("RIFT_OIDN_LIBRARY", missing)]);
+    let (said, _) = check_render(&layout, 1, 1);
+    assert!(said.starts_with("unavailable: "), "{said}");
 }
 
 #[test]

@@ -4,7 +4,10 @@ with --denoise (its noisy beauty is the `noisy` layer of the same file) and with
 compared with a converged render (relMSE with the usual 0.01 floor), with wall-clock seconds.
 Also the mean absolute error in a band of pixels along the bright emitters' edges (the pixels
 within two of one whose directly seen emission is above 1), denoised against noisy: edges a
-denoiser must keep sharp.
+denoiser must keep sharp. And, where the camera sees through an opening (portalDepth of the
+converged render at least 0.99), the mean absolute error there and how much of the converged
+image's fine detail survives: the energy of a 3x3 Laplacian against the converged render's,
+1 when texture detail is kept, below 1 when smoothed away, above 1 when noise remains.
 
     tests/.venv/bin/python3 tools/denoise_vs_noisy.py SHOT [--frame F] [--crop x0,x1,y0,y1] [--res W H]
         [--spp 4,16,64] [--reference-spp 1024] [--rift BINARY]
@@ -41,6 +44,31 @@ def render(rift, shot, out, spp, extra):
     return time.perf_counter() - started
 
 
+def laplacian(image):
+    luminance = image @ np.array([0.2126, 0.7152, 0.0722])
+    return 4 * luminance - (np.roll(luminance, 1, 0) + np.roll(luminance, -1, 0)
+                            + np.roll(luminance, 1, 1) + np.roll(luminance, -1, 1))
+
+
+def through_region(path):
+    channels = OpenEXR.File(path).channels()
+    depth = channels.get("portalDepth")
+    if depth is None:
+        return None
+    inside = depth.pixels.reshape(depth.pixels.shape[:2]) >= 0.99
+    # Away from the image's border, where the Laplacian wraps round.
+    inside[:1, :] = inside[-1:, :] = inside[:, :1] = inside[:, -1:] = False
+    return inside if inside.any() else None
+
+
+def through_metrics(image, reference, region):
+    if region is None:
+        return "-"
+    error = float(np.abs(image - reference)[region].mean())
+    detail = float(np.mean(laplacian(image)[region] ** 2) / np.mean(laplacian(reference)[region] ** 2))
+    return f"{error:.4f} {detail:.2f}"
+
+
 def edge_band(emission):
     bright = emission.max(-1) > 1.0
     band = np.zeros_like(bright)
@@ -68,10 +96,12 @@ def main():
         reference = layer(reference_file, "RGB")
         # The emission layer groups as "emission"; the beauty as "RGBA".
         band = edge_band(layer(reference_file, "emission."))
+        region = through_region(reference_file)
         print(f"{args.shot}: reference {args.reference_spp} spp in {seconds:.1f} s; "
-              f"edge band {band.sum()} pixels")
+              f"edge band {band.sum()} pixels; through an opening "
+              f"{0 if region is None else region.sum()} pixels")
         print("spp  noisy relMSE (s)    denoised relMSE (s)   4x spp noisy relMSE (s)   "
-              "edge MAE noisy / denoised")
+              "edge MAE noisy / denoised   through MAE detail: noisy / denoised / 4x")
         for spp in map(int, args.spp.split(",")):
             out = os.path.join(d, f"d{spp}.exr")
             t_denoised = render(args.rift, args.shot, out, spp, extra + ["--denoise"])
@@ -83,7 +113,10 @@ def main():
             print(f"{spp:4d}  {relmse(noisy, reference):.5f} ({t_noisy:5.1f})   "
                   f"{relmse(denoised, reference):.5f} ({t_denoised:5.1f})   "
                   f"{relmse(layer(more, 'RGB'), reference):.5f} ({t_more:5.1f})   "
-                  f"{edge(noisy):.4f} / {edge(denoised):.4f}")
+                  f"{edge(noisy):.4f} / {edge(denoised):.4f}   "
+                  f"{through_metrics(noisy, reference, region)} / "
+                  f"{through_metrics(denoised, reference, region)} / "
+                  f"{through_metrics(layer(more, 'RGB'), reference, region)}")
 
 
 main()

@@ -264,7 +264,9 @@ state.checkRender = async (passes = [1, 4, 16]) => {
     checkImage.src = URL.createObjectURL(blob);
     await checkImage.decode();
     checkImage.style.display = 'block';
-    status(`check render: ${spp} spp`);
+    // The server says whether it denoised: "fast", "off", or "unavailable: why".
+    const denoised = response.headers.get('x-rift-denoised') || 'off';
+    status(`check render: ${spp} spp, ${denoised === 'fast' ? 'denoised' : `not denoised (${denoised})`}`);
   }
   return [checkImage.naturalWidth, checkImage.naturalHeight];
 };

@@ -24,10 +24,12 @@ pub struct Request {
     spp: u32,
     /// The camera's position and a point it looks at, when the page has moved it.
     pose: Option<([f64; 3], [f64; 3])>,
+    /// Whether to denoise where Open Image Denoise loads (the default).
+    denoise: bool,
 }
 
 impl Request {
-    /// From `frame=F&width=W&height=H&spp=N[&position=x,y,z&look_at=x,y,z]`.
+    /// From `frame=F&width=W&height=H&spp=N[&position=x,y,z&look_at=x,y,z][&denoise=0|1]`.
     pub fn parse(query: &str, shot: &Shot) -> Result<Self, String> {
         let get = |key: &str| {
             query
@@ -65,12 +67,18 @@ impl Request {
             (None, None) => None,
             _ => return Err("position and look_at go together".into()),
         };
+        let denoise = match get("denoise") {
+            None | Some("1") => true,
+            Some("0") => false,
+            Some(v) => return Err(format!("denoise: expected 0 or 1, got {v:?}")),
+        };
         Ok(Self {
             frame,
             width,
             height,
             spp,
             pose,
+            denoise,
         })
     }
 }
@@ -92,12 +100,14 @@ struct View {
 }
 
 /// Renders the request as an sRGB PNG, reusing `built` when it is the same view, denoised
-/// (at OIDN's fast quality, a preview's) where Open Image Denoise can be loaded.
+/// (at OIDN's fast quality, a preview's) unless the request says not to and where Open Image
+/// Denoise can be loaded. Also says which: "fast", "off", or why it was not ("unavailable: …"),
+/// for the page's status line.
 pub fn render(
     shot: &Shot,
     request: &Request,
     built: &mut Option<Built>,
-) -> Result<Vec<u8>, String> {
+) -> Result<(Vec<u8>, String), String> {
     let view = View {
         frame: request.frame,
         width: request.width,
@@ -114,10 +124,20 @@ pub fn render(
     }
     let prepared = &built.as_ref().expect("built just above").prepared;
     let mut image = rift_render::frame::render(prepared, &RenderOptions::new(request.spp));
-    if rift_render::platform::oidn::ensure_loaded().is_ok() {
-        rift_render::frame::denoise::denoise(&mut image, Quality::Fast, 0)?;
-    }
-    rift_render::frame::film::encode_srgb_png(image.width, image.height, &image.rgb)
+    let denoised = match rift_render::platform::oidn::ensure_loaded() {
+        _ if !request.denoise => "off".to_owned(),
+        Ok(()) => {
+            rift_render::frame::denoise::denoise(&mut image, Quality::Fast, 0)?;
+            "fast".to_owned()
+        }
+        // The reason's first clause (not found, or failed to load), without the paths tried.
+        Err(why) => format!(
+            "unavailable: {}",
+            why.split([';', '(']).next().unwrap_or(&why).trim()
+        ),
+    };
+    let png = rift_render::frame::film::encode_srgb_png(image.width, image.height, &image.rgb)?;
+    Ok((png, denoised))
 }
 
 /// The shot's scene at the request's frame, size and camera pose, prepared.

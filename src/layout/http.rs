@@ -24,11 +24,12 @@ pub struct Incoming {
     pub body: String,
 }
 
-/// An answer: status, content type and body.
+/// An answer: status, content type, body and any headers of its own.
 pub struct Reply {
     pub status: u16,
     pub kind: &'static str,
     pub body: Vec<u8>,
+    pub headers: Vec<(&'static str, String)>,
 }
 
 impl Reply {
@@ -37,6 +38,7 @@ impl Reply {
             status,
             kind: "text/plain; charset=utf-8",
             body: format!("{message}\n").into_bytes(),
+            headers: Vec::new(),
         }
     }
 
@@ -49,6 +51,7 @@ impl Reply {
             status: 200,
             kind: "application/json",
             body: text.into_bytes(),
+            headers: Vec::new(),
         }
     }
 
@@ -65,7 +68,14 @@ impl Reply {
             status: 200,
             kind,
             body,
+            headers: Vec::new(),
         }
+    }
+
+    /// The reply with `name: value` added (a value that is not a valid header is left out).
+    pub fn with_header(mut self, name: &'static str, value: String) -> Self {
+        self.headers.push((name, value));
+        self
     }
 }
 
@@ -144,6 +154,11 @@ async fn answer<H: FnMut(Incoming) -> Reply + Send + 'static>(
         header::X_CONTENT_TYPE_OPTIONS,
         HeaderValue::from_static("nosniff"),
     );
+    for (name, value) in reply.headers {
+        if let Ok(value) = HeaderValue::from_str(&value) {
+            headers.insert(name, value);
+        }
+    }
     response
 }
 

@@ -140,7 +140,9 @@ impl State {
         if path == "/api/render" {
             return match check::Request::parse(query, &self.shot) {
                 Ok(request) => match check::render(&self.shot, &request, &mut self.check) {
-                    Ok(png) => Reply::bytes("image/png", png),
+                    Ok((png, denoised)) => {
+                        Reply::bytes("image/png", png).with_header("x-rift-denoised", denoised)
+                    }
                     Err(message) => Reply::error(422, &message),
                 },
                 Err(message) => Reply::text(400, &message),
