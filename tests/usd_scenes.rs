@@ -133,6 +133,58 @@ fn a_usd_camera_frames_the_shot_as_the_same_camera_written_in_the_shot_file() {
 }
 
 #[test]
+fn a_zooming_usd_camera_renders_each_frame_with_its_lens_at_that_time() {
+    let dir = tempfile::tempdir().unwrap();
+    make_set(dir.path());
+    // Focal length 35 to 70 mm and focus 2 to 4 m keyed at time codes 0 and 2: frame 1
+    // renders as the shot file's camera at 52.5 mm focused at 3 m.
+    let said = render(dir.path(), "zoom_usda.toml", "zoom.exr");
+    render(dir.path(), "zoom_toml.toml", "toml.exr");
+    render(dir.path(), "cam_usda.toml", "fixed.exr");
+    let p = |name: &str| dir.path().join(name);
+    assert_means_agree(&p("zoom.exr"), &p("toml.exr"), 2e-3);
+    assert!(!said.contains("changes over the shot"), "{said}");
+    // Against the camera that stays at 35 mm, the zoom shows.
+    let (zoom, fixed) = (third_means(&p("zoom.exr")), third_means(&p("fixed.exr")));
+    let most = (0..3)
+        .flat_map(|t| (0..3).map(move |c| (t, c)))
+        .map(|(t, c)| (zoom[t][c] - fixed[t][c]).abs() / fixed[t][c])
+        .fold(0.0, f64::max);
+    assert!(most > 0.03, "{zoom:?} against {fixed:?}");
+    // `rift fx`'s shot stage samples the lens as the transform: the horizontal field of view
+    // and the focus distance at frames 1 and 2 are the zooming camera's.
+    let shot = std::fs::read_to_string(p("zoom_usda.toml")).unwrap()
+        + "\n[[portal]]\nname = \"door\"\nhere = { position = [0.0, 1.2, -3.9] }\n\
+           there = { position = [0.0, 1.2, 20.0] }\n[portal.ring]\nradius = 0.5\npreset = \"calm\"\n";
+    std::fs::write(p("zoom_fx.toml"), shot).unwrap();
+    let out = rift(
+        dir.path(),
+        &["fx", "zoom_fx.toml", "-o", "fx_out", "--format", "usd"],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let check = "import sys, math\nfrom pxr import Usd\n\
+        stage = Usd.Stage.Open(sys.argv[1])\n\
+        cam = stage.GetPrimAtPath('/usd_set/camera')\n\
+        get = lambda name, f: cam.GetAttribute(name).Get(f)\n\
+        fov = lambda f: math.degrees(2 * math.atan(get('horizontalAperture', f) / 2 / get('focalLength', f)))\n\
+        print(*[f'{fov(f):.4f} {get(\"focusDistance\", f):.4f}' for f in (1.0, 2.0)])\n";
+    let out = python_command("python3")
+        .args(["-c", check])
+        .arg(dir.path().join("fx_out/usd_set.usda"))
+        .output()
+        .unwrap();
+    // 0.36 across at 0.525 and 0.7 (USD's linear interpolation of the stage's keys).
+    let fov = |focal: f64| (2.0 * (0.18 / focal).atan()).to_degrees();
+    let expected = format!("{:.4} 3.0000 {:.4} 4.0000", fov(0.525), fov(0.7));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        expected,
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
 fn the_fx_stage_holds_the_set_beneath_camera_and_rings() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -211,38 +211,55 @@ SHOT_CAMERA = dict(keys={1: (0.0, 1.25, 1.2), 2: (0.3, 1.25, 1.2)}, tilt=-5.0, f
                    aperture=0.36, f_stop=2.8, focus=3.0, clip=(0.5, 100.0))
 
 
+# The same camera zooming from 35 to 70 mm while its focus is pulled from 2 to 4 m, both keyed
+# at time codes 0 and 2: at frame 1 its lens is halfway (USD interpolates linearly), 52.5 mm
+# focused at 3 m.
+ZOOM = dict(focal={0: 0.35, 2: 0.70}, focus={0: 2.0, 2: 4.0}, at_frame_1=(0.525, 3.0))
+
+
 def shot_camera(stage):
-    cam = UsdGeom.Camera.Define(stage, "/World/ShotCam")
-    op = cam.AddTranslateOp()
-    for frame, at in SHOT_CAMERA["keys"].items():
-        op.Set(Gf.Vec3d(*at), frame)
-    cam.AddRotateXOp().Set(SHOT_CAMERA["tilt"])
-    cam.CreateFocalLengthAttr(SHOT_CAMERA["focal"])
-    cam.CreateHorizontalApertureAttr(SHOT_CAMERA["aperture"])
-    cam.CreateFStopAttr(SHOT_CAMERA["f_stop"])
-    cam.CreateFocusDistanceAttr(SHOT_CAMERA["focus"])
-    cam.CreateClippingRangeAttr(Gf.Vec2f(*SHOT_CAMERA["clip"]))
+    for path in ["/World/ShotCam", "/World/ZoomCam"]:
+        cam = UsdGeom.Camera.Define(stage, path)
+        op = cam.AddTranslateOp()
+        for frame, at in SHOT_CAMERA["keys"].items():
+            op.Set(Gf.Vec3d(*at), frame)
+        cam.AddRotateXOp().Set(SHOT_CAMERA["tilt"])
+        cam.CreateHorizontalApertureAttr(SHOT_CAMERA["aperture"])
+        cam.CreateFStopAttr(SHOT_CAMERA["f_stop"])
+        cam.CreateClippingRangeAttr(Gf.Vec2f(*SHOT_CAMERA["clip"]))
+        focal, focus = cam.CreateFocalLengthAttr(), cam.CreateFocusDistanceAttr()
+        if path == "/World/ShotCam":
+            focal.Set(SHOT_CAMERA["focal"])
+            focus.Set(SHOT_CAMERA["focus"])
+            continue
+        for code, value in ZOOM["focal"].items():
+            focal.Set(value, code)
+        for code, value in ZOOM["focus"].items():
+            focus.Set(value, code)
 
 
 def camera_shots():
     """The set framed by its USD camera (cam_usda.toml), and by the same camera written as the
-    shot file's own (cam_toml.toml, from set_toml.toml's scene)."""
+    shot file's own (cam_toml.toml, from set_toml.toml's scene); the zooming camera likewise
+    (zoom_usda.toml), against the shot file's camera with its lens at frame 1 (zoom_toml.toml)."""
     header, usd = SHOT.split("[camera]")[0], "[camera]\nresolution = [96, 64]\n"
     render = "[render]" + SHOT.split("[render]")[1]
-    with open(os.path.join(OUT, "cam_usda.toml"), "w") as f:
-        f.write(header + usd + 'usd = "/World/ShotCam"\n\n' + render + '\n[[usd]]\nfile = "set.usda"\n')
     c = SHOT_CAMERA
     keys = ", ".join(f"{{ frame = {f}, position = {list(p)}, rotation_degrees = [{c['tilt']}, 0.0, 0.0] }}"
                      for f, p in c["keys"].items())
-    own = (usd + f"focal_length_mm = {c['focal'] * 100}\nsensor_width_mm = {c['aperture'] * 100}\n"
-           f"fstop = {c['f_stop']}\nfocus_distance = {c['focus']}\n"
-           f"[camera.clip]\nnear = {c['clip'][0]}\nfar = {c['clip'][1]}\n"
-           f'[camera.transform]\ninterpolation = "linear"\nkeys = [{keys}]\n\n')
     text = open(os.path.join(OUT, "set_toml.toml")).read()
     scene = text.split("[render]")[1]
     scene = scene[scene.index("\n[["):]
-    with open(os.path.join(OUT, "cam_toml.toml"), "w") as f:
-        f.write(header + own + render + scene)
+    for name, prim, (focal, focus) in [("cam", "ShotCam", (c["focal"], c["focus"])),
+                                       ("zoom", "ZoomCam", ZOOM["at_frame_1"])]:
+        with open(os.path.join(OUT, f"{name}_usda.toml"), "w") as f:
+            f.write(header + usd + f'usd = "/World/{prim}"\n\n' + render + '\n[[usd]]\nfile = "set.usda"\n')
+        own = (usd + f"focal_length_mm = {focal * 100}\nsensor_width_mm = {c['aperture'] * 100}\n"
+               f"fstop = {c['f_stop']}\nfocus_distance = {focus}\n"
+               f"[camera.clip]\nnear = {c['clip'][0]}\nfar = {c['clip'][1]}\n"
+               f'[camera.transform]\ninterpolation = "linear"\nkeys = [{keys}]\n\n')
+        with open(os.path.join(OUT, f"{name}_toml.toml"), "w") as f:
+            f.write(header + own + render + scene)
 
 
 def write_stage(path, texture):

@@ -11,7 +11,7 @@
 
 use super::usda::{fmt_time, matrix, write_header_over};
 use crate::FrameRange;
-use crate::rig::Similarity;
+use crate::rig::{Projection, Similarity};
 use crate::shot::Shot;
 use std::io::{self, Write};
 
@@ -168,14 +168,13 @@ fn prim_name(name: &str) -> String {
     out
 }
 
-/// The shot camera: its transform over the frames and its lens.
+/// The shot camera: its transform over the frames and its lens (sampled like the transform
+/// where it changes over the shot).
 fn write_camera(w: &mut dyn Write, shot: &Shot, frames: FrameRange) -> io::Result<()> {
     let p = &shot.camera.projection;
-    let focal = VERTICAL_APERTURE / 2.0 / p.tan_half_fov_y();
     writeln!(w, "    def Camera \"camera\"")?;
     writeln!(w, "    {{")?;
     write_transform(w, shot, frames, |t| shot.camera.transform.at(t))?;
-    writeln!(w, "        float focalLength = {focal}")?;
     writeln!(w, "        float verticalAperture = {VERTICAL_APERTURE}")?;
     writeln!(
         w,
@@ -183,13 +182,56 @@ fn write_camera(w: &mut dyn Write, shot: &Shot, frames: FrameRange) -> io::Resul
         VERTICAL_APERTURE * p.aspect()
     )?;
     writeln!(w, "        float2 clippingRange = (0.01, 100000)")?;
-    if p.aperture_radius > 0.0 {
-        // The lens opening, 2·radius across, is focal / N (focal in metres: tenths / 10).
-        let f_stop = focal * 0.1 / (2.0 * p.aperture_radius);
-        writeln!(w, "        float fStop = {f_stop}")?;
-        writeln!(w, "        float focusDistance = {}", p.focus_distance)?;
-    }
+    let codes = match shot.camera.lens.is_empty() {
+        true => Vec::new(),
+        false => sample_frames(shot, frames),
+    };
+    let lens = |code: f64| shot.camera.projection_at(shot.time_of(code));
+    write_lens_attribute(w, "focalLength", p, &codes, &lens, |p| {
+        Some(focal_tenths(p))
+    })?;
+    // The lens opening, 2·radius across, is focal / N (focal in metres: tenths / 10); a
+    // pinhole has no f-stop.
+    let f_stop = |p: &Projection| {
+        (p.aperture_radius > 0.0).then(|| focal_tenths(p) * 0.1 / (2.0 * p.aperture_radius))
+    };
+    write_lens_attribute(w, "fStop", p, &codes, &lens, f_stop)?;
+    let focus = |p: &Projection| (p.aperture_radius > 0.0).then_some(p.focus_distance);
+    write_lens_attribute(w, "focusDistance", p, &codes, &lens, focus)?;
     writeln!(w, "    }}")
+}
+
+/// The focal length in USD's tenths of a unit that gives `p`'s field of view on the
+/// vertical aperture written.
+fn focal_tenths(p: &Projection) -> f64 {
+    VERTICAL_APERTURE / 2.0 / p.tan_half_fov_y()
+}
+
+/// A float attribute of the lens: one value, or where `codes` are given one at each (a pinhole
+/// at every code leaves an f-stop or focus distance out; a pinhole at some is f-stop 0, USD's).
+fn write_lens_attribute(
+    w: &mut dyn Write,
+    name: &str,
+    fixed: &Projection,
+    codes: &[f64],
+    lens: &dyn Fn(f64) -> Projection,
+    value: impl Fn(&Projection) -> Option<f64>,
+) -> io::Result<()> {
+    if codes.is_empty() {
+        return match value(fixed) {
+            Some(v) => writeln!(w, "        float {name} = {v}"),
+            None => Ok(()),
+        };
+    }
+    let values: Vec<Option<f64>> = codes.iter().map(|&c| value(&lens(c))).collect();
+    if values.iter().all(Option::is_none) {
+        return Ok(());
+    }
+    writeln!(w, "        float {name}.timeSamples = {{")?;
+    for (code, v) in codes.iter().zip(values) {
+        writeln!(w, "            {}: {},", fmt_time(*code), v.unwrap_or(0.0))?;
+    }
+    writeln!(w, "        }}")
 }
 
 /// `xformOp:transform` sampled at each frame and at its shutter open and close.

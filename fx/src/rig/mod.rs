@@ -6,7 +6,7 @@ pub mod keyframes;
 pub mod opening;
 pub mod similarity;
 
-pub use camera::{Camera, Projection};
+pub use camera::{Camera, LensKey, Projection};
 pub use keyframes::{AnimatedTransform, Interpolation, TransformKey};
 pub use opening::{Opening, Rig, ThereFrame, solve_here, solve_there};
 pub use similarity::{Similarity, SimilarityError};

@@ -146,7 +146,7 @@ impl<'a> RingGenerator<'a> {
         let distance = self.apparent_distance(here, reach, t);
         let nearest = (distance - reach).max(0.05 * reach);
         let tolerance =
-            settings.chord_error_px * nearest / camera.projection.focal_pixels() / here.scale;
+            settings.chord_error_px * nearest / camera.projection_at(t).focal_pixels() / here.scale;
         let octaves = model.field.octaves(model.timing.lod(t));
         let r = look.min_radius();
         // Flares bend the curve as noise of FLARE_SHARPNESS times their height would, at the
@@ -407,7 +407,7 @@ mod tessellation_tests {
             let n = generator.segments(model, &here, t);
             let reach = model.look.max_radius() * here.scale;
             let nearest = (distance(&here, t) - reach).max(0.05 * reach);
-            let px_per_local = shot.camera.projection.focal_pixels() / nearest * here.scale;
+            let px_per_local = shot.camera.projection_at(t).focal_pixels() / nearest * here.scale;
             for strand in &model.strands {
                 let at = model.instant(strand, t, t);
                 let point = |u: f64| model.position(strand, &at, u.cos(), u.sin());

@@ -74,8 +74,8 @@ impl SpeedModel<'_> {
         let here = self.rig.here_at(self.opening, t);
         let to_camera = self.camera.position(t) - here.translation;
         let d = to_camera.length().max(1e-9);
-        let size =
-            self.look.radius * here.scale / (2.0 * d * self.camera.projection.tan_half_fov_y());
+        let size = self.look.radius * here.scale
+            / (2.0 * d * self.camera.projection_at(t).tan_half_fov_y());
         let normal = here.transform_direction(glam::DVec3::Z);
         let b = (normal.dot(to_camera) / d).abs().max(0.05);
         let perimeter =

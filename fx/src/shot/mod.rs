@@ -314,6 +314,7 @@ fn camera(c: &schema::CameraSection, fps: f64) -> Result<Camera, Invalid> {
             aperture_radius,
             focus_distance,
         },
+        lens: Vec::new(),
     })
 }
 
@@ -366,6 +367,7 @@ fn usd_camera_stand_in(c: &schema::CameraSection, prim: &str) -> Result<Camera, 
             aperture_radius: 0.0,
             focus_distance: 1.0,
         },
+        lens: Vec::new(),
     })
 }
 

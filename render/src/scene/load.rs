@@ -329,7 +329,11 @@ impl Scene {
             normal_maps: surfaces.normal_maps,
             lights,
             settings: s.settings,
-            camera: shot.camera.clone(),
+            // A lens that changes over the shot is the frame's for the whole frame.
+            camera: rift_fx::rig::Camera {
+                projection: shot.camera.projection_at(shot.time_of(frame as f64)),
+                ..shot.camera.clone()
+            },
             clip: s.clip,
             stereo: s.stereo,
             portals: s.portals,

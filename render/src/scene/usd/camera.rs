@@ -2,25 +2,27 @@
 //! shot's `[[usd]]` layers. Its world transform at every time sample over the shot's frames
 //! becomes the camera's keys; its lens (focal length over horizontal aperture for the field of
 //! view, f-stop and focus distance for depth of field, in USD's units: focal length and
-//! apertures in tenths of a scene unit) and its clipping range become the shot's, read at the
-//! first frame.
+//! apertures in tenths of a scene unit) at each of its time samples over the shot, so a zoom or
+//! a focus pull is the stage's, each frame rendered with the lens at its time; its clipping
+//! range becomes the shot's, read at the first frame.
 
 use super::{Section, Source, caught, open_layer, sections, values, xform};
 use crate::error::{RenderError, key_error};
 use openusd::sdf::Value;
 use openusd::usd::Prim;
 use rift_fx::Shot;
-use rift_fx::rig::{Camera, Projection};
+use rift_fx::rig::{Camera, LensKey, Projection};
 
-/// Lens attributes, read at the first frame (a time-sampled one is said).
-const LENS: [&str; 6] = [
+/// Lens attributes that may change over the shot, followed at their time samples.
+const LENS_ANIMATED: [&str; 4] = [
     "focalLength",
     "horizontalAperture",
     "fStop",
     "focusDistance",
-    "clippingRange",
-    "projection",
 ];
+
+/// Camera attributes read at the first frame (a time-sampled one is said).
+const FIRST_FRAME: [&str; 2] = ["clippingRange", "projection"];
 
 /// Reads the USD camera `shot` names into `shot.camera` (and its clipping range into
 /// `[camera.clip]` where the shot gives none), within `budget` bytes; what it reads otherwise
@@ -104,15 +106,6 @@ fn read(shot: &Shot, prim: &Prim, source: &Source) -> Result<Read, RenderError> 
         )
     })?;
     let code = source.codes()[0];
-    let number = |name: &str, default: f64| -> Result<f64, RenderError> {
-        let value = values::value(prim, name, code).map_err(|e| source.read_error(path, e))?;
-        match value {
-            None => Ok(default),
-            Some(v) => values::number(&v)
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| source.error(path, Some(name), "expected a finite number".into())),
-        }
-    };
     if let Some(Value::Token(t)) =
         values::value(prim, "projection", code).map_err(|e| source.read_error(path, e))?
         && t.as_str() != "perspective"
@@ -123,6 +116,71 @@ fn read(shot: &Shot, prim: &Prim, source: &Source) -> Result<Read, RenderError> 
             format!("a {} camera: rift renders perspective cameras", t.as_str()),
         ));
     }
+    let resolution = shot.camera.projection.resolution;
+    let lens = lens_keys(prim, source, resolution)?;
+    let first = lens[0];
+    let camera = Camera {
+        transform,
+        projection: Projection {
+            resolution,
+            fov_y: first.fov_y,
+            aperture_radius: first.aperture_radius,
+            focus_distance: first.focus_distance,
+        },
+        // One key is a fixed lens.
+        lens: if lens.len() > 1 { lens } else { Vec::new() },
+    };
+    Ok((camera, clip(prim, source, code)?, warnings(prim, source)))
+}
+
+/// The lens at each time any of its attributes is sampled within the shot (one key, at the
+/// first frame, when none is), so a zoom or a focus pull follows the stage's own samples.
+fn lens_keys(
+    prim: &Prim,
+    source: &Source,
+    resolution: [u32; 2],
+) -> Result<Vec<LensKey>, RenderError> {
+    let mut codes = Vec::new();
+    for name in LENS_ANIMATED {
+        let times = (prim.attribute(name).time_sample_times())
+            .map_err(|e| source.read_error(prim.path().as_str(), e))?;
+        if !times.is_empty() {
+            codes.extend(xform::within(&times, source.codes()));
+        }
+    }
+    codes.sort_by(f64::total_cmp);
+    codes.dedup();
+    if codes.is_empty() {
+        codes.push(source.codes()[0]);
+    }
+    codes
+        .into_iter()
+        .map(|code| lens_at(prim, source, code, resolution))
+        .collect()
+}
+
+/// The lens `prim` gives at time code `code`: focal length over horizontal aperture for the
+/// field of view; f-stop and focus distance for depth of field.
+fn lens_at(
+    prim: &Prim,
+    source: &Source,
+    code: f64,
+    [w, h]: [u32; 2],
+) -> Result<LensKey, RenderError> {
+    let path = prim.path().as_str();
+    let number = |name: &str, default: f64| -> Result<f64, RenderError> {
+        let value = values::value(prim, name, code).map_err(|e| source.read_error(path, e))?;
+        match value {
+            None => Ok(default),
+            Some(v) => values::number(&v).filter(|x| x.is_finite()).ok_or_else(|| {
+                source.error(
+                    path,
+                    Some(name),
+                    format!("expected a finite number, found {}", values::kind(&v)),
+                )
+            }),
+        }
+    };
     let focal = number("focalLength", 50.0)?;
     let aperture = number("horizontalAperture", 20.955)?;
     let f_stop = number("fStop", 0.0)?;
@@ -138,7 +196,6 @@ fn read(shot: &Shot, prim: &Prim, source: &Source) -> Result<Read, RenderError> 
             "expected a positive length".into(),
         ));
     }
-    let [w, h] = shot.camera.projection.resolution;
     let half_x = 0.5 * aperture / focal;
     let aspect = w as f64 / h as f64;
     // Depth of field: the lens's opening, its focal length in scene units (USD gives tenths).
@@ -153,16 +210,12 @@ fn read(shot: &Shot, prim: &Prim, source: &Source) -> Result<Read, RenderError> 
         true => 0.5 * (0.1 * focal) / f_stop,
         false => 0.0,
     };
-    let camera = Camera {
-        transform,
-        projection: Projection {
-            resolution: [w, h],
-            fov_y: 2.0 * (half_x / aspect).atan(),
-            aperture_radius,
-            focus_distance: if focus > 0.0 { focus } else { 1.0 },
-        },
-    };
-    Ok((camera, clip(prim, source, code)?, warnings(prim, source)))
+    Ok(LensKey {
+        time: source.clock.seconds(code),
+        fov_y: 2.0 * (half_x / aspect).atan(),
+        aperture_radius,
+        focus_distance: if focus > 0.0 { focus } else { 1.0 },
+    })
 }
 
 /// The clipping range, where the camera authors one, as a `[camera.clip]` table.
@@ -194,9 +247,9 @@ fn clip(prim: &Prim, source: &Source, code: f64) -> Result<Option<toml::Table>, 
     Ok(Some(table))
 }
 
-/// Lens attributes sampled over time: rift reads them at the first frame.
+/// Clipping or projection sampled over time: rift reads them at the first frame.
 fn warnings(prim: &Prim, source: &Source) -> Vec<String> {
-    let animated: Vec<&str> = LENS
+    let animated: Vec<&str> = FIRST_FRAME
         .into_iter()
         .filter(|name| {
             prim.attribute(*name)
@@ -207,7 +260,7 @@ fn warnings(prim: &Prim, source: &Source) -> Vec<String> {
     match animated.is_empty() {
         true => Vec::new(),
         false => vec![format!(
-            "{}: <{}>: {} changes over the shot; rift reads the lens at the first frame",
+            "{}: <{}>: {} changes over the shot; rift reads it at the first frame",
             source.layer.display(),
             prim.path().as_str(),
             animated.join(", ")

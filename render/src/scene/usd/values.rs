@@ -37,7 +37,7 @@ pub fn token(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<String
 }
 
 /// A short name of a value's type, for messages.
-fn kind(v: &Value) -> String {
+pub fn kind(v: &Value) -> String {
     let debug = format!("{v:?}");
     debug.split('(').next().unwrap_or("?").to_owned()
 }
@@ -49,6 +49,10 @@ pub fn number(v: &Value) -> Option<f64> {
         Value::Double(d) => Some(d),
         Value::Half(h) => Some(h.to_f32() as f64),
         Value::Int(i) => Some(i as f64),
+        // Whole numbers in a usda time sample of a float attribute come as 64-bit integers.
+        Value::Int64(i) => Some(i as f64),
+        Value::Uint(i) => Some(i as f64),
+        Value::Uint64(i) => Some(i as f64),
         _ => None,
     }
 }
