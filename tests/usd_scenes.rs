@@ -9,7 +9,7 @@ use common::{largest_difference, python_command, rift, root, stderr};
 use std::path::Path;
 
 /// Writes the set into `dir` (see tests/support/usd_set.py).
-fn make_set(dir: &Path) {
+pub(crate) fn make_set(dir: &Path) {
     let out = python_command("python3")
         .arg(root().join("tests/support/usd_set.py"))
         .arg(dir)

@@ -34,6 +34,19 @@ function outline(points, color, dashed) {
   return line;
 }
 
+// An instanced object's instances from the server's eight numbers each (position, quaternion
+// x y z w, scale) as the instance matrices of `mesh` (a THREE.InstancedMesh).
+function placeInstances(mesh, flat) {
+  const m = new THREE.Matrix4();
+  for (let i = 0; 8 * i < flat.length; i += 1) {
+    const [x, y, z, qx, qy, qz, qw, s] = flat.slice(8 * i, 8 * i + 8);
+    m.compose(new THREE.Vector3(x, y, z), new THREE.Quaternion(qx, qy, qz, qw), new THREE.Vector3(s, s, s));
+    mesh.setMatrixAt(i, m);
+  }
+  mesh.instanceMatrix.needsUpdate = true;
+  mesh.computeBoundingSphere();
+}
+
 function place(object, matrix) {
   object.matrix.copy(matrix);
   // Stand-ins outside any scene (picked, never drawn) are placed in the world directly.
@@ -58,7 +71,12 @@ function withCulls(material, culls, toLocal) {
     shader.vertexShader = shader.vertexShader
       .replace('#include <common>', '#include <common>\nvarying vec3 vCullWorld;')
       .replace('#include <project_vertex>',
-               '#include <project_vertex>\nvCullWorld = (modelMatrix * vec4(transformed, 1.0)).xyz;');
+               `#include <project_vertex>
+#ifdef USE_INSTANCING
+vCullWorld = (modelMatrix * instanceMatrix * vec4(transformed, 1.0)).xyz;
+#else
+vCullWorld = (modelMatrix * vec4(transformed, 1.0)).xyz;
+#endif`);
     shader.fragmentShader = shader.fragmentShader
       .replace('#include <common>', `#include <common>
 varying vec3 vCullWorld;
@@ -115,7 +133,12 @@ export class Model {
       const toLocal = o.culls.map(c => new THREE.Matrix4().fromArray(c.toLocal));
       const shaded = withCulls(new THREE.MeshLambertMaterial({ color, side: THREE.FrontSide }), o.culls, toLocal);
       const flat = withCulls(new THREE.MeshBasicMaterial({ color: idColor(index), side: THREE.DoubleSide }), o.culls, toLocal);
-      const mesh = new THREE.Mesh(geometry, shaded);
+      // An instanced object (a USD PointInstancer's prototype): its triangles once, drawn at
+      // each instance.
+      const mesh = o.instances.length
+        ? new THREE.InstancedMesh(geometry, shaded, o.instances.length / 8)
+        : new THREE.Mesh(geometry, shaded);
+      if (o.instances.length) placeInstances(mesh, o.instances);
       mesh.name = o.name;
       mesh.matrixAutoUpdate = false;
       mesh.userData = { shaded, flat, direct: o.seenByCamera, through: o.seenThroughOpenings, index };
@@ -163,6 +186,7 @@ export class Model {
     });
     this.moments = new Map(data.moments.map(m => [momentKey(m.time), {
       placements: m.placements.map(similarity),
+      instances: m.instances,
       frames: m.openings.map(f => ({ here: similarity(f.here), there: similarity(f.there) })),
       rings: m.rings.map(r => {
         const lines = ringLines(r);
@@ -264,6 +288,7 @@ export class Model {
     this.shown = moment;
     this.objects.forEach((o, i) => {
       place(o.mesh, moment ? moment.placements[i] : o.world);
+      if (o.data.instances.length) placeInstances(o.mesh, moment ? moment.instances[i] : o.data.instances);
       // Cull volumes sit on their opening's here (sign 1) or there (−1) frame.
       o.data.culls.forEach((c, j) => {
         const frames = moment ? moment.frames[c.opening] : this.openings[c.opening];

@@ -50,7 +50,8 @@ const MAX_MOMENTS: usize = 32;
 
 /// Where things are at the other times rays reach through openings with time offsets (each
 /// opening passed shifts a ray's time, within the scene's ray times): per time, the objects'
-/// placements, the openings' frames and the rings. Empty when no opening has an offset.
+/// placements (and each object's instances, empty but for instanced objects), the openings'
+/// frames and the rings. Empty when no opening has an offset.
 fn moments(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
     let portals = &scene.portals;
     let mut times = vec![time];
@@ -76,17 +77,33 @@ fn moments(shot: &Shot, scene: &Scene, time: f64) -> Vec<Value> {
                 .iter()
                 .map(|m| similarity(m.at(t)))
                 .collect();
+            let instances: Vec<Value> = (0..scene.object_count)
+                .map(|o| instances(scene, o, t))
+                .collect();
             let frames: Vec<Value> = (0..portals.len())
                 .map(|i| json!({ "here": similarity(portals.here(i, t)), "there": similarity(portals.there(i, t)) }))
                 .collect();
             json!({
                 "time": t,
                 "placements": placements,
+                "instances": instances,
                 "openings": frames,
                 "rings": strands(shot, scene, t),
             })
         })
         .collect()
+}
+
+/// Where each instance of instanced object `object` is at `time`, eight numbers each
+/// (position, quaternion x y z w, scale) one after another; empty for other objects.
+fn instances(scene: &Scene, object: u32, time: f64) -> Value {
+    let flat: Vec<f32> = (scene.instance_placements(object, time).iter())
+        .flat_map(|s| {
+            let (p, q) = (s.translation.as_vec3(), s.rotation.as_quat());
+            [p.x, p.y, p.z, q.x, q.y, q.z, q.w, s.scale as f32]
+        })
+        .collect();
+    json!(flat)
 }
 
 /// A similarity as the page takes it: position, quaternion (x, y, z, w), scale.
@@ -114,7 +131,8 @@ fn camera(scene: &Scene, time: f64) -> Value {
 
 /// Per object: its name, base colour (the mean albedo of its triangles' materials), its
 /// triangles' corners in its own space (a deforming object's in its shape at `time`),
-/// flattened, and its placement at `time`; the cull
+/// flattened, and its placement at `time` (an instanced object's triangles are drawn at each
+/// of its instances' placements, `instances`, instead); the cull
 /// volumes that hide parts of it (world-to-local matrix, column-major; the opening whose frame
 /// it is; which side is behind; depth; radius); whether camera rays see it directly and through openings (its visibility
 /// flags); and for editing, the keys of the transform that places it, the object whose
@@ -169,6 +187,7 @@ fn objects(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value>
                 "color": (sum / n.max(1) as f32).to_array(),
                 "positions": positions[o],
                 "placement": similarity(placements[o]),
+                "instances": instances(scene, o as u32, time),
                 "culls": culls,
                 "seenByCamera": scene.visibility.object_seen(o as u32, RayClass::Camera),
                 "seenThroughOpenings": scene.visibility.object_seen(o as u32, RayClass::ThroughPortal),

@@ -10,6 +10,7 @@ use super::wide_bvh::{BoxRay, Fixed, any_hit, closest_hit, node_bytes, worth_fet
 use crate::geometry::ray::Ray;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
+use rift_fx::rig::Similarity;
 
 /// Marks a hit on static geometry.
 pub const STATIC: u32 = u32::MAX;
@@ -63,6 +64,12 @@ impl Accel {
     /// Placement of moving instance `i` at time `t`.
     pub fn placement(&self, instance: u32, t: f64) -> Placement {
         self.instances[instance as usize].placement(t)
+    }
+
+    /// Where moving instance `instance` is at `t`, exactly (for display and export; rays use
+    /// [`Self::placement`]).
+    pub fn instance_at(&self, instance: u32, t: f64) -> Similarity {
+        self.instances[instance as usize].at(t)
     }
 
     /// Triangle `i` of moving instance `instance` in object space at time `t`, where that

@@ -170,6 +170,11 @@ impl MovingInstance {
 
     /// The placement at time `t`.
     #[inline]
+    /// Where the instance is at `t`.
+    pub fn at(&self, t: f64) -> Similarity {
+        self.transform.at(t)
+    }
+
     pub fn placement(&self, t: f64) -> Placement {
         match self.fixed {
             Some(p) => p,

@@ -294,6 +294,14 @@ impl Scene {
         );
         let surfaces = Surfaces::of(file, &g, &normals, &s.materials, &names)?;
         let accel = Accel::build(&g.triangles[..g.static_count], g.instances);
+        let object_instances = (g.instanced.iter())
+            .map(|(triangles, instances)| {
+                (
+                    g.triangle_object[triangles.start as usize],
+                    instances.clone(),
+                )
+            })
+            .collect();
         let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let visibility = Visibility::new(
             triangle_object.clone(),
@@ -341,6 +349,7 @@ impl Scene {
             media,
             triangle_object,
             object_placement: g.placements,
+            object_instances,
             strands,
             strand_flags: ring_looks.iter().map(|l| l.flags).collect(),
             strand_group: grouped(ring_looks.iter().map(|l| l.group).collect()),

@@ -155,6 +155,10 @@ pub struct Scene {
     /// Per object, its placement over time. The triangles in [`Self::triangles`] of objects
     /// that move within the shutter are in object space, the others in world space.
     pub object_placement: Vec<crate::geometry::ObjectMotion>,
+    /// Instanced objects (a USD PointInstancer's prototype, say) and the range of their
+    /// instances in [`Self::accel`]'s moving instances: their triangles, in the prototype's
+    /// space, are drawn once for each.
+    pub object_instances: Vec<(u32, std::ops::Range<u32>)>,
     /// The rings' strands (emissive round curves).
     pub strands: Strands,
     /// Which rays see each ring's strands (by ring of [`Self::strands`]).
@@ -484,6 +488,18 @@ impl Scene {
     #[inline]
     pub fn strand_sees(&self, segment: u32, class: RayClass) -> bool {
         self.strand_flags[self.strands.segment_ring[segment as usize] as usize].sees(class)
+    }
+
+    /// Where each instance of instanced object `object` is at `time`; empty for an object that
+    /// is not instanced.
+    pub fn instance_placements(&self, object: u32, time: f64) -> Vec<rift_fx::rig::Similarity> {
+        let found = self.object_instances.iter().find(|(o, _)| *o == object);
+        found.map_or_else(Vec::new, |(_, instances)| {
+            instances
+                .clone()
+                .map(|i| self.accel.instance_at(i, time))
+                .collect()
+        })
     }
 
     /// The object triangle `t` belongs to, as [`Self::id_names`] indexes it.
