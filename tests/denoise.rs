@@ -195,3 +195,21 @@ fn what_cannot_be_denoised_is_refused_before_anything_is_written() {
         assert!(!d.join(file).exists(), "{file} was written");
     }
 }
+
+#[test]
+fn the_readme_main_job_renders_the_showcase_at_16_spp_denoised() {
+    // tools/main_job.sh, small: OIDN found in tests/.venv (no download), the frame denoised
+    // with its noisy beauty kept, and the PNG preview written beside it.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("main.####.exr");
+    let run = std::process::Command::new(root().join("tools/main_job.sh"))
+        .args(["--res", "48", "27", "-o", out.to_str().unwrap()])
+        .env("RIFT_BINARY", env!("CARGO_BIN_EXE_rift"))
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", stderr(&run));
+    let layer = read_exr_layer(&dir.path().join("main.0012.exr")).unwrap();
+    assert!(layer.channels.contains_key("noisy.R"), "not denoised");
+    assert!(layer.channels["spp"].iter().all(|&s| s == 16.0));
+    assert!(dir.path().join("main.0012.png").is_file());
+}
