@@ -58,9 +58,18 @@ def write_png(path, width, height, pixel):
                      + chunk(b"IDAT", zlib.compress(b"".join(rows), 9)) + chunk(b"IEND", b""))
 
 
+def table(f, size):
+    """`f` over every texel of a `size` x `size` map, computed once: a function of (x, y)
+    returning the same values."""
+    rows = [[f(x, y) for x in range(size)] for y in range(size)]
+    return lambda x, y: rows[y][x]
+
+
 def normal_from_height(height, size, strength):
     """A normal map texel function from a height function over texels (wrapping), by central
     differences: tangent x along +u (right), y along +v (up the image)."""
+    height = table(height, size)
+
     def pixel(x, y):
         du = height((x + 1) % size, y) - height((x - 1) % size, y)
         dv = height(x, (y - 1) % size) - height(x, (y + 1) % size)  # rows run down
@@ -87,7 +96,7 @@ def plank(x, y, size):
 
 
 def floorboards(out, size=512):
-    def tone(x, y):
+    def wood_at(x, y):
         row, u, across, gap = plank(x, y, size)
         base = 0.35 + 0.25 * hash01(row, 1)
         # Growth rings run along the plank, waving; fibres add a fine streak per texel row.
@@ -97,6 +106,9 @@ def floorboards(out, size=512):
         wood = base * (0.75 + 0.25 * grain + 0.1 * fibre)
         dark = 0.35 if gap < 1.5 else 1.0
         return wood * dark, grain
+
+    # The colour and the roughness map both follow the wood's tone and grain.
+    tone = table(wood_at, size)
 
     def colour(x, y):
         w, _ = tone(x, y)

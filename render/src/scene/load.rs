@@ -293,15 +293,8 @@ impl Scene {
             selection,
         );
         let surfaces = Surfaces::of(file, &g, &normals, &s.materials, &names)?;
+        let object_instances = g.instanced_objects();
         let accel = Accel::build(&g.triangles[..g.static_count], g.instances);
-        let object_instances = (g.instanced.iter())
-            .map(|(triangles, instances)| {
-                (
-                    g.triangle_object[triangles.start as usize],
-                    instances.clone(),
-                )
-            })
-            .collect();
         let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let visibility = Visibility::new(
             triangle_object.clone(),
@@ -337,11 +330,7 @@ impl Scene {
             normal_maps: surfaces.normal_maps,
             lights,
             settings: s.settings,
-            // A lens that changes over the shot is the frame's for the whole frame.
-            camera: rift_fx::rig::Camera {
-                projection: shot.camera.projection_at(shot.time_of(frame as f64)),
-                ..shot.camera.clone()
-            },
+            camera: frame_camera(shot, frame),
             clip: s.clip,
             stereo: s.stereo,
             portals: s.portals,
@@ -469,4 +458,13 @@ fn id_names(objects: &[&str], rings: Option<&RingFrame>) -> Vec<String> {
         .map(|n| n.to_string())
         .chain(rings.map(|c| format!("{}/ring", c.opening)))
         .collect()
+}
+
+/// The shot camera as `frame` renders it: a lens that changes over the shot is the frame's for
+/// the whole frame.
+fn frame_camera(shot: &Shot, frame: i64) -> rift_fx::rig::Camera {
+    rift_fx::rig::Camera {
+        projection: shot.camera.projection_at(shot.time_of(frame as f64)),
+        ..shot.camera.clone()
+    }
 }

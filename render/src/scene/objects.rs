@@ -727,6 +727,16 @@ impl Geometry {
         start
     }
 
+    /// Each instanced object and the range of its moving instances.
+    pub fn instanced_objects(&self) -> Vec<(u32, Range<u32>)> {
+        (self.instanced.iter())
+            .map(|(triangles, instances)| {
+                let object = self.triangle_object[triangles.start as usize];
+                (object, instances.clone())
+            })
+            .collect()
+    }
+
     /// The moving instances triangle `i` is placed by: one, several for an instanced
     /// object's, none (an empty range) for a static one.
     fn instances_of(&self, i: u32) -> Range<u32> {
