@@ -120,6 +120,12 @@ fn a_stage_renders_alike_in_every_encoding_and_as_its_shot_file() {
         !said.contains("Proxy") && !said.contains("Hidden"),
         "{said}"
     );
+    // And so is an input of a UsdPreviewSurface rift does not read.
+    assert_eq!(
+        (said.matches("</World/Looks/Red/Surface>: inputs occlusion: not read by rift")).count(),
+        1,
+        "{said}"
+    );
 }
 
 #[test]

@@ -121,7 +121,8 @@ def blob(frame):
 
 # --- the USD stage ----------------------------------------------------------------------------
 
-def preview_material(stage, path, diffuse=None, metallic=None, roughness=None, emissive=None, texture=None):
+def preview_material(stage, path, diffuse=None, metallic=None, roughness=None, emissive=None, texture=None,
+                     occlusion=None):
     mat = UsdShade.Material.Define(stage, path)
     surf = UsdShade.Shader.Define(stage, path + "/Surface")
     surf.CreateIdAttr("UsdPreviewSurface")
@@ -144,6 +145,9 @@ def preview_material(stage, path, diffuse=None, metallic=None, roughness=None, e
         surf.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(roughness)
     if emissive is not None:
         surf.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*emissive))
+    if occlusion is not None:
+        # A real-time renderer's input, which rift does not read (and says so).
+        surf.CreateInput("occlusion", Sdf.ValueTypeNames.Float).Set(occlusion)
     mat.CreateSurfaceOutput().ConnectToSource(surf.ConnectableAPI(), "surface")
     return mat
 
@@ -272,7 +276,7 @@ def write_stage(path, texture):
     stage.SetDefaultPrim(world.GetPrim())
     looks = {
         "white": preview_material(stage, "/World/Looks/White", diffuse=(0.75, 0.75, 0.75)),
-        "red": preview_material(stage, "/World/Looks/Red", diffuse=(0.65, 0.08, 0.06)),
+        "red": preview_material(stage, "/World/Looks/Red", diffuse=(0.65, 0.08, 0.06), occlusion=0.8),
         "green": preview_material(stage, "/World/Looks/Green", diffuse=(0.12, 0.5, 0.1)),
         "checker": preview_material(stage, "/World/Looks/Checker", texture=texture),
         "gold": preview_material(stage, "/World/Looks/Gold", diffuse=(1.0, 0.78, 0.34), metallic=1.0, roughness=0.3),

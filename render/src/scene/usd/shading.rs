@@ -177,8 +177,27 @@ enum Kind {
     Number,
 }
 
+/// The UsdPreviewSurface inputs [`Surface::read`] takes (`displacement` to say it is not
+/// rendered); any other `inputs:` attribute is said.
+const READ_INPUTS: [&str; 13] = [
+    "useSpecularWorkflow",
+    "specularColor",
+    "diffuseColor",
+    "roughness",
+    "metallic",
+    "clearcoat",
+    "clearcoatRoughness",
+    "emissiveColor",
+    "ior",
+    "opacity",
+    "opacityThreshold",
+    "normal",
+    "displacement",
+];
+
 impl Surface<'_> {
     fn read(&mut self) -> Result<(), Problem> {
+        self.unread_inputs()?;
         self.table.insert("type".into(), "standard".into());
         if self.number("useSpecularWorkflow")? == Some(1.0) {
             self.warn("useSpecularWorkflow = 1: rift's standard material has a metallic workflow; its specularColor tints the specular layer".into());
@@ -199,6 +218,21 @@ impl Surface<'_> {
             || self.number("displacement")?.is_some_and(|d| d != 0.0)
         {
             self.warn("displacement is not rendered".into());
+        }
+        Ok(())
+    }
+
+    /// Says which `inputs:` the shader authors that rift does not read (UsdPreviewSurface's
+    /// `occlusion`, which a path tracer computes, or inputs of another renderer's).
+    fn unread_inputs(&mut self) -> Result<(), Problem> {
+        let names = self.shader.prim().property_names()?;
+        let unread: Vec<&str> = (names.iter())
+            .filter_map(|name| name.as_str().strip_prefix("inputs:"))
+            .filter(|input| !READ_INPUTS.contains(input))
+            .collect();
+        if !unread.is_empty() {
+            let list = unread.join(", ");
+            self.warn(format!("inputs {list}: not read by rift, left out"));
         }
         Ok(())
     }
