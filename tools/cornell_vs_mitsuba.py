@@ -6,8 +6,11 @@ each at the same samples per pixel and thread count, and the medians are compare
 Efficiency is 1 / (relMSE x seconds), relMSE = mean((v - ref)^2 / (ref^2 + 0.01)) against the
 pack's converged reference, as `rift bench convergence` measures it; rift's figures are that
 command's. Mitsuba's seconds are those of `mi.render` and its evaluation, after a warm-up render
-that compiles its kernels (Dr.Jit caches them), until the image is in host memory, with the scene as `cornell_box()` builds it
-(independent sampler) but the reference's box filter and unlimited path depth.
+that compiles its kernels (Dr.Jit caches them), until the image is in host memory, with the
+scene as `cornell_box()` builds it but the reference's box filter and unlimited path depth.
+Every one of Mitsuba's samplers is tried (independent, stratified, multijitter, orthogonal,
+ldsampler; each rounds the samples per pixel to what it can stratify: a square, a prime's
+square, a power of two), in the same rounds, and rift is compared with the most efficient.
 
     python3 tools/cornell_vs_mitsuba.py --rift target/release/rift --spp 256 --rounds 3
 
@@ -76,6 +79,36 @@ def load_mitsuba(variant):
     return mi
 
 
+SAMPLERS = ["independent", "stratified", "multijitter", "orthogonal", "ldsampler"]
+
+
+def mitsuba_scenes(mi, samplers, spp):
+    """The Cornell box with each sampler, warmed up (kernels compiled): {name: (scene, spp)},
+    spp the samples per pixel the sampler takes."""
+    scenes = {}
+    for name in samplers:
+        scene = mi.cornell_box()
+        scene["sensor"]["film"]["rfilter"] = {"type": "box"}
+        scene["sensor"]["sampler"] = {"type": name, "sample_count": spp}
+        scene["integrator"] = {"type": "path", "max_depth": -1}
+        built = mi.load_dict(scene)
+        taken = built.sensors()[0].sampler().sample_count()
+        mitsuba_render(mi, built, taken, 0)
+        scenes[name] = (built, taken)
+    return scenes
+
+
+def mitsuba_render(mi, scene, spp, seed):
+    """Mitsuba's image and seconds, until the image is in host memory."""
+    import drjit as dr
+    start = time.perf_counter()
+    img = mi.render(scene, spp=spp, seed=seed)
+    dr.eval(img)
+    dr.sync_thread()
+    img = np.asarray(img, dtype=np.float64)[..., :3]
+    return img, time.perf_counter() - start
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rift", default=str(ROOT / "target/release/rift"))
@@ -83,6 +116,7 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument("--samplers", default=",".join(SAMPLERS))
     args = ap.parse_args()
 
     mi = load_mitsuba(args.variant)
@@ -90,44 +124,35 @@ def main():
     if args.variant.startswith("llvm"):
         dr.set_thread_count(args.threads)
     reference = read_exr(PACK / "reference.exr")
-    scene = mi.cornell_box()
-    scene["sensor"]["film"]["rfilter"] = {"type": "box"}
-    scene["integrator"] = {"type": "path", "max_depth": -1}
-    built = mi.load_dict(scene)
-    warm = mi.render(built, spp=4, seed=0)
-    dr.eval(warm)
-    dr.sync_thread()
+    scenes = mitsuba_scenes(mi, args.samplers.split(","), args.spp)
 
-    runs = {"rift": [], "mitsuba": []}
+    runs = {"rift": []} | {name: [] for name in scenes}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for k in range(args.rounds):
             seconds, rel = rift_round(args.rift, args.spp, args.threads, tmp)
             runs["rift"].append((seconds, rel, None))
-            start = time.perf_counter()
-            img = mi.render(built, spp=args.spp, seed=k + 1)
-            dr.eval(img)
-            dr.sync_thread()
-            img = np.asarray(img, dtype=np.float64)[..., :3]
-            seconds = time.perf_counter() - start
-            runs["mitsuba"].append((seconds, rel_mse(img, reference), img.mean((0, 1))))
-            print(f"round {k + 1}: rift {runs['rift'][-1][0]:.2f} s relMSE {runs['rift'][-1][1]:.4e}"
-                  f" | mitsuba {seconds:.2f} s relMSE {runs['mitsuba'][-1][1]:.4e}", flush=True)
+            line = f"round {k + 1}: rift {seconds:.2f} s relMSE {rel:.4e}"
+            for name, (scene, spp) in scenes.items():
+                img, seconds = mitsuba_render(mi, scene, spp, k + 1)
+                runs[name].append((seconds, rel_mse(img, reference), img.mean((0, 1))))
+                line += f" | {name} {seconds:.2f} s {runs[name][-1][1]:.4e}"
+            print(line, flush=True)
 
     ref_mean = reference.mean((0, 1))
-    print(f"\nCornell box, {args.spp} spp, {args.threads} threads, Mitsuba {mi.__version__} "
-          f"{args.variant}, medians of {args.rounds} rounds")
-    print(f"{'':10} {'seconds':>9} {'relMSE':>11} {'efficiency':>11}")
+    print(f"\nCornell box, {args.threads} threads, Mitsuba {mi.__version__} {args.variant}, "
+          f"medians of {args.rounds} rounds")
+    print(f"{'':12} {'spp':>5} {'seconds':>9} {'relMSE':>11} {'efficiency':>11}  mean against the reference (%)")
     eff = {}
     for who, rows in runs.items():
         seconds = statistics.median(r[0] for r in rows)
         rel = statistics.median(r[1] for r in rows)
         eff[who] = 1.0 / (seconds * rel)
-        print(f"{who:10} {seconds:9.3f} {rel:11.4e} {eff[who]:11.1f}")
-    mean = np.mean([r[2] for r in runs["mitsuba"]], axis=0)
-    print(f"Mitsuba's mean against the reference: "
-          f"{np.round((mean / ref_mean - 1) * 100, 3)} % per channel")
-    print(f"efficiency rift/mitsuba: {eff['rift'] / eff['mitsuba']:.2f}")
+        spp = args.spp if who == "rift" else scenes[who][1]
+        mean = "" if who == "rift" else np.round((np.mean([r[2] for r in rows], axis=0) / ref_mean - 1) * 100, 3)
+        print(f"{who:12} {spp:5d} {seconds:9.3f} {rel:11.4e} {eff[who]:11.1f}  {mean}")
+    best = max((who for who in runs if who != "rift"), key=eff.get)
+    print(f"efficiency rift / mitsuba at its best ({best}): {eff['rift'] / eff[best]:.2f}")
 
 
 if __name__ == "__main__":
