@@ -474,6 +474,8 @@ impl Accumulator {
                         .unwrap_or(0.0) as u64
                 })
                 .sum(),
+            // The parts keep their means, not the squares an error estimate needs.
+            noise: None,
             metadata: Metadata {
                 frame: number("rift/frame") as i64,
                 render_seconds: parts

@@ -565,8 +565,18 @@ fn stopped(
 /// Prints what was rendered: size, samples, time, speed and where it went.
 fn report(image: &Image, label: &str, spp: u32, seconds: f64, path: &Path) {
     let samples: u64 = image.spp.iter().map(|&n| n as u64).sum();
+    // The rendered frame's noise (an estimate that takes the samples as independent, so about
+    // 1.5 times what stratified samples have); a denoised frame's is that of its noisy frame.
+    let noise = image.noise.map_or(String::new(), |n| {
+        let before = if image.noisy.is_some() {
+            " before denoising"
+        } else {
+            ""
+        };
+        format!(", noise {:.1}%{before}", 100.0 * n)
+    });
     eprintln!(
-        "rift render: {label}: {}x{} at {:.1} spp (mean; at most {spp}) in {seconds:.2} s ({:.2} Mpaths/s) -> {}{}",
+        "rift render: {label}: {}x{} at {:.1} spp (mean; at most {spp}) in {seconds:.2} s ({:.2} Mpaths/s{noise}) -> {}{}",
         image.window.width(),
         image.window.height(),
         samples as f64 / image.spp.len() as f64,

@@ -165,6 +165,10 @@ pub struct Image {
     pub spp: Vec<u32>,
     /// Samples discarded for being NaN or infinite.
     pub discarded: u64,
+    /// How noisy the rendered beauty is: the median over pixels of the standard error of each
+    /// pixel's mean luminance, relative to that mean (with relMSE's 0.01 floor); `None` where it
+    /// was not estimated (a merged image).
+    pub noise: Option<f32>,
     pub metadata: Metadata,
 }
 

@@ -559,6 +559,21 @@ fn scene_lens(scene: &Scene, eye: Option<Eye>, t: f64) -> Lens {
     }
 }
 
+/// The median of the pixels' relative standard errors ([`Pixel::relative_error`]), over those
+/// with two samples or more; `None` when none has.
+fn median_noise(pixels: &[Pixel], first: u32) -> Option<f32> {
+    let mut errors: Vec<f64> = (pixels.iter())
+        .map(|p| p.relative_error(first))
+        .filter(|e| e.is_finite())
+        .collect();
+    if errors.is_empty() {
+        return None;
+    }
+    let middle = errors.len() / 2;
+    let (_, median, _) = errors.select_nth_unstable_by(middle, f64::total_cmp);
+    Some(*median as f32)
+}
+
 /// Means of the accumulated sums, as an image with metadata.
 fn finish(
     scene: &Scene,
@@ -626,6 +641,7 @@ fn finish(
         }),
         spp: pixels.iter().map(|p| p.kept(first)).collect(),
         discarded: pixels.iter().map(|p| p.discarded as u64).sum(),
+        noise: median_noise(pixels, first),
         metadata: Metadata {
             frame: scene.frame,
             render_seconds: started.elapsed().as_secs_f64(),
