@@ -124,14 +124,15 @@ pub fn render(
     }
     let prepared = &built.as_ref().expect("built just above").prepared;
     let mut image = rift_render::frame::render(prepared, &RenderOptions::new(request.spp));
-    let denoised = match rift_render::platform::oidn::ensure_loaded() {
-        _ if !request.denoise => "off".to_owned(),
-        Ok(()) => {
+    let loaded = || rift_render::platform::oidn::ensure_loaded();
+    let denoised = match request.denoise.then(loaded) {
+        None => "off".to_owned(),
+        Some(Ok(())) => {
             rift_render::frame::denoise::denoise(&mut image, Quality::Fast, 0)?;
             "fast".to_owned()
         }
         // The reason's first clause (not found, or failed to load), without the paths tried.
-        Err(why) => format!(
+        Some(Err(why)) => format!(
             "unavailable: {}",
             why.split([';', '(']).next().unwrap_or(&why).trim()
         ),
