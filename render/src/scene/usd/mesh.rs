@@ -306,32 +306,22 @@ struct Primvars {
     normals: Option<Primvar<Vec3>>,
 }
 
-/// The mesh's UVs: `primvars:st`, else Blender's `primvars:UVMap`.
+/// The mesh's UVs: `primvars:st`, else Blender's `primvars:UVMap` (face-varying unless they
+/// say otherwise, as Blender and most tools write them).
 fn uvs(prim: &Prim, source: &Source, code: f64) -> Result<Option<Primvar<Vec2>>, RenderError> {
-    let path = prim.path().as_str();
-    for name in ["primvars:st", "primvars:UVMap"] {
-        let Some((value, interpolation)) = primvar(prim, source, name, code, FACE_VARYING)? else {
-            continue;
-        };
-        let values = vec2_array(&value).ok_or_else(|| {
-            source.error(
-                path,
-                Some(name),
-                "expected texture coordinates (float2[])".into(),
-            )
-        })?;
-        if let Some(i) = values.iter().position(|uv| !uv.is_finite()) {
-            let message = format!("texture coordinate {i} is not finite");
-            return Err(source.error(path, Some(name), message));
+    let candidates = [
+        ("primvars:st", Interpolation::FaceVarying),
+        ("primvars:UVMap", Interpolation::FaceVarying),
+    ];
+    first_primvar(prim, source, code, &candidates, |name, value| {
+        let error = |message: String| source.error(prim.path().as_str(), Some(name), message);
+        let values = vec2_array(value)
+            .ok_or_else(|| error("expected texture coordinates (float2[])".into()))?;
+        match values.iter().position(|uv| !uv.is_finite()) {
+            Some(i) => Err(error(format!("texture coordinate {i} is not finite"))),
+            None => Ok(values),
         }
-        return Ok(Some(Primvar {
-            name,
-            values,
-            indices: indices(prim, source, name, code)?,
-            interpolation,
-        }));
-    }
-    Ok(None)
+    })
 }
 
 /// The mesh's normals for smooth shading: `primvars:normals` (which wins, as in USD), else
@@ -343,42 +333,47 @@ fn normals(
     code: f64,
     bake: DMat4,
 ) -> Result<Option<Primvar<Vec3>>, RenderError> {
-    let path = prim.path().as_str();
     let to_placed = glam::DMat3::from_mat4(bake).inverse().transpose();
-    for (name, default) in [
+    let candidates = [
         ("primvars:normals", Interpolation::Constant),
         ("normals", Interpolation::Vertex),
-    ] {
+    ];
+    first_primvar(prim, source, code, &candidates, |name, value| {
+        let error = |message: String| source.error(prim.path().as_str(), Some(name), message);
+        let given =
+            vec3_array(value).ok_or_else(|| error("expected normals (normal3f[])".into()))?;
+        (given.into_iter().enumerate())
+            .map(|(i, n)| {
+                let placed = (to_placed * n.as_dvec3()).as_vec3();
+                crate::scene::mesh::unit_normal(placed)
+                    .ok_or_else(|| error(format!("normal {i} is zero or not finite")))
+            })
+            .collect()
+    })
+}
+
+/// The first of `candidates` (a primvar's name and its interpolation where it names none) the
+/// mesh authors, its values made by `values` from the attribute's, with its indices.
+fn first_primvar<T>(
+    prim: &Prim,
+    source: &Source,
+    code: f64,
+    candidates: &[(&'static str, Interpolation)],
+    values: impl Fn(&'static str, &Value) -> Result<Vec<T>, RenderError>,
+) -> Result<Option<Primvar<T>>, RenderError> {
+    for &(name, default) in candidates {
         let Some((value, interpolation)) = primvar(prim, source, name, code, default)? else {
             continue;
         };
-        let given = vec3_array(&value).ok_or_else(|| {
-            source.error(path, Some(name), "expected normals (normal3f[])".into())
-        })?;
-        let mut values = Vec::with_capacity(given.len());
-        for (i, n) in given.into_iter().enumerate() {
-            let placed = (to_placed * n.as_dvec3()).as_vec3();
-            let unit = crate::scene::mesh::unit_normal(placed).ok_or_else(|| {
-                source.error(
-                    path,
-                    Some(name),
-                    format!("normal {i} is zero or not finite"),
-                )
-            })?;
-            values.push(unit);
-        }
         return Ok(Some(Primvar {
             name,
-            values,
+            values: values(name, &value)?,
             indices: indices(prim, source, name, code)?,
             interpolation,
         }));
     }
     Ok(None)
 }
-
-/// USD's default interpolation of texture coordinates as Blender and most tools write them.
-const FACE_VARYING: Interpolation = Interpolation::FaceVarying;
 
 /// The value of primvar `name` at `code` with its interpolation (`default` where it names
 /// none); `None` when it is not authored.
