@@ -279,29 +279,23 @@ impl Loader<'_> {
             let material = &materials[index];
             let deforms = part.deformation.is_some();
             self.check_mesh_part(&key, mesh_name, &mesh_part, material, deforms, &mut part)?;
-            if any_uvs {
-                let n = mesh_part.triangles.len();
-                match mesh_part.uvs.is_empty() {
-                    true => part.uvs.extend(std::iter::repeat_n([Vec2::ZERO; 3], n)),
-                    false => part.uvs.extend_from_slice(&mesh_part.uvs),
-                }
-            }
-            if any_normals {
-                let n = mesh_part.triangles.len();
-                match mesh_part.normals.is_empty() {
-                    true => part
-                        .normals
-                        .extend(std::iter::repeat_n([PackedNormal::NONE; 3], n)),
-                    false => part.normals.extend(mesh_part.normals.iter().map(|corners| {
-                        // A static object's triangles are baked to world space: so are its normals.
-                        let placed_normal = |n: Vec3| match moves {
-                            true => n,
-                            false => (placed.rotation * n.as_dvec3()).as_vec3(),
-                        };
-                        corners.map(|n| PackedNormal::pack(placed_normal(n)))
-                    })),
-                }
-            }
+            let n = mesh_part.triangles.len();
+            let uvs = mesh_part.uvs.iter().copied();
+            append_per_triangle(&mut part.uvs, any_uvs, uvs, n, [Vec2::ZERO; 3]);
+            // A static object's triangles are baked to world space: so are its normals.
+            let placed_normal = |n: Vec3| match moves {
+                true => n,
+                false => (placed.rotation * n.as_dvec3()).as_vec3(),
+            };
+            let normals = (mesh_part.normals.iter())
+                .map(|corners| corners.map(|n| PackedNormal::pack(placed_normal(n))));
+            append_per_triangle(
+                &mut part.normals,
+                any_normals,
+                normals,
+                n,
+                [PackedNormal::NONE; 3],
+            );
             for tri in mesh_part.triangles {
                 let v = if moves {
                     tri
@@ -688,22 +682,10 @@ impl Geometry {
             g.triangle_object
                 .extend(std::iter::repeat_n(part.object, n));
             g.triangle_group.extend(std::iter::repeat_n(part.group, n));
-            if any_uvs {
-                match part.uvs.is_empty() {
-                    true => g
-                        .triangle_uvs
-                        .extend(std::iter::repeat_n([Vec2::ZERO; 3], n)),
-                    false => g.triangle_uvs.extend(part.uvs),
-                }
-            }
-            if any_normals {
-                match part.normals.is_empty() {
-                    true => g
-                        .triangle_normals
-                        .extend(std::iter::repeat_n([PackedNormal::NONE; 3], n)),
-                    false => g.triangle_normals.extend(part.normals),
-                }
-            }
+            let (uvs, normals) = (part.uvs.into_iter(), part.normals.into_iter());
+            append_per_triangle(&mut g.triangle_uvs, any_uvs, uvs, n, [Vec2::ZERO; 3]);
+            let none = [PackedNormal::NONE; 3];
+            append_per_triangle(&mut g.triangle_normals, any_normals, normals, n, none);
             g.triangles.extend(part.triangles);
             g.triangle_material.extend(part.materials);
         }
@@ -806,4 +788,23 @@ fn mean_emission(map: &ColorInput, textures: &[Texture], [a, b, c]: [Vec2; 3]) -
         }
     }
     sum / (N * N) as f32
+}
+
+/// Appends a part's `given` values, one per triangle, to `out`, or `n` copies of `missing`
+/// where the part gives none; nothing unless some part gives them (`wanted`), so scenes
+/// without UVs or normals keep no arrays of them.
+fn append_per_triangle<T: Copy>(
+    out: &mut Vec<T>,
+    wanted: bool,
+    given: impl ExactSizeIterator<Item = T>,
+    n: usize,
+    missing: T,
+) {
+    if !wanted {
+        return;
+    }
+    match given.len() {
+        0 => out.extend(std::iter::repeat_n(missing, n)),
+        _ => out.extend(given),
+    }
 }
