@@ -21,7 +21,14 @@ if [ -z "$(library)" ]; then
   rm -rf "$venv"
   mkdir -p target
   requirement=$(grep -i '^pyoidn' tests/requirements.txt)
-  { python3 -m venv "$venv" &&
+  # Debian's python3 keeps venv's pip in a package of its own: as tests/setup.sh does, root
+  # installs it and tries again.
+  if ! python3 -m venv "$venv" >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+    rm -rf "$venv"
+    { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+        --no-install-recommends python3-venv; } >&2 || true
+  fi
+  { { [ -x "$venv/bin/python3" ] || python3 -m venv "$venv"; } &&
     "$venv/bin/python3" -m pip install --quiet --disable-pip-version-check "$requirement"; } >&2 ||
     echo "main job: Open Image Denoise could not be installed (python3 -m venv and pip install $requirement)" >&2
 fi
