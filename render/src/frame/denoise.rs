@@ -5,7 +5,7 @@
 //! and then rescaled, pixel by pixel and channel by channel, so the parts still sum to the
 //! denoised beauty.
 
-use crate::frame::film::Image;
+use crate::frame::film::{Image, not_through};
 use crate::platform::oidn::{Device, Images, Quality, Settings};
 use glam::Vec3;
 
@@ -51,30 +51,31 @@ pub fn denoise(image: &mut Image, quality: Quality, threads: usize) -> Result<De
         *v = v.max(Vec3::ZERO) + *e;
     }
     let mut runs = 3;
-    if !image.light_groups.is_empty() {
-        let mut parts: Vec<Vec<Vec3>> = image.light_groups.iter().map(|(_, g)| g.clone()).collect();
-        for part in &mut parts {
+    // Parts of the beauty written as layers: each filtered, then rescaled to sum to it.
+    let mut denoise_parts = |parts: &mut [Vec<Vec3>], total: &[Vec3]| -> Result<(), String> {
+        for part in parts.iter_mut() {
             filter(part)?;
         }
         runs += parts.len();
-        rescale(&mut parts, &image.rgb);
+        rescale(parts, total);
+        Ok(())
+    };
+    if !image.light_groups.is_empty() {
+        let mut parts: Vec<Vec<Vec3>> = (image.light_groups.iter_mut())
+            .map(|(_, group)| std::mem::take(group))
+            .collect();
+        denoise_parts(&mut parts, &image.rgb)?;
         for ((_, group), part) in image.light_groups.iter_mut().zip(parts) {
             *group = part;
         }
     }
     if let Some(through) = &mut image.through {
-        let local: Vec<Vec3> = noisy
-            .iter()
-            .zip(through.iter())
-            .map(|(c, t)| c - t)
-            .collect();
-        let mut parts = vec![std::mem::take(through), local];
-        for part in &mut parts {
-            filter(part)?;
-        }
-        runs += 2;
-        rescale(&mut parts, &image.rgb);
-        *through = parts.swap_remove(0);
+        // The not-through part is filtered only for the shares of the rescale: the film writes
+        // that layer as the beauty less this one.
+        let local = not_through(&noisy, through);
+        let mut parts = [std::mem::take(through), local];
+        denoise_parts(&mut parts, &image.rgb)?;
+        *through = std::mem::take(&mut parts[0]);
     }
     image.noisy = Some(noisy);
     Ok(Denoised {

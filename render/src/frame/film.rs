@@ -111,6 +111,12 @@ pub const EMISSION_LAYER: &str = "emission";
 /// The layer of a denoised frame's beauty as rendered.
 pub const NOISY_LAYER: &str = "noisy";
 
+/// The part of `beauty` that did not arrive through openings: the beauty less `through`, pixel
+/// by pixel (the layer [`LOCAL_LAYER`]).
+pub fn not_through(beauty: &[Vec3], through: &[Vec3]) -> Vec<Vec3> {
+    beauty.iter().zip(through).map(|(c, t)| c - t).collect()
+}
+
 /// EXR layers of light groups are named this followed by the group's name.
 pub const LIGHT_GROUP_PREFIX: &str = "lightgroup.";
 
@@ -235,46 +241,30 @@ impl Image {
             channel("spp", self.spp.iter().map(|&n| n as f32).collect()),
             channel("portalDepth", self.portal_depth.clone()),
         ];
-        for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
-            channels.push(channel(&format!("albedo.{suffix}"), split(&self.albedo, k)));
-        }
-        for (k, suffix) in ["X", "Y", "Z"].iter().enumerate() {
-            channels.push(channel(&format!("N.{suffix}"), split(&self.normal, k)));
-        }
+        // A layer of three channels: `{name}.R/G/B` (or the `suffixes` given).
+        let layer = |name: &str, values: &[Vec3], suffixes: [&str; 3]| {
+            (0..3)
+                .map(|k| channel(&format!("{name}.{}", suffixes[k]), split(values, k)))
+                .collect::<Vec<_>>()
+        };
+        const RGB: [&str; 3] = ["R", "G", "B"];
+        channels.extend(layer("albedo", &self.albedo, RGB));
+        channels.extend(layer("N", &self.normal, ["X", "Y", "Z"]));
         for (name, light) in &self.light_groups {
-            for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
-                channels.push(channel(
-                    &format!("{LIGHT_GROUP_PREFIX}{name}.{suffix}"),
-                    split(light, k),
-                ));
-            }
+            channels.extend(layer(&format!("{LIGHT_GROUP_PREFIX}{name}"), light, RGB));
         }
         if let Some(crypto) = &self.cryptomatte {
             for (name, values) in crypto.channels() {
                 channels.push(channel(&name, values));
             }
         }
-        for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
-            let values = split(&self.emitted, k);
-            channels.push(channel(&format!("{EMISSION_LAYER}.{suffix}"), values));
-        }
+        channels.extend(layer(EMISSION_LAYER, &self.emitted, RGB));
         if let Some(noisy) = &self.noisy {
-            for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
-                channels.push(channel(&format!("{NOISY_LAYER}.{suffix}"), split(noisy, k)));
-            }
+            channels.extend(layer(NOISY_LAYER, noisy, RGB));
         }
         if let Some(through) = &self.through {
-            let local: Vec<Vec3> = self.rgb.iter().zip(through).map(|(c, t)| c - t).collect();
-            for (k, suffix) in ["R", "G", "B"].iter().enumerate() {
-                channels.push(channel(
-                    &format!("{THROUGH_LAYER}.{suffix}"),
-                    split(through, k),
-                ));
-                channels.push(channel(
-                    &format!("{LOCAL_LAYER}.{suffix}"),
-                    split(&local, k),
-                ));
-            }
+            channels.extend(layer(THROUGH_LAYER, through, RGB));
+            channels.extend(layer(LOCAL_LAYER, &not_through(&self.rgb, through), RGB));
         }
         channels
     }

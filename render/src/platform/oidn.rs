@@ -215,14 +215,9 @@ impl Device {
             normal,
             size,
         } = images;
-        let pixels = size.0 * size.1;
-        let valid = |v: &[glam::Vec3]| v.len() == pixels;
-        if !valid(color) || !albedo.is_none_or(valid) || !normal.is_none_or(valid) {
-            return Err(format!(
-                "images of the wrong size for {}x{}",
-                size.0, size.1
-            ));
-        }
+        sized("color", color, size)?;
+        albedo.map_or(Ok(()), |a| sized("albedo", a, size))?;
+        normal.map_or(Ok(()), |n| sized("normal", n, size))?;
         let out = color.as_mut_ptr().cast::<c_void>();
         let mut bound = vec![(c"color", out), (c"output", out)];
         bound.extend(albedo.map(|a| (c"albedo", a.as_ptr().cast_mut().cast())));
@@ -239,12 +234,7 @@ impl Device {
         size: (usize, usize),
         quality: Quality,
     ) -> Result<(), String> {
-        if image.len() != size.0 * size.1 {
-            return Err(format!(
-                "a {name} image of the wrong size for {}x{}",
-                size.0, size.1
-            ));
-        }
+        sized(name, image, size)?;
         let name = CString::new(name).map_err(|_| format!("{name}: not an image name"))?;
         let out = image.as_mut_ptr().cast::<c_void>();
         let settings = Settings {
@@ -296,6 +286,16 @@ impl Device {
             (self.api.release_filter)(filter);
         }
         self.check()
+    }
+}
+
+/// Refuses an image `name` that does not hold `size` pixels (OIDN would read past it).
+fn sized(name: &str, image: &[glam::Vec3], (width, height): (usize, usize)) -> Result<(), String> {
+    match image.len() == width * height {
+        true => Ok(()),
+        false => Err(format!(
+            "a {name} image of the wrong size for {width}x{height}"
+        )),
     }
 }
 
