@@ -7,10 +7,13 @@
 //! is rendered or written.
 
 use crate::common;
-use crate::light_groups::{assert_groups_sum_to_beauty, lit_through, render_env};
+use crate::light_groups::{
+    assert_groups_sum_to_beauty, layers_miss_beauty, lit_through, render_env,
+};
 
 use common::{rift_env, root, stderr};
-use rift_render::frame::film::{ExrLayer, read_exr_layer};
+use glam::Vec3;
+use rift_render::frame::film::{ExrLayer, channel_mean, read_exr_layer, relative_mse};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -41,25 +44,11 @@ fn render(dir: &Path, shot: &Path, out: &str, extra: &[&str]) {
     render_env(dir, shot, out, extra, &[("RIFT_OIDN_LIBRARY", &library)]);
 }
 
-/// The layer `prefix` ("" for the beauty, "noisy." for the noisy one) as RGB triples.
-fn rgb(layer: &ExrLayer, prefix: &str) -> Vec<[f64; 3]> {
+/// The layer `prefix` ("" for the beauty, "noisy." for the noisy one) as RGB.
+fn rgb(layer: &ExrLayer, prefix: &str) -> Vec<Vec3> {
     let c = |k: &str| &layer.channels[&format!("{prefix}{k}")];
     let (r, g, b) = (c("R"), c("G"), c("B"));
-    (0..r.len())
-        .map(|i| [r[i] as f64, g[i] as f64, b[i] as f64])
-        .collect()
-}
-
-/// Relative MSE of `image` against `reference` (a small floor keeps dark pixels from
-/// dominating, as the bench's does).
-pub(crate) fn relative_mse(image: &[[f64; 3]], reference: &[[f64; 3]]) -> f64 {
-    let mut sum = 0.0;
-    for (p, q) in image.iter().zip(reference) {
-        for k in 0..3 {
-            sum += (p[k] - q[k]).powi(2) / (q[k] * q[k] + 1e-2);
-        }
-    }
-    sum / (3 * image.len()) as f64
+    (0..r.len()).map(|i| Vec3::new(r[i], g[i], b[i])).collect()
 }
 
 #[test]
@@ -80,7 +69,6 @@ fn a_denoised_cornell_box_is_closer_to_the_reference_and_keeps_the_noisy_frame()
     assert_eq!(rgb(&denoised, "noisy."), rgb(&noisy, ""));
     let (_, _, reference) =
         rift_render::texture::read_exr_rgb(&crate::cornell::reference()).unwrap();
-    let reference: Vec<[f64; 3]> = reference.iter().map(|c| c.as_dvec3().to_array()).collect();
     let before = relative_mse(&rgb(&noisy, ""), &reference);
     let after = relative_mse(&rgb(&denoised, ""), &reference);
     eprintln!("Cornell box at 4 spp: relMSE {before:.5} noisy, {after:.5} denoised");
@@ -88,7 +76,7 @@ fn a_denoised_cornell_box_is_closer_to_the_reference_and_keeps_the_noisy_frame()
         after < 0.25 * before,
         "denoised {after} against noisy {before}"
     );
-    let mean = |v: &[[f64; 3]]| v.iter().map(|c| c[0] + c[1] + c[2]).sum::<f64>();
+    let mean = |v: &[Vec3]| channel_mean(v).element_sum();
     let ratio = mean(&rgb(&denoised, "")) / mean(&reference);
     assert!(
         (ratio - 1.0).abs() < 0.02,
@@ -107,15 +95,7 @@ fn light_groups_and_the_through_openings_layers_still_sum_to_the_denoised_beauty
         &["blue", "default", "lamp", "ring"],
     );
     let denoised = read_exr_layer(&d.join("denoised.exr")).unwrap();
-    let c = &denoised.channels;
-    let mut worst = 0.0f64;
-    for k in ["R", "G", "B"] {
-        for (i, &beauty) in c[k].iter().enumerate() {
-            let sum =
-                c[&format!("throughOpenings.{k}")][i] + c[&format!("notThroughOpenings.{k}")][i];
-            worst = worst.max((sum - beauty).abs() as f64 / (beauty.abs() as f64).max(1e-3));
-        }
-    }
+    let worst = layers_miss_beauty(&denoised, &["throughOpenings", "notThroughOpenings"]);
     assert!(
         worst <= 1e-4,
         "the through-openings layers miss the beauty by {worst:e}"
@@ -142,7 +122,9 @@ fn a_merged_split_render_denoised_equals_the_single_render_denoised() {
         let worst = a
             .iter()
             .zip(&b)
-            .flat_map(|(p, q)| (0..3).map(move |k| (p[k] - q[k]).abs() / p[k].abs().max(1e-2)))
+            .flat_map(|(p, q)| {
+                (0..3).map(move |k| ((p[k] - q[k]).abs() / p[k].abs().max(1e-2)) as f64)
+            })
             .fold(0.0, f64::max);
         assert!(
             worst < 1e-4,

@@ -186,7 +186,8 @@ fn the_slurm_script_is_valid_shell_with_chained_arrays() {
         "'--resume'",
     ] {
         assert!(script.contains(expect), "no {expect:?} in:\n{script}");
-    } // Denoising goes into the merge step alone: parts are never denoised.
+    }
+    // Denoising goes into the merge step alone: parts are never denoised.
     let mut args = job_args("slurm", shot.to_str().unwrap(), "denoised.sh");
     args.push("--denoise");
     let made = rift(d, &args);

@@ -5,7 +5,7 @@
 use crate::common;
 
 use common::root;
-use rift_render::frame::film::read_exr_layer;
+use rift_render::frame::film::{read_exr_layer, relative_mse};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;
@@ -929,7 +929,7 @@ fn the_check_render_path_traces_the_view_the_page_shows() {
 
 /// A check render of the showcase's frame 12 at 96x54 from `layout`: what the server says of
 /// denoising, and the image as linear RGB.
-fn check_render(layout: &Layout, spp: u32, denoise: u8) -> (String, Vec<[f64; 3]>) {
+fn check_render(layout: &Layout, spp: u32, denoise: u8) -> (String, Vec<glam::Vec3>) {
     let url = format!("/api/render?frame=12&width=96&height=54&spp={spp}&denoise={denoise}");
     let (status, headers, body) = layout.exchange(&format!(
         "GET {url} HTTP/1.0\r\nHost: 127.0.0.1:{}\r\n\r\n",
@@ -948,7 +948,7 @@ fn check_render(layout: &Layout, spp: u32, denoise: u8) -> (String, Vec<[f64; 3]
     let info = reader.next_frame(&mut bytes).unwrap();
     assert_eq!((info.width, info.height), (96, 54));
     let linear = |v: u8| {
-        let c = v as f64 / 255.0;
+        let c = v as f32 / 255.0;
         if c <= 0.04045 {
             c / 12.92
         } else {
@@ -958,7 +958,7 @@ fn check_render(layout: &Layout, spp: u32, denoise: u8) -> (String, Vec<[f64; 3]
     let channels = info.color_type.samples();
     let pixels = bytes[..info.buffer_size()]
         .chunks(channels)
-        .map(|p| [linear(p[0]), linear(p[1]), linear(p[2])])
+        .map(|p| glam::Vec3::new(linear(p[0]), linear(p[1]), linear(p[2])))
         .collect();
     (said, pixels)
 }
@@ -973,7 +973,7 @@ fn the_check_render_denoises_where_open_image_denoise_loads_and_says_so() {
     let (said, noisy) = check_render(&layout, 4, 0);
     assert_eq!(said, "off");
     let (_, reference) = check_render(&layout, 128, 0);
-    let error = |image: &[[f64; 3]]| crate::denoise::relative_mse(image, &reference);
+    let error = |image: &[glam::Vec3]| relative_mse(image, &reference);
     assert!(
         error(&denoised) < 0.5 * error(&noisy),
         "denoised relMSE {} against noisy {}",

@@ -6,7 +6,7 @@
 use crate::common;
 
 use common::{largest_difference, rift, rift_env, root, signal, start, stderr, wait_for_progress};
-use rift_render::frame::film::read_exr_layer;
+use rift_render::frame::film::{ExrLayer, read_exr_layer};
 use std::path::{Path, PathBuf};
 
 /// A copy of `examples/shots/<name>.toml` in `dir`, its mesh paths made absolute and `edit`
@@ -77,6 +77,23 @@ pub(crate) fn render_env(
     assert!(r.status.success(), "{args:?}: {}", stderr(&r));
 }
 
+/// By how much the `layers` (each `{name}.R/G/B`) miss summing to the beauty: the largest
+/// difference over pixels and channels, relative to the beauty (at least 1e-3).
+pub(crate) fn layers_miss_beauty(image: &ExrLayer, layers: &[&str]) -> f64 {
+    let c = &image.channels;
+    let mut worst = 0.0f64;
+    for channel in ["R", "G", "B"] {
+        for (i, &beauty) in c[channel].iter().enumerate() {
+            let sum: f64 = (layers.iter())
+                .map(|name| c[&format!("{name}.{channel}")][i] as f64)
+                .sum();
+            let d = (sum - beauty as f64).abs() / (beauty.abs() as f64).max(1e-3);
+            worst = worst.max(d);
+        }
+    }
+    worst
+}
+
 /// Checks that the image's light-group layers are `expect` and sum to its beauty pixel by
 /// pixel; returns each group's mean.
 pub(crate) fn assert_groups_sum_to_beauty(path: &Path, expect: &[&str]) -> Vec<(String, f64)> {
@@ -90,17 +107,9 @@ pub(crate) fn assert_groups_sum_to_beauty(path: &Path, expect: &[&str]) -> Vec<(
     let mut want = expect.to_vec();
     want.sort();
     assert_eq!(names, want, "light-group layers");
-    let mut worst = 0.0f64;
-    for channel in ["R", "G", "B"] {
-        for (i, &beauty) in c[channel].iter().enumerate() {
-            let sum: f64 = names
-                .iter()
-                .map(|g| c[&format!("lightgroup.{g}.{channel}")][i] as f64)
-                .sum();
-            let d = (sum - beauty as f64).abs() / (beauty.abs() as f64).max(1e-3);
-            worst = worst.max(d);
-        }
-    }
+    let layers: Vec<String> = names.iter().map(|g| format!("lightgroup.{g}")).collect();
+    let layers: Vec<&str> = layers.iter().map(String::as_str).collect();
+    let worst = layers_miss_beauty(&layer, &layers);
     assert!(
         worst <= 1e-5,
         "{}: the groups miss the beauty by {worst:e}",
