@@ -7,8 +7,13 @@
 //! surfaces no path can go); a path leaving such a triangle first looks for the surface it
 //! touches, and meets it at once if the ray leaves towards that surface's front. Touching then
 //! behaves as the limit of a gap closing: the light that leaves one surface meets the other.
+//!
+//! A material may instead touch in optical contact (no air between, as a glass pressed onto a
+//! table, or a glass sunk into it a hair): where its face touches a surface that is not, the
+//! face is not there. A ray that reaches it meets the other surface at that point, and a ray
+//! leaving the other surface towards it goes on beyond it, inside the glass.
 
-use super::offset::{offset_reach, offset_steps};
+use super::offset::{offset_origin, offset_reach, offset_steps};
 use super::{Hit, Ray, STATIC, Triangle, intersect_watertight, triangle::ShearedRay};
 use glam::Vec3;
 use std::collections::HashMap;
@@ -28,6 +33,18 @@ pub struct Contacts {
     /// end); empty when no triangle touches another.
     first: Vec<u32>,
     partners: Vec<u32>,
+    /// Per static triangle, true when it touches in optical contact (empty when none does).
+    optical: Vec<bool>,
+}
+
+/// What a ray leaving a touching surface meets at once (see [`Contacts::meet`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Met {
+    /// The touching surface, where the ray leaves.
+    Surface(Hit),
+    /// Nothing: the surface it faces there is in optical contact, so absent, and the ray goes
+    /// on from this origin beyond that surface's plane.
+    Beyond(Vec3),
 }
 
 impl Contacts {
@@ -48,14 +65,21 @@ impl Contacts {
         hit.instance == STATIC && t + 1 < self.first.len() && self.first[t] != self.first[t + 1]
     }
 
+    /// True when static triangle `t` touches in optical contact.
+    #[inline]
+    fn is_optical(&self, t: u32) -> bool {
+        self.optical.get(t as usize).copied().unwrap_or(false)
+    }
+
     /// The contacts among `triangles` (the scene's static ones, world space, with their unit
     /// normals and objects), where `transmits` says which triangles' materials let light
-    /// through to their back.
+    /// through to their back, and `optical` which of those touch in optical contact.
     pub fn find(
         triangles: &[Triangle],
         normals: &[Vec3],
         object: &[u32],
         transmits: impl Fn(u32) -> bool,
+        optical: impl Fn(u32) -> bool,
     ) -> Self {
         let clear: Vec<u32> = (0..triangles.len() as u32)
             .filter(|&t| transmits(t))
@@ -78,7 +102,11 @@ impl Contacts {
         }
         pairs.sort_unstable();
         pairs.dedup();
-        Self::from_pairs(triangles.len(), &pairs)
+        let mut contacts = Self::from_pairs(triangles.len(), &pairs);
+        if pairs.iter().any(|&(a, b)| optical(a) || optical(b)) {
+            contacts.optical = (0..triangles.len() as u32).map(&optical).collect();
+        }
+        contacts
     }
 
     /// Partner lists from the pairs, each pair listed for both its triangles.
@@ -103,13 +131,18 @@ impl Contacts {
                 fill[from as usize] += 1;
             }
         }
-        Self { first, partners }
+        Self {
+            first,
+            partners,
+            optical: Vec::new(),
+        }
     }
 
-    /// The surface `ray` meets at once on leaving the point `p` of the static triangle `left`
-    /// (its unit normals in `normals`): the nearest of the triangles `left` touches whose
-    /// front faces the side the ray leaves to, and that `admits`; its hit's distance is
-    /// measured from the ray's origin.
+    /// What `ray` meets at once on leaving the point `p` of the static triangle `left` (its
+    /// unit normals in `normals`): the nearest of the triangles `left` touches whose front
+    /// faces the side the ray leaves to, and that `admits`, with its hit's distance measured
+    /// from the ray's origin; or, when that one is in optical contact and `left` is not, the
+    /// origin beyond it the ray goes on from.
     pub fn meet(
         &self,
         triangles: &[Triangle],
@@ -118,17 +151,41 @@ impl Contacts {
         p: Vec3,
         ray: &Ray,
         admits: impl Fn(u32) -> bool,
-    ) -> Option<Hit> {
-        let range = self.first[left as usize] as usize..self.first[left as usize + 1] as usize;
+    ) -> Option<Met> {
         let n = normals[left as usize];
         let side = if ray.dir.dot(n) > 0.0 { n } else { -n };
-        // A probe across the plane, from one tolerance behind the point to one in front.
+        let faces_side = |b: u32| normals[b as usize].dot(side) < 0.0 && admits(b);
+        let (b, at, b1, b2) = self.probe(triangles, left, p, side, faces_side)?;
+        if self.is_optical(b) && !self.is_optical(left) {
+            return Some(Met::Beyond(offset_origin(at, side)));
+        }
+        Some(Met::Surface(Hit {
+            t: (at - ray.origin).length().max(f32::MIN_POSITIVE),
+            triangle: b,
+            instance: STATIC,
+            b1,
+            b2,
+        }))
+    }
+
+    /// The partner of `left` nearest its plane at `p` that `accept`s, found by a probe along
+    /// `side` (a unit normal of `left`) from one tolerance behind the point to one in front:
+    /// the partner, the point the probe meets it at, and its barycentrics there.
+    fn probe(
+        &self,
+        triangles: &[Triangle],
+        left: u32,
+        p: Vec3,
+        side: Vec3,
+        accept: impl Fn(u32) -> bool,
+    ) -> Option<(u32, Vec3, f32, f32)> {
+        let range = self.first[left as usize] as usize..self.first[left as usize + 1] as usize;
         let reach = TOLERANCE_REACHES * offset_reach(p, side);
         let start = p - side * reach;
         let probe = ShearedRay::new(start, side);
-        let mut nearest: Option<(f32, Hit)> = None;
+        let mut nearest: Option<(f32, (u32, Vec3, f32, f32))> = None;
         for &b in &self.partners[range] {
-            if normals[b as usize].dot(side) >= 0.0 || !admits(b) {
+            if !accept(b) {
                 continue;
             }
             let Some((t, b1, b2)) =
@@ -138,26 +195,20 @@ impl Contacts {
             };
             let off = (t - reach).abs();
             if nearest.is_none_or(|(best, _)| off < best) {
-                let at = start + side * t;
-                let hit = Hit {
-                    t: (at - ray.origin).length().max(f32::MIN_POSITIVE),
-                    triangle: b,
-                    instance: STATIC,
-                    b1,
-                    b2,
-                };
-                nearest = Some((off, hit));
+                nearest = Some((off, (b, start + side * t, b1, b2)));
             }
         }
-        nearest.map(|(_, hit)| hit)
+        nearest.map(|(_, found)| found)
     }
+
     /// `hit`, the nearest surface a `ray` found, or the surface it touches when that one lies
     /// before it in the limit of a closing gap: two touching surfaces whose fronts face each
     /// other (a glass's bottom and the table's top) have the gap between their fronts, so a
     /// ray that reaches the front of one meets first the other, whose back faces it (a ray
     /// inside the glass meets the glass's bottom before the table). Without this a tie
     /// between the two planes is broken by chance.
-    /// Only partners that `admits` count.
+    /// A surface in optical contact is not there where it touches (see
+    /// [`Self::in_optical_contact`]). Only partners that `admits` count.
     pub fn first_met(
         &self,
         triangles: &[Triangle],
@@ -166,6 +217,9 @@ impl Contacts {
         ray: &Ray,
         admits: impl Fn(u32) -> bool,
     ) -> Hit {
+        if self.is_optical(hit.triangle) {
+            return self.in_optical_contact(triangles, normals, hit, ray, admits);
+        }
         let n = normals[hit.triangle as usize];
         let cos = ray.dir.dot(n);
         if cos >= 0.0 {
@@ -179,7 +233,7 @@ impl Contacts {
             ..self.first[hit.triangle as usize + 1] as usize;
         let mut first = hit;
         for &b in &self.partners[range] {
-            if normals[b as usize].dot(ray.dir) <= 0.0 || !admits(b) {
+            if normals[b as usize].dot(ray.dir) <= 0.0 || self.is_optical(b) || !admits(b) {
                 continue;
             }
             let Some((t, b1, b2)) =
@@ -198,6 +252,32 @@ impl Contacts {
             }
         }
         first
+    }
+
+    /// `hit`, on a surface in optical contact, or where that surface touches one that is not
+    /// (and `admits`), the other surface at that point: the ray meets it from whichever side
+    /// it comes (inside the glass, the table's top; from under the table, its underside).
+    fn in_optical_contact(
+        &self,
+        triangles: &[Triangle],
+        normals: &[Vec3],
+        hit: Hit,
+        ray: &Ray,
+        admits: impl Fn(u32) -> bool,
+    ) -> Hit {
+        let p = ray.at(hit.t);
+        let n = normals[hit.triangle as usize];
+        let plain = |b: u32| !self.is_optical(b) && admits(b);
+        match self.probe(triangles, hit.triangle, p, n, plain) {
+            Some((b, at, b1, b2)) => Hit {
+                t: (at - ray.origin).length().max(f32::MIN_POSITIVE),
+                triangle: b,
+                instance: STATIC,
+                b1,
+                b2,
+            },
+            None => hit,
+        }
     }
 }
 
@@ -361,7 +441,13 @@ mod tests {
     fn finds_the_faces_that_touch_and_only_those() {
         for at in [Vec3::ZERO, Vec3::new(10_000.0, 3.0, -10_000.0)] {
             let (tris, normals, object) = floor_and_cube(at, 0.0);
-            let contacts = Contacts::find(&tris, &normals, &object, |t| object[t as usize] == 1);
+            let contacts = Contacts::find(
+                &tris,
+                &normals,
+                &object,
+                |t| object[t as usize] == 1,
+                |_| false,
+            );
             // The bottom's two triangles each meet both of the floor's.
             assert_eq!(contacts.pairs(), 4, "at {at}");
             for t in 0..tris.len() as u32 {
@@ -380,11 +466,11 @@ mod tests {
                 );
             }
             let lifted = floor_and_cube(at, 1e-3);
-            let apart = Contacts::find(&lifted.0, &lifted.1, &lifted.2, |t| t >= 2);
+            let apart = Contacts::find(&lifted.0, &lifted.1, &lifted.2, |t| t >= 2, |_| false);
             assert!(apart.is_empty(), "lifted 1 mm at {at}");
-            let opaque = Contacts::find(&tris, &normals, &object, |_| false);
+            let opaque = Contacts::find(&tris, &normals, &object, |_| false, |_| false);
             assert!(opaque.is_empty());
-            let one = Contacts::find(&tris, &normals, &[0; 14], |t| t >= 2);
+            let one = Contacts::find(&tris, &normals, &[0; 14], |t| t >= 2, |_| false);
             assert!(one.is_empty());
         }
     }
@@ -396,14 +482,22 @@ mod tests {
     fn a_ray_meets_the_surface_it_leaves_towards() {
         for at in [Vec3::ZERO, Vec3::new(10_000.0, 3.0, -10_000.0)] {
             let (tris, normals, object) = floor_and_cube(at, 0.0);
-            let contacts = Contacts::find(&tris, &normals, &object, |t| object[t as usize] == 1);
+            let contacts = Contacts::find(
+                &tris,
+                &normals,
+                &object,
+                |t| object[t as usize] == 1,
+                |_| false,
+            );
             let bottom = (2..tris.len() as u32)
                 .find(|&t| normals[t as usize].y < -0.9)
                 .unwrap();
             let p = tris[bottom as usize].point(0.3, 0.3);
             let down = Vec3::new(0.3, -1.0, 0.1).normalize();
             let met = contacts.meet(&tris, &normals, bottom, p, &ray_from(p, down), |_| true);
-            let met = met.unwrap_or_else(|| panic!("nothing met at {at}"));
+            let Some(Met::Surface(met)) = met else {
+                panic!("no surface met at {at}: {met:?}");
+            };
             assert!(met.triangle < 2, "met {} at {at}", met.triangle);
             assert!((tris[met.triangle as usize].point(met.b1, met.b2) - p).length() < 1e-2);
             assert!(met.t > 0.0 && met.t < 1e-2, "t {}", met.t);
@@ -426,9 +520,10 @@ mod tests {
             });
             let floor =
                 floor.unwrap_or_else(|| panic!("the floor under the cube met nothing at {at}"));
-            let met = contacts
-                .meet(&tris, &normals, floor, p, &ray_from(p, up), |_| true)
-                .unwrap();
+            let met = contacts.meet(&tris, &normals, floor, p, &ray_from(p, up), |_| true);
+            let Some(Met::Surface(met)) = met else {
+                panic!("the floor under the cube met {met:?} at {at}");
+            };
             assert!(normals[met.triangle as usize].y < -0.9);
             let beside = at + Vec3::new(1.5, 0.0, 1.5);
             for t in 0..2 {
@@ -447,7 +542,13 @@ mod tests {
     fn a_ray_meets_the_surface_on_its_side_of_the_gap_first() {
         for at in [Vec3::ZERO, Vec3::new(10_000.0, 3.0, -10_000.0)] {
             let (tris, normals, object) = floor_and_cube(at, 0.0);
-            let contacts = Contacts::find(&tris, &normals, &object, |t| object[t as usize] == 1);
+            let contacts = Contacts::find(
+                &tris,
+                &normals,
+                &object,
+                |t| object[t as usize] == 1,
+                |_| false,
+            );
             let bottom: Vec<u32> = (2..tris.len() as u32)
                 .filter(|&t| normals[t as usize].y < -0.9)
                 .collect();
@@ -499,6 +600,78 @@ mod tests {
             };
             let kept = contacts.first_met(&tris, &normals, from_below, &up, |_| true);
             assert_eq!(kept.triangle, floor_hit.triangle);
+        }
+    }
+
+    /// In optical contact the glass's bottom is not there where it touches the floor: a ray
+    /// inside the glass going down meets the floor whichever of the two planes the search
+    /// found, a ray from under the floor meets its underside, and a ray leaving the floor up
+    /// under the glass goes on from beyond the glass's bottom; beside the glass nothing
+    /// changes.
+    #[test]
+    fn in_optical_contact_the_glass_bottom_is_not_there() {
+        for at in [Vec3::ZERO, Vec3::new(10_000.0, 3.0, -10_000.0)] {
+            let (tris, normals, object) = floor_and_cube(at, 0.0);
+            let glass = |t: u32| object[t as usize] == 1;
+            let contacts = Contacts::find(&tris, &normals, &object, glass, glass);
+            let hit_on = |t: u32, ray: &Ray| {
+                let sheared = ShearedRay::new(ray.origin, ray.dir);
+                let (d, b1, b2) = intersect_watertight(&sheared, &tris[t as usize], 10.0)?;
+                Some(Hit {
+                    t: d,
+                    triangle: t,
+                    instance: STATIC,
+                    b1,
+                    b2,
+                })
+            };
+            let down = Ray::new(
+                at + Vec3::new(-0.1, 0.7, -0.2),
+                Vec3::new(-0.05, -1.0, 0.1).normalize(),
+                f32::INFINITY,
+                0.0,
+            );
+            let bottom = (2..tris.len() as u32)
+                .find(|&t| normals[t as usize].y < -0.9 && hit_on(t, &down).is_some())
+                .unwrap();
+            let on_bottom = hit_on(bottom, &down).unwrap();
+            let on_floor = (0..2).find_map(|t| hit_on(t, &down)).unwrap();
+            for found in [on_bottom, on_floor] {
+                let met = contacts.first_met(&tris, &normals, found, &down, |_| true);
+                assert!(met.triangle < 2, "met {} at {at}", met.triangle);
+                assert!((met.t - on_floor.t).abs() < 1e-3, "t {} at {at}", met.t);
+            }
+            // A floor the ray's class does not see leaves the glass's bottom there.
+            let hidden = contacts.first_met(&tris, &normals, on_bottom, &down, |b| b >= 2);
+            assert_eq!(hidden.triangle, bottom);
+            let p = down.at(on_floor.t);
+            let below = Ray::new(p - 0.5 * Vec3::Y, Vec3::Y, 1.0, 0.0);
+            let from_below = hit_on(bottom, &below).unwrap();
+            let met = contacts.first_met(&tris, &normals, from_below, &below, |_| true);
+            assert!(met.triangle < 2, "from below met {} at {at}", met.triangle);
+            // Leaving the floor upwards under the glass: on, past the bottom's plane.
+            let up = Vec3::new(0.3, 1.0, 0.1).normalize();
+            let floor = on_floor.triangle;
+            match contacts.meet(&tris, &normals, floor, p, &ray_from(p, up), |_| true) {
+                Some(Met::Beyond(origin)) => {
+                    assert!(
+                        origin.y > p.y && origin.y - p.y < 1e-2,
+                        "origin {origin} at {at}"
+                    );
+                    let sheared = ShearedRay::new(origin, up);
+                    let again = intersect_watertight(&sheared, &tris[bottom as usize], 1.0);
+                    assert!(again.is_none(), "the bottom met again at {at}");
+                }
+                other => panic!("leaving the floor up met {other:?} at {at}"),
+            }
+            let beside = at + Vec3::new(1.5, 0.0, 1.5);
+            for t in 0..2 {
+                assert!(
+                    contacts
+                        .meet(&tris, &normals, t, beside, &ray_from(beside, up), |_| true)
+                        .is_none()
+                );
+            }
         }
     }
 }

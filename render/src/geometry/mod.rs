@@ -18,7 +18,7 @@ pub mod triangle_bvh;
 pub mod wide_bvh;
 
 pub use accel::{Accel, Hit, STATIC, every_triangle};
-pub use contact::Contacts;
+pub use contact::{Contacts, Met};
 pub use deforming::{Deformation, Samples};
 pub use instance::{MovingInstance, Placement};
 pub use motion::{ObjectMotion, changes_during};

@@ -4,7 +4,7 @@
 
 use super::direct::{Shading, next_event, sky_group};
 use super::{Context, FirstHit, NoRecorder, PORTAL_TIE, PathSample, Recorder};
-use crate::geometry::{Hit, Ray, offset_origin};
+use crate::geometry::{Hit, Met, Ray, offset_origin};
 use crate::lights::emitters::{Found, Receiver};
 use crate::material::Lookup;
 use crate::material::bsdf::{Bsdf, Side};
@@ -132,14 +132,21 @@ impl PathState {
     }
 
     /// The surface the path's ray meets at once, as it leaves a surface that touches another
-    /// (see [`crate::geometry::Contacts`]): asked once per ray.
+    /// (see [`crate::geometry::Contacts`]): asked once per ray. Where the surface it faces is
+    /// in optical contact, the ray starts again beyond it and meets nothing at once.
     #[inline]
     fn contact(&mut self, scene: &Scene) -> Option<Hit> {
         if self.touching == NOT_TOUCHING {
             return None;
         }
         let left = std::mem::replace(&mut self.touching, NOT_TOUCHING);
-        meet_touching(scene, left, self.prev_receiver.p, &self.ray, self.class())
+        match meet_touching(scene, left, self.prev_receiver.p, &self.ray, self.class())? {
+            Met::Surface(hit) => Some(hit),
+            Met::Beyond(origin) => {
+                self.ray.origin = origin;
+                None
+            }
+        }
     }
 
     /// The shading frame where the path arrived, at geometric normal `n` on its `side`
@@ -379,7 +386,7 @@ fn track_grids(
 /// [`PathState::contact`]), among the surfaces rays of `class` see.
 #[cold]
 #[inline(never)]
-fn meet_touching(scene: &Scene, left: u32, p: Vec3, ray: &Ray, class: RayClass) -> Option<Hit> {
+fn meet_touching(scene: &Scene, left: u32, p: Vec3, ray: &Ray, class: RayClass) -> Option<Met> {
     let count = scene.static_triangles;
     scene.contacts.meet(
         &scene.triangles[..count],

@@ -22,6 +22,9 @@ pub struct Material {
     /// The share of rays the surface stops where no opacity texture says otherwise: below 1
     /// the surface is a cut-out, and rays pass it with the rest of the probability.
     pub opacity: f32,
+    /// True when the surface, where it touches another, is in optical contact with it (no air
+    /// between them) instead of the limit of a closing gap (see [`crate::geometry::Contacts`]).
+    pub optical_contact: bool,
 }
 
 impl Material {

@@ -379,15 +379,13 @@ impl Surfaces {
 /// Where the static triangles of different objects touch (see [`Contacts`]).
 fn contacts(g: &Geometry, normals: &[Vec3], materials: &[Material]) -> Contacts {
     let count = g.static_count;
+    let material = |t: u32| &materials[g.triangle_material[t as usize] as usize];
     Contacts::find(
         &g.triangles[..count],
         &normals[..count],
         &g.triangle_object[..count],
-        |t| {
-            materials[g.triangle_material[t as usize] as usize]
-                .bsdf
-                .transmits()
-        },
+        |t| material(t).bsdf.transmits(),
+        |t| material(t).optical_contact,
     )
 }
 

@@ -5,7 +5,8 @@
 //! material that uses it.
 
 use super::schema::{
-    MaterialKind, MaterialSection, ShadowingKind, TextureColorSpace, TextureFilter, TextureSection,
+    ContactKind, MaterialKind, MaterialSection, ShadowingKind, TextureColorSpace, TextureFilter,
+    TextureSection,
 };
 use super::{Entry, metals, optional, parse};
 use crate::error::{RenderError, key_error};
@@ -389,6 +390,7 @@ pub(super) fn from_mtl(
         one_sided: false,
         inputs: (inputs != Inputs::default()).then(|| Box::new(inputs)),
         opacity: mtl.opacity.unwrap_or(1.0),
+        optical_contact: false,
     })
 }
 
@@ -487,6 +489,7 @@ pub(super) fn boundary() -> Material {
         one_sided: false,
         inputs: None,
         opacity: 1.0,
+        optical_contact: false,
     }
 }
 
@@ -517,6 +520,7 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         MaterialKind::Standard => standard(key, m, ggx)?,
     };
     let emission = color(&format!("{key}.emission"), m.emission, Vec3::ZERO)?;
+    let optical_contact = optical_contact(key, m, &bsdf)?;
     Ok(Material {
         name: m.name.clone(),
         bsdf,
@@ -525,7 +529,21 @@ fn material(key: &str, m: &MaterialSection) -> Result<Material, Invalid> {
         one_sided: m.one_sided.unwrap_or(false),
         inputs: None,
         opacity: fraction(key, "opacity", m.opacity, 1.0)?,
+        optical_contact,
     })
+}
+
+/// True when `contact = "optical"`; only a material that lets light through takes it (between
+/// two opaque surfaces no light passes, so how they touch makes no difference).
+fn optical_contact(key: &str, m: &MaterialSection, bsdf: &Bsdf) -> Result<bool, Invalid> {
+    match m.contact {
+        None | Some(ContactKind::Gap) => Ok(false),
+        Some(ContactKind::Optical) if bsdf.transmits() => Ok(true),
+        Some(ContactKind::Optical) => Err(Invalid::new(
+            format!("{key}.contact"),
+            "only a material that lets light through (a dielectric) can touch in optical contact",
+        )),
+    }
 }
 
 /// A number from 0 to 1 at `key.field` (`default` when not given).

@@ -61,6 +61,12 @@
 //! type = "dielectric"           # GGX reflection and refraction, exact Fresnel
 //! ior = 1.5                     # inside (behind the front face) over outside
 //! roughness = 0.0               # 0: a perfectly smooth interface
+//! contact = "gap"               # where a face touches another object's in one plane (a glass
+//!                               # on a table): "gap", the limit of an air gap closing (light
+//!                               # leaves through the face, total internal reflection and
+//!                               # all), or "optical": no air between, the face is not there
+//!                               # and light inside meets the table directly, as a glass sunk
+//!                               # into it by a hair (Mitsuba 3's tie-break)
 //!
 //! [[material]]
 //! name = "lacquered_wood"
@@ -305,6 +311,8 @@ pub struct MaterialSection {
     pub coat: Option<f64>,
     pub coat_roughness: Option<f64>,
     pub coat_ior: Option<f64>,
+    /// How the surface touches another in one plane: "gap" (default) or "optical".
+    pub contact: Option<ContactKind>,
 }
 
 /// One `[[medium]]`.
@@ -335,6 +343,17 @@ pub struct MediumSection {
 pub enum ShadowingKind {
     HeightCorrelated,
     Separable,
+}
+
+/// `contact` of a material: how its faces touch another object's in one plane.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactKind {
+    /// The limit of an air gap closing: light leaves through the face to meet the other.
+    Gap,
+    /// No air between: where they touch the face is not there, and light inside meets the
+    /// other surface directly.
+    Optical,
 }
 
 /// Material types.
