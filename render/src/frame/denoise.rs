@@ -1,11 +1,12 @@
 //! Denoising a finished frame with Open Image Denoise ([`crate::platform::oidn`]), keeping it
-//! a compositor's frame: the emission the camera sees directly is kept out of the filter, the noisy beauty stays as its own layer (`noisy.R/G/B`, as Cycles
-//! keeps "Noisy Image"), and every part of the beauty that is written as a layer (each light
-//! group, the light through openings and the rest) is denoised with the same auxiliary images
-//! and then rescaled, pixel by pixel and channel by channel, so the parts still sum to the
-//! denoised beauty.
+//! a compositor's frame: the emission the camera sees directly is kept out of the filter, the
+//! noisy beauty stays as its own layer (`noisy.R/G/B`, as Cycles keeps "Noisy Image"), and
+//! every part of the beauty that is written as a layer is denoised with the same auxiliary
+//! images so the parts still sum to the denoised beauty: the light groups each filtered and
+//! then rescaled, pixel by pixel and channel by channel; the light through openings filtered
+//! and kept within the beauty, the rest being the beauty less it.
 
-use crate::frame::film::{Image, not_through};
+use crate::frame::film::Image;
 use crate::platform::oidn::{Device, Images, Quality, Settings};
 use glam::Vec3;
 
@@ -51,31 +52,28 @@ pub fn denoise(image: &mut Image, quality: Quality, threads: usize) -> Result<De
         *v = v.max(Vec3::ZERO) + *e;
     }
     let mut runs = 3;
-    // Parts of the beauty written as layers: each filtered, then rescaled to sum to it.
-    let mut denoise_parts = |parts: &mut [Vec<Vec3>], total: &[Vec3]| -> Result<(), String> {
+    if !image.light_groups.is_empty() {
+        // Each group filtered, then all rescaled to sum to the denoised beauty.
+        let mut parts: Vec<Vec<Vec3>> = (image.light_groups.iter_mut())
+            .map(|(_, group)| std::mem::take(group))
+            .collect();
         for part in parts.iter_mut() {
             filter(part)?;
         }
         runs += parts.len();
-        rescale(parts, total);
-        Ok(())
-    };
-    if !image.light_groups.is_empty() {
-        let mut parts: Vec<Vec<Vec3>> = (image.light_groups.iter_mut())
-            .map(|(_, group)| std::mem::take(group))
-            .collect();
-        denoise_parts(&mut parts, &image.rgb)?;
+        rescale(&mut parts, &image.rgb);
         for ((_, group), part) in image.light_groups.iter_mut().zip(parts) {
             *group = part;
         }
     }
     if let Some(through) = &mut image.through {
-        // The not-through part is filtered only for the shares of the rescale: the film writes
-        // that layer as the beauty less this one.
-        let local = not_through(&noisy, through);
-        let mut parts = [std::mem::take(through), local];
-        denoise_parts(&mut parts, &image.rgb)?;
-        *through = std::mem::take(&mut parts[0]);
+        // Filtered and kept within the denoised beauty; the film writes the not-through layer
+        // as the beauty less this one, so one filter run serves both.
+        filter(through)?;
+        runs += 1;
+        for (part, total) in through.iter_mut().zip(&image.rgb) {
+            *part = part.max(Vec3::ZERO).min(total.max(Vec3::ZERO));
+        }
     }
     image.noisy = Some(noisy);
     Ok(Denoised {
