@@ -5,7 +5,9 @@ slowing to reach its left arm through the hatch (a second, small opening) for th
 pillar beyond it (the IK target is the pillar's top carried back through the hatch's pair, as
 `back_through` places a here-side target), then running on through the back opening carrying
 it. Written as a mesh sequence of binary PLY files, one per frame, with
-per-vertex velocities (units per second) so rift blurs each vertex along its path:
+per-vertex velocities (units per second) so rift blurs each vertex along its path, and
+per-vertex normals (each frame's, area-weighted over the faces around the vertex) so it shades
+smoothly as it bends:
 examples/assets/mannequin/walker.0001.ply ... walker.0025.ply (frame 25 is what frame 24's
 open shutter reaches). Python's standard library only, so it runs anywhere; the output is
 committed, and tests/character.rs checks it is what this script makes.
@@ -433,6 +435,17 @@ def orb_keys():
 # --- output
 
 
+def vertex_normals(points, faces):
+    """Each vertex's unit normal: the sum of its faces' normals, each as long as twice the
+    face's area, so large faces weigh more (as modelling packages compute them)."""
+    sums = [(0.0, 0.0, 0.0)] * len(points)
+    for a, b, c in faces:
+        n = cross(sub(points[b], points[a]), sub(points[c], points[a]))
+        for i in (a, b, c):
+            sums[i] = add(sums[i], n)
+    return [unit(n) if norm(n) > 0.0 else (0.0, 1.0, 0.0) for n in sums]
+
+
 def ply_bytes(points, velocities, faces):
     header = (
         "ply\nformat binary_little_endian 1.0\n"
@@ -440,12 +453,13 @@ def ply_bytes(points, velocities, faces):
         f"element vertex {len(points)}\n"
         "property float x\nproperty float y\nproperty float z\n"
         "property float vx\nproperty float vy\nproperty float vz\n"
+        "property float nx\nproperty float ny\nproperty float nz\n"
         f"element face {len(faces)}\n"
         "property list uchar int vertex_indices\nend_header\n"
     ).encode()
     body = bytearray()
-    for p, v in zip(points, velocities):
-        body += struct.pack("<6f", *p, *v)
+    for p, v, n in zip(points, velocities, vertex_normals(points, faces)):
+        body += struct.pack("<9f", *p, *v, *n)
     for f in faces:
         body += struct.pack("<B3i", 3, *f)
     return header + bytes(body)

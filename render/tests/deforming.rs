@@ -377,6 +377,18 @@ fn bad_sequences_are_refused_naming_the_file_the_frame_and_the_counts() {
         "{e}"
     );
 
+    // Normals in one frame and not the next.
+    write("n.0001.obj", SHEET);
+    write(
+        "n.0002.obj",
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\nf 1//1 3//1 4//1\n",
+    );
+    let e = load_error(d, &sequence_shot("n.####.obj"));
+    assert!(
+        e.contains("n.0002.obj") && e.contains("normals for") && e.contains("or in none"),
+        "{e}"
+    );
+
     // An emissive material on a deforming mesh, and a sequence of files rift cannot read.
     write("e.0001.obj", SHEET);
     let lamp = "[[material]]\nname = \"lamp\"\ntype = \"diffuse\"\nemission = [1.0, 1.0, 1.0]\n\

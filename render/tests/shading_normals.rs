@@ -2,7 +2,8 @@
 //! a sun of zero angular size, has at each point radiance ρ/π · E · (n·l), n its corners'
 //! normals interpolated there; without normals, its flat normal's. Checked column by column
 //! against that closed form for OBJ `vn` and PLY `nx ny nz`, on a static object (its normals
-//! baked to world space with it) and on a moving one (turned at hit time by its placement).
+//! baked to world space with it), on a moving one (turned at hit time by its placement), and
+//! on a mesh sequence and a deforming USD mesh (their normals deforming between samples).
 
 use crate::common;
 
@@ -124,16 +125,27 @@ fn column(image: &Image, i: usize) -> f64 {
 fn assert_shaded(dir: &Path, file: &str, mesh: &str, transform: &str, leans: (f64, f64)) {
     std::fs::write(dir.join(file), mesh).unwrap();
     let image = render_at(dir, file, &shot(file, transform), 16, 1);
-    assert_eq!(image.discarded, 0, "{file}");
+    assert_columns(&image, leans, &format!("{file} {transform:?}"));
+}
+
+/// Checks every inner column of `image` against the closed form for corner normals leaning
+/// `leans` (left, right) in world space.
+fn assert_columns(image: &Image, leans: (f64, f64), what: &str) {
+    assert_eq!(image.discarded, 0, "{what}");
     // The outer columns' pixel filters reach past the square's edge.
     for i in 2..PIXELS - 2 {
-        let (got, want) = (column(&image, i), expected(i, leans));
+        let (got, want) = (column(image, i), expected(i, leans));
         assert!(
             (got - want).abs() <= 0.005 * want + 1e-4,
-            "{file} {transform:?}: column {i} has radiance {got:.5} where its normal gives \
-             {want:.5}"
+            "{what}: column {i} has radiance {got:.5} where its normal gives {want:.5}"
         );
     }
+}
+
+/// The shot at frame 1.25 (frame 1, the shutter closed a quarter frame after it): halfway
+/// between samples at frames 1 and 1.5; the square is `mesh`.
+fn shot_between_samples(mesh: &str) -> String {
+    shot(mesh, "").replace("frames = [1, 1]", "frames = [1, 1]\nshutter = [0.25, 0.25]")
 }
 
 #[test]
@@ -170,4 +182,105 @@ fn normals_turn_with_their_object_baked_or_moving() {
         { frame = 1, position = [0.0, 0.0, 0.0], rotation_degrees = [0.0, 0.0, 180.0] }, \
         { frame = 2, position = [0.0, 0.0, -0.001], rotation_degrees = [0.0, 0.0, 180.0] }] }";
     assert_shaded(d, "moving.obj", &square_obj(Some(leans)), moving, turned);
+}
+
+/// A mesh sequence's normals deform with it: a square (the same in both samples) whose left
+/// corners' normals lean from -30° at frame 1 to +30° at its sub-frame 1.5 is shaded halfway
+/// between as the still square with those normals halfway (upright); a sequence without
+/// normals is shaded flat.
+#[test]
+fn a_sequences_normals_deform_with_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lean = TILT_DEGREES;
+    std::fs::write(d.join("turning.0001.ply"), square_ply((-lean, lean))).unwrap();
+    std::fs::write(d.join("turning.0001.5.ply"), square_ply((lean, lean))).unwrap();
+    let image = render_at(
+        d,
+        "turning",
+        &shot_between_samples("turning.####.ply"),
+        16,
+        1,
+    );
+    assert_columns(
+        &image,
+        (0.0, lean),
+        "a sequence halfway between its samples",
+    );
+    for frame in ["0001", "0001.5"] {
+        std::fs::write(d.join(format!("flat.{frame}.obj")), square_obj(None)).unwrap();
+    }
+    let image = render_at(d, "flat", &shot_between_samples("flat.####.obj"), 16, 1);
+    assert_columns(&image, (0.0, 0.0), "a sequence without normals");
+}
+
+/// The square as a USD mesh whose points are sampled at frames 1 and 1.5 (the same both
+/// times), its normals sampled with them when `normals` gives (left, right) leans at each
+/// time code, or held still when it gives one.
+fn square_usda(normals: &[(f64, (f64, f64))]) -> String {
+    let (l, h, z) = (-H, H, -DEPTH);
+    let points = format!("[({l}, {l}, {z}), ({h}, {l}, {z}), ({h}, {h}, {z}), ({l}, {h}, {z})]");
+    let leaned = |(left, right): (f64, f64)| {
+        let n = [left, right, right, left].map(|lean| {
+            let [x, y, z] = leaning(lean);
+            format!("({x}, {y}, {z})")
+        });
+        format!("[{}]", n.join(", "))
+    };
+    let normals = match normals {
+        [(_, leans)] => format!("normal3f[] normals = {}", leaned(*leans)),
+        samples => {
+            let each: Vec<String> = (samples.iter())
+                .map(|(code, leans)| format!("{code}: {}", leaned(*leans)))
+                .collect();
+            format!("normal3f[] normals.timeSamples = {{ {} }}", each.join(", "))
+        }
+    };
+    format!(
+        "#usda 1.0\n(\n metersPerUnit = 1\n upAxis = \"Y\"\n)\ndef Mesh \"Square\" {{\n \
+         point3f[] points.timeSamples = {{ 1: {points}, 1.5: {points} }}\n \
+         int[] faceVertexCounts = [4]\n int[] faceVertexIndices = [0, 1, 2, 3]\n \
+         {normals}\n \
+         color3f[] primvars:displayColor = [({ALBEDO}, {ALBEDO}, {ALBEDO})]\n \
+         uniform token subdivisionScheme = \"none\"\n}}\n"
+    )
+}
+
+/// A USD mesh's time-sampled normals deform with its points, as a sequence's do; normals not
+/// sampled while the points are cannot follow them, and the mesh is shaded flat (and the
+/// render says so).
+#[test]
+fn a_usd_meshs_sampled_normals_deform_with_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lean = TILT_DEGREES;
+    let shot_of = |file: &str| {
+        let text = shot_between_samples("unused.obj");
+        let (objects, lights) = (
+            text.find("[[object]]").unwrap(),
+            text.find("[[light]]").unwrap(),
+        );
+        format!(
+            "{}{}[[usd]]\nfile = \"{file}\"\n",
+            &text[..objects],
+            &text[lights..]
+        )
+    };
+    let sampled = square_usda(&[(1.0, (-lean, lean)), (1.5, (lean, lean))]);
+    std::fs::write(d.join("sampled.usda"), sampled).unwrap();
+    let image = render_at(d, "sampled", &shot_of("sampled.usda"), 16, 1);
+    assert_columns(
+        &image,
+        (0.0, lean),
+        "a USD mesh halfway between its samples",
+    );
+    std::fs::write(d.join("still.usda"), square_usda(&[(1.0, (-lean, lean))])).unwrap();
+    let image = render_at(d, "still", &shot_of("still.usda"), 16, 1);
+    assert_columns(&image, (0.0, 0.0), "a USD mesh whose normals stay put");
+    let shot = rift_render::rift_fx::Shot::load(&d.join("still.toml")).unwrap();
+    let warnings = rift_render::Scene::load(&shot, 1).unwrap().warnings;
+    assert!(
+        (warnings.iter()).any(|w| w.contains("</Square>") && w.contains("not sampled over time")),
+        "{warnings:?}"
+    );
 }

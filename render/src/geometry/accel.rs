@@ -81,6 +81,21 @@ impl Accel {
             .deformed_triangle(i, t)
     }
 
+    /// The shading normal of triangle `i` of moving instance `instance` at time `t` and
+    /// barycentrics `b1`, `b2`, in object space, where that instance deforms with normals.
+    #[inline]
+    pub fn deformed_normal(
+        &self,
+        instance: u32,
+        i: u32,
+        t: f64,
+        (b1, b2): (f32, f32),
+    ) -> Option<glam::Vec3> {
+        self.instances
+            .get(instance as usize)?
+            .deformed_normal(i, t, b1, b2)
+    }
+
     /// Triangle `i` in object space at time `t`, found among the deforming instances (a slow
     /// search, for tools that do not know the triangle's instance); `None` when no deforming
     /// instance holds it.

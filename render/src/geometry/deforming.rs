@@ -12,8 +12,11 @@
 //! widened by that. No tree is built per ray or per time.
 //!
 //! The cache is in object space and shared (`Arc`) by every copy of the object: copies
-//! through openings place it with their own transform and read it at their own time.
+//! through openings place it with their own transform and read it at their own time. Where
+//! every sample gives its corners' normals, they deform with it: a hit's shading normal is
+//! read between the two samples around its time, so a bending limb shades smoothly.
 
+use super::PackedNormal;
 use super::build::wide_bvh;
 use super::moving_bvh::refit_slice;
 use super::triangle::{ShearedRay, Triangle, intersect_watertight};
@@ -33,6 +36,8 @@ pub struct Deformation {
     corners: Vec<Vec<[Vec3; 3]>>,
     /// Per sample, each corner's velocity in units per second, in leaf order; empty without.
     velocities: Vec<Vec<[Vec3; 3]>>,
+    /// Per sample, each corner's unit shading normal, in leaf order; empty without.
+    normals: Vec<Vec<[PackedNormal; 3]>>,
     /// Per segment between two samples (one for a single sample), the tree's nodes refit to it.
     slices: Vec<Vec<SweptNode>>,
     /// The triangle (index into the mesh as given) of each leaf slot.
@@ -49,6 +54,8 @@ pub struct Samples {
     pub corners: Vec<Vec<[Vec3; 3]>>,
     /// Empty, or one list per sample as long as its corners.
     pub velocities: Vec<Vec<[Vec3; 3]>>,
+    /// Empty, or one list of unit normals per sample as long as its corners.
+    pub normals: Vec<Vec<[Vec3; 3]>>,
 }
 
 /// Where a time falls among the samples: the segment, the fraction through it, and its length
@@ -68,15 +75,21 @@ impl Deformation {
             times,
             corners,
             velocities,
+            normals,
         } = samples;
         assert!(!times.is_empty() && times.len() == corners.len());
         assert!(corners.iter().all(|c| c.len() == corners[0].len()));
         assert!(times.windows(2).all(|w| w[0] < w[1]));
         assert!(velocities.is_empty() || velocities.len() == corners.len());
+        assert!(normals.is_empty() || normals.len() == corners.len());
+        let normals = (normals.iter())
+            .map(|sample| sample.iter().map(|c| c.map(PackedNormal::pack)).collect())
+            .collect();
         let mut this = Self {
             times,
             corners,
             velocities,
+            normals,
             slices: Vec::new(),
             leaf_triangles: Vec::new(),
             slot_of: Vec::new(),
@@ -84,6 +97,11 @@ impl Deformation {
         };
         this.build_tree();
         this
+    }
+
+    /// True when its samples give normals, which deform with it.
+    pub fn has_normals(&self) -> bool {
+        !self.normals.is_empty()
     }
 
     /// Triangles in the mesh.
@@ -100,7 +118,9 @@ impl Deformation {
             .map(|c| c.len())
             .sum();
         let nodes: usize = self.slices.iter().map(|s| s.len()).sum();
+        let normals: usize = self.normals.iter().map(|n| n.len()).sum();
         samples * size_of::<[Vec3; 3]>()
+            + normals * size_of::<[PackedNormal; 3]>()
             + nodes * size_of::<SweptNode>()
             + (self.leaf_triangles.len() + self.slot_of.len()) * 4
     }
@@ -141,6 +161,9 @@ impl Deformation {
         }
         let order = &self.leaf_triangles;
         for sample in self.corners.iter_mut().chain(&mut self.velocities) {
+            *sample = order.iter().map(|&i| sample[i as usize]).collect();
+        }
+        for sample in &mut self.normals {
             *sample = order.iter().map(|&i| sample[i as usize]).collect();
         }
     }
@@ -224,6 +247,25 @@ impl Deformation {
     /// Triangle `i` (of the mesh as given) at time `t`, in object space.
     pub fn triangle(&self, i: u32, t: f64) -> Triangle {
         self.triangle_at(self.at(t), self.slot_of[i as usize] as usize)
+    }
+
+    /// The shading normal of triangle `i` (of the mesh as given) at time `t` and barycentrics
+    /// `b1`, `b2`, in object space and not yet unit length: each corner's normal turned
+    /// between the two samples around `t` (unit length, as a still mesh's are), then blended
+    /// across the triangle. `None` without normals.
+    pub fn normal(&self, i: u32, t: f64, b1: f32, b2: f32) -> Option<Vec3> {
+        if self.normals.is_empty() {
+            return None;
+        }
+        let (at, slot) = (self.at(t), self.slot_of[i as usize] as usize);
+        let corner = |c: usize| {
+            let n0 = self.normals[at.segment][slot][c].unpack();
+            match self.normals.get(at.segment + 1) {
+                Some(next) => n0.lerp(next[slot][c].unpack(), at.s).normalize_or(n0),
+                None => n0,
+            }
+        };
+        Some(corner(0) * (1.0 - b1 - b2) + corner(1) * b1 + corner(2) * b2)
     }
 
     #[inline]
@@ -341,6 +383,7 @@ mod tests {
             } else {
                 Vec::new()
             },
+            normals: Vec::new(),
         })
     }
 
@@ -370,6 +413,7 @@ mod tests {
             times: vec![0.0, 1.0],
             corners: vec![vec![tri], vec![tri]],
             velocities: vec![vec![[v; 3]], vec![[v; 3]]],
+            normals: Vec::new(),
         });
         // Hermite with v0 = v1 = 4: x(s) = 4(s − 2s² + s³) + 4(s³ − s²) = 4s − 12s² + 8s³.
         for s in [0.1f64, 0.3, 0.5, 0.8] {
@@ -405,5 +449,27 @@ mod tests {
             mesh.intersect(down, 10.0, 0.0, 40, &|i, _| i == 40)
                 .is_some()
         );
+    }
+
+    /// Normals deform with the mesh: between two samples a corner's normal turns from one to
+    /// the other, across the triangle they blend by the barycentrics, and before the first
+    /// sample or after the last they hold; without normals there is none.
+    #[test]
+    fn normals_are_read_between_the_samples_around_the_time() {
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let tilted = Vec3::new(1.0, 0.0, 1.0).normalize();
+        let mesh = Deformation::new(Samples {
+            times: vec![0.0, 1.0],
+            corners: vec![vec![tri], vec![tri]],
+            velocities: Vec::new(),
+            normals: vec![vec![[Vec3::Z; 3]], vec![[Vec3::Z, tilted, Vec3::Z]]],
+        });
+        let at = |t: f64, b1: f32| mesh.normal(0, t, b1, 0.0).unwrap().normalize();
+        assert!(at(0.5, 0.0).abs_diff_eq(Vec3::Z, 1e-4));
+        let half = (Vec3::Z + 0.5 * (tilted - Vec3::Z)).normalize();
+        assert!(at(0.5, 1.0).abs_diff_eq(half, 1e-4), "{}", at(0.5, 1.0));
+        assert!(at(2.0, 1.0).abs_diff_eq(tilted, 1e-4));
+        assert!(at(-1.0, 1.0).abs_diff_eq(Vec3::Z, 1e-4));
+        assert!(sliding(false).normal(0, 0.5, 0.2, 0.2).is_none());
     }
 }

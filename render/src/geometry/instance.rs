@@ -168,6 +168,17 @@ impl MovingInstance {
         }
     }
 
+    /// The shading normal of triangle `i` at time `t` and barycentrics `b1`, `b2` in object
+    /// space (not unit length), where the instance deforms with normals (`None` otherwise).
+    pub fn deformed_normal(&self, i: u32, t: f64, b1: f32, b2: f32) -> Option<Vec3> {
+        match &self.shape {
+            Shape::Rigid(_) => None,
+            Shape::Deforming { mesh, first_id } => {
+                mesh.normal(i - first_id, self.transform.source_time(t), b1, b2)
+            }
+        }
+    }
+
     /// The placement at time `t`.
     #[inline]
     /// Where the instance is at `t`.

@@ -416,10 +416,16 @@ impl Scene {
     pub fn shading_normal(&self, hit: &Hit, time: f64, ng: Vec3) -> Option<Vec3> {
         let [a, b, c] = *self.triangle_normals.get(hit.triangle as usize)?;
         let (a, b, c) = (a.get()?, b.unpack(), c.unpack());
-        let n = a * (1.0 - hit.b1 - hit.b2) + b * hit.b1 + c * hit.b2;
+        let stored = || a * (1.0 - hit.b1 - hit.b2) + b * hit.b1 + c * hit.b2;
         let n = match hit.instance {
-            STATIC => n,
-            instance => (self.accel.placement(instance, time).to_world).transform_vector3(n),
+            STATIC => stored(),
+            instance => {
+                let barycentrics = (hit.b1, hit.b2);
+                let n = (self.accel)
+                    .deformed_normal(instance, hit.triangle, time, barycentrics)
+                    .unwrap_or_else(stored);
+                (self.accel.placement(instance, time).to_world).transform_vector3(n)
+            }
         };
         let n = n.try_normalize()?;
         Some(if n.dot(ng) < 0.0 { -n } else { n })

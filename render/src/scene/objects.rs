@@ -320,8 +320,8 @@ impl Loader<'_> {
     }
 
     /// True when the mesh's authored normals shade `part` smoothly: some part of it gives
-    /// normals and it does not deform (a deforming mesh's normals would have to deform with it;
-    /// it is shaded flat, and `part` says so).
+    /// normals, and if it deforms, its normals deform with it (every sample gives them);
+    /// otherwise it is shaded flat, and `part` says so.
     fn shading_normals_kept(
         &self,
         key: &str,
@@ -330,10 +330,10 @@ impl Loader<'_> {
         part: &mut Part,
     ) -> bool {
         let given = mesh_parts.iter().any(|p| !p.normals.is_empty());
-        if given && part.deformation.is_some() {
+        if given && part.deformation.as_ref().is_some_and(|d| !d.has_normals()) {
             part.warnings.push(format!(
-                "{key}.mesh: {mesh_name} deforms; its authored normals are not used yet, and \
-                 each triangle is shaded by its own normal"
+                "{key}.mesh: {mesh_name} deforms, and not every part of every sample gives \
+                 normals; each triangle is shaded by its own normal"
             ));
             return false;
         }

@@ -90,21 +90,23 @@ pub(crate) fn assemble<'a>(
     fps: f64,
 ) -> Result<Sequence, RenderError> {
     let velocities = has_velocities(&first_parts);
+    let normals = has_normals(&first_parts);
     let mut samples = Samples {
         times: Vec::new(),
         corners: Vec::new(),
         velocities: Vec::new(),
+        normals: Vec::new(),
     };
-    push(&mut samples, first, &first_parts, velocities);
+    push(&mut samples, first, &first_parts, (velocities, normals));
     for next in rest {
         let (sample, parts) = next?;
-        same_topology(first, &first_parts, sample, &parts, velocities).map_err(|message| {
-            RenderError::Mesh {
+        same_topology(first, &first_parts, sample, &parts, (velocities, normals)).map_err(
+            |message| RenderError::Mesh {
                 file: sample.path.clone(),
                 message,
-            }
-        })?;
-        push(&mut samples, sample, &parts, velocities);
+            },
+        )?;
+        push(&mut samples, sample, &parts, (velocities, normals));
     }
     for t in &mut samples.times {
         *t /= fps;
@@ -119,9 +121,19 @@ fn has_velocities(parts: &[MeshPart]) -> bool {
     parts.iter().all(|p| !p.velocities.is_empty())
 }
 
-/// Appends `sample`'s corners (and velocities, when the sequence has them) in part order: the
-/// order the object's triangles take in the scene.
-fn push(samples: &mut Samples, sample: &Sample, parts: &[MeshPart], velocities: bool) {
+/// True when every part of a sample gives its corners' normals.
+pub(crate) fn has_normals(parts: &[MeshPart]) -> bool {
+    parts.iter().all(|p| !p.normals.is_empty())
+}
+
+/// Appends `sample`'s corners (and velocities and normals, when the sequence has them) in part
+/// order: the order the object's triangles take in the scene.
+fn push(
+    samples: &mut Samples,
+    sample: &Sample,
+    parts: &[MeshPart],
+    (velocities, normals): (bool, bool),
+) {
     samples.times.push(sample.frame);
     samples.corners.push(
         parts
@@ -137,6 +149,10 @@ fn push(samples: &mut Samples, sample: &Sample, parts: &[MeshPart], velocities: 
                 .collect(),
         );
     }
+    if normals {
+        let each = parts.iter().flat_map(|p| p.normals.iter().copied());
+        samples.normals.push(each.collect());
+    }
 }
 
 /// Refuses a sample whose parts or triangle counts differ from the first's, or whose
@@ -146,7 +162,7 @@ fn same_topology(
     first_parts: &[MeshPart],
     sample: &Sample,
     parts: &[MeshPart],
-    velocities: bool,
+    (velocities, normals): (bool, bool),
 ) -> Result<(), String> {
     let name = |s: &Sample| {
         s.path
@@ -183,6 +199,16 @@ fn same_topology(
                 p.velocities.len(),
                 p.triangles.len(),
                 q.velocities.len()
+            ));
+        }
+        if p.normals.is_empty() == normals {
+            return Err(format!(
+                "{here}: part {:?} has normals for {} of its {} triangles' corners where \
+                 {there} has them for {}: give normals in every sample or in none",
+                p.name,
+                p.normals.len(),
+                p.triangles.len(),
+                q.normals.len()
             ));
         }
     }

@@ -22,6 +22,9 @@ pub struct ReadMesh {
     pub bindings: Vec<Option<String>>,
     /// Its subdivision scheme, when not "none" (rendered as its control cage).
     pub subdivision: Option<String>,
+    /// Its points deform but its normals are not sampled over time: they were dropped, and
+    /// it is shaded flat.
+    pub still_normals: bool,
 }
 
 impl Shape {
@@ -76,14 +79,24 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
         .map_err(|e| source.read_error(path, e))?
         .unwrap_or_else(|| "catmullClark".into());
     let (topology, bindings) = topology(prim, source, code)?;
-    let primvars = Primvars {
+    let mut primvars = Primvars {
         uvs: uvs(prim, source, code)?,
         normals: normals(prim, source, code, placement.bake)?,
     };
     let times = point_times(prim, source).map_err(|e| source.read_error(path, e))?;
     check_memory(source, path, &topology, times.len())?;
+    // Deforming points need normals sampled with them; normals that stay put are dropped.
+    let deforms = times.len() > 1;
+    let normals_follow = deforms && normals_sampled(prim);
+    let still_normals = deforms && !normals_follow && primvars.normals.is_some();
+    if still_normals {
+        primvars.normals = None;
+    }
     let mut samples = Vec::with_capacity(times.len());
     for &t in &times {
+        if normals_follow {
+            primvars.normals = normals(prim, source, t, placement.bake)?;
+        }
         let points = points(prim, source, "points", t)?;
         check_indices(source, path, &topology, (t, points.len()))?;
         let velocities = match times.len() > 1 {
@@ -105,6 +118,7 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
         shape,
         bindings,
         subdivision: (scheme != "none").then_some(scheme),
+        still_normals,
     })
 }
 
@@ -132,6 +146,13 @@ fn shape(source: &Source, samples: Vec<(f64, Vec<MeshPart>)>) -> Result<Shape, R
     Ok(Shape {
         parts: sequence.parts,
         deformation: Some(sequence.mesh),
+    })
+}
+
+/// True when the mesh's normals (`primvars:normals` or `normals`) have time samples.
+fn normals_sampled(prim: &Prim) -> bool {
+    ["primvars:normals", "normals"].iter().any(|name| {
+        (prim.attribute(*name).time_sample_times()).is_ok_and(|times| !times.is_empty())
     })
 }
 

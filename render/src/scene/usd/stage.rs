@@ -121,6 +121,7 @@ pub(super) fn read(stage: &Stage, source: &Source, out: &mut Imported) -> Result
         out,
         materials: HashMap::new(),
         subdivided: Vec::new(),
+        still_normals: Vec::new(),
         shared: Default::default(),
     };
     let mut stack: Vec<Prim> = children(source, &root)?;
@@ -190,6 +191,8 @@ pub(super) struct Walk<'a> {
     materials: HashMap<String, String>,
     /// Meshes that are subdivision surfaces (said once).
     subdivided: Vec<String>,
+    /// Meshes whose points deform but whose normals stay put (shaded flat).
+    still_normals: Vec<String>,
     /// Prototype meshes already read, shared by their instances.
     pub shared: Shared,
 }
@@ -268,6 +271,9 @@ impl Walk<'_> {
         if read.subdivision.is_some() {
             self.subdivided.push(path.to_owned());
         }
+        if read.still_normals {
+            self.still_normals.push(path.to_owned());
+        }
         Ok(read.shape.with_materials(&part_materials))
     }
 
@@ -283,6 +289,17 @@ impl Walk<'_> {
                     "are subdivision surfaces"
                 ),
                 examples(&self.subdivided)
+            ));
+        }
+        if !self.still_normals.is_empty() {
+            self.out.warnings.push(format!(
+                "{layer}: {} ({}); rift shades each of their triangles by its own normal",
+                meshes(
+                    self.still_normals.len(),
+                    "deforms with normals that are not sampled over time",
+                    "deform with normals that are not sampled over time"
+                ),
+                examples(&self.still_normals)
             ));
         }
     }
