@@ -26,10 +26,11 @@ pub struct Sequence {
 }
 
 /// Bytes a sample of `triangles` triangles takes with its tree's share: corners (and
-/// velocities, when given) and about one node's slice per two triangles.
-fn sample_bytes(triangles: usize, velocities: bool) -> u64 {
+/// velocities and packed normals, when given) and about one node's slice per two triangles.
+fn sample_bytes(triangles: usize, (velocities, normals): (bool, bool)) -> u64 {
     let corners = size_of::<[Vec3; 3]>() as u64 * if velocities { 2 } else { 1 };
-    triangles as u64 * (corners + 64 + 8)
+    let normals = if normals { 12 } else { 0 };
+    triangles as u64 * (corners + normals + 64 + 8)
 }
 
 /// True when a mesh path names a sequence (holds a run of `#`).
@@ -62,8 +63,8 @@ pub fn load(
     let chosen = &all[needed.0..=needed.1];
     let first = super::load_mesh(&chosen[0].path)?;
     let triangles: usize = first.iter().map(|p| p.triangles.len()).sum();
-    let velocities = has_velocities(&first);
-    let bytes = sample_bytes(triangles, velocities) * chosen.len() as u64;
+    let given = (has_velocities(&first), has_normals(&first));
+    let bytes = sample_bytes(triangles, given) * chosen.len() as u64;
     if let Some(budget) = budget.filter(|&b| bytes > b) {
         return Err(bad(
             pattern,
@@ -122,7 +123,7 @@ fn has_velocities(parts: &[MeshPart]) -> bool {
 }
 
 /// True when every part of a sample gives its corners' normals.
-pub(crate) fn has_normals(parts: &[MeshPart]) -> bool {
+fn has_normals(parts: &[MeshPart]) -> bool {
     parts.iter().all(|p| !p.normals.is_empty())
 }
 

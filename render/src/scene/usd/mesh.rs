@@ -172,8 +172,8 @@ fn check_memory(
     samples: usize,
 ) -> Result<(), RenderError> {
     let triangles: u64 = topology.counts.iter().map(|&c| c as u64 - 2).sum();
-    // Corners, UVs and the part's share of the scene's arrays, per sample.
-    let bytes = triangles.saturating_mul(36 + 24 + 16) * samples as u64;
+    // Corners, UVs, normals and the part's share of the scene's arrays, per sample.
+    let bytes = triangles.saturating_mul(36 + 24 + 36 + 16) * samples as u64;
     match source.budget {
         Some(budget) if bytes > budget => Err(source.error(
             path,
