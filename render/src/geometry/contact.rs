@@ -159,13 +159,7 @@ impl Contacts {
         if self.is_optical(b) && !self.is_optical(left) {
             return Some(Met::Beyond(offset_origin(at, side)));
         }
-        Some(Met::Surface(Hit {
-            t: (at - ray.origin).length().max(f32::MIN_POSITIVE),
-            triangle: b,
-            instance: STATIC,
-            b1,
-            b2,
-        }))
+        Some(Met::Surface(hit_at(ray, b, at, (b1, b2))))
     }
 
     /// The partner of `left` nearest its plane at `p` that `accept`s, found by a probe along
@@ -269,15 +263,21 @@ impl Contacts {
         let n = normals[hit.triangle as usize];
         let plain = |b: u32| !self.is_optical(b) && admits(b);
         match self.probe(triangles, hit.triangle, p, n, plain) {
-            Some((b, at, b1, b2)) => Hit {
-                t: (at - ray.origin).length().max(f32::MIN_POSITIVE),
-                triangle: b,
-                instance: STATIC,
-                b1,
-                b2,
-            },
+            Some((b, at, b1, b2)) => hit_at(ray, b, at, (b1, b2)),
             None => hit,
         }
+    }
+}
+
+/// The hit on static triangle `b` at its point `at` (barycentrics `b1`, `b2`), found by a
+/// probe across the plane rather than along `ray`: its distance measured from the ray's origin.
+fn hit_at(ray: &Ray, b: u32, at: Vec3, (b1, b2): (f32, f32)) -> Hit {
+    Hit {
+        t: (at - ray.origin).length().max(f32::MIN_POSITIVE),
+        triangle: b,
+        instance: STATIC,
+        b1,
+        b2,
     }
 }
 
