@@ -201,6 +201,7 @@ impl Contacts {
     /// ray that reaches the front of one meets first the other, whose back faces it (a ray
     /// inside the glass meets the glass's bottom before the table). Without this a tie
     /// between the two planes is broken by chance.
+    ///
     /// A surface in optical contact is not there where it touches (see
     /// [`Self::in_optical_contact`]). Only partners that `admits` count.
     pub fn first_met(
