@@ -2,7 +2,9 @@
 deforming object is a Mesh of triangles whose points are sampled at every frame and at its
 shutter's open and close, they move between frames, and at FRAME the original's points are its
 mesh sequence's file there (within 1e-5) while its copy's are those points carried by the
-opening's teleport OFFSET (x y z, a translation for the showcase's paired openings).
+opening's teleport OFFSET (x y z, a translation for the showcase's paired openings). Its
+face-varying `primvars:normals` are sampled at the same times, and at FRAME are the file's
+vertex normals at each corner (within 1e-3: rift keeps them packed), the copy's the same.
 
     python3 tests/support/usd_character_check.py STAGE.usda ORIGINAL COPY FRAME PLY OFFSET_X OFFSET_Y OFFSET_Z
 
@@ -15,17 +17,17 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 
-def ply_triangles(path):
-    """The corners of a binary PLY's triangles (x y z first in each vertex)."""
+def ply_triangles(path, columns=("x", "y", "z")):
+    """The corners of a binary PLY's triangles: each vertex's `columns` (float properties)."""
     data = open(path, "rb").read()
     end = data.index(b"end_header\n") + len(b"end_header\n")
     header = data[:end].decode().splitlines()
     vertices = int(next(l for l in header if l.startswith("element vertex")).split()[2])
     faces = int(next(l for l in header if l.startswith("element face")).split()[2])
-    props = [l for l in header if l.startswith("property float")]
+    props = [l.split()[2] for l in header if l.startswith("property float")]
     stride = 4 * len(props)
     v = np.frombuffer(data, dtype="<f4", count=vertices * len(props), offset=end)
-    v = v.reshape(vertices, len(props))[:, :3]
+    v = v.reshape(vertices, len(props))[:, [props.index(c) for c in columns]]
     offset = end + vertices * stride
     corners = []
     for i in range(faces):
@@ -57,19 +59,30 @@ def main(stage_path, original, copy, frame, ply, offset):
         at = {t: np.array(mesh.GetPointsAttr().Get(t))[indices] for t in times}
         if np.array_equal(at[frame - 1], at[frame]):
             problems.append(f"{name}: points do not move from frame {frame - 1} to {frame}")
-        meshes[name] = at[frame]
+        normals = mesh.GetPrim().GetAttribute("primvars:normals")
+        if [round(t, 6) for t in normals.GetTimeSamples()] != expected:
+            problems.append(f"{name}: normals sampled at {normals.GetTimeSamples()}")
+        if UsdGeom.Primvar(normals).GetInterpolation() != "faceVarying":
+            problems.append(f"{name}: normals are not face-varying")
+        meshes[name] = (at[frame], np.array(normals.Get(frame)))
         print(f"{name}: {len(counts)} triangles at {len(times)} times")
     if problems:
         return problems
     own = ply_triangles(ply)
-    worst = np.abs(meshes[original] - own).max()
+    worst = np.abs(meshes[original][0] - own).max()
     print(f"{original} at frame {frame} differs from {ply} by {worst:.2e}")
     if worst > 1e-5:
         problems.append(f"{original} differs from its file by {worst}")
-    worst = np.abs(meshes[copy] - (own + np.array(offset))).max()
+    worst = np.abs(meshes[copy][0] - (own + np.array(offset))).max()
     print(f"{copy} at frame {frame} differs from the carried file by {worst:.2e}")
     if worst > 1e-4:
         problems.append(f"{copy} is not the file carried through the opening ({worst})")
+    own_normals = ply_triangles(ply, ("nx", "ny", "nz"))
+    for name in (original, copy):
+        worst = np.abs(meshes[name][1] - own_normals).max()
+        print(f"{name}'s normals at frame {frame} differ from the file's by {worst:.2e}")
+        if worst > 1e-3:
+            problems.append(f"{name}'s normals differ from the file's by {worst}")
     return problems
 
 

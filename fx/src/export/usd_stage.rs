@@ -3,7 +3,7 @@
 //! and at its shutter open and close (so the whole rig travels to Blender, usdview, Maya or
 //! Houdini), each ring's `BasisCurves` taken frame by frame from the per-frame files as
 //! value clips, and each deforming object (a character and its copies) as a `Mesh` whose
-//! points are sampled at the same times. The stage stays small however long the shot, the per-frame files stay the only
+//! points (and normals, where it has them) are sampled at the same times. The stage stays small however long the shot, the per-frame files stay the only
 //! copy of the curves, and a stage opens as one animation.
 //!
 //! Clips carry time samples only, so the stage declares what they cannot: the curves' `type` and
@@ -25,6 +25,8 @@ pub struct StageMesh {
     pub name: String,
     /// Per sample, three corners per triangle.
     pub points: Vec<Vec<[f32; 3]>>,
+    /// Per sample, each corner's unit shading normal (empty where the mesh gives none).
+    pub normals: Vec<Vec<[f32; 3]>>,
 }
 
 /// The (fractional) frames the stage samples what moves at: each frame and its shutter's open
@@ -87,6 +89,25 @@ pub fn write(
     writeln!(w, "}}")
 }
 
+/// A deforming object's normals, where it has them: `primvars:normals`, one per triangle
+/// corner (face-varying, in the order of the faces' indices), sampled with the points.
+fn write_normals(w: &mut dyn Write, codes: &[f64], normals: &[Vec<[f32; 3]>]) -> io::Result<()> {
+    if normals.is_empty() {
+        return Ok(());
+    }
+    writeln!(w, "        normal3f[] primvars:normals (")?;
+    writeln!(w, "            interpolation = \"faceVarying\"")?;
+    writeln!(w, "        )")?;
+    writeln!(w, "        normal3f[] primvars:normals.timeSamples = {{")?;
+    for (code, corners) in codes.iter().zip(normals) {
+        let list: Vec<String> = (corners.iter())
+            .map(|n| format!("({}, {}, {})", n[0], n[1], n[2]))
+            .collect();
+        writeln!(w, "            {}: [{}],", fmt_time(*code), list.join(", "))?;
+    }
+    writeln!(w, "        }}")
+}
+
 /// A deforming object's `Mesh`: its triangles' topology once, its points at each sample.
 fn write_mesh(w: &mut dyn Write, codes: &[f64], mesh: &StageMesh) -> io::Result<()> {
     let (indices, first_corner) = shared_corners(&mesh.points);
@@ -106,6 +127,7 @@ fn write_mesh(w: &mut dyn Write, codes: &[f64], mesh: &StageMesh) -> io::Result<
         writeln!(w, "            {}: [{}],", fmt_time(*code), list.join(", "))?;
     }
     writeln!(w, "        }}")?;
+    write_normals(w, codes, &mesh.normals)?;
     writeln!(w, "        float3[] extent.timeSamples = {{")?;
     for (code, points) in codes.iter().zip(&mesh.points) {
         let (lo, hi) = points.iter().fold(

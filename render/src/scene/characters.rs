@@ -8,6 +8,7 @@ use super::objects::{self, Loader};
 use super::settings::{Overrides, Settings};
 use super::{media, portals, sequence};
 use crate::error::RenderError;
+use glam::Vec3;
 use rift_fx::Shot;
 use rift_fx::export::usd_stage::StageMesh;
 use std::path::Path;
@@ -48,20 +49,33 @@ pub fn sampled(shot: &Shot, frames: &[f64]) -> Result<Vec<StageMesh>, RenderErro
             continue;
         };
         let deformation = &sequences[&loader.base.join(mesh)].mesh;
-        let points = frames
-            .iter()
-            .map(|&f| {
-                let t = shot.time_of(f);
-                let (placed, own) = (motion.at(t), motion.source_time(t));
-                (0..deformation.triangle_count() as u32)
-                    .flat_map(|i| deformation.triangle(i, own).v)
+        let triangles = 0..deformation.triangle_count() as u32;
+        let (mut points, mut normals) = (Vec::new(), Vec::new());
+        for &f in frames {
+            let t = shot.time_of(f);
+            let (placed, own) = (motion.at(t), motion.source_time(t));
+            let corners = triangles
+                .clone()
+                .flat_map(|i| deformation.triangle(i, own).v);
+            points.push(
+                corners
                     .map(|p| placed.transform_point(p.as_dvec3()).as_vec3().to_array())
-                    .collect()
-            })
-            .collect();
+                    .collect(),
+            );
+            if deformation.has_normals() {
+                let corner_normals = triangles.clone().flat_map(|i| {
+                    [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]
+                        .map(|(b1, b2)| deformation.normal(i, own, b1, b2).unwrap_or(Vec3::Y))
+                });
+                let turned = corner_normals
+                    .map(|n| placed.transform_vector(n.as_dvec3()).normalize().as_vec3());
+                normals.push(turned.map(|n| n.to_array()).collect());
+            }
+        }
         out.push(StageMesh {
             name: o.name.clone(),
             points,
+            normals,
         });
     }
     Ok(out)
