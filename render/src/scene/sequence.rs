@@ -192,25 +192,30 @@ fn same_topology(
                 q.triangles.len()
             ));
         }
-        if p.velocities.is_empty() == velocities {
-            return Err(format!(
-                "{here}: part {:?} has velocities for {} of its {} triangles' corners where \
-                 {there} has them for {}: give velocities (vx vy vz) in every sample or in none",
-                p.name,
-                p.velocities.len(),
-                p.triangles.len(),
-                q.velocities.len()
-            ));
-        }
-        if p.normals.is_empty() == normals {
-            return Err(format!(
-                "{here}: part {:?} has normals for {} of its {} triangles' corners where \
-                 {there} has them for {}: give normals in every sample or in none",
-                p.name,
-                p.normals.len(),
-                p.triangles.len(),
-                q.normals.len()
-            ));
+        let per_corner = [
+            (
+                "velocities",
+                "velocities (vx vy vz)",
+                velocities,
+                [&p.velocities, &q.velocities].map(Vec::len),
+            ),
+            (
+                "normals",
+                "normals",
+                normals,
+                [&p.normals, &q.normals].map(Vec::len),
+            ),
+        ];
+        for (what, give, wanted, [here_count, there_count]) in per_corner {
+            if (here_count == 0) == wanted {
+                return Err(format!(
+                    "{here}: part {:?} has {what} for {here_count} of its {} triangles' corners \
+                     where {there} has them for {there_count}: give {give} in every sample or in \
+                     none",
+                    p.name,
+                    p.triangles.len(),
+                ));
+            }
         }
     }
     Ok(())

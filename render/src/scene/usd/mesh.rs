@@ -79,19 +79,22 @@ pub fn read(prim: &Prim, source: &Source, placement: &Placement) -> Result<ReadM
         .map_err(|e| source.read_error(path, e))?
         .unwrap_or_else(|| "catmullClark".into());
     let (topology, bindings) = topology(prim, source, code)?;
-    let mut primvars = Primvars {
-        uvs: uvs(prim, source, code)?,
-        normals: normals(prim, source, code, placement.bake)?,
-    };
+    let uvs = uvs(prim, source, code)?;
     let times = point_times(prim, source).map_err(|e| source.read_error(path, e))?;
     check_memory(source, path, &topology, times.len())?;
-    // Deforming points need normals sampled with them; normals that stay put are dropped.
+    // Deforming points need normals sampled with them, read at each sample below; normals
+    // that stay put while the points move are dropped.
     let deforms = times.len() > 1;
     let normals_follow = deforms && normals_sampled(prim);
-    let still_normals = deforms && !normals_follow && primvars.normals.is_some();
-    if still_normals {
-        primvars.normals = None;
-    }
+    let still = match normals_follow {
+        true => None,
+        false => normals(prim, source, code, placement.bake)?,
+    };
+    let still_normals = deforms && still.is_some();
+    let mut primvars = Primvars {
+        uvs,
+        normals: still.filter(|_| !deforms),
+    };
     let mut samples = Vec::with_capacity(times.len());
     for &t in &times {
         if normals_follow {

@@ -280,27 +280,29 @@ impl Walk<'_> {
     /// Says once for the stage which meshes rift renders otherwise than USD says.
     fn say_once(&mut self) {
         let layer = self.source.layer.display();
-        if !self.subdivided.is_empty() {
-            self.out.warnings.push(format!(
-                "{layer}: {} ({}); rift renders the control cage, without subdividing",
-                meshes(
-                    self.subdivided.len(),
-                    "is a subdivision surface",
-                    "are subdivision surfaces"
-                ),
-                examples(&self.subdivided)
-            ));
-        }
-        if !self.still_normals.is_empty() {
-            self.out.warnings.push(format!(
-                "{layer}: {} ({}); rift shades each of their triangles by its own normal",
-                meshes(
-                    self.still_normals.len(),
+        let said = [
+            (
+                &self.subdivided,
+                ("is a subdivision surface", "are subdivision surfaces"),
+                "rift renders the control cage, without subdividing",
+            ),
+            (
+                &self.still_normals,
+                (
                     "deforms with normals that are not sampled over time",
-                    "deform with normals that are not sampled over time"
+                    "deform with normals that are not sampled over time",
                 ),
-                examples(&self.still_normals)
-            ));
+                "rift shades each of their triangles by its own normal",
+            ),
+        ];
+        for (paths, (one, many), instead) in said {
+            if !paths.is_empty() {
+                self.out.warnings.push(format!(
+                    "{layer}: {} ({}); {instead}",
+                    meshes(paths.len(), one, many),
+                    examples(paths)
+                ));
+            }
         }
     }
 
