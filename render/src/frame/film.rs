@@ -113,7 +113,7 @@ pub const NOISY_LAYER: &str = "noisy";
 
 /// The part of `beauty` that did not arrive through openings: the beauty less `through`, pixel
 /// by pixel (the layer [`LOCAL_LAYER`]).
-pub fn not_through(beauty: &[Vec3], through: &[Vec3]) -> Vec<Vec3> {
+fn not_through(beauty: &[Vec3], through: &[Vec3]) -> Vec<Vec3> {
     beauty.iter().zip(through).map(|(c, t)| c - t).collect()
 }
 
