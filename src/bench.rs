@@ -34,6 +34,9 @@ pub enum BenchCommand {
     Lights(lights::LightsArgs),
     /// Light sampling through openings, on against off, on the room the camera stands in.
     Through(through::ThroughArgs),
+    /// Bounces aimed at openings, on against off, on a room lit by light that bounced beyond
+    /// an opening.
+    Bounce(through::BounceArgs),
     /// The numerical stress table: furnaces at extreme scales, placements, radiance and
     /// roughness, and long chains of scaled teleports, each against its tolerance.
     Stability(stability::StabilityArgs),
@@ -79,6 +82,7 @@ pub fn run(cmd: BenchCommand) -> anyhow::Result<()> {
         BenchCommand::Strands(args) => strands::run(args),
         BenchCommand::Lights(args) => lights::run(args),
         BenchCommand::Through(args) => through::run(args),
+        BenchCommand::Bounce(args) => through::run_bounce(args),
         BenchCommand::Stability(args) => stability::run(args),
         BenchCommand::Furnace(args) => furnace::run(args),
         BenchCommand::Scaling(args) => scaling::run(args),

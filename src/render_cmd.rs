@@ -53,6 +53,10 @@ pub struct RenderArgs {
     /// light_through_openings`): light through them is found by BSDF sampling alone.
     #[arg(long)]
     no_light_through_openings: bool,
+    /// Bounces are not aimed at openings (overrides `[render] guide_through_openings`): light
+    /// that comes through them after bouncing beyond is found by BSDF sampling alone.
+    #[arg(long)]
+    no_guide_through_openings: bool,
     /// Worker threads (default: all cores). The image is identical for any count.
     #[arg(long)]
     threads: Option<usize>,
@@ -192,6 +196,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             seed: args.seed,
             max_portal_depth: args.max_portal_depth,
             light_through_openings: args.no_light_through_openings.then_some(false),
+            guide_through_openings: args.no_guide_through_openings.then_some(false),
             rings: args.rings.clone(),
             light_selection: args.light_selection.map(Into::into),
             memory_budget: budget.map(|b| b.saturating_sub(film)),
@@ -422,6 +427,10 @@ fn checkpoint_key(
         (
             "light_through_openings",
             s.light_through_openings.to_string(),
+        ),
+        (
+            "guide_through_openings",
+            s.guide_through_openings.to_string(),
         ),
         (
             "light_selection",

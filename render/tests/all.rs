@@ -6,6 +6,7 @@
 mod common;
 
 mod analytic;
+mod bounce_guide;
 mod branches;
 mod deforming;
 mod grid_media;

@@ -1,10 +1,12 @@
-//! `rift bench through`: light sampling through openings, on against off.
+//! `rift bench through` and `rift bench bounce`: light sampling through openings, and bounces
+//! aimed at them, each on against off.
 
 use super::{Timing, alternate};
 use clap::Args;
 use rift_fx::Shot;
 use rift_render::prepare::Prepared;
-use std::path::PathBuf;
+use rift_render::scene::Overrides;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Arguments of `rift bench through`.
@@ -13,13 +15,30 @@ pub struct ThroughArgs {
     /// A shot with a room lit through openings.
     #[arg(default_value = "examples/shots/lit_through.toml")]
     shot: PathBuf,
+    #[command(flatten)]
+    on_off: OnOffArgs,
+}
+
+/// Arguments of `rift bench bounce`.
+#[derive(Args)]
+pub struct BounceArgs {
+    /// A shot with a room lit by light that bounced beyond an opening.
+    #[arg(default_value = "examples/shots/bounce_through.toml")]
+    shot: PathBuf,
+    #[command(flatten)]
+    on_off: OnOffArgs,
+}
+
+/// What an on-against-off comparison renders.
+#[derive(Args)]
+pub struct OnOffArgs {
     /// Frame to render (default: the shot's first).
     #[arg(long)]
     frame: Option<i64>,
     /// Samples per pixel of the measured renders.
     #[arg(long, default_value_t = 64)]
     spp: u32,
-    /// Samples per pixel of the reference (light sampling through openings on).
+    /// Samples per pixel of the reference (rendered with the feature on).
     #[arg(long, default_value_t = 2048)]
     reference_spp: u32,
     /// Image width (the height follows the shot's aspect).
@@ -32,13 +51,42 @@ pub struct ThroughArgs {
 /// Efficiency of light sampling through openings: on and off in turn, against a reference
 /// rendered with it on, over the pixels of the room the camera stands in (no teleport).
 pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
+    let ratio = on_against_off(&args.shot, &args.on_off, |on| Overrides {
+        light_through_openings: Some(on),
+        ..Default::default()
+    })?;
+    println!(
+        "light sampling through openings is {ratio:.1}x as efficient (1/(relMSE·s)) as without it"
+    );
+    Ok(())
+}
+
+/// Efficiency of bounces aimed at openings, the same way.
+pub fn run_bounce(args: BounceArgs) -> anyhow::Result<()> {
+    let ratio = on_against_off(&args.shot, &args.on_off, |on| Overrides {
+        guide_through_openings: Some(on),
+        ..Default::default()
+    })?;
+    println!(
+        "bounces aimed at openings are {ratio:.1}x as efficient (1/(relMSE·s)) as BSDF sampling alone"
+    );
+    Ok(())
+}
+
+/// Renders `shot` with the `overrides` of a feature on and off in turn, against a reference
+/// rendered with it on, over the pixels of the room the camera stands in (no teleport); the
+/// efficiency of on over off.
+fn on_against_off(
+    shot_path: &Path,
+    args: &OnOffArgs,
+    overrides: impl Fn(bool) -> Overrides,
+) -> anyhow::Result<f64> {
     use rift_render::frame::passes::{RenderOptions, render};
-    use rift_render::scene::Overrides;
     anyhow::ensure!(
         args.spp > 0 && args.reference_spp > 0 && args.timing.repeats > 0 && args.width > 0,
         "expected positive counts"
     );
-    let mut shot = Shot::load(&args.shot)?;
+    let mut shot = Shot::load(shot_path)?;
     let frame = args.frame.unwrap_or(shot.frames.first);
     let [w, h] = shot.camera.projection.resolution;
     let height = ((args.width as f64 * h as f64 / w as f64).round() as u32).max(1);
@@ -48,9 +96,8 @@ pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
             &shot,
             frame,
             &Overrides {
-                light_through_openings: Some(on),
                 seed: Some(seed),
-                ..Default::default()
+                ..overrides(on)
             },
         )
     };
@@ -65,16 +112,24 @@ pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
     anyhow::ensure!(
         pixels > 0,
         "{}: the camera sees no pixel without an opening",
-        args.shot.display()
+        shot_path.display()
     );
     println!(
-        "rift bench through: {} frame {frame} ({}x{height}, {pixels} pixels in the camera's room), reference {} spp in {:.1} s, {threads} threads, median of {}",
-        args.shot.display(),
+        "{}: frame {frame} ({}x{height}, {pixels} pixels in the camera's room), reference {} spp in {:.1} s, {threads} threads, median of {}",
+        shot_path.display(),
         args.width,
         args.reference_spp,
         t.elapsed().as_secs_f64(),
         args.timing.repeats
     );
+    if let Some(guide) = &reference_scene.bounce_guide {
+        let (aiming, regions) = guide.learned();
+        println!(
+            "aiming at openings: {aiming} of {regions} regions, {:.1} KiB, trained in {:.2} s",
+            guide.bytes() as f64 / 1024.0,
+            reference_scene.training_seconds
+        );
+    }
     let products = alternate(
         ["on", "off"],
         |k, seed| Ok(build(k == 0, seed)?),
@@ -82,9 +137,5 @@ pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
         &reference.rgb,
         room,
     )?;
-    println!(
-        "light sampling through openings is {:.1}x as efficient (1/(relMSE·s)) as without it",
-        products[1] / products[0]
-    );
-    Ok(())
+    Ok(products[1] / products[0])
 }

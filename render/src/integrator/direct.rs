@@ -8,10 +8,11 @@ use crate::geometry::{offset_origin, offset_target};
 use crate::lights::SkyPart;
 use crate::lights::emitters::{LightPlace, LightSample, LightSource, Receiver};
 use crate::material::bsdf::{Bsdf, Side};
+use crate::portals::Portals;
 use crate::portals::visibility::RayClass;
 use crate::sampling::{Frame, power_heuristic};
 use crate::scene::Scene;
-use crate::through::aperture_sampling;
+use crate::through::{Aim, aperture_sampling};
 use crate::through::{Chain, Space};
 use glam::Vec3;
 
@@ -30,6 +31,11 @@ pub(super) struct Shading<'a> {
     pub(super) wo: Vec3,
     pub(super) bsdf: &'a Bsdf,
     pub(super) side: Side,
+    /// Where its bounces are aimed at openings ([`crate::through::bounce_guide`]).
+    pub(super) aim: Option<&'a Aim>,
+    /// What a bounce here was seen to bring back per unit of throughput (0: unknown), for
+    /// roulette.
+    pub(super) brought: f32,
 }
 
 impl Shading<'_> {
@@ -44,6 +50,20 @@ impl Shading<'_> {
             -self.ng
         };
         (wi.z > 0.0) != (world.dot(n) > 0.0)
+    }
+
+    /// The density with which a bounce here draws direction `wi` (local; `world` in world
+    /// space): the BSDF's, mixed with the aim at openings where there is one.
+    #[inline]
+    pub(super) fn bounce_pdf(&self, portals: &Portals, wi: Vec3, world: Vec3) -> f32 {
+        let pdf = self.bsdf.pdf(self.wo, wi, self.side);
+        match self.aim {
+            None => pdf,
+            Some(aim) => {
+                let (p, time) = (self.receiver.p, self.receiver.time);
+                aim.mixed(pdf, aim.pdf(portals, time, p, world))
+            }
+        }
     }
 }
 
@@ -108,7 +128,10 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
     };
     let pdf_light = q * incoming.pdf;
     let weight = if incoming.bsdf_can_find {
-        power_heuristic(pdf_light, at.bsdf.pdf(at.wo, wi, at.side) * coins)
+        power_heuristic(
+            pdf_light,
+            at.bounce_pdf(&ctx.scene.portals, wi, dir) * coins,
+        )
     } else {
         1.0
     };

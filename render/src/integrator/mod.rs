@@ -43,7 +43,7 @@ use crate::lights::emitters::{LightSampler, Picked, Receiver};
 use crate::sampling::SampleStream;
 use crate::scene::Scene;
 use crate::scene::light_groups::MAX_LIGHT_GROUPS;
-use crate::through::{Survey, View};
+use crate::through::{BounceGuide, Survey, View};
 use glam::Vec3;
 
 /// A tie between an opening and a surface within this relative distance goes to the opening, so
@@ -59,6 +59,8 @@ pub struct Context<'a> {
     /// Light sampling through openings; `None` where it cannot bring light (no opening, no
     /// light, no teleport allowed) or the shot turns it off: ordinary light sampling only.
     pub through: Option<View<'a>>,
+    /// Where bounces are aimed at openings (`None`: BSDF sampling alone).
+    pub bounce_guide: Option<&'a BounceGuide>,
     /// The angle a pixel spans at the image's centre: how fast a camera ray's footprint grows,
     /// for texture filtering.
     pub pixel_spread: f32,
@@ -76,7 +78,16 @@ impl<'a> Context<'a> {
             scene,
             lights: scene.lights.sampler(guide),
             through: survey.map(|survey| through_view(scene, survey)),
+            bounce_guide: None,
             pixel_spread: (1.0 / scene.camera.projection.focal_pixels()) as f32,
+        }
+    }
+
+    /// These paths with their bounces aimed at openings as `guide` learned.
+    pub fn aiming(self, guide: Option<&'a BounceGuide>) -> Self {
+        Self {
+            bounce_guide: guide,
+            ..self
         }
     }
 
@@ -106,6 +117,12 @@ pub trait Recorder {
     const RECORDS: bool;
     /// Keeps one light sample.
     fn light_sample(&mut self, record: LightRecord);
+    /// The path is about to bounce at `p` (its `bounce`-th scattering event, counted from 0),
+    /// carrying `beta` there, its radiance so far `radiance` (light sampling there included).
+    fn bounce(&mut self, p: Vec3, bounce: u32, beta: Vec3, radiance: Vec3);
+    /// The path teleported through `opening` right after its `bounce`-th scattering event,
+    /// before meeting anything else, its radiance then `radiance`.
+    fn teleported(&mut self, opening: u32, bounce: u32, radiance: Vec3);
 }
 
 /// The recorder that keeps nothing.
@@ -115,6 +132,10 @@ impl Recorder for NoRecorder {
     const RECORDS: bool = false;
     #[inline(always)]
     fn light_sample(&mut self, _: LightRecord) {}
+    #[inline(always)]
+    fn bounce(&mut self, _: Vec3, _: u32, _: Vec3, _: Vec3) {}
+    #[inline(always)]
+    fn teleported(&mut self, _: u32, _: u32, _: Vec3) {}
 }
 
 /// One light sample a recorded path took.
@@ -128,10 +149,79 @@ pub struct LightRecord {
     pub value: f32,
 }
 
-impl Recorder for Vec<LightRecord> {
+/// One bounce a recorded path made at an opaque surface.
+#[derive(Clone, Copy, Debug)]
+pub struct BounceRecord {
+    pub p: Vec3,
+    /// The opening the bounce's ray teleported through before meeting anything else.
+    pub opening: Option<u32>,
+    /// Luminance of what came back along the bounce (all the path gathered after it) over
+    /// what the path carried to it: the bounce's own estimate of the light it scatters.
+    pub value: f32,
+    /// The part of `value` gathered beyond the opening (none without one): light met on the
+    /// way to it (a lamp in front of it) did not come through it.
+    pub through: f32,
+}
+
+/// What training paths record: their light samples, and their bounces with what came back
+/// along each.
+#[derive(Default)]
+pub struct Recording {
+    pub lights: Vec<LightRecord>,
+    pub bounces: Vec<BounceRecord>,
+    /// The bounces of the path being traced (from `bounces[first_open]` on): each one's count,
+    /// the throughput it carried, the path's radiance when it was made, and when its ray
+    /// teleported.
+    open: Vec<(u32, Vec3, Vec3, Option<Vec3>)>,
+    first_open: usize,
+}
+
+impl Recording {
+    /// Closes the bounces of the path just traced, which gathered `radiance` in all.
+    pub fn path_done(&mut self, radiance: Vec3) {
+        let closing = &mut self.bounces[self.first_open..];
+        let per_throughput = |gathered: Vec3, beta: Vec3| {
+            let back = Vec3::select(beta.cmpgt(Vec3::ZERO), gathered / beta, Vec3::ZERO);
+            let value = crate::color::luminance(back);
+            if value.is_finite() {
+                value.max(0.0)
+            } else {
+                0.0
+            }
+        };
+        for (record, &(_, beta, before, teleported)) in closing.iter_mut().zip(&self.open) {
+            record.value = per_throughput(radiance - before, beta);
+            record.through = teleported.map_or(0.0, |at| per_throughput(radiance - at, beta));
+        }
+        self.open.clear();
+        self.first_open = self.bounces.len();
+    }
+}
+
+impl Recorder for Recording {
     const RECORDS: bool = true;
     fn light_sample(&mut self, record: LightRecord) {
-        self.push(record);
+        self.lights.push(record);
+    }
+
+    fn bounce(&mut self, p: Vec3, bounce: u32, beta: Vec3, radiance: Vec3) {
+        self.bounces.push(BounceRecord {
+            p,
+            opening: None,
+            value: 0.0,
+            through: 0.0,
+        });
+        self.open.push((bounce, beta, radiance, None));
+    }
+
+    fn teleported(&mut self, opening: u32, bounce: u32, radiance: Vec3) {
+        if let (Some(record), Some((made, _, _, at))) =
+            (self.bounces.last_mut(), self.open.last_mut())
+            && *made == bounce
+        {
+            record.opening = Some(opening);
+            *at = Some(radiance);
+        }
     }
 }
 

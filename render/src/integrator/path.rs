@@ -7,17 +7,18 @@ use super::{Context, FirstHit, NoRecorder, PORTAL_TIE, PathSample, Recorder};
 use crate::geometry::{Hit, Met, Ray, offset_origin};
 use crate::lights::emitters::{Found, Receiver};
 use crate::material::Lookup;
-use crate::material::bsdf::{Bsdf, Side};
+use crate::material::bsdf::{Bsdf, BsdfSample, Side};
 use crate::material::surface::Material;
 use crate::media::grid::{Rng, Tracked};
 use crate::media::homogeneous::{Flight, Medium};
 use crate::media::volumes::Inside;
+use crate::portals::Portals;
 use crate::portals::visibility::RayClass;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
 use crate::scene::SurfacePoint;
 use crate::scene::light_groups::MAX_LIGHT_GROUPS;
 use crate::scene::{NO_OBJECT, Scene, SceneHit};
-use crate::through::{Chain, Strategies};
+use crate::through::{Aim, Chain, Strategies};
 use glam::Vec3;
 
 /// Roulette starts after this many bounces.
@@ -31,6 +32,9 @@ const ROULETTE_THRESHOLD: f32 = 0.25;
 /// Every bounce still ends with at least 1 − this probability, so closed lossless scenes
 /// terminate (0.99 rather than 0.95 gained another 5% efficiency on the Cornell box).
 const ROULETTE_MAX_SURVIVAL: f32 = 0.99;
+/// The most roulette's threshold moves, either way, by what training learned a bounce is
+/// worth where the path is against where its pixel's camera path first bounced.
+const ROULETTE_MOST_WORTH: f32 = 100.0;
 /// A path between events: the ray it follows and what it carries from its last scattering
 /// event.
 #[derive(Clone, Copy)]
@@ -87,6 +91,9 @@ struct PathState {
     /// camera: the next surface it meets gives the albedo and normal guides a denoiser reads,
     /// as what the camera sees in a mirror or through glass is that surface.
     guides_follow: bool,
+    /// What a bounce was seen to bring back where the camera path first scattered (0:
+    /// unknown): what its pixel is worth, for roulette.
+    pixel_worth: f32,
 }
 
 /// [`PathState::touching`] when the path did not leave a surface that touches another.
@@ -128,6 +135,7 @@ impl PathState {
             touching: NOT_TOUCHING,
             mapped_normal: None,
             guides_follow: false,
+            pixel_worth: 0.0,
         }
     }
 
@@ -519,6 +527,12 @@ fn follow_full<R: Recorder>(
         match crossing {
             Crossing::Passed => {}
             Crossing::Teleported(at) => {
+                // What a bounce brings through an opening is gathered from here on (a lamp on
+                // the way to it is not light through it).
+                if R::RECORDS && path.bounce > 0 && path.chain.teleports() == 1 {
+                    let opening = path.chain.openings().next().unwrap_or_default() as u32;
+                    recorder.teleported(opening, path.bounce - 1, out.radiance);
+                }
                 if let Some(m) = medium {
                     path.beta *= m.passage(at);
                 }
@@ -970,6 +984,13 @@ fn scatter_at<const FULL: bool, R: Recorder>(
         time,
     };
 
+    // Bounces from opaque rough surfaces may be aimed at openings.
+    let aims = FULL && !bsdf.is_delta() && !bsdf.transmits();
+    let guidance = if FULL {
+        ctx.bounce_guide.and_then(|g| g.at(p))
+    } else {
+        None
+    };
     let shading = Shading {
         receiver: &receiver,
         ng,
@@ -978,6 +999,8 @@ fn scatter_at<const FULL: bool, R: Recorder>(
         wo,
         bsdf,
         side,
+        aim: guidance.and_then(|g| g.aim.as_ref()).filter(|_| aims),
+        brought: guidance.map_or(0.0, |g| g.brought),
     };
     if bsdf.is_delta() {
         *strategies = None;
@@ -1006,14 +1029,17 @@ fn scatter_at<const FULL: bool, R: Recorder>(
             recorder,
             gather,
         );
+        if R::RECORDS && aims {
+            recorder.bounce(p, path.bounce, path.beta, out.radiance);
+        }
         let branches = ctx.scene.settings.indirect_samples;
         if path.bounce == 0 && branches > 1 && !R::RECORDS {
             split::<FULL, R>(ctx, path, strategies, &shading, branches, s, out, recorder);
             let (u_bsdf, u_lobe, u_roulette) = branch_numbers(s);
-            return continue_path(path, &shading, u_bsdf, u_lobe, u_roulette);
+            return continue_path::<FULL>(ctx, path, &shading, u_bsdf, u_lobe, u_roulette);
         }
     }
-    continue_path(path, &shading, u_bsdf, u_lobe, u_roulette)
+    continue_path::<FULL>(ctx, path, &shading, u_bsdf, u_lobe, u_roulette)
 }
 
 /// The numbers a branch of a split path draws for its BSDF sample: the direction from the
@@ -1050,24 +1076,30 @@ fn split<const FULL: bool, R: Recorder>(
         if !ctx.scene.media.grids.is_empty() {
             branch.rng = grid_rng(&mut stream);
         }
-        if continue_path(&mut branch, at, u_bsdf, u_lobe, u_roulette) {
+        if continue_path::<FULL>(ctx, &mut branch, at, u_bsdf, u_lobe, u_roulette) {
             follow::<FULL, R>(ctx, branch, *strategies, &mut stream, out, recorder);
         }
     }
     *s = s.branch(0, n);
 }
 
-/// The BSDF sample at `at` that continues the path, drawn with `u_bsdf` and `u_lobe`, then
-/// roulette with `u_roulette`. False when the path ends there.
+/// The bounce at `at` that continues the path, drawn with `u_bsdf` and `u_lobe` (from the
+/// BSDF, or aimed at an opening where `at` aims), then roulette with `u_roulette`. False when
+/// the path ends there.
 #[inline(always)]
-fn continue_path(
+fn continue_path<const FULL: bool>(
+    ctx: &Context,
     path: &mut PathState,
     at: &Shading,
     u_bsdf: glam::Vec2,
     u_lobe: f32,
     u_roulette: f32,
 ) -> bool {
-    let Some(bs) = at.bsdf.sample(at.wo, u_bsdf, u_lobe, at.side) else {
+    let drawn = match at.aim {
+        Some(aim) if FULL => aimed_bounce(&ctx.scene.portals, at, aim, u_bsdf, u_lobe),
+        _ => at.bsdf.sample(at.wo, u_bsdf, u_lobe, at.side),
+    };
+    let Some(bs) = drawn else {
         return false;
     };
     path.beta *= bs.weight;
@@ -1089,9 +1121,17 @@ fn continue_path(
     path.coins = 1.0;
     path.travelled = 0.0;
     path.crossings = 0;
+    if FULL && path.bounce == 0 {
+        path.pixel_worth = at.brought;
+    }
     path.bounce += 1;
     if path.bounce >= ROULETTE_AFTER {
-        let survive = (path.beta.max_element() * path.eta_scale / ROULETTE_THRESHOLD)
+        let worth = if FULL {
+            worth_against_pixel(at.brought, path.pixel_worth)
+        } else {
+            1.0
+        };
+        let survive = (path.beta.max_element() * path.eta_scale * worth / ROULETTE_THRESHOLD)
             .min(ROULETTE_MAX_SURVIVAL);
         if survive <= 0.0 || u_roulette >= survive {
             return false;
@@ -1100,6 +1140,63 @@ fn continue_path(
     }
     true
 }
+
+/// What continuing a path is worth where a bounce brings back `here` against where its camera
+/// path first bounced (`pixel`), each per unit of throughput: roulette keeps a path whose
+/// throughput is small but which has reached a much brighter place (a dim room's path that went
+/// through a window into a sunlit one), instead of killing nearly all such paths and giving the
+/// few survivors the weight of a firefly; and ends sooner those that wander where little light
+/// is. 1 where either is unknown. Any survival probability keeps roulette unbiased.
+#[inline]
+fn worth_against_pixel(here: f32, pixel: f32) -> f32 {
+    if here > 0.0 && pixel > 0.0 {
+        (here / pixel).clamp(1.0 / ROULETTE_MOST_WORTH, ROULETTE_MOST_WORTH)
+    } else {
+        1.0
+    }
+}
+
+/// A bounce at `at` from the mixture `aim` sets: towards an opening with probability
+/// `aim.share` (the part of `u_lobe` below it picking the opening), else from the BSDF (the
+/// rest of `u_lobe` choosing its lobe); its weight and density are the mixture's. A lobe
+/// that is a mirror keeps its own delta density, its weight divided by the BSDF's share.
+#[inline(never)]
+fn aimed_bounce(
+    portals: &Portals,
+    at: &Shading,
+    aim: &Aim,
+    u: glam::Vec2,
+    u_lobe: f32,
+) -> Option<BsdfSample> {
+    let (p, time) = (at.receiver.p, at.receiver.time);
+    if u_lobe < aim.share {
+        let dir = aim.sample(portals, time, p, u_lobe / aim.share, u)?;
+        let wi = at.frame.to_local(dir);
+        let f = at.bsdf.eval(at.wo, wi, at.side);
+        let pdf = at.bounce_pdf(portals, wi, dir);
+        return (f != Vec3::ZERO && pdf > 0.0).then_some(BsdfSample {
+            wi,
+            weight: f / pdf,
+            pdf,
+            delta: false,
+            eta: 1.0,
+        });
+    }
+    let u_lobe = ((u_lobe - aim.share) / (1.0 - aim.share)).min(ONE_BELOW);
+    let mut bs = at.bsdf.sample(at.wo, u, u_lobe, at.side)?;
+    if bs.delta {
+        bs.weight /= 1.0 - aim.share;
+        return Some(bs);
+    }
+    let f = bs.weight * bs.pdf;
+    let dir = at.frame.to_world(bs.wi);
+    bs.pdf = aim.mixed(bs.pdf, aim.pdf(portals, time, p, dir));
+    bs.weight = f / bs.pdf;
+    Some(bs)
+}
+
+/// The largest f32 below 1.
+const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 #[cfg(test)]
 mod tests {

@@ -7,12 +7,14 @@
 //!    ([`exits`]), traced with ordinary light samples; from the exits, the apertures; then what
 //!    searching the openings is worth in each cell, with the strategy search itself; then the
 //!    candidate lists where many openings compete. Together they are the [`Survey`].
-//! 2. Where light selection is learned: training paths traced through the full path loop with
-//!    the survey, their light samples recorded, and the guide learned from them ([`training`]).
+//! 2. Where light selection is learned, or bounces may be aimed at openings: training paths
+//!    traced through the full path loop with the survey, their light samples and bounces
+//!    recorded, and the guides learned from them ([`training`], [`aiming`]).
 //!
 //! Everything here depends only on the scene and its seed, never on the crop, the sample range
 //! or the thread count, so every part of a split render prepares the same.
 
+pub mod aiming;
 pub mod exits;
 pub mod training;
 pub mod visibility;
@@ -22,7 +24,7 @@ use crate::geometry::Triangle;
 use crate::integrator::{Context, through_view};
 use crate::lights::{LightGuide, LightSelection};
 use crate::scene::{Overrides, Scene};
-use crate::through::{Apertures, OpeningCandidates, Survey, facing_pairs};
+use crate::through::{Apertures, BounceGuide, OpeningCandidates, Survey, facing_pairs};
 use glam::Vec3;
 use rift_fx::Shot;
 use std::time::Instant;
@@ -35,7 +37,10 @@ pub struct Prepared {
     /// Light selection learned per region (`None` unless the selection is learned and
     /// training found light).
     pub light_guide: Option<LightGuide>,
-    /// Seconds spent learning light selection.
+    /// Bounces aimed at openings per region (`None` unless the scene may aim them and some
+    /// region found light coming through openings).
+    pub bounce_guide: Option<BounceGuide>,
+    /// Seconds spent training the guides.
     pub training_seconds: f64,
 }
 
@@ -49,13 +54,12 @@ impl Prepared {
     pub fn new(scene: Scene) -> Self {
         let survey = survey(&scene);
         let started = Instant::now();
-        let light_guide = match scene.lights.selection() {
-            LightSelection::Learned => {
-                training::train(&Context::new(&scene, survey.as_ref(), None))
-            }
-            _ => None,
-        };
-        let training_seconds = if light_guide.is_some() {
+        let trained = training::train(
+            &Context::new(&scene, survey.as_ref(), None),
+            scene.lights.selection() == LightSelection::Learned,
+            scene.guide_through_openings_possible(),
+        );
+        let training_seconds = if trained.light_guide.is_some() || trained.bounce_guide.is_some() {
             started.elapsed().as_secs_f64()
         } else {
             0.0
@@ -63,7 +67,8 @@ impl Prepared {
         Self {
             scene,
             survey,
-            light_guide,
+            light_guide: trained.light_guide,
+            bounce_guide: trained.bounce_guide,
             training_seconds,
         }
     }
@@ -71,6 +76,7 @@ impl Prepared {
     /// What the path loop traces in.
     pub fn context(&self) -> Context<'_> {
         Context::new(&self.scene, self.survey.as_ref(), self.light_guide.as_ref())
+            .aiming(self.bounce_guide.as_ref())
     }
 }
 

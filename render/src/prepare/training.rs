@@ -33,12 +33,14 @@ use crate::camera::Lens;
 use crate::geometry::Ray;
 #[cfg(doc)]
 use crate::integrator::Recorder;
-use crate::integrator::{Context, LightRecord, trace};
+use crate::integrator::{Context, LightRecord, Recording, trace};
 use crate::lights::Lights;
 use crate::lights::emitters::Picked;
-use crate::lights::guide::{LightGuide, RegionFactors};
+use crate::lights::guide::{LightGuide, REGION_SAMPLES, RegionFactors};
 use crate::lights::tree::{PerLane, WIDTH};
+use crate::prepare::aiming;
 use crate::sampling::{SampleStream, hash32};
+use crate::through::BounceGuide;
 use glam::Vec2;
 use rayon::prelude::*;
 
@@ -56,20 +58,51 @@ const TREE_SHARE: f64 = 0.2;
 /// light is raised this far, which keeps the descent's weights far from overflow.
 const MAX_FACTOR: f64 = 1e4;
 
-/// Learns light selection for the paths of `ctx` (its scene, and light sampling through its
-/// openings as prepared; no guide yet) from training paths over its camera's frame; `None`
-/// when its light selection does not descend a tree, or no training path took a light sample.
-pub fn train(ctx: &Context) -> Option<LightGuide> {
-    let lights = &ctx.scene.lights;
-    if !lights.descends_tree() {
-        return None;
+/// What training paths taught.
+pub struct Trained {
+    /// Light selection per region (`None` unless asked for and some path took a light sample).
+    pub light_guide: Option<LightGuide>,
+    /// Bounces aimed at openings per region (`None` unless asked for and some region found
+    /// light coming through openings).
+    pub bounce_guide: Option<BounceGuide>,
+}
+
+/// Learns light selection (when `lights`) and where to aim bounces at openings (when `aims`)
+/// for the paths of `ctx` (its scene, and light sampling through its openings as prepared; no
+/// guide yet) from training paths over its camera's frame. Light selection is learned only
+/// where it descends a tree.
+pub fn train(ctx: &Context, lights: bool, aims: bool) -> Trained {
+    let learns_lights = lights && ctx.scene.lights.descends_tree();
+    if !(learns_lights || aims) {
+        return Trained {
+            light_guide: None,
+            bounce_guide: None,
+        };
     }
-    let records = training_records(ctx);
-    LightGuide::learn(
-        records.len(),
-        |i| records[i as usize].receiver.p,
-        |members| learn(lights, &records, members),
-    )
+    let recording = training_records(ctx, 0);
+    let light_records = &recording.lights;
+    let lights = &ctx.scene.lights;
+    Trained {
+        light_guide: learns_lights
+            .then(|| {
+                LightGuide::learn(
+                    light_records.len(),
+                    REGION_SAMPLES,
+                    |i| light_records[i as usize].receiver.p,
+                    |members| learn(lights, light_records, members),
+                )
+            })
+            .flatten(),
+        bounce_guide: aims.then(|| learn_aims(ctx, &recording)).flatten(),
+    }
+}
+
+/// Where to aim bounces at openings, learned by a second pass of training paths aimed where the
+/// first pass (`first`) saw bounces leave through openings ([`aiming`]).
+fn learn_aims(ctx: &Context, first: &Recording) -> Option<BounceGuide> {
+    let prior = aiming::prior(&first.bounces)?;
+    let second = training_records(&ctx.aiming(Some(&prior)), 1);
+    aiming::learn(&second.bounces)
 }
 
 /// The factors one region's samples (`members`, indices of `records`) teach; `None` when they
@@ -110,17 +143,18 @@ fn learn(lights: &Lights, records: &[LightRecord], members: &[u32]) -> Option<Re
 }
 
 /// The records of [`TRAINING_SPP`] paths a pixel over the camera's frame at about
-/// [`TRAINING_WIDTH`] pixels across, row after row (the same whatever the thread count).
-fn training_records(ctx: &Context) -> Vec<LightRecord> {
+/// [`TRAINING_WIDTH`] pixels across, row after row (the same whatever the thread count), for
+/// training pass `pass` (each its own samples).
+fn training_records(ctx: &Context, pass: u32) -> Recording {
     let scene = ctx.scene;
     let [w, h] = scene.camera.projection.resolution;
     let width = TRAINING_WIDTH.min(w).max(1);
     let height = ((h as u64 * width as u64 / w.max(1) as u64) as u32).max(1);
-    let seed = hash32(scene.settings.seed ^ 0x4c16_47e5);
-    let rows: Vec<Vec<LightRecord>> = (0..height)
+    let seed = hash32(scene.settings.seed ^ 0x4c16_47e5 ^ pass.wrapping_mul(0x9e37_79b9));
+    let rows: Vec<Recording> = (0..height)
         .into_par_iter()
         .map(|y| {
-            let mut row = Vec::new();
+            let mut row = Recording::default();
             for x in 0..width {
                 let pixel_seed = hash32(hash32(y * width + x) ^ seed);
                 for i in 0..TRAINING_SPP {
@@ -137,9 +171,16 @@ fn training_records(ctx: &Context) -> Vec<LightRecord> {
         .collect();
     // Row after row into one list, each row freed as it is moved (a flattening collect would
     // hold every record twice at its peak: 20 MB on the showcase).
-    let mut records = Vec::with_capacity(rows.iter().map(Vec::len).sum());
+    let mut records = Recording::default();
+    records
+        .lights
+        .reserve(rows.iter().map(|r| r.lights.len()).sum());
+    records
+        .bounces
+        .reserve(rows.iter().map(|r| r.bounces.len()).sum());
     for row in rows {
-        records.extend(row);
+        records.lights.extend(row.lights);
+        records.bounces.extend(row.bounces);
     }
     records
 }
@@ -150,7 +191,7 @@ fn training_path(
     ctx: &Context,
     (corner, size): (Vec2, Vec2),
     s: &mut SampleStream,
-    records: &mut Vec<LightRecord>,
+    records: &mut Recording,
 ) {
     let scene = ctx.scene;
     let [open, close] = scene.shutter;
@@ -165,7 +206,8 @@ fn training_path(
     };
     if let Some((t_min, t_max)) = range {
         let ray = Ray::new(o, d, t_max, time).between(t_min, t_max);
-        trace(ctx, ray, s, records);
+        let sample = trace(ctx, ray, s, records);
+        records.path_done(sample.radiance);
     }
 }
 

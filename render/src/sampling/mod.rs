@@ -1,6 +1,7 @@
 //! Sampling helpers: orthonormal frames, warps from the unit square, alias tables, and the
 //! per-pixel Owen-scrambled Sobol sequence.
 
+pub mod regions;
 pub mod sobol;
 
 use crate::sampling::sobol::SobolSample;

@@ -224,6 +224,15 @@ impl Scene {
             && self.settings.max_portal_depth > 0
     }
 
+    /// True when bounces may be aimed at openings: the shot allows it, and there are openings,
+    /// teleports and light.
+    pub fn guide_through_openings_possible(&self) -> bool {
+        self.settings.guide_through_openings
+            && !self.portals.is_empty()
+            && !self.lights.is_empty()
+            && self.settings.max_portal_depth > 0
+    }
+
     /// True when the scene holds only surfaces and lamps: no openings, media, strands, sky,
     /// shape lights or hidden objects. Its paths then take the integrator's plain loop, which leaves out the
     /// tests for all of those.

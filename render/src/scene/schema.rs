@@ -16,6 +16,8 @@
 //!                               # an opening met past the limit ends the path (black)
 //! light_through_openings = true # light sampling also looks through openings (false: only BSDF
 //!                               # sampling finds light through them; for A/B and as an escape)
+//! guide_through_openings = true # bounces are aimed at openings where training paths found that
+//!                               # light comes through them (false: BSDF sampling alone; for A/B)
 //! denoise = false               # denoise finished frames with Open Image Denoise (the noisy
 //!                               # beauty kept as the layer noisy.R/G/B); as `--denoise`
 //! output = "out/shot.####.exr"  # frame number replaces the #s; relative to the working directory
@@ -243,6 +245,7 @@ pub struct RenderSection {
     pub indirect_samples: Option<i64>,
     pub max_portal_depth: Option<i64>,
     pub light_through_openings: Option<bool>,
+    pub guide_through_openings: Option<bool>,
     pub denoise: Option<bool>,
     pub output: Option<String>,
     pub rings: Option<String>,

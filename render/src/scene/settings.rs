@@ -22,6 +22,8 @@ pub struct Settings {
     pub max_portal_depth: u32,
     /// Light sampling also looks through openings (see [`crate::through::strategies`]).
     pub light_through_openings: bool,
+    /// Bounces may be aimed at openings (see [`crate::through::bounce_guide`]).
+    pub guide_through_openings: bool,
     /// Denoise finished frames (`rift render --denoise` asks the same).
     pub denoise: bool,
     /// Output path pattern; `#`s become the frame number.
@@ -70,6 +72,7 @@ impl Settings {
             )
             .map_err(invalid)?,
             light_through_openings: render.light_through_openings.unwrap_or(true),
+            guide_through_openings: render.guide_through_openings.unwrap_or(true),
             denoise: render.denoise.unwrap_or(false),
             output: render
                 .output
@@ -85,6 +88,9 @@ impl Settings {
             light_through_openings: overrides
                 .light_through_openings
                 .unwrap_or(settings.light_through_openings),
+            guide_through_openings: overrides
+                .guide_through_openings
+                .unwrap_or(settings.guide_through_openings),
             ..settings
         })
     }
@@ -99,6 +105,8 @@ pub struct Overrides {
     pub max_portal_depth: Option<u32>,
     /// `Some(false)` turns light sampling through openings off.
     pub light_through_openings: Option<bool>,
+    /// `Some(false)` turns bounces aimed at openings off.
+    pub guide_through_openings: Option<bool>,
     /// A ring cache path pattern (`#` frame tokens) replacing `[render] rings`.
     pub rings: Option<PathBuf>,
     /// How light sampling picks emitters (default: the light tree).

@@ -1,17 +1,20 @@
 //! Light sampling through openings: the strategies a shading point chooses between (ordinary
 //! light sampling, or the space beyond a chain of openings), the openings as their search sees
 //! them, points drawn on an opening for the sky beyond it, and the grids that tell where
-//! searching pays. What this module reads of a scene is a [`View`]; what preparing the scene
+//! searching pays. Beside it, bounces aimed at openings ([`bounce_guide`]) for the light that
+//! comes through them after bouncing beyond. What this module reads of a scene is a [`View`]; what preparing the scene
 //! measured for it is a [`Survey`] ([`crate::prepare`] makes it).
 
 pub mod aperture_sampling;
 pub mod aperture_tree;
 pub mod apertures;
+pub mod bounce_guide;
 pub mod candidates;
 pub mod light_visibility;
 pub mod strategies;
 
 pub use apertures::{Apertures, ExitLight, facing_pairs};
+pub use bounce_guide::{Aim, BounceGuide};
 pub use candidates::OpeningCandidates;
 pub use light_visibility::{Cells, LightVisibility};
 pub use strategies::{CHAIN_DEPTH, Chain, Space, Strategies};
