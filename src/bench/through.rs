@@ -123,10 +123,16 @@ fn on_against_off(
         args.timing.repeats
     );
     if let Some(guide) = &reference_scene.bounce_guide {
-        let (aiming, regions) = guide.learned();
+        let (learned, regions) = guide.regions().learned();
+        let aiming = guide
+            .regions()
+            .values()
+            .iter()
+            .filter(|g| g.aim.is_some())
+            .count();
         println!(
-            "aiming at openings: {aiming} of {regions} regions, {:.1} KiB, trained in {:.2} s",
-            guide.bytes() as f64 / 1024.0,
+            "bounce guide: {learned} of {regions} regions learned, {aiming} aim at openings; {:.1} KiB, trained in {:.2} s",
+            guide.regions().bytes() as f64 / 1024.0,
             reference_scene.training_seconds
         );
     }

@@ -35,6 +35,10 @@ const ROULETTE_MAX_SURVIVAL: f32 = 0.99;
 /// The most roulette's threshold moves, either way, by what training learned a bounce is
 /// worth where the path is against where its pixel's camera path first bounced.
 const ROULETTE_MOST_WORTH: f32 = 100.0;
+/// The most roulette's threshold is lowered for a pixel whose camera path first bounced where
+/// bounces bring back far less than in the scene's brightest places (a dark room lit through a
+/// window): see [`roulette_terms`].
+const ROULETTE_MOST_LOWERED: f32 = 16.0;
 /// A path between events: the ray it follows and what it carries from its last scattering
 /// event.
 #[derive(Clone, Copy)]
@@ -1126,12 +1130,11 @@ fn continue_path<const FULL: bool>(
     }
     path.bounce += 1;
     if path.bounce >= ROULETTE_AFTER {
-        let worth = if FULL {
-            worth_against_pixel(at.brought, path.pixel_worth)
-        } else {
-            1.0
+        let (worth, threshold) = match FULL {
+            true => roulette_terms(ctx, at.brought, path.pixel_worth),
+            false => (1.0, ROULETTE_THRESHOLD),
         };
-        let survive = (path.beta.max_element() * path.eta_scale * worth / ROULETTE_THRESHOLD)
+        let survive = (path.beta.max_element() * path.eta_scale * worth / threshold)
             .min(ROULETTE_MAX_SURVIVAL);
         if survive <= 0.0 || u_roulette >= survive {
             return false;
@@ -1141,19 +1144,27 @@ fn continue_path<const FULL: bool>(
     true
 }
 
-/// What continuing a path is worth where a bounce brings back `here` against where its camera
-/// path first bounced (`pixel`), each per unit of throughput: roulette keeps a path whose
-/// throughput is small but which has reached a much brighter place (a dim room's path that went
-/// through a window into a sunlit one), instead of killing nearly all such paths and giving the
-/// few survivors the weight of a firefly; and ends sooner those that wander where little light
-/// is. 1 where either is unknown. Any survival probability keeps roulette unbiased.
+/// Roulette's factor on a path's throughput and its threshold where what the bounce guide
+/// learned is known: a bounce brings back `here` where the path is and `pixel` where its camera
+/// path first bounced, each per unit of throughput. The factor is their ratio: roulette keeps a
+/// path whose throughput is small but which has reached a much brighter place (a dim room's path
+/// that went through a window into a lit one), instead of killing nearly all such paths and
+/// giving the few survivors the weight of a firefly, and ends sooner those that wander where
+/// little light is. The threshold is lowered for a pixel that is dim against the scene's
+/// brightest places: its light comes from long paths into them, which are worth following. On
+/// `bounce_through`, lowering it by 1 (none), 4, 16, 64 and 1000 gave efficiencies of 1.7, 4.1,
+/// 6.4, 6.3 and 1.9 (1/(relMSE·s), 32 spp); on `hall_of_mirrors`, whose pixels are as bright as
+/// its brightest places, lowering it by 16 cost 25%. The ordinary rule where either is unknown.
+/// Any survival probability keeps roulette unbiased.
 #[inline]
-fn worth_against_pixel(here: f32, pixel: f32) -> f32 {
-    if here > 0.0 && pixel > 0.0 {
-        (here / pixel).clamp(1.0 / ROULETTE_MOST_WORTH, ROULETTE_MOST_WORTH)
-    } else {
-        1.0
+fn roulette_terms(ctx: &Context, here: f32, pixel: f32) -> (f32, f32) {
+    let brightest = ctx.bounce_guide.map_or(0.0, |g| g.brightest());
+    if !(here > 0.0 && pixel > 0.0) {
+        return (1.0, ROULETTE_THRESHOLD);
     }
+    let worth = (here / pixel).clamp(1.0 / ROULETTE_MOST_WORTH, ROULETTE_MOST_WORTH);
+    let lowered = (brightest / pixel).clamp(1.0, ROULETTE_MOST_LOWERED);
+    (worth, ROULETTE_THRESHOLD / lowered)
 }
 
 /// A bounce at `at` from the mixture `aim` sets: towards an opening with probability

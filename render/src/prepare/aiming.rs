@@ -17,6 +17,7 @@
 //! guide ([`learn`]). Whatever the paths were drawn with, each bounce's value is an unbiased
 //! estimate of its part, so T and R are too.
 use crate::integrator::BounceRecord;
+use crate::sampling::regions::RegionTree;
 use crate::through::bounce_guide::{Aim, BounceGuide, Guidance, MAX_AIMED};
 
 /// A region of the guide is halved while it holds more bounces than this.
@@ -35,13 +36,13 @@ const LEAST_SHARE: f64 = 0.05;
 /// What bounces learn, region by region, from `records`; `None` when no region saw enough
 /// of them.
 pub fn learn(records: &[BounceRecord]) -> Option<BounceGuide> {
-    let guide = BounceGuide::learn(
+    let guide = RegionTree::learn(
         records.len(),
         REGION_BOUNCES,
         |i| records[i as usize].p,
         |members| guidance(records, members, aim),
     )?;
-    (guide.learned().0 > 0).then_some(guide)
+    (guide.learned().0 > 0).then(|| BounceGuide::new(guide))
 }
 
 /// A region's guidance from its bounces (`members`, indices of `records`), aimed as `aim`
@@ -68,7 +69,7 @@ fn guidance(
 /// half the bounces at the openings some bounce there left through, in proportion to how many
 /// did; `None` when none did.
 pub fn prior(records: &[BounceRecord]) -> Option<BounceGuide> {
-    let guide = BounceGuide::learn(
+    let guide = RegionTree::learn(
         records.len(),
         PRIOR_REGION_BOUNCES,
         |i| records[i as usize].p,
@@ -80,7 +81,7 @@ pub fn prior(records: &[BounceRecord]) -> Option<BounceGuide> {
             })
         },
     )?;
-    (guide.learned().0 > 0).then_some(guide)
+    (guide.learned().0 > 0).then(|| BounceGuide::new(guide))
 }
 
 /// The openings `members`' bounces left through (in the order first met), each with the sum

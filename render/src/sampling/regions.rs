@@ -210,6 +210,11 @@ impl<F: Send> RegionTree<F> {
         index
     }
 
+    /// What each region that learned something learned.
+    pub fn values(&self) -> &[F] {
+        &self.values
+    }
+
     /// Bytes the tree takes.
     pub fn bytes(&self) -> usize {
         std::mem::size_of::<Self>()

@@ -27,8 +27,39 @@ pub const MAX_AIMED: usize = 4;
 /// the light that does not come through them.
 pub const MAX_SHARE: f32 = 0.8;
 
-/// What training learned in each region.
-pub type BounceGuide = RegionTree<Guidance>;
+/// What training learned in each region, and how bright the scene's brightest regions are.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BounceGuide {
+    regions: RegionTree<Guidance>,
+    /// What a bounce brings back in the brightest regions (the 95th percentile over regions).
+    brightest: f32,
+}
+
+impl BounceGuide {
+    /// The guide over `regions`.
+    pub fn new(regions: RegionTree<Guidance>) -> Self {
+        let mut brought: Vec<f32> = regions.values().iter().map(|g| g.brought).collect();
+        brought.sort_by(f32::total_cmp);
+        let brightest = brought.get(brought.len() * 19 / 20).copied().unwrap_or(0.0);
+        Self { regions, brightest }
+    }
+
+    /// The guidance at `p`; `None` outside the regions or where nothing was learned.
+    #[inline]
+    pub fn at(&self, p: Vec3) -> Option<&Guidance> {
+        self.regions.at(p)
+    }
+
+    /// The regions.
+    pub fn regions(&self) -> &RegionTree<Guidance> {
+        &self.regions
+    }
+
+    /// What a bounce brings back in the scene's brightest regions.
+    pub fn brightest(&self) -> f32 {
+        self.brightest
+    }
+}
 
 /// What one region's bounces learned.
 #[derive(Clone, Copy, Debug, PartialEq)]
