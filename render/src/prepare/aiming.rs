@@ -7,7 +7,7 @@
 //! mostly by aiming and the rest mostly by the BSDF, a mixture that aims with probability a has
 //! a variance near T²/a + R²/(1 − a), least at a = T / (T + R): the region aims with the share
 //! of its light that came through openings, at each opening in proportion to what it brought.
-//! Regions where that share is below [`LEAST_SHARE`] do not aim: the pdf evaluations would cost
+//! Regions where that share is below `LEAST_SHARE` do not aim: the pdf evaluations would cost
 //! more than the little they save.
 //!
 //! Bounces drawn from the BSDF alone rarely leave through a small opening (a few in a region's

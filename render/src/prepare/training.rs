@@ -26,6 +26,10 @@
 //! region learns about each ring and the lamps, and the next level's about each quarter of a
 //! ring.
 //!
+//! The same paths record their bounces (the path loop's `Recorder::bounce`), from which
+//! [`aiming`] learns where bounces are aimed at openings, with a second pass of paths aimed
+//! where the first saw bounces leave through them.
+//!
 //! Training depends only on the scene (its resolution, camera and seed), never on the crop, the
 //! sample range or the thread count, so every part of a split render learns the same guide.
 

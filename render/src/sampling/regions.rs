@@ -6,7 +6,7 @@
 //! halved at the middle of their longest side until each holds no more than a number of
 //! them its user chooses, so regions are small where shading is dense. A lookup, made at every shading point
 //! that reads them, starts from a regular grid over the regions' box that names the deepest
-//! node holding each cell ([`GRID_LEVELS`]).
+//! node holding each cell (`GRID_LEVELS`).
 
 use glam::Vec3;
 use rayon::prelude::*;
