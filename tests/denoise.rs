@@ -117,7 +117,17 @@ fn a_merged_split_render_denoised_equals_the_single_render_denoised() {
     );
     assert!(merged.status.success(), "{}", stderr(&merged));
     let [whole, merged] = ["whole.exr", "merged.exr"].map(|f| read_exr_layer(&d.join(f)).unwrap());
-    for prefix in ["", "noisy.", "lightgroup.lamp.", "throughOpenings."] {
+    // The noisy layers agree to float rounding (1.2e-7 measured); the denoiser's network moves
+    // its output about a thousand times as much as such differences in its input (1.0e-4
+    // measured on the beauty and the light group, 1.5e-5 on the through-openings layer), so the
+    // denoised layers are held to 1e-3, still far below any difference of samples (a sample more
+    // or less changes pixels by percents).
+    for (prefix, tolerance) in [
+        ("", 1e-3),
+        ("noisy.", 1e-6),
+        ("lightgroup.lamp.", 1e-3),
+        ("throughOpenings.", 1e-3),
+    ] {
         let (a, b) = (rgb(&whole, prefix), rgb(&merged, prefix));
         let worst = a
             .iter()
@@ -127,7 +137,7 @@ fn a_merged_split_render_denoised_equals_the_single_render_denoised() {
             })
             .fold(0.0, f64::max);
         assert!(
-            worst < 1e-4,
+            worst < tolerance,
             "{prefix:?}: merged and whole differ by {worst:e}"
         );
     }

@@ -74,15 +74,11 @@ fn the_dark_room_aims_at_its_window_and_the_far_room_does_not_aim_at_it() {
 #[test]
 fn the_guide_and_the_image_are_the_same_for_any_thread_count() {
     let run = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                let prepared = bounce_through(48, true, 3);
-                let image = render(&prepared, &RenderOptions::new(4)).rgb;
-                (prepared.bounce_guide, image)
-            })
+        common::on_threads(threads, || {
+            let prepared = bounce_through(48, true, 3);
+            let image = render(&prepared, &RenderOptions::new(4)).rgb;
+            (prepared.bounce_guide, image)
+        })
     };
     let (one, three) = (run(1), run(3));
     assert!(one.0.is_some());

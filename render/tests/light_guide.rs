@@ -192,15 +192,11 @@ fn the_guide_and_the_image_are_the_same_for_any_thread_count() {
     let dir = tempfile::tempdir().unwrap();
     let path = room_beside_a_hidden_lamp(dir.path());
     let run = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                let prepared = build(&path, LightSelection::Learned, 3);
-                let image = render(&prepared, &RenderOptions::new(4)).rgb;
-                (prepared.light_guide, image)
-            })
+        common::on_threads(threads, || {
+            let prepared = build(&path, LightSelection::Learned, 3);
+            let image = render(&prepared, &RenderOptions::new(4)).rgb;
+            (prepared.light_guide, image)
+        })
     };
     let (one, three) = (run(1), run(3));
     assert!(one.0.is_some());

@@ -84,6 +84,17 @@ impl RegionNode {
 }
 
 impl<F: Send> RegionTree<F> {
+    /// One region over the box from `lower` to `upper` that has learned nothing.
+    fn unsplit(lower: Vec3, upper: Vec3) -> Self {
+        RegionTree {
+            lower,
+            upper,
+            nodes: vec![RegionNode::leaf(NOTHING_LEARNED)],
+            values: Vec::new(),
+            grid: Grid::default(),
+        }
+    }
+
     /// Regions over `count` sample places (`place` gives each one's position; those that are
     /// not finite are left out), halved while they hold more than `most` places, each region's
     /// value learned by `learn` from the indices of its places (`None`: it learned nothing);
@@ -107,13 +118,7 @@ impl<F: Send> RegionTree<F> {
         if kept.is_empty() {
             return None;
         }
-        let mut tree = RegionTree {
-            lower,
-            upper,
-            nodes: vec![RegionNode::leaf(NOTHING_LEARNED)],
-            values: Vec::new(),
-            grid: Grid::default(),
-        };
+        let mut tree = RegionTree::unsplit(lower, upper);
         let mut regions = Regions {
             most,
             nodes: &mut tree.nodes,
@@ -323,13 +328,7 @@ mod tests {
             split(tree, first, low, depth + 1);
             split(tree, first + 1, high, depth + 1);
         }
-        let mut tree = RegionTree {
-            lower,
-            upper,
-            nodes: vec![RegionNode::leaf(NOTHING_LEARNED)],
-            values: Vec::new(),
-            grid: Grid::default(),
-        };
+        let mut tree = RegionTree::unsplit(lower, upper);
         split(&mut tree, 0, [lower, upper], 0);
         tree.with_grid()
     }

@@ -259,3 +259,12 @@ material = "lamp"
         resolution[0], resolution[1]
     )
 }
+
+/// `f` run on a pool of `threads` worker threads.
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
