@@ -53,6 +53,10 @@ pub struct RenderArgs {
     /// light_through_openings`): light through them is found by BSDF sampling alone.
     #[arg(long)]
     no_light_through_openings: bool,
+    /// Bounces are aimed at openings where light comes through them after bouncing beyond
+    /// (overrides `[render] guide_through_openings`).
+    #[arg(long, conflicts_with = "no_guide_through_openings")]
+    guide_through_openings: bool,
     /// Bounces are not aimed at openings (overrides `[render] guide_through_openings`): light
     /// that comes through them after bouncing beyond is found by BSDF sampling alone.
     #[arg(long)]
@@ -196,7 +200,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             seed: args.seed,
             max_portal_depth: args.max_portal_depth,
             light_through_openings: args.no_light_through_openings.then_some(false),
-            guide_through_openings: args.no_guide_through_openings.then_some(false),
+            guide_through_openings: match (
+                args.guide_through_openings,
+                args.no_guide_through_openings,
+            ) {
+                (true, _) => Some(true),
+                (_, true) => Some(false),
+                _ => None,
+            },
             rings: args.rings.clone(),
             light_selection: args.light_selection.map(Into::into),
             memory_budget: budget.map(|b| b.saturating_sub(film)),

@@ -67,8 +67,12 @@ fn the_dark_room_aims_at_its_window_and_the_far_room_does_not_aim_at_it() {
         far_wall.aim
     );
     assert!(far_wall.brought > 10.0 * floor.brought);
-    // Switched off: no guide.
+    // Switched off: no guide; and off is the default for a shot that does not ask.
     assert!(bounce_through(64, false, 1).bounce_guide.is_none());
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/shots/lit_through.toml");
+    let shot = Shot::load(&file).unwrap();
+    let default = Prepared::build(&shot, 1, &Overrides::default()).unwrap();
+    assert!(default.bounce_guide.is_none());
 }
 
 #[test]
@@ -92,6 +96,10 @@ fn the_guide_and_the_image_are_the_same_for_any_thread_count() {
 fn scenes_without_openings_learn_no_guide() {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/cornell.toml");
     let shot = Shot::load(&file).unwrap();
-    let prepared = Prepared::build(&shot, shot.frames.first, &Overrides::default()).unwrap();
+    let asked = Overrides {
+        guide_through_openings: Some(true),
+        ..Default::default()
+    };
+    let prepared = Prepared::build(&shot, shot.frames.first, &asked).unwrap();
     assert!(prepared.bounce_guide.is_none());
 }

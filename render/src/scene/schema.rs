@@ -16,8 +16,10 @@
 //!                               # an opening met past the limit ends the path (black)
 //! light_through_openings = true # light sampling also looks through openings (false: only BSDF
 //!                               # sampling finds light through them; for A/B and as an escape)
-//! guide_through_openings = true # bounces are aimed at openings where training paths found that
-//!                               # light comes through them (false: BSDF sampling alone; for A/B)
+//! guide_through_openings = false # true: bounces are aimed at openings where training paths found
+//!                               # that light comes through them after bouncing beyond, and roulette
+//!                               # follows dim pixels' paths into bright places (for sets lit by
+//!                               # bounce light through openings; costs elsewhere)
 //! denoise = false               # denoise finished frames with Open Image Denoise (the noisy
 //!                               # beauty kept as the layer noisy.R/G/B); as `--denoise`
 //! output = "out/shot.####.exr"  # frame number replaces the #s; relative to the working directory

@@ -72,7 +72,7 @@ impl Settings {
             )
             .map_err(invalid)?,
             light_through_openings: render.light_through_openings.unwrap_or(true),
-            guide_through_openings: render.guide_through_openings.unwrap_or(true),
+            guide_through_openings: render.guide_through_openings.unwrap_or(false),
             denoise: render.denoise.unwrap_or(false),
             output: render
                 .output
@@ -105,7 +105,7 @@ pub struct Overrides {
     pub max_portal_depth: Option<u32>,
     /// `Some(false)` turns light sampling through openings off.
     pub light_through_openings: Option<bool>,
-    /// `Some(false)` turns bounces aimed at openings off.
+    /// `Some(true)` turns bounces aimed at openings on, `Some(false)` off.
     pub guide_through_openings: Option<bool>,
     /// A ring cache path pattern (`#` frame tokens) replacing `[render] rings`.
     pub rings: Option<PathBuf>,
