@@ -169,17 +169,26 @@ pub struct BounceRecord {
 pub struct Recording {
     pub lights: Vec<LightRecord>,
     pub bounces: Vec<BounceRecord>,
-    /// The bounces of the path being traced (from `bounces[first_open]` on): each one's count,
-    /// the throughput it carried, the path's radiance when it was made, and when its ray
-    /// teleported.
-    open: Vec<(u32, Vec3, Vec3, Option<Vec3>)>,
-    first_open: usize,
+    /// The bounces of the path being traced, the last `open.len()` of `bounces`.
+    open: Vec<OpenBounce>,
+}
+
+/// A bounce of the path being recorded, until the path ends.
+struct OpenBounce {
+    /// Its scattering event's count along the path.
+    bounce: u32,
+    /// The throughput the path carried to it.
+    beta: Vec3,
+    /// The path's radiance when it was made, and when its ray teleported (if it did).
+    made: Vec3,
+    teleported: Option<Vec3>,
 }
 
 impl Recording {
     /// Closes the bounces of the path just traced, which gathered `radiance` in all.
     pub fn path_done(&mut self, radiance: Vec3) {
-        let closing = &mut self.bounces[self.first_open..];
+        let first_open = self.bounces.len() - self.open.len();
+        let closing = &mut self.bounces[first_open..];
         let per_throughput = |gathered: Vec3, beta: Vec3| {
             let back = Vec3::select(beta.cmpgt(Vec3::ZERO), gathered / beta, Vec3::ZERO);
             let value = crate::color::luminance(back);
@@ -189,12 +198,13 @@ impl Recording {
                 0.0
             }
         };
-        for (record, &(_, beta, before, teleported)) in closing.iter_mut().zip(&self.open) {
-            record.value = per_throughput(radiance - before, beta);
-            record.through = teleported.map_or(0.0, |at| per_throughput(radiance - at, beta));
+        for (record, open) in closing.iter_mut().zip(&self.open) {
+            record.value = per_throughput(radiance - open.made, open.beta);
+            record.through = open
+                .teleported
+                .map_or(0.0, |at| per_throughput(radiance - at, open.beta));
         }
         self.open.clear();
-        self.first_open = self.bounces.len();
     }
 }
 
@@ -211,16 +221,20 @@ impl Recorder for Recording {
             value: 0.0,
             through: 0.0,
         });
-        self.open.push((bounce, beta, radiance, None));
+        self.open.push(OpenBounce {
+            bounce,
+            beta,
+            made: radiance,
+            teleported: None,
+        });
     }
 
     fn teleported(&mut self, opening: u32, bounce: u32, radiance: Vec3) {
-        if let (Some(record), Some((made, _, _, at))) =
-            (self.bounces.last_mut(), self.open.last_mut())
-            && *made == bounce
+        if let (Some(record), Some(open)) = (self.bounces.last_mut(), self.open.last_mut())
+            && open.bounce == bounce
         {
             record.opening = Some(opening);
-            *at = Some(radiance);
+            open.teleported = Some(radiance);
         }
     }
 }

@@ -36,21 +36,42 @@ const LEAST_SHARE: f64 = 0.05;
 /// What bounces learn, region by region, from `records`; `None` when no region saw enough
 /// of them.
 pub fn learn(records: &[BounceRecord]) -> Option<BounceGuide> {
+    regions_of(records, REGION_BOUNCES, aim)
+}
+
+/// Where the second training pass aims, from the first pass's `records`: in large regions,
+/// half the bounces at the openings some bounce there left through, in proportion to how many
+/// did; `None` when none did.
+pub fn prior(records: &[BounceRecord]) -> Option<BounceGuide> {
+    regions_of(records, PRIOR_REGION_BOUNCES, |records, members, _| {
+        let mut seen = through_openings(records, members, |_| 1.0);
+        most_first(&mut seen);
+        Aim::new(&seen, PRIOR_SHARE)
+    })
+}
+
+/// The guide over `records` in regions of at most `most` bounces, each aimed as `aim` teaches
+/// from its bounces and their total value; `None` when no region saw enough bounces.
+fn regions_of(
+    records: &[BounceRecord],
+    most: usize,
+    aim: impl Fn(&[BounceRecord], &[u32], f64) -> Option<Aim> + Sync,
+) -> Option<BounceGuide> {
     let guide = RegionTree::learn(
         records.len(),
-        REGION_BOUNCES,
+        most,
         |i| records[i as usize].p,
-        |members| guidance(records, members, aim),
+        |members| guidance(records, members, &aim),
     )?;
     (guide.learned().0 > 0).then(|| BounceGuide::new(guide))
 }
 
 /// A region's guidance from its bounces (`members`, indices of `records`), aimed as `aim`
-/// teaches; `None` when they are too few.
+/// teaches from them and their total value; `None` when they are too few.
 fn guidance(
     records: &[BounceRecord],
     members: &[u32],
-    aim: impl Fn(&[BounceRecord], &[u32]) -> Option<Aim>,
+    aim: impl Fn(&[BounceRecord], &[u32], f64) -> Option<Aim>,
 ) -> Option<Guidance> {
     if members.len() < LEAST_BOUNCES {
         return None;
@@ -60,28 +81,9 @@ fn guidance(
         .map(|&i| records[i as usize].value as f64)
         .sum();
     Some(Guidance {
-        aim: aim(records, members),
+        aim: aim(records, members, total),
         brought: (total / members.len() as f64) as f32,
     })
-}
-
-/// Where the second training pass aims, from the first pass's `records`: in large regions,
-/// half the bounces at the openings some bounce there left through, in proportion to how many
-/// did; `None` when none did.
-pub fn prior(records: &[BounceRecord]) -> Option<BounceGuide> {
-    let guide = RegionTree::learn(
-        records.len(),
-        PRIOR_REGION_BOUNCES,
-        |i| records[i as usize].p,
-        |members| {
-            guidance(records, members, |records, members| {
-                let mut seen = through_openings(records, members, |_| 1.0);
-                most_first(&mut seen);
-                Aim::new(&seen, PRIOR_SHARE)
-            })
-        },
-    )?;
-    (guide.learned().0 > 0).then(|| BounceGuide::new(guide))
 }
 
 /// The openings `members`' bounces left through (in the order first met), each with the sum
@@ -111,13 +113,9 @@ fn most_first(openings: &mut Vec<(u32, f64)>) {
     openings.truncate(MAX_AIMED);
 }
 
-/// The aim one region's bounces (`members`, indices of `records`) teach; `None` when little
-/// of their light came through openings.
-fn aim(records: &[BounceRecord], members: &[u32]) -> Option<Aim> {
-    let total: f64 = members
-        .iter()
-        .map(|&i| records[i as usize].value as f64)
-        .sum();
+/// The aim one region's bounces (`members`, indices of `records`, whose values sum to
+/// `total`) teach; `None` when little of their light came through openings.
+fn aim(records: &[BounceRecord], members: &[u32], total: f64) -> Option<Aim> {
     let mut through = through_openings(records, members, |r| r.through as f64);
     let share = through.iter().map(|(_, v)| v).sum::<f64>() / total;
     // A region that brought nothing gives NaN, which does not aim either.
@@ -176,7 +174,7 @@ mod tests {
                 ..record(0.0, Some(1), 1.0)
             })
             .collect();
-        let aim = aim(&records, &(0..100).collect::<Vec<u32>>()).expect("aims");
+        let aim = aim(&records, &(0..100).collect::<Vec<u32>>(), 100.0).expect("aims");
         assert!((aim.share - 0.1).abs() < 1e-6, "{}", aim.share);
     }
 
@@ -187,16 +185,16 @@ mod tests {
         let rare: Vec<BounceRecord> = (0..100)
             .map(|k| record(0.0, (k < 2).then_some(1), 1.0))
             .collect();
-        assert_eq!(aim(&rare, &members), None);
+        assert_eq!(aim(&rare, &members, 100.0), None);
         // Nothing brought anything.
         let dark: Vec<BounceRecord> = (0..100).map(|_| record(0.0, Some(1), 0.0)).collect();
-        assert_eq!(aim(&dark, &members), None);
+        assert_eq!(aim(&dark, &members, 0.0), None);
         // Too few to trust.
         let few: Vec<BounceRecord> = (0..10).map(|_| record(0.0, Some(1), 1.0)).collect();
         assert_eq!(guidance(&few, &(0..10).collect::<Vec<u32>>(), aim), None);
         // All of it through an opening: aimed at the most that keeps BSDF sampling.
         let all: Vec<BounceRecord> = (0..100).map(|_| record(0.0, Some(1), 1.0)).collect();
-        assert_eq!(aim(&all, &members).expect("aims").share, MAX_SHARE);
+        assert_eq!(aim(&all, &members, 100.0).expect("aims").share, MAX_SHARE);
     }
 
     #[test]

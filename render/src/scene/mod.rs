@@ -215,22 +215,21 @@ pub(crate) fn parse<T: DeserializeOwned>(
 }
 
 impl Scene {
-    /// True when light sampling may look through openings: the shot allows it, and there are
-    /// openings, teleports and lights.
+    /// True when light sampling may look through openings: the shot allows it, and light can
+    /// come through openings at all.
     pub fn light_through_openings_possible(&self) -> bool {
-        self.settings.light_through_openings
-            && !self.portals.is_empty()
-            && !self.lights.is_empty()
-            && self.settings.max_portal_depth > 0
+        self.settings.light_through_openings && self.light_can_come_through_openings()
     }
 
-    /// True when bounces may be aimed at openings: the shot allows it, and there are openings,
-    /// teleports and light.
+    /// True when bounces may be aimed at openings: the shot allows it, and light can come
+    /// through openings at all.
     pub fn guide_through_openings_possible(&self) -> bool {
-        self.settings.guide_through_openings
-            && !self.portals.is_empty()
-            && !self.lights.is_empty()
-            && self.settings.max_portal_depth > 0
+        self.settings.guide_through_openings && self.light_can_come_through_openings()
+    }
+
+    /// True when there are openings, teleports and lights.
+    fn light_can_come_through_openings(&self) -> bool {
+        !self.portals.is_empty() && !self.lights.is_empty() && self.settings.max_portal_depth > 0
     }
 
     /// True when the scene holds only surfaces and lamps: no openings, media, strands, sky,
