@@ -284,6 +284,7 @@ fn render_frame(args: &RenderArgs, shot: &Shot, frame: i64, plan: &Plan) -> anyh
     for warning in &scene.warnings {
         eprintln!("rift render: warning: {warning}");
     }
+    report_bounce_guide(&prepared, frame);
     let eyes: Vec<Option<Eye>> = match (&scene.stereo, args.eye) {
         (None, Some(_)) => bail!("--eye: {} has no [camera.stereo]", args.shot.display()),
         (None, None) => vec![None],
@@ -580,6 +581,25 @@ fn stopped(
         Some(e) => format!("{label}: stopped by a signal, and its checkpoint failed: {e}"),
     };
     crate::resume::Interrupted { message }.into()
+}
+
+/// Says what the bounce guide learned, when one was asked for: a lighter sees whether aiming
+/// at openings does anything in this shot.
+fn report_bounce_guide(prepared: &Prepared, frame: i64) {
+    if !prepared.scene.settings.guide_through_openings {
+        return;
+    }
+    match &prepared.bounce_guide {
+        Some(guide) => eprintln!(
+            "rift render: frame {frame}: bounce guide: {} (training {:.2} s)",
+            guide.summary(),
+            prepared.training_seconds
+        ),
+        None => eprintln!(
+            "rift render: frame {frame}: bounces are not aimed at openings: no training path \
+             bounced through one"
+        ),
+    }
 }
 
 /// Prints what was rendered: size, samples, time, speed and where it went.

@@ -13,7 +13,8 @@ fn shot() -> std::path::PathBuf {
     root().join("examples/shots/lit_through.toml")
 }
 
-fn render(dir: &Path, out: &str, extra: &[&str]) {
+/// Renders the shot to `out` with `extra` arguments; what it said.
+fn render(dir: &Path, out: &str, extra: &[&str]) -> String {
     let shot = shot();
     let mut args = vec!["render", shot.to_str().unwrap(), "-o", out];
     if !extra.contains(&"--res") {
@@ -22,6 +23,7 @@ fn render(dir: &Path, out: &str, extra: &[&str]) {
     args.extend_from_slice(extra);
     let r = rift(dir, &args);
     assert!(r.status.success(), "{args:?}: {}", stderr(&r));
+    stderr(&r)
 }
 
 fn merge(dir: &Path, out: &str, parts: &[&str]) -> std::process::Output {
@@ -32,9 +34,26 @@ fn merge(dir: &Path, out: &str, parts: &[&str]) -> std::process::Output {
 
 #[test]
 fn sample_ranges_tiles_and_both_merge_into_the_whole_render() {
+    splits_merge_into_the_whole_render(&[]);
+}
+
+/// The bounce guide is learned from the scene alone (whole frames at a fixed size and seed),
+/// never from the part a render covers, so parts aimed by it merge exactly too.
+#[test]
+fn parts_with_bounces_aimed_at_openings_merge_into_the_whole_render() {
+    splits_merge_into_the_whole_render(&["--guide-through-openings"]);
+}
+
+/// Renders the shot whole and split three ways (`flags` added to every render), merges each
+/// split and compares it with the whole render.
+fn splits_merge_into_the_whole_render(flags: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    render(d, "whole.exr", &["--spp", "12"]);
+    let render = |d: &Path, out: &str, extra: &[&str]| render(d, out, &[extra, flags].concat());
+    let said = render(d, "whole.exr", &["--spp", "12"]);
+    if flags.contains(&"--guide-through-openings") {
+        assert!(said.contains("regions aim at openings"), "{said}");
+    }
     assert!(
         read_exr_layer(&d.join("whole.exr"))
             .unwrap()

@@ -123,16 +123,9 @@ fn on_against_off(
         args.timing.repeats
     );
     if let Some(guide) = &reference_scene.bounce_guide {
-        let (learned, regions) = guide.regions().learned();
-        let aiming = guide
-            .regions()
-            .values()
-            .iter()
-            .filter(|g| g.aim.is_some())
-            .count();
         println!(
-            "bounce guide: {learned} of {regions} regions learned, {aiming} aim at openings; {:.1} KiB, trained in {:.2} s",
-            guide.regions().bytes() as f64 / 1024.0,
+            "bounce guide: {}; trained in {:.2} s",
+            guide.summary(),
             reference_scene.training_seconds
         );
     }

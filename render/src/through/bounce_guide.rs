@@ -59,6 +59,18 @@ impl BounceGuide {
     pub fn brightest(&self) -> f32 {
         self.brightest
     }
+
+    /// What was learned, for a person: how many regions learned anything, how many aim at
+    /// openings, of how many, and the guide's size.
+    pub fn summary(&self) -> String {
+        let (learned, regions) = self.regions.learned();
+        let aiming = self.regions.values().iter().filter(|g| g.aim.is_some());
+        format!(
+            "{} of {regions} regions aim at openings ({learned} learned), {:.1} KiB",
+            aiming.count(),
+            self.regions.bytes() as f64 / 1024.0
+        )
+    }
 }
 
 /// What one region's bounces learned.
