@@ -12,6 +12,7 @@ use rift_render::frame::{RenderOptions, render};
 use rift_render::prepare::Prepared;
 use rift_render::rift_fx::Shot;
 use rift_render::scene::Overrides;
+use rift_render::through::bounce_guide::LEAST_SHARE;
 use std::path::Path;
 
 /// The example shot at `width`×(9/16 of it) with aiming `on` or off and `seed`.
@@ -41,7 +42,7 @@ fn aiming_keeps_the_estimate_and_lowers_the_noise() {
     let noise = |pair: &[Vec<Vec3>; 2]| relative_mse(&pair[0], &pair[1]);
     let (with, without) = (noise(&aimed), noise(&plain));
     eprintln!("noise {with:e} aimed against {without:e}");
-    // Measured 32× less (in about twice the time); a guide that aimed nowhere, or a roulette
+    // Measured 45× less (in about twice the time); a guide that aimed nowhere, or a roulette
     // that killed the paths reaching the bright room, would not come near a fifth.
     assert!(
         with < 0.2 * without,
@@ -50,7 +51,7 @@ fn aiming_keeps_the_estimate_and_lowers_the_noise() {
 }
 
 #[test]
-fn the_dark_room_aims_at_its_window_and_the_far_room_does_not_aim_at_it() {
+fn the_dark_room_aims_at_its_window_and_the_far_room_no_more_than_the_least() {
     let prepared = bounce_through(64, true, 1);
     let guide = prepared.bounce_guide.as_ref().expect("a guide");
     // The dark room's floor in front of the window: aims at the window (opening 0).
@@ -59,10 +60,11 @@ fn the_dark_room_aims_at_its_window_and_the_far_room_does_not_aim_at_it() {
     assert!(aim.share > 0.3, "share {}", aim.share);
     assert_eq!(aim.openings().next().map(|(o, _)| o), Some(0));
     // The far room's far wall: what comes back through its window is the dark room's light, a
-    // small part of what it sees; and a bounce there brings back far more than in the dark room.
+    // small part of what it sees, so it aims at most the least share; and a bounce there
+    // brings back far more than in the dark room.
     let far_wall = guide.at(Vec3::new(37.0, 1.5, 0.0)).expect("learned there");
     assert!(
-        far_wall.aim.is_none_or(|a| a.share < 0.1),
+        far_wall.aim.is_none_or(|a| a.share <= LEAST_SHARE),
         "{:?}",
         far_wall.aim
     );
