@@ -171,6 +171,16 @@ pub struct Recording {
     pub bounces: Vec<BounceRecord>,
     /// The bounces of the path being traced, the last `open.len()` of `bounces`.
     open: Vec<OpenBounce>,
+    /// What is recorded (the default records nothing).
+    wanted: Wanted,
+}
+
+/// What a [`Recording`] keeps: a training pass that learns only one guide leaves the other's
+/// records out (on the showcase the light samples alone are some 20 MB).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Wanted {
+    pub lights: bool,
+    pub bounces: bool,
 }
 
 /// A bounce of the path being recorded, until the path ends.
@@ -185,6 +195,14 @@ struct OpenBounce {
 }
 
 impl Recording {
+    /// An empty recording that keeps what is `wanted`.
+    pub fn new(wanted: Wanted) -> Self {
+        Self {
+            wanted,
+            ..Self::default()
+        }
+    }
+
     /// Closes the bounces of the path just traced, which gathered `radiance` in all.
     pub fn path_done(&mut self, radiance: Vec3) {
         let first_open = self.bounces.len() - self.open.len();
@@ -211,10 +229,15 @@ impl Recording {
 impl Recorder for Recording {
     const RECORDS: bool = true;
     fn light_sample(&mut self, record: LightRecord) {
-        self.lights.push(record);
+        if self.wanted.lights {
+            self.lights.push(record);
+        }
     }
 
     fn bounce(&mut self, p: Vec3, bounce: u32, beta: Vec3, radiance: Vec3) {
+        if !self.wanted.bounces {
+            return;
+        }
         self.bounces.push(BounceRecord {
             p,
             opening: None,

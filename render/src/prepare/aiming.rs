@@ -7,8 +7,8 @@
 //! mostly by aiming and the rest mostly by the BSDF, a mixture that aims with probability a has
 //! a variance near T²/a + R²/(1 − a), least at a = T / (T + R): the region aims with the share
 //! of its light that came through openings, at each opening in proportion to what it brought,
-//! held between `bounce_guide`'s `LEAST_SHARE` and `MAX_SHARE` (why: there). Regions where no light came
-//! through an opening do not aim.
+//! held between `bounce_guide`'s `LEAST_SHARE` and `MAX_SHARE` (why: there). Regions where no
+//! light came through an opening do not aim.
 //!
 //! Bounces drawn from the BSDF alone rarely leave through a small opening (a few in a region's
 //! hundreds), too few to tell T from. So training runs twice: the first paths, from the BSDF

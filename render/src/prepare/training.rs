@@ -37,7 +37,7 @@ use crate::camera::Lens;
 use crate::geometry::Ray;
 #[cfg(doc)]
 use crate::integrator::Recorder;
-use crate::integrator::{Context, LightRecord, Recording, trace};
+use crate::integrator::{Context, LightRecord, Recording, Wanted, trace};
 use crate::lights::Lights;
 use crate::lights::emitters::Picked;
 use crate::lights::guide::{LightGuide, REGION_SAMPLES, RegionFactors};
@@ -83,7 +83,11 @@ pub fn train(ctx: &Context, lights: bool, aims: bool) -> Trained {
             bounce_guide: None,
         };
     }
-    let recording = training_records(ctx, 0);
+    let wanted = Wanted {
+        lights: learns_lights,
+        bounces: aims,
+    };
+    let recording = training_records(ctx, 0, wanted);
     let light_records = &recording.lights;
     let lights = &ctx.scene.lights;
     Trained {
@@ -105,7 +109,11 @@ pub fn train(ctx: &Context, lights: bool, aims: bool) -> Trained {
 /// first pass (`first`) saw bounces leave through openings ([`aiming`]).
 fn learn_aims(ctx: &Context, first: &Recording) -> Option<BounceGuide> {
     let prior = aiming::prior(&first.bounces)?;
-    let second = training_records(&ctx.aiming(Some(&prior)), 1);
+    let bounces = Wanted {
+        lights: false,
+        bounces: true,
+    };
+    let second = training_records(&ctx.aiming(Some(&prior)), 1, bounces);
     aiming::learn(&second.bounces)
 }
 
@@ -148,8 +156,8 @@ fn learn(lights: &Lights, records: &[LightRecord], members: &[u32]) -> Option<Re
 
 /// The records of [`TRAINING_SPP`] paths a pixel over the camera's frame at about
 /// [`TRAINING_WIDTH`] pixels across, row after row (the same whatever the thread count), for
-/// training pass `pass` (each its own samples).
-fn training_records(ctx: &Context, pass: u32) -> Recording {
+/// training pass `pass` (each its own samples), keeping what is `wanted`.
+fn training_records(ctx: &Context, pass: u32, wanted: Wanted) -> Recording {
     let scene = ctx.scene;
     let [w, h] = scene.camera.projection.resolution;
     let width = TRAINING_WIDTH.min(w).max(1);
@@ -158,7 +166,7 @@ fn training_records(ctx: &Context, pass: u32) -> Recording {
     let rows: Vec<Recording> = (0..height)
         .into_par_iter()
         .map(|y| {
-            let mut row = Recording::default();
+            let mut row = Recording::new(wanted);
             for x in 0..width {
                 let pixel_seed = hash32(hash32(y * width + x) ^ seed);
                 for i in 0..TRAINING_SPP {
@@ -175,7 +183,7 @@ fn training_records(ctx: &Context, pass: u32) -> Recording {
         .collect();
     // Row after row into one list, each row freed as it is moved (a flattening collect would
     // hold every record twice at its peak: 20 MB on the showcase).
-    let mut records = Recording::default();
+    let mut records = Recording::new(wanted);
     records
         .lights
         .reserve(rows.iter().map(|r| r.lights.len()).sum());

@@ -26,8 +26,8 @@ pub const MAX_AIMED: usize = 4;
 /// The largest share of a region's bounces aimed at openings: BSDF sampling keeps the rest, for
 /// the light that does not come through them. An unaimed bounce's weight is divided by
 /// 1 − share, and along a path that stays in the room those factors multiply: with 0.8 the
-/// example's paths gathered fireflies (measured on `bounce_through`: 0.8 against 0.5, 0.45× as
-/// efficient).
+/// example's paths gathered fireflies (measured on `bounce_through`, at 64 spp over five seeds:
+/// 0.8 was 0.75× as efficient as 0.5).
 pub const MAX_SHARE: f32 = 0.5;
 /// The least share of a region's bounces aimed at openings, wherever some of its light came
 /// through them: a share learned too small (from a region's few hundred bounces, the rest's
