@@ -125,11 +125,12 @@ fn sigterm_and_sigint_stop_cleanly_and_the_render_resumes_exactly() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let shot = shot_in(d, "");
-    // Adaptive sampling too: which pixels stop depends on passes that a resume must continue.
-    let adaptive = ["--target-error", "0.02"];
-    let whole = rift(d, &render_args(&shot, "whole.exr", &adaptive));
+    // Adaptive sampling too: which pixels stop depends on passes that a resume must continue;
+    // and bounces aimed at openings, whose guide the resumed render learns again.
+    let flags = ["--target-error", "0.02", "--guide-through-openings"];
+    let whole = rift(d, &render_args(&shot, "whole.exr", &flags));
     assert!(whole.status.success(), "{}", stderr(&whole));
-    let mut args = render_args(&shot, "out.exr", &adaptive);
+    let mut args = render_args(&shot, "out.exr", &flags);
     args.extend(["--checkpoint", "60", "--resume"]);
     for (name, code) in [("TERM", 143), ("INT", 130)] {
         let mut child = start(d, &args);
@@ -188,6 +189,10 @@ fn checkpoints_of_anything_else_are_refused() {
         (&["--seed", "9"][..], "seed 0 (now 9)"),
         (&["--res", "80", "54"][..], "res 96x54 (now 80x54)"),
         (&["--max-portal-depth", "1"][..], "max_portal_depth"),
+        (
+            &["--guide-through-openings"][..],
+            "guide_through_openings false (now true)",
+        ),
     ] {
         let mut extra = extra.to_vec();
         extra.push("--resume");
