@@ -5,10 +5,12 @@ from the same rooms joined in space, with path guiding on and off.
 
 The pair maps the dark room's window onto the far room's by a translation (DESIGN.md's
 T = P_T · P_H⁻¹ with the two frames half a turn apart), so the physical twin moves the far room
-by that translation until the two windows coincide: the rooms then overlap by the 6 cm between
-the two walls, each wall gets the window's hole, and each wall is transparent from its back (the
-side that faces into the other room), so every ray sees the wall of the room it is in, and a ray
-through the hole goes on into the other room as it does through the portal. The panel is a
+by that translation until the two windows coincide, and the two rooms share one wall in the
+window's plane (3 cm in front of rift's walls), with the window's hole: plaster on the dark
+room's side, sand on the far room's (a mix on Cycles' Backfacing). A ray through the hole goes on
+into the other room as it does through the portal. (Two walls 6 cm apart, each transparent from
+the other room, did not agree: Cycles' dark room came out far darker, its light pooled round the
+hole; not looked into.) The panel is a
 Cycles area light of the same radiance (Cycles' L = P / (A·π), checked against a directly seen
 light) and the same one-sided emission; bounces are not cut short (Cycles 32, rift unlimited
 with roulette), no denoising, no clamping, no adaptive sampling.
@@ -56,7 +58,6 @@ s.render.engine = "CYCLES"
 c = s.cycles
 c.device, c.use_adaptive_sampling, c.use_denoising = "CPU", False, False
 c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = 32
-c.transparent_max_bounces = 32
 c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
 c.pixel_filter_type, c.filter_width = "BOX", 1.0  # rift's film: one-pixel box
 s.render.resolution_x, s.render.resolution_y = plan["width"], plan["height"]
