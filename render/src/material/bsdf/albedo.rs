@@ -6,7 +6,6 @@
 use super::multiscatter::{N, cell, cell_of, cosine_weighted_mean, mu_at, per_shadowing};
 use crate::material::microfacet::{Ggx, Shadowing, fresnel_dielectric, reflect};
 use glam::{Vec2, Vec3};
-use rayon::prelude::*;
 use std::sync::OnceLock;
 
 /// Table resolution in the index of refraction, over x = (ior − 1)/(ior + 1) in [0, 0.5]
@@ -17,51 +16,73 @@ const STRATA: u32 = 32;
 /// The largest index of refraction the table holds; beyond it the last row is used.
 pub const MAX_IOR: f32 = 3.0;
 
-/// E(μ) per (ior, roughness) row, and the cosine-weighted mean per row.
+/// The table of one masking-shadowing term, one index of refraction at a time: each is built
+/// the first time a shading point needs it. A scene's materials use one or two indices, and
+/// building all sixteen (16.8 M samples of the lobe) had cost every process that rendered a
+/// coat 0.7 s of CPU before its first pixel.
 struct Table {
-    albedo: Vec<[f32; N]>,
-    mean: Vec<f32>,
+    shadowing: Shadowing,
+    iors: [OnceLock<IorTable>; IORS],
+}
+
+/// E(μ) per roughness for one index of refraction, and its cosine-weighted mean per roughness.
+struct IorTable {
+    albedo: [[f32; N]; N],
+    mean: [f32; N],
 }
 
 /// E(μ) of the reflection of a dielectric of index `ior` (outside over inside is 1/ior) with
 /// microfacets `ggx`.
 pub fn dielectric_albedo(ior: f32, ggx: Ggx, mu: f32) -> f32 {
-    let t = table(ggx.shadowing);
-    t.bilinear(ior, ggx, |row| {
+    table(ggx.shadowing).bilinear(ior, ggx, |t, r| {
         let (m0, m1, fm) = cell(mu * N as f32 - 0.5);
-        t.albedo[row][m0] * (1.0 - fm) + t.albedo[row][m1] * fm
+        t.albedo[r][m0] * (1.0 - fm) + t.albedo[r][m1] * fm
     })
 }
 
 /// 2∫E(μ)μ dμ, the cosine-weighted mean of [`dielectric_albedo`].
 pub fn dielectric_mean_albedo(ior: f32, ggx: Ggx) -> f32 {
-    let t = table(ggx.shadowing);
-    t.bilinear(ior, ggx, |row| t.mean[row])
+    table(ggx.shadowing).bilinear(ior, ggx, |t, r| t.mean[r])
 }
 
 impl Table {
-    fn build(shadowing: Shadowing) -> Self {
-        let albedo: Vec<[f32; N]> = (0..IORS * N)
-            .into_par_iter()
-            .map(|row| {
-                let (i, r) = (row / N, row % N);
-                let ior = ior_at(i);
-                let ggx = Ggx::from_roughness(r as f32 / (N - 1) as f32).with_shadowing(shadowing);
-                std::array::from_fn(|k| sampled_albedo(ior, ggx, mu_at(k)))
-            })
-            .collect();
-        let mean = albedo.iter().map(cosine_weighted_mean).collect();
-        Self { albedo, mean }
+    fn new(shadowing: Shadowing) -> Self {
+        Self {
+            shadowing,
+            iors: std::array::from_fn(|_| OnceLock::new()),
+        }
     }
 
-    /// `at(row, ...)` interpolated bilinearly between the four rows around (ior, roughness).
-    fn bilinear(&self, ior: f32, ggx: Ggx, at: impl Fn(usize) -> f32) -> f32 {
+    /// The table of index row `i`, built on first use. Built on the calling thread alone: it
+    /// may be a render worker, and a parallel build there could have that worker, while it
+    /// waits, take another pixel's work that needs the same row (a reentrant initialisation).
+    fn ior(&self, i: usize) -> &IorTable {
+        self.iors[i].get_or_init(|| {
+            let ior = ior_at(i);
+            let mut albedo = [[0.0; N]; N];
+            for (r, row) in albedo.iter_mut().enumerate() {
+                let ggx =
+                    Ggx::from_roughness(r as f32 / (N - 1) as f32).with_shadowing(self.shadowing);
+                *row = std::array::from_fn(|k| sampled_albedo(ior, ggx, mu_at(k)));
+            }
+            IorTable {
+                mean: std::array::from_fn(|r| cosine_weighted_mean(&albedo[r])),
+                albedo,
+            }
+        })
+    }
+
+    /// `at(table, roughness row)` interpolated bilinearly between the four rows around
+    /// (ior, roughness).
+    fn bilinear(&self, ior: f32, ggx: Ggx, at: impl Fn(&IorTable, usize) -> f32) -> f32 {
         let ior = ior.clamp(1.0, MAX_IOR);
         let x = (ior - 1.0) / (ior + 1.0);
         let (i0, i1, fi) = cell_of(x * 2.0 * (IORS - 1) as f32, IORS);
         let (r0, r1, fr) = cell(ggx.alpha.sqrt() * (N - 1) as f32);
-        let row = |i: usize, r: usize| at(i * N + r);
-        let at_ior = |i: usize| row(i, r0) * (1.0 - fr) + row(i, r1) * fr;
+        let at_ior = |i: usize| {
+            let t = self.ior(i);
+            at(t, r0) * (1.0 - fr) + at(t, r1) * fr
+        };
         at_ior(i0) * (1.0 - fi) + at_ior(i1) * fi
     }
 }
@@ -96,7 +117,7 @@ fn sampled_albedo(ior: f32, ggx: Ggx, mu: f32) -> f32 {
 
 fn table(shadowing: Shadowing) -> &'static Table {
     static TABLES: [OnceLock<Table>; 2] = [OnceLock::new(), OnceLock::new()];
-    per_shadowing(&TABLES, shadowing, Table::build)
+    per_shadowing(&TABLES, shadowing, Table::new)
 }
 
 #[cfg(test)]
