@@ -14,6 +14,7 @@ makes.
     python3 tools/make_set_assets.py [--out examples/assets/set]
 """
 import argparse
+import functools
 import math
 import struct
 import zlib
@@ -22,8 +23,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
+@functools.lru_cache(maxsize=None)
 def hash01(*values):
-    """A uniform number in [0, 1) from integers (a 32-bit integer hash)."""
+    """A uniform number in [0, 1) from integers (a 32-bit integer hash). Remembered: the noise
+    asks for each lattice point many times over (the script took 15 s, 5.6 s with this, 66 MB)."""
     h = 0x9E3779B9
     for v in values:
         h ^= (v & 0xFFFFFFFF) + 0x7F4A7C15 + ((h << 6) & 0xFFFFFFFF) + (h >> 2)
