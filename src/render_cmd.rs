@@ -589,17 +589,22 @@ fn report_bounce_guide(prepared: &Prepared, frame: i64) {
     if !prepared.scene.settings.guide_through_openings {
         return;
     }
-    match &prepared.bounce_guide {
-        Some(guide) => eprintln!(
-            "rift render: frame {frame}: bounce guide: {} (training {:.2} s)",
-            guide.summary(),
-            prepared.training_seconds
-        ),
-        None => eprintln!(
-            "rift render: frame {frame}: bounces are not aimed at openings: no training path \
-             bounced through one"
-        ),
-    }
+    let why_not = match &prepared.bounce_guide {
+        Some(guide) => {
+            eprintln!(
+                "rift render: frame {frame}: bounce guide: {} (training {:.2} s)",
+                guide.summary(),
+                prepared.training_seconds
+            );
+            return;
+        }
+        // The same test that decides whether training looks for a guide at all.
+        None if !prepared.scene.guide_through_openings_possible() => {
+            "the scene has no openings and lights for light to come through"
+        }
+        None => "no training path bounced through one",
+    };
+    eprintln!("rift render: frame {frame}: bounces are not aimed at openings: {why_not}");
 }
 
 /// Prints what was rendered: size, samples, time, speed and where it went.
