@@ -24,8 +24,9 @@ pub fn denoise(image: &mut Image, quality: Quality, threads: usize) -> Result<De
     let started = std::time::Instant::now();
     let device = Device::new(threads)?;
     let size = (image.window.width(), image.window.height());
-    let albedo = cleaned(&device, "albedo", &image.albedo, size, aux_quality(quality))?;
-    let normal = cleaned(&device, "normal", &image.normal, size, aux_quality(quality))?;
+    let guides = aux_quality(quality);
+    let albedo = cleaned(&device, "albedo", &image.albedo, size, guides)?;
+    let normal = cleaned(&device, "normal", &image.normal, size, guides)?;
     let filter = |pixels: &mut [Vec3]| {
         let images = Images {
             color: pixels,
