@@ -589,20 +589,19 @@ fn report_bounce_guide(prepared: &Prepared, frame: i64) {
     if !prepared.scene.settings.guide_through_openings {
         return;
     }
-    let why_not = match &prepared.bounce_guide {
-        Some(guide) => {
-            eprintln!(
-                "rift render: frame {frame}: bounce guide: {} (training {:.2} s)",
-                guide.summary(),
-                prepared.training_seconds
-            );
-            return;
-        }
-        // The same test that decides whether training looks for a guide at all.
-        None if !prepared.scene.guide_through_openings_possible() => {
-            "the scene has no openings and lights for light to come through"
-        }
-        None => "no training path bounced through one",
+    if let Some(guide) = &prepared.bounce_guide {
+        eprintln!(
+            "rift render: frame {frame}: bounce guide: {} (training {:.2} s)",
+            guide.summary(),
+            prepared.training_seconds
+        );
+        return;
+    }
+    // The same test that decides whether training looks for a guide at all.
+    let why_not = if prepared.scene.guide_through_openings_possible() {
+        "no training path bounced through one"
+    } else {
+        "the scene has no openings and lights for light to come through"
     };
     eprintln!("rift render: frame {frame}: bounces are not aimed at openings: {why_not}");
 }
