@@ -82,6 +82,30 @@ fn same_seed_gives_identical_pixels_for_any_thread_count() {
     assert!(other != images[0]);
 }
 
+/// Bounces aimed at openings asked for in a scene with none: the render goes on without them
+/// and says why (not that training paths found no opening, which would send the user looking
+/// at the wrong thing).
+#[test]
+fn a_bounce_guide_asked_for_without_openings_is_said_to_be_impossible() {
+    let dir = cornell_dir(|t| t.replace("resolution = [256, 256]", "resolution = [16, 16]"));
+    let args = ["render", "shot.toml", "--spp", "1", "-o", "img.exr"];
+    let r = rift(
+        dir.path(),
+        &[&args[..], &["--guide-through-openings"]].concat(),
+    );
+    assert!(r.status.success(), "{}", stderr(&r));
+    let said = stderr(&r);
+    assert!(
+        said.contains("bounces are not aimed at openings: the scene has no openings and lights"),
+        "{said}"
+    );
+    assert!(!said.contains("no training path"), "{said}");
+    // Not asked for, nothing is said of it.
+    let r = rift(dir.path(), &args);
+    assert!(r.status.success(), "{}", stderr(&r));
+    assert!(!stderr(&r).contains("bounce"), "{}", stderr(&r));
+}
+
 #[test]
 fn missing_mesh() {
     let dir = cornell_dir(|t| t.replace("mesh = \"cornell.obj\"", "mesh = \"nowhere.obj\""));
