@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+import host
+
 ROOT = Path(__file__).resolve().parent.parent
 PACK = ROOT.parent / "shared" / "reference" / "cornell"
 
@@ -142,6 +144,7 @@ def main():
     ref_mean = reference.mean((0, 1))
     print(f"\nCornell box, {args.threads} threads, Mitsuba {mi.__version__} {args.variant}, "
           f"medians of {args.rounds} rounds")
+    print(f"host: {host.describe()}")
     print(f"{'':12} {'spp':>5} {'seconds':>9} {'relMSE':>11} {'efficiency':>11}  mean against the reference (%)")
     eff = {}
     for who, rows in runs.items():

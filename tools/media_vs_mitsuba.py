@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+import host
+
 ROOT = Path(__file__).resolve().parent.parent
 PACK = ROOT.parent / "shared" / "reference" / "cornell"
 
@@ -169,6 +171,7 @@ def main():
     print(f"Cornell box with {what}: sigma_t {args.sigma_t}/m, albedo {args.albedo}, g {args.g}; "
           f"rift {args.spp} spp, Mitsuba {args.variant} volpath {args.mitsuba_spp} spp, "
           f"{args.seeds} seeds each")
+    print(f"host: {host.describe()}")
     for who, pair in runs.items():
         other = means["mitsuba" if who == "rift" else "rift"]
         seconds = np.median([t for _, t in pair])

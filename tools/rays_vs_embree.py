@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+import host
+
 
 def rift_round(rift, dump_dir, args):
     """One `rift bench rays` run: {'closest': Mrays/s, 'occlusion': Mrays/s, 'hit': fraction}."""
@@ -121,6 +123,7 @@ def main():
     print(f"\n{2 * args.cells ** 2} triangles, {args.rays} rays "
           f"({100 * rounds[0]['rift']['hit']:.1f}% hit), {args.threads} thread(s), "
           f"medians of {args.rounds} rounds")
+    print(f"host: {host.describe()}")
     print(f"{'query':<10} {'rift Mrays/s':>13} {'embree Mrays/s':>15} {'rift/embree':>12}")
     for q in ("closest", "occlusion"):
         a = statistics.median(g["rift"][q] for g in rounds)
