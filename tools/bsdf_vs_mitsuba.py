@@ -34,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from images import read_rgb
+
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data" / "bsdf"
 WIDTH, HEIGHT = 64, 40
@@ -282,16 +284,7 @@ def render_rift(rift, shot, spp, seed, tmp):
     t = time.perf_counter()
     subprocess.run([rift, "render", str(shot), "-o", str(out), "--spp", str(spp), "--seed",
                     str(seed)], check=True, capture_output=True, cwd=tmp)
-    return read_exr(out), time.perf_counter() - t
-
-
-def read_exr(path):
-    import OpenEXR
-
-    with OpenEXR.File(str(path)) as f:
-        ch = f.channels()
-        key = "RGBA" if "RGBA" in ch else "RGB"
-        return np.asarray(ch[key].pixels, dtype=np.float64)[..., :3]
+    return read_rgb(out), time.perf_counter() - t
 
 
 def write_exr(path, img):

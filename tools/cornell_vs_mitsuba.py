@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 import host
+from images import read_rgb, rel_mse
 
 ROOT = Path(__file__).resolve().parent.parent
 PACK = ROOT.parent / "shared" / "reference" / "cornell"
@@ -44,17 +45,6 @@ def newest_libllvm():
         if m:
             found.append((int(m.group(1)), path))
     return max(found)[1] if found else None
-
-
-def read_exr(path):
-    import OpenEXR
-    channels = OpenEXR.File(str(path)).parts[0].channels
-    rgb = next(channels[k].pixels for k in ("RGBA", "RGB") if k in channels)
-    return rgb[..., :3].astype(np.float64)
-
-
-def rel_mse(img, ref):
-    return float(np.mean((img - ref) ** 2 / (ref ** 2 + 0.01)))
 
 
 def rift_round(rift, spp, threads, tmp):
@@ -125,7 +115,7 @@ def main():
     import drjit as dr
     if args.variant.startswith("llvm"):
         dr.set_thread_count(args.threads)
-    reference = read_exr(PACK / "reference.exr")
+    reference = read_rgb(PACK / "reference.exr")
     scenes = mitsuba_scenes(mi, args.samplers.split(","), args.spp)
 
     runs = {"rift": []} | {name: [] for name in scenes}

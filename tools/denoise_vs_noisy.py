@@ -25,16 +25,14 @@ import time
 import numpy as np
 import OpenEXR
 
+from images import rel_mse
+
 
 def layer(path, name):
     channels = OpenEXR.File(path).channels()
     name = name.rstrip(".")
     group = channels.get(name) or channels.get(name + "A")
     return group.pixels[..., :3].astype(np.float64)
-
-
-def relmse(image, reference):
-    return float(np.mean((image - reference) ** 2 / (reference**2 + 1e-2)))
 
 
 def render(rift, shot, out, spp, extra):
@@ -110,9 +108,9 @@ def main():
             more = os.path.join(d, f"m{spp}.exr")
             t_more = render(args.rift, args.shot, more, 4 * spp, extra)
             edge = lambda image: float(np.abs(image - reference)[band].mean()) if band.any() else float("nan")
-            print(f"{spp:4d}  {relmse(noisy, reference):.5f} ({t_noisy:5.1f})   "
-                  f"{relmse(denoised, reference):.5f} ({t_denoised:5.1f})   "
-                  f"{relmse(layer(more, 'RGB'), reference):.5f} ({t_more:5.1f})   "
+            print(f"{spp:4d}  {rel_mse(noisy, reference):.5f} ({t_noisy:5.1f})   "
+                  f"{rel_mse(denoised, reference):.5f} ({t_denoised:5.1f})   "
+                  f"{rel_mse(layer(more, 'RGB'), reference):.5f} ({t_more:5.1f})   "
                   f"{edge(noisy):.4f} / {edge(denoised):.4f}   "
                   f"{through_metrics(noisy, reference, region)} / "
                   f"{through_metrics(denoised, reference, region)} / "

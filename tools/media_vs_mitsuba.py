@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 import host
+from images import read_rgb, rel_mse
 
 ROOT = Path(__file__).resolve().parent.parent
 PACK = ROOT.parent / "shared" / "reference" / "cornell"
@@ -81,17 +82,7 @@ def render_rift(args, tmp, seed):
     t = time.perf_counter()
     subprocess.run([args.rift, "render", str(tmp / "fog.toml"), "-o", str(out), "--spp",
                     str(args.spp), "--seed", str(seed)], check=True, capture_output=True)
-    return read_exr(out), time.perf_counter() - t
-
-
-def read_exr(path):
-    import OpenEXR
-
-    with OpenEXR.File(str(path)) as f:
-        channels = f.channels()
-        if "RGBA" in channels:
-            return np.asarray(channels["RGBA"].pixels, dtype=np.float64)[..., :3]
-        return np.asarray(channels["RGB"].pixels, dtype=np.float64)
+    return read_rgb(out), time.perf_counter() - t
 
 
 def render_mitsuba(args, seed):
@@ -141,10 +132,6 @@ def region_means(img, n=4):
     h, w, _ = img.shape
     return np.array([[img[i * h // n:(i + 1) * h // n, j * w // n:(j + 1) * w // n].mean((0, 1))
                       for j in range(n)] for i in range(n)])
-
-
-def rel_mse(img, ref):
-    return float(np.mean((img - ref) ** 2 / (ref ** 2 + 0.01)))
 
 
 def main():
