@@ -29,16 +29,15 @@ import time
 from pathlib import Path
 
 import numpy as np
-import OpenEXR
+
+from images import read_rgb
 
 ROOT = Path(__file__).resolve().parent.parent
 RENDER_SECONDS = re.compile(r" in ([0-9.]+) s \(")
 
 
 def luminance(path):
-    channels = OpenEXR.File(str(path)).parts[0].channels
-    rgb = next(channels[k].pixels for k in ("RGBA", "RGB") if k in channels)
-    return rgb[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
+    return read_rgb(path) @ np.array([0.2126, 0.7152, 0.0722])
 
 
 def render(rift, shot, frame, seed, out, extra):
