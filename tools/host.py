@@ -13,7 +13,7 @@ def describe():
         with open("/proc/cpuinfo") as f:
             for line in f:
                 key, _, value = line.partition(":")
-                if key.strip() == "model name" and not flags:
+                if key.strip() == "model name":
                     model = value.strip()
                 elif key.strip() == "flags":
                     flags = set(value.split())
