@@ -4,7 +4,7 @@
 
 use super::shadow::{ShadowEnd, plain_shadow, shadow};
 use super::{Context, LightRecord, Recorder};
-use crate::geometry::{offset_origin, offset_target};
+use crate::geometry::{Hit, offset_origin, offset_target};
 use crate::lights::SkyPart;
 use crate::lights::emitters::{LightPlace, LightSample, LightSource, Receiver};
 use crate::material::bsdf::{Bsdf, Side};
@@ -36,6 +36,8 @@ pub(super) struct Shading<'a> {
     /// What a bounce here was seen to bring back per unit of throughput (0: unknown), for
     /// roulette.
     pub(super) brought: f32,
+    /// The surface hit the point is on (`None` in a medium).
+    pub(super) hit: Option<&'a Hit>,
 }
 
 impl Shading<'_> {
@@ -50,6 +52,37 @@ impl Shading<'_> {
             -self.ng
         };
         (wi.z > 0.0) != (world.dot(n) > 0.0)
+    }
+
+    /// Where a shadow ray towards `wi` (local; `world` in world space) leaves from: the point
+    /// just off the surface on the side the ray goes to, and false. Where the shading frame
+    /// puts the direction above the surface and the geometry under it (light grazing a coarse
+    /// smooth mesh), the smooth surface's point over the hit ([`Scene::smooth_point`]) nudged
+    /// off the triangle, and true: the ray then sees past the neighbouring triangles as it
+    /// would from that surface (Hanika's terminator offset; Cycles offsets its shadow rays
+    /// the same way). `None` where there is no such point (a flat triangle whose normal map
+    /// put the direction there) or the frame puts the direction under the surface and the
+    /// geometry above it: no light comes from there.
+    #[inline]
+    pub(super) fn shadow_origin(
+        &self,
+        scene: &Scene,
+        wi: Vec3,
+        world: Vec3,
+    ) -> Option<(Vec3, bool)> {
+        let (p, ng) = (self.receiver.p, self.ng);
+        if !(self.bent && self.crosses_wrongly(wi, world)) {
+            return Some((
+                offset_origin(p, if world.dot(ng) > 0.0 { ng } else { -ng }),
+                false,
+            ));
+        }
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let up = if self.side == Side::Front { ng } else { -ng };
+        let smooth = scene.smooth_point(self.hit?, self.receiver.time, up)?;
+        Some((offset_origin(smooth, up), true))
     }
 
     /// The density with which a bounce here draws direction `wi` (local; `world` in world
@@ -103,19 +136,16 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
         return;
     };
     let wi = at.frame.to_local(incoming.dir);
-    if at.bent && at.crosses_wrongly(wi, incoming.dir) {
-        learn(0.0);
-        return;
-    }
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
         learn(0.0);
         return;
     }
-    // The shadow ray leaves from the side of the surface it goes to.
-    let ng = at.ng;
     let dir = incoming.dir;
-    let from = offset_origin(at.receiver.p, if dir.dot(ng) > 0.0 { ng } else { -ng });
+    let Some((from, lifted)) = at.shadow_origin(ctx.scene, wi, dir) else {
+        learn(0.0);
+        return;
+    };
     let visible = if FULL {
         let chain = space.map_or(Chain::default(), |s| s.chain);
         shadow(ctx, &chain, from, dir, incoming.end, at.receiver.time)
@@ -127,7 +157,9 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
         return;
     };
     let pdf_light = q * incoming.pdf;
-    let weight = if incoming.bsdf_can_find {
+    // Bounces never leave under the geometry (they would meet their own surface), so light
+    // from a direction reached only from the lifted point is light sampling's alone.
+    let weight = if incoming.bsdf_can_find && !lifted {
         power_heuristic(
             pdf_light,
             at.bounce_pdf(&ctx.scene.portals, wi, dir) * coins,

@@ -451,7 +451,8 @@ fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &
             break;
         };
         let plain = &mut NoRecorder;
-        if !scatter_at::<false, _>(ctx, &mut path, &mut strategies, p, ng, bsdf, s, out, plain) {
+        let at = (p, ng, Some(&hit));
+        if !scatter_at::<false, _>(ctx, &mut path, &mut strategies, at, bsdf, s, out, plain) {
             break;
         }
     }
@@ -706,21 +707,21 @@ fn scatter<R: Recorder>(
 ) -> bool {
     // Holds the BSDF made for this point (a textured surface's, a medium's phase function).
     let mut made = None;
-    let (p, ng, bsdf) = match event {
+    let (p, ng, bsdf, hit) = match event {
         Event::Surface(hit) => {
-            let Some(scattering) =
+            let Some((p, ng, bsdf)) =
                 surface_emission::<true>(ctx, path, strategies, &hit, &mut made, out)
             else {
                 return false;
             };
-            scattering
+            (p, ng, bsdf, Some(hit))
         }
         Event::Collision { medium, at } => {
             let (emitted, scattered) = medium.collision(at);
             out.gather(path.beta * emitted, path.lit_through, 0);
             path.beta *= scattered;
             let phase = medium_vertex(path, out, at, medium.anisotropy, medium.albedo());
-            (path.ray.at(at), -path.ray.dir, &*made.insert(phase))
+            (path.ray.at(at), -path.ray.dir, &*made.insert(phase), None)
         }
         Event::Scattered {
             at,
@@ -728,10 +729,11 @@ fn scatter<R: Recorder>(
             albedo,
         } => {
             let phase = medium_vertex(path, out, at, anisotropy, albedo);
-            (path.ray.at(at), -path.ray.dir, &*made.insert(phase))
+            (path.ray.at(at), -path.ray.dir, &*made.insert(phase), None)
         }
     };
-    scatter_at::<true, R>(ctx, path, strategies, p, ng, bsdf, s, out, recorder)
+    let at = (p, ng, hit.as_ref());
+    scatter_at::<true, R>(ctx, path, strategies, at, bsdf, s, out, recorder)
 }
 
 /// A scattering point `at` along the path's ray in a medium: recorded for the AOVs; its
@@ -943,8 +945,7 @@ fn scatter_at<const FULL: bool, R: Recorder>(
     ctx: &Context,
     path: &mut PathState,
     strategies: &mut Option<Strategies>,
-    p: Vec3,
-    ng: Vec3,
+    (p, ng, hit): (Vec3, Vec3, Option<&Hit>),
     bsdf: &Bsdf,
     s: &mut SampleStream,
     out: &mut PathSample,
@@ -982,9 +983,12 @@ fn scatter_at<const FULL: bool, R: Recorder>(
     };
     let (frame, bent) = path.shading_frame::<FULL>(n, side, -dir);
     let wo = frame.to_local(-dir);
+    // Light selection sees the shading frame's normal: where it leans over the geometric one
+    // (a coarse smooth mesh where light grazes), light from under the triangle's plane still
+    // reaches the point ([`Shading::shadow_origin`]), and none comes from under the frame's.
     let receiver = Receiver {
         p,
-        n: (!bsdf.transmits()).then_some(n),
+        n: (!bsdf.transmits()).then_some(frame.n),
         time,
     };
 
@@ -1005,6 +1009,7 @@ fn scatter_at<const FULL: bool, R: Recorder>(
         side,
         aim: guidance.and_then(|g| g.aim.as_ref()).filter(|_| aims),
         brought: guidance.map_or(0.0, |g| g.brought),
+        hit,
     };
     if bsdf.is_delta() {
         *strategies = None;
@@ -1115,6 +1120,9 @@ fn continue_path<const FULL: bool>(
     // so the new origin does not wait on the square root.
     let (p, ng) = (at.receiver.p, at.ng);
     let towards = at.frame.to_world(bs.wi);
+    // A bounce the geometry puts under the surface would meet the surface itself again (a
+    // flat face whose normals lean), so it ends; light sampling alone brings light from there
+    // ([`Shading::shadow_origin`]).
     if at.bent && at.crosses_wrongly(bs.wi, towards) {
         return false;
     }

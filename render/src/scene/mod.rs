@@ -439,6 +439,56 @@ impl Scene {
         Some(if n.dot(ng) < 0.0 { -n } else { n })
     }
 
+    /// The point over `hit` (at time `time`) on the smooth surface its triangle's corner
+    /// normals describe, in world space, on the side of the unit vector `side`; `None` where
+    /// the mesh gives no normals. A coarse mesh's flat triangle lies inside the round surface
+    /// its normals stand for; rays leaving from this point instead of the triangle see past
+    /// the neighbouring triangles as they would past that surface, which keeps the shadow line
+    /// where light grazes round instead of stepping with the facets (Hanika's terminator
+    /// offset, as Cycles uses it): the hit point is pushed out of each corner's tangent plane
+    /// it lies under, the pushes blended by the barycentrics.
+    pub fn smooth_point(&self, hit: &Hit, time: f64, side: Vec3) -> Option<Vec3> {
+        let [a, b, c] = *self.triangle_normals.get(hit.triangle as usize)?;
+        let stored = [a.get()?, b.unpack(), c.unpack()];
+        let (b1, b2) = (hit.b1, hit.b2);
+        let tri = self.object_triangle(hit.triangle, hit.instance, time);
+        let p = tri.point(b1, b2);
+        let weights = [1.0 - b1 - b2, b1, b2];
+        let (corners, side) = match hit.instance {
+            STATIC => (stored, side),
+            instance => {
+                let corner = |k: usize, at: (f32, f32)| {
+                    (self.accel)
+                        .deformed_normal(instance, hit.triangle, time, at)
+                        .and_then(Vec3::try_normalize)
+                        .unwrap_or(stored[k])
+                };
+                let corners = [
+                    corner(0, (0.0, 0.0)),
+                    corner(1, (1.0, 0.0)),
+                    corner(2, (0.0, 1.0)),
+                ];
+                let to_object = self.accel.placement(instance, time).to_object;
+                (corners, to_object.transform_vector3(side))
+            }
+        };
+        // The corner normals turned together to the path's side, as the shading normal is.
+        let blended: Vec3 = (0..3).map(|k| corners[k] * weights[k]).sum();
+        let turn = if blended.dot(side) < 0.0 { -1.0 } else { 1.0 };
+        let lift: Vec3 = (0..3)
+            .map(|k| {
+                let n = corners[k] * turn;
+                let under = (p - tri.v[k]).dot(n).min(0.0);
+                n * (-under * weights[k])
+            })
+            .sum();
+        let smooth = p + lift;
+        Some(match hit.instance {
+            STATIC => smooth,
+            instance => (self.accel.placement(instance, time).to_world).transform_point3(smooth),
+        })
+    }
+
     /// The world-space point and normal of `hit` at time `time`.
     #[inline]
     pub fn surface(&self, hit: &Hit, time: f64) -> SurfacePoint {
