@@ -192,3 +192,66 @@ fn cryptomatte_is_refused_where_its_counts_cannot_be_kept() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("Cryptomatte"), "{}", stderr(&out));
 }
+
+/// Each instance of a USD prototype carries its own ID (its instancer's prototype path and its
+/// index), so a compositor can pick one chair of a scattered set: two cards a PointInstancer
+/// places where `write_scene` has the red and blue ones, and a third behind the camera, which
+/// the manifest leaves out (it lists what the frame shows).
+#[test]
+fn instances_of_a_usd_prototype_carry_their_own_ids() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("scatter.usda"),
+        "#usda 1.0\n(\n metersPerUnit = 1\n upAxis = \"Y\"\n)\n\
+         def PointInstancer \"Scatter\" {\n rel prototypes = [</Scatter/Card>]\n \
+         int[] protoIndices = [0, 0, 0]\n point3f[] positions = [(-1.8, 0, -5), (1.8, 0, -5), (0, 0, 5)]\n \
+         def Mesh \"Card\" {\n  point3f[] points = [(-0.8, -0.8, 0), (0.8, -0.8, 0), \
+         (0.8, 0.8, 0), (-0.8, 0.8, 0)]\n  int[] faceVertexCounts = [4]\n  \
+         int[] faceVertexIndices = [0, 1, 2, 3]\n }\n}\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("scatter.toml"),
+        "[shot]\nname = \"scatter\"\nfps = 24.0\nframes = [1, 1]\nshutter = [0.0, 0.0]\n\
+         [camera]\nresolution = [64, 32]\nfov_degrees = 60.0\n[camera.transform]\n\
+         position = [0.0, 0.0, 0.0]\n[environment]\nradiance = [0.5, 0.5, 0.5]\n\
+         [[usd]]\nfile = \"scatter.usda\"\n",
+    )
+    .unwrap();
+    let out = rift(
+        d,
+        &[
+            "render",
+            "scatter.toml",
+            "--spp",
+            "4",
+            "--cryptomatte",
+            "-o",
+            "scatter.exr",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let layer = read_exr_layer(&d.join("scatter.exr")).unwrap();
+    let (ids, cover) = (
+        &layer.channels["CryptoObject00.R"],
+        &layer.channels["CryptoObject00.G"],
+    );
+    let (w, h) = layer.size;
+    let column =
+        |x_m: f32| ((x_m / 5.0 / 30f32.to_radians().tan() * 0.5 + 0.5) * w as f32) as usize;
+    for (name, x) in [("/Scatter/Card[0]", -1.8), ("/Scatter/Card[1]", 1.8)] {
+        let p = (h / 2) * w + column(x);
+        assert_eq!(ids[p], id(name), "{name} at its centre");
+        assert_eq!(cover[p], 1.0, "{name} covers its centre");
+    }
+    let meta = exr::meta::MetaData::read_from_file(d.join("scatter.exr"), false).unwrap();
+    let manifest = (meta.headers[0].own_attributes.other.iter())
+        .find(|(k, _)| k.to_string().ends_with("/manifest"))
+        .map(|(_, v)| format!("{v:?}"))
+        .unwrap();
+    for name in ["/Scatter/Card[0]", "/Scatter/Card[1]"] {
+        assert!(manifest.contains(name), "{manifest}");
+    }
+    assert!(!manifest.contains("/Scatter/Card[2]"), "{manifest}");
+}

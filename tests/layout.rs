@@ -435,6 +435,7 @@ fn the_preview_through_openings_matches_the_path_tracers_object_ids() {
                 &preview,
                 &layer,
                 &scene,
+                &[],
             );
         }
     }
@@ -475,7 +476,23 @@ fn the_page_draws_every_instance_of_an_instanced_usd_prim_where_the_renderer_pla
         return;
     };
     let layer = render_ids(dir.path(), &shot, 1);
-    compare_ids("USD set", &preview, &layer, &scene_names(&layout, 1));
+    let instances = instance_ids(&layout, 1);
+    let names = scene_names(&layout, 1);
+    compare_ids("USD set", &preview, &layer, &names, &instances);
+}
+
+/// Per object of the scene the server builds at `frame`, the Cryptomatte IDs of its instances
+/// (each instance of a USD prototype has its own; the page draws them as their object).
+fn instance_ids(layout: &Layout, frame: i64) -> Vec<Vec<f32>> {
+    use rift_render::frame::cryptomatte::id;
+    let (_, body) = layout.get(&format!("/api/scene?frame={frame}"), "");
+    let scene: serde_json::Value = serde_json::from_str(&body).unwrap();
+    (scene["objects"].as_array().unwrap().iter())
+        .map(|o| {
+            let names = o["instanceNames"].as_array().unwrap();
+            names.iter().map(|n| id(n.as_str().unwrap())).collect()
+        })
+        .collect()
 }
 
 /// The page's ID pass at `w` x `h`, or `None` where the browser tests cannot run.
@@ -517,23 +534,38 @@ fn scene_names(layout: &Layout, frame: i64) -> Vec<String> {
 }
 
 /// Per object with enough pixels: IoU of the preview's pixels and the render's (rank-0 ID
-/// covering at least half the pixel), over pixels no ring touches in the render, and how far
-/// apart their edges are (95th percentile of each edge pixel's distance to the other's edge).
+/// covering at least half the pixel: the object's, or one of its `instances`' where they have
+/// their own), over pixels no ring touches in the render, and how far apart their edges are
+/// (95th percentile of each edge pixel's distance to the other's edge).
 fn compare_ids(
     what: &str,
     preview: &[i64],
     layer: &rift_render::frame::film::ExrLayer,
     names: &[String],
+    instances: &[Vec<f32>],
 ) {
     use rift_render::frame::cryptomatte::id;
     let ids: Vec<f32> = names.iter().map(|n| id(n)).collect();
+    // Each object's IDs in the render: its own, and its instances'.
+    let ids_of =
+        |o: usize| std::iter::once(ids[o]).chain(instances.get(o).into_iter().flatten().copied());
+    let known: Vec<f32> = (0..names.len()).flat_map(ids_of).collect();
+    // Whether a render ID belongs to object `o`, or to another of its name (objects of one
+    // name are one region to Cryptomatte).
+    let of_object = |rendered: f32, o: usize| {
+        (0..names.len()).any(|k| names[k] == names[o] && ids_of(k).any(|i| i == rendered))
+    };
     let channel = |name: &str| &layer.channels[name];
     let rank_ids: Vec<&Vec<f32>> = (0..3)
         .flat_map(|l| ["R", "B"].map(move |c| format!("CryptoObject{l:02}.{c}")))
         .map(|n| channel(&n))
         .collect();
     let (id0, cover0) = (channel("CryptoObject00.R"), channel("CryptoObject00.G"));
-    let ring = |p: usize| rank_ids.iter().any(|r| r[p] != 0.0 && !ids.contains(&r[p]));
+    let ring = |p: usize| {
+        rank_ids
+            .iter()
+            .any(|r| r[p] != 0.0 && !known.contains(&r[p]))
+    };
     assert_eq!(preview.len(), id0.len(), "{what}: image sizes");
     let mut checked = 0;
     // Cryptomatte knows objects by name: objects of one name (the parts of a USD prim that
@@ -551,7 +583,10 @@ fn compare_ids(
                 continue;
             }
             let (in_preview, in_render) = if o < names.len() {
-                (named(preview[p], o), id0[p] == ids[o] && cover0[p] >= 0.5)
+                (
+                    named(preview[p], o),
+                    of_object(id0[p], o) && cover0[p] >= 0.5,
+                )
             } else {
                 (preview[p] == -1, cover0[p] < 0.5)
             };
@@ -573,7 +608,7 @@ fn compare_ids(
         };
         let inside_render = |p: usize| {
             if o < names.len() {
-                id0[p] == ids[o] && cover0[p] >= 0.5
+                of_object(id0[p], o) && cover0[p] >= 0.5
             } else {
                 cover0[p] < 0.5
             }
@@ -714,7 +749,7 @@ fn moving_the_camera_moves_the_preview_through_openings_with_it() {
     std::fs::write(&moved_shot, moved).unwrap();
     let layer = render_ids(dir.path(), &moved_shot, 12);
     let names = scene_names(&layout, 12);
-    compare_ids("showcase, camera moved", &preview, &layer, &names);
+    compare_ids("showcase, camera moved", &preview, &layer, &names, &[]);
 }
 
 /// Runs the page's save of the shot camera after moving it to `camera`: the server's answer
@@ -1205,6 +1240,7 @@ fn edits_made_in_the_page_follow_the_solver_and_round_trip_through_the_shot_file
         &preview,
         &layer,
         &scene_names(&layout, 12),
+        &[],
     );
 }
 
@@ -1257,7 +1293,7 @@ time_offset = 6.0
     // left, mostly outside the opening).
     let box_pixels = preview.iter().filter(|&&i| i == 1).count();
     assert!(box_pixels > 300, "{box_pixels} pixels of the box");
-    compare_ids("delayed", &preview, &layer, &names);
+    compare_ids("delayed", &preview, &layer, &names, &[]);
 }
 
 /// For each edge pixel of either region (a pixel inside it with a 4-neighbour outside), the

@@ -286,7 +286,8 @@ fn landed(edit: &edit::Edit, shot: &Shot, scene: &Scene, frame: i64) -> Result<(
             }
         }
         edit::Target::Object { name } => {
-            let o = scene.id_names.iter().position(|n| n == name);
+            let objects = &scene.id_names[..scene.object_count as usize];
+            let o = objects.iter().position(|n| n == name);
             let o = o.ok_or("no such object")?;
             scene.object_placement[o].at(time).translation
         }

@@ -188,6 +188,7 @@ fn objects(shot: &Shot, scene: &Scene, time: f64, file: &ShotFile) -> Vec<Value>
                 "positions": positions[o],
                 "placement": similarity(placements[o]),
                 "instances": instances(scene, o as u32, time),
+                "instanceNames": scene.instance_names(o as u32),
                 "culls": culls,
                 "seenByCamera": scene.visibility.object_seen(o as u32, RayClass::Camera),
                 "seenThroughOpenings": scene.visibility.object_seen(o as u32, RayClass::ThroughPortal),

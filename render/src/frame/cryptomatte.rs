@@ -145,14 +145,21 @@ impl Cryptomatte {
     }
 
     /// The header attributes: the layer's name, hash, conversion and manifest (name → the ID's
-    /// bits as eight hex digits), under `cryptomatte/<key>/`.
+    /// bits as eight hex digits, for the objects some pixel shows: a scatter of a million
+    /// instances, each with an ID of its own, would otherwise put them all in the header),
+    /// under `cryptomatte/<key>/`.
     pub fn attributes(&self) -> Vec<(String, String)> {
         let key = format!("{:08x}", murmur3_32(LAYER.as_bytes(), 0));
         let prefix = format!("cryptomatte/{}/", &key[..7]);
-        let manifest: BTreeMap<&str, String> = self
-            .names
-            .iter()
-            .map(|n| (n.as_str(), format!("{:08x}", id(n).to_bits())))
+        let mut shown = vec![false; self.names.len()];
+        for &(object, _) in self.pixels.iter().flatten() {
+            if let Some(seen) = shown.get_mut(object as usize) {
+                *seen = true;
+            }
+        }
+        let manifest: BTreeMap<&str, String> = (self.names.iter().zip(shown))
+            .filter(|(_, shown)| *shown)
+            .map(|(n, _)| (n.as_str(), format!("{:08x}", id(n).to_bits())))
             .collect();
         let entries: Vec<String> = manifest
             .iter()

@@ -100,6 +100,8 @@ fn hit_distance(hit: &SceneHit) -> f32 {
 /// The object (or ring) a hit belongs to, as [`Scene::id_names`] indexes them.
 fn object_of(scene: &Scene, hit: &SceneHit) -> u32 {
     match hit {
+        // By object: what a layout artist dresses (an instanced prototype's instances count
+        // together, where Cryptomatte tells them apart).
         SceneHit::Surface(h) => scene.triangle_object[h.triangle as usize],
         SceneHit::Strand(h) => scene.object_count + scene.strands.segment_ring[h.segment as usize],
     }

@@ -818,7 +818,7 @@ fn record_first_hit(
     let facing = if cos_o >= 0.0 { shading } else { -shading };
     let albedo = if black { Vec3::ZERO } else { bsdf.albedo() };
     if path.bounce == 0 {
-        let object = ctx.scene.object_of(hit.triangle);
+        let object = ctx.scene.object_at(hit);
         path.first_hit(out, hit.t, facing, albedo, object);
     } else if let Some(first) = &mut out.first {
         // The throughput without the radiance compression of entering glass.

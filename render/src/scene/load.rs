@@ -3,6 +3,7 @@
 //! density grids are read within the memory budget, and the geometry, media, lights and
 //! ray-query structure are built from them.
 
+use super::NO_OBJECT;
 use super::light_groups::LightGroups;
 use super::materials::TextureReader;
 use super::media::MediaSections;
@@ -294,6 +295,11 @@ impl Scene {
         );
         let surfaces = Surfaces::of(file, &g, &normals, &s.materials, &names)?;
         let object_instances = g.instanced_objects();
+        let (id_names, instance_object) = id_names(
+            &names,
+            s.rings.as_ref(),
+            std::mem::take(&mut g.instance_names),
+        );
         let accel = Accel::build(&g.triangles[..g.static_count], g.instances);
         let triangle_object: Arc<[u32]> = std::mem::take(&mut g.triangle_object).into();
         let visibility = Visibility::new(
@@ -313,7 +319,8 @@ impl Scene {
             }
         };
         Ok(Self {
-            id_names: id_names(&names, s.rings.as_ref()),
+            id_names,
+            instance_object,
             object_count: names.len() as u32,
             static_triangles: g.static_count,
             triangles: g.triangles,
@@ -448,14 +455,29 @@ fn unit_normals(triangles: &[Triangle]) -> Vec<Vec3> {
         .collect()
 }
 
-/// The names object IDs index: the objects', then each ring's (`"<opening>/ring"`).
-fn id_names(objects: &[&str], rings: Option<&RingFrame>) -> Vec<String> {
+/// The names object IDs index: the objects', then each ring's (`"<opening>/ring"`), then those
+/// of the moving instances that have names of their own (`instance_names`, one per moving
+/// instance); and per moving instance, the index of its name, or [`NO_OBJECT`] (its object's).
+fn id_names(
+    objects: &[&str],
+    rings: Option<&RingFrame>,
+    instance_names: Vec<Option<String>>,
+) -> (Vec<String>, Vec<u32>) {
     let rings = rings.iter().flat_map(|f| &f.rings);
-    objects
-        .iter()
+    let mut names: Vec<String> = (objects.iter())
         .map(|n| n.to_string())
         .chain(rings.map(|c| format!("{}/ring", c.opening)))
-        .collect()
+        .collect();
+    let instance_object = (instance_names.into_iter())
+        .map(|name| match name {
+            Some(name) => {
+                names.push(name);
+                names.len() as u32 - 1
+            }
+            None => NO_OBJECT,
+        })
+        .collect();
+    (names, instance_object)
 }
 
 /// The shot camera as `frame` renders it: a lens that changes over the shot is the frame's for

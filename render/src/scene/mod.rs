@@ -147,9 +147,12 @@ pub struct Scene {
     /// The object of each triangle (an index into [`Self::id_names`]), shared with
     /// [`Self::visibility`].
     pub triangle_object: Arc<[u32]>,
-    /// The objects', then the rings' names (`"<opening>/ring"`), which object IDs index
-    /// (Cryptomatte).
+    /// The objects', then the rings' names (`"<opening>/ring"`), then the names of instances
+    /// that have their own (a USD prototype's), which object IDs index (Cryptomatte).
     pub id_names: Vec<String>,
+    /// Per moving instance of [`Self::accel`], its name's index in [`Self::id_names`] where it
+    /// has one of its own, else [`NO_OBJECT`] (its triangles' object's).
+    pub instance_object: Vec<u32>,
     /// How many of [`Self::id_names`] are objects (the rings follow).
     pub object_count: u32,
     /// Per object, its placement over time. The triangles in [`Self::triangles`] of objects
@@ -564,6 +567,29 @@ impl Scene {
                 .map(|i| self.accel.instance_at(i, time))
                 .collect()
         })
+    }
+
+    /// The names the instances of instanced object `object` go by in ID passes (each its own,
+    /// or the object's); empty for other objects.
+    pub fn instance_names(&self, object: u32) -> Vec<&str> {
+        let found = self.object_instances.iter().find(|(o, _)| *o == object);
+        found.map_or_else(Vec::new, |(_, instances)| {
+            (instances.clone())
+                .map(|i| match self.instance_object.get(i as usize) {
+                    Some(&named) if named != NO_OBJECT => self.id_names[named as usize].as_str(),
+                    _ => self.id_names[object as usize].as_str(),
+                })
+                .collect()
+        })
+    }
+
+    /// The object (or named instance) `hit` met, as [`Self::id_names`] indexes it.
+    #[inline]
+    pub fn object_at(&self, hit: &Hit) -> u32 {
+        match self.instance_object.get(hit.instance as usize) {
+            Some(&named) if named != NO_OBJECT => named,
+            _ => self.object_of(hit.triangle),
+        }
     }
 
     /// The object triangle `t` belongs to, as [`Self::id_names`] indexes it.

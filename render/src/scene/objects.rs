@@ -48,6 +48,8 @@ pub(super) struct Part {
     /// Where its mesh is instanced (its triangles and BVH shared by all): the placement of
     /// each instance; empty for an object placed once by `motion`.
     instances: Vec<ObjectMotion>,
+    /// The name each instance goes by in ID passes, where they have names of their own.
+    instance_names: Vec<String>,
     /// Whether it moves within the times rays can reach (else its triangles are baked to
     /// world space).
     moves: bool,
@@ -265,6 +267,10 @@ impl Loader<'_> {
             materials: Vec::new(),
             motion,
             deformation,
+            instance_names: match o.instance_names.len() == instances.len() {
+                true => o.instance_names.clone(),
+                false => Vec::new(),
+            },
             instances,
             moves,
             group: 0,
@@ -629,6 +635,9 @@ pub(super) struct Geometry {
     pub triangle_object: Vec<u32>,
     pub triangle_group: Vec<u8>,
     pub instances: Vec<MovingInstance>,
+    /// Per moving instance, the name it goes by in ID passes where it has one of its own (an
+    /// instance of a USD prototype), else `None` (its object's).
+    pub instance_names: Vec<Option<String>>,
     /// How many triangles (from the first) stand still.
     pub static_count: usize,
     /// Per object: whether it moves within the times rays can reach.
@@ -653,6 +662,7 @@ impl Geometry {
             triangle_object: Vec::new(),
             triangle_group: Vec::new(),
             instances: Vec::new(),
+            instance_names: Vec::new(),
             static_count: 0,
             moving: vec![false; objects],
             placements: vec![
@@ -660,18 +670,19 @@ impl Geometry {
                 objects
             ],
         };
-        for part in parts {
+        for mut part in parts {
             g.moving[part.object as usize] = part.moves;
             g.placements[part.object as usize] = part.motion.clone();
             let first = g.triangles.len() as u32;
             let instance = if !part.instances.is_empty() {
-                g.instance_all(&part, first, times)
+                g.instance_all(&mut part, first, times)
             } else if part.moves {
                 let moving = match part.deformation {
                     Some(mesh) => MovingInstance::deforming(mesh, first, part.motion, times),
                     None => MovingInstance::new(&part.triangles, first, part.motion, times),
                 };
                 g.instances.push(moving);
+                g.instance_names.push(None);
                 g.instances.len() as u32 - 1
             } else {
                 g.static_count += part.triangles.len();
@@ -693,8 +704,9 @@ impl Geometry {
     }
 
     /// One moving instance per placement of an instanced `part` (whose triangles start at
-    /// `first`), all sharing one BVH: the first instance's index.
-    fn instance_all(&mut self, part: &Part, first: u32, times: [f64; 2]) -> u32 {
+    /// `first`), all sharing one BVH, each with its name (taken from the part): the first
+    /// instance's index.
+    fn instance_all(&mut self, part: &mut Part, first: u32, times: [f64; 2]) -> u32 {
         let bvh = Arc::new(TriangleBvh::build(&part.triangles, first));
         let corners = crate::geometry::instance::object_corners(&part.triangles);
         let start = self.instances.len() as u32;
@@ -703,6 +715,11 @@ impl Geometry {
                 .iter()
                 .map(|m| MovingInstance::sharing(&bvh, &corners, m.clone(), times)),
         );
+        let names = std::mem::take(&mut part.instance_names)
+            .into_iter()
+            .map(Some);
+        let unnamed = std::iter::repeat(None);
+        (self.instance_names).extend(names.chain(unnamed).take(part.instances.len()));
         let triangles = first..first + part.triangles.len() as u32;
         self.instanced
             .push((triangles, start..self.instances.len() as u32));

@@ -391,6 +391,10 @@ pub struct ObjectSection {
     /// its BVH shared); empty for an object placed once (never a shot-file key).
     #[serde(skip)]
     pub instances: Vec<rift_fx::rig::AnimatedTransform>,
+    /// The name of each of `instances` (its prim's path), which ID passes give it; empty when
+    /// they go by the object's name (never a shot-file key).
+    #[serde(skip)]
+    pub instance_names: Vec<String>,
 }
 
 /// `[object.visibility]`: which rays see the object (each defaults to true).

@@ -15,9 +15,10 @@ use openusd::sdf::Value;
 use openusd::usd::Prim;
 use std::sync::Arc;
 
-/// Bytes each shared instance takes while it is read and placed (its keys, its placement and
-/// its box), for the memory check before a PointInstancer's instances are made.
-const BYTES_PER_INSTANCE: u64 = 512;
+/// Bytes each shared instance takes while it is read and placed (its keys, its placement, its
+/// box, and its name for ID passes, held twice while the scene is made), for the memory check
+/// before a PointInstancer's instances are made.
+const BYTES_PER_INSTANCE: u64 = 640;
 
 /// A mesh inside a prototype: its prim, its transform relative to the prototype's placement,
 /// its path below the prototype (which names it under each instance), and what its instances
@@ -93,8 +94,8 @@ impl Walk<'_> {
     }
 
     /// Places `mesh` at the world transforms `samples` (time code and matrix): as one more
-    /// instance of its shared object (called `names.0` when this makes it), or as a copy of its
-    /// own (called `names.1`). Instances that stretch their prototype alike (a Blender object
+    /// instance of its shared object (called `names.0` when this makes it; the instance itself
+    /// is called `names.1` in ID passes), or as a copy of its own (called `names.1`). Instances that stretch their prototype alike (a Blender object
     /// scaled in one axis, instanced) share it too, the stretch baked into its points: what
     /// places each of them is then a similarity.
     fn place(
@@ -144,6 +145,7 @@ impl Walk<'_> {
                 name: copy_name.to_owned(),
                 transform: Some(xform::pose_of(self.source, &placed)),
                 instances: Vec::new(),
+                instance_names: Vec::new(),
                 ..object.clone()
             };
             // The object as made (at no transform) becomes the first copy.
@@ -155,6 +157,7 @@ impl Walk<'_> {
             return Ok(());
         }
         object.instances.push(motion);
+        object.instance_names.push(copy_name.to_owned());
         Ok(())
     }
 

@@ -59,6 +59,7 @@ impl Placement {
             light_group: None,
             shape: Some(shape),
             instances: Vec::new(),
+            instance_names: Vec::new(),
         }
     }
 
