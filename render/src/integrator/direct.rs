@@ -46,12 +46,25 @@ impl Shading<'_> {
     /// through the surface or into it there, so none goes.
     #[inline]
     pub(super) fn crosses_wrongly(&self, wi: Vec3, world: Vec3) -> bool {
-        let n = if self.side == Side::Front {
+        (wi.z > 0.0) != (world.dot(self.facing_normal()) > 0.0)
+    }
+
+    /// The geometric normal on the side the path arrived from.
+    #[inline]
+    fn facing_normal(&self) -> Vec3 {
+        if self.side == Side::Front {
             self.ng
         } else {
             -self.ng
-        };
-        (wi.z > 0.0) != (world.dot(n) > 0.0)
+        }
+    }
+
+    /// The point just off the surface on the side of the world-space direction `world` (any
+    /// length): where a ray that way leaves from.
+    #[inline]
+    pub(super) fn origin_towards(&self, world: Vec3) -> Vec3 {
+        let ng = self.ng;
+        offset_origin(self.receiver.p, if world.dot(ng) > 0.0 { ng } else { -ng })
     }
 
     /// Where a shadow ray towards `wi` (local; `world` in world space) leaves from: the point
@@ -70,17 +83,13 @@ impl Shading<'_> {
         wi: Vec3,
         world: Vec3,
     ) -> Option<(Vec3, bool)> {
-        let (p, ng) = (self.receiver.p, self.ng);
         if !(self.bent && self.crosses_wrongly(wi, world)) {
-            return Some((
-                offset_origin(p, if world.dot(ng) > 0.0 { ng } else { -ng }),
-                false,
-            ));
+            return Some((self.origin_towards(world), false));
         }
         if wi.z <= 0.0 {
             return None;
         }
-        let up = if self.side == Side::Front { ng } else { -ng };
+        let up = self.facing_normal();
         let smooth = scene.smooth_point(self.hit?, self.receiver.time, up)?;
         Some((offset_origin(smooth, up), true))
     }

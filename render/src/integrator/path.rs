@@ -1118,7 +1118,6 @@ fn continue_path<const FULL: bool>(
     path.prev_receiver = *at.receiver;
     // The side comes from the direction before its normalisation, which has the same sign,
     // so the new origin does not wait on the square root.
-    let (p, ng) = (at.receiver.p, at.ng);
     let towards = at.frame.to_world(bs.wi);
     // A bounce the geometry puts under the surface would meet the surface itself again (a
     // flat face whose normals lean), so it ends; light sampling alone brings light from there
@@ -1126,7 +1125,7 @@ fn continue_path<const FULL: bool>(
     if at.bent && at.crosses_wrongly(bs.wi, towards) {
         return false;
     }
-    let origin = offset_origin(p, if towards.dot(ng) > 0.0 { ng } else { -ng });
+    let origin = at.origin_towards(towards);
     let dir = towards.normalize();
     path.ray = Ray::new(origin, dir, f32::INFINITY, at.receiver.time);
     path.chain = Chain::default();

@@ -560,36 +560,36 @@ impl Scene {
     /// Where each instance of instanced object `object` is at `time`; empty for an object that
     /// is not instanced.
     pub fn instance_placements(&self, object: u32, time: f64) -> Vec<rift_fx::rig::Similarity> {
-        let found = self.object_instances.iter().find(|(o, _)| *o == object);
-        found.map_or_else(Vec::new, |(_, instances)| {
-            instances
-                .clone()
-                .map(|i| self.accel.instance_at(i, time))
-                .collect()
-        })
+        (self.instances_of(object))
+            .map(|i| self.accel.instance_at(i, time))
+            .collect()
     }
 
     /// The names the instances of instanced object `object` go by in ID passes (each its own,
     /// or the object's); empty for other objects.
     pub fn instance_names(&self, object: u32) -> Vec<&str> {
+        (self.instances_of(object))
+            .map(|i| self.id_names[self.named_instance(i).unwrap_or(object) as usize].as_str())
+            .collect()
+    }
+
+    /// The moving instances of instanced object `object` (none for other objects).
+    fn instances_of(&self, object: u32) -> std::ops::Range<u32> {
         let found = self.object_instances.iter().find(|(o, _)| *o == object);
-        found.map_or_else(Vec::new, |(_, instances)| {
-            (instances.clone())
-                .map(|i| match self.instance_object.get(i as usize) {
-                    Some(&named) if named != NO_OBJECT => self.id_names[named as usize].as_str(),
-                    _ => self.id_names[object as usize].as_str(),
-                })
-                .collect()
-        })
+        found.map_or(0..0, |(_, instances)| instances.clone())
+    }
+
+    /// The index in [`Self::id_names`] of moving instance `instance`'s own name, if it has one.
+    #[inline]
+    fn named_instance(&self, instance: u32) -> Option<u32> {
+        let named = *self.instance_object.get(instance as usize)?;
+        (named != NO_OBJECT).then_some(named)
     }
 
     /// The object (or named instance) `hit` met, as [`Self::id_names`] indexes it.
     #[inline]
     pub fn object_at(&self, hit: &Hit) -> u32 {
-        match self.instance_object.get(hit.instance as usize) {
-            Some(&named) if named != NO_OBJECT => named,
-            _ => self.object_of(hit.triangle),
-        }
+        (self.named_instance(hit.instance)).unwrap_or_else(|| self.object_of(hit.triangle))
     }
 
     /// The object triangle `t` belongs to, as [`Self::id_names`] indexes it.

@@ -95,9 +95,10 @@ impl Walk<'_> {
 
     /// Places `mesh` at the world transforms `samples` (time code and matrix): as one more
     /// instance of its shared object (called `names.0` when this makes it; the instance itself
-    /// is called `names.1` in ID passes), or as a copy of its own (called `names.1`). Instances that stretch their prototype alike (a Blender object
-    /// scaled in one axis, instanced) share it too, the stretch baked into its points: what
-    /// places each of them is then a similarity.
+    /// is called `names.1` in ID passes), or as a copy of its own (called `names.1`). Instances
+    /// that stretch their prototype alike (a Blender object scaled in one axis, instanced)
+    /// share it too, the stretch baked into its points: what places each of them is then a
+    /// similarity.
     fn place(
         &mut self,
         mesh: &ProtoMesh,
