@@ -130,3 +130,49 @@ fn convergence_bench_writes_table_csv_and_plot() {
     let png = std::fs::read(dir.path().join("out/c.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
 }
+
+/// `--variance` renders each count with two seeds: the variance they show falls as 1/spp and,
+/// while the reference's own noise is far below the error (few samples), matches relMSE; the
+/// image mean against the reference is printed.
+#[test]
+fn convergence_bench_measures_the_variance_of_two_seeds() {
+    let dir = cornell_dir(|t| t);
+    let reference = reference();
+    let r = rift(
+        dir.path(),
+        &[
+            "bench",
+            "convergence",
+            "shot.toml",
+            "--reference",
+            reference.to_str().unwrap(),
+            "--spp",
+            "2,8",
+            "--variance",
+            "--seed",
+            "7",
+            "--csv",
+            "out/c.csv",
+            "--plot",
+            "out/c.png",
+        ],
+    );
+    assert!(r.status.success(), "{}", stderr(&r));
+    let out = String::from_utf8_lossy(&r.stdout);
+    assert!(out.contains("seeds 7 and 8"), "{out}");
+    assert!(out.contains("image mean against the reference"), "{out}");
+    let csv = std::fs::read_to_string(dir.path().join("out/c.csv")).unwrap();
+    assert!(csv.starts_with("spp,seconds,rel_mse,efficiency,mpaths_per_s,rel_variance,"));
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    for row in &rows {
+        let (rel, variance) = (row[2], row[5]);
+        assert!((variance / rel - 1.0).abs() < 0.1, "{rows:?}");
+        assert!((row[6] - 1.0 / (variance * row[1])).abs() < 1e-6 * row[6]);
+    }
+    let falls = rows[0][5] / rows[1][5];
+    assert!((3.0..6.0).contains(&falls), "4x the samples: {falls}");
+}

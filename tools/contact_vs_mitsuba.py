@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cornell_vs_mitsuba import load_mitsuba, read_exr
+from cornell_vs_mitsuba import load_mitsuba
+from images import read_rgb
 
 ROOT = Path(__file__).resolve().parent.parent
 CORNELL = ROOT / "examples" / "cornell.obj"
@@ -92,7 +93,7 @@ def write_scene(tmp, lift, contact):
 def render_rift(rift, shot, spp, seed, out):
     subprocess.run([rift, "render", str(shot), "-o", str(out), "--spp", str(spp),
                     "--seed", str(seed)], check=True, capture_output=True)
-    return read_exr(out)
+    return read_rgb(out)
 
 
 def mitsuba_scene(mi, tmp):

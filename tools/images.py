@@ -15,3 +15,10 @@ def read_rgb(path):
 def rel_mse(img, ref):
     """Relative mean squared error, with the 0.01 floor `rift bench convergence` uses."""
     return float(np.mean((img - ref) ** 2 / (ref ** 2 + 0.01)))
+
+
+def rel_variance(a, b, ref):
+    """The variance two renders with different seeds show, regularised as `rel_mse` is: half
+    their mean squared difference (`rift bench convergence --variance`). The reference's own
+    noise does not enter it, nor does bias."""
+    return float(np.mean((a - b) ** 2 / (ref ** 2 + 0.01))) / 2

@@ -23,6 +23,15 @@ pub struct ConvergenceArgs {
     /// Where to write the log-log convergence plot.
     #[arg(long, default_value = "out/convergence.png")]
     plot: PathBuf,
+    /// The seed to render with, instead of the shot's.
+    #[arg(long)]
+    seed: Option<u32>,
+    /// Also render each count with the next seed and report the variance the two images show
+    /// (half their mean squared difference, regularised as relMSE is) and the efficiency from
+    /// it: the reference's own noise, which adds to every relMSE, does not enter it. Seconds
+    /// and relMSE are then the two renders' means.
+    #[arg(long)]
+    variance: bool,
     #[command(flatten)]
     threads: Threads,
 }
@@ -50,32 +59,92 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
             anyhow::anyhow!("--spp: expected comma-separated sample counts from 1 to 65536")
         })?;
     let frame = shot.frames.first;
-    let prepared = rift_render::prepare::Prepared::build(&shot, frame, &Default::default())?;
+    let seed = match args.seed {
+        Some(seed) => seed,
+        None => rift_render::scene::Settings::read(&shot, &Default::default())?.seed,
+    };
+    let seeds: &[u32] = if args.variance {
+        &[seed, seed.wrapping_add(1)]
+    } else {
+        &[seed]
+    };
+    let prepared = seeds
+        .iter()
+        .map(|&seed| {
+            let overrides = rift_render::scene::Overrides {
+                seed: Some(seed),
+                ..Default::default()
+            };
+            rift_render::prepare::Prepared::build(&shot, frame, &overrides)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let threads = crate::cli::with_threads(args.threads.threads, rayon::current_num_threads)?;
     println!(
-        "rift bench convergence: {} against {}, {w}x{h}, {threads} threads",
+        "rift bench convergence: {} against {}, {w}x{h}, {threads} threads, seed{} {}",
         args.shot.display(),
-        args.reference.display()
+        args.reference.display(),
+        if args.variance { "s" } else { "" },
+        seeds
+            .iter()
+            .map(u32::to_string)
+            .collect::<Vec<_>>()
+            .join(" and ")
     );
-    println!(
+    let mut header = format!(
         "{:>6} {:>10} {:>12} {:>12} {:>10}",
         "spp", "seconds", "relMSE", "efficiency", "Mpaths/s"
     );
-    let mut csv = String::from("spp,seconds,rel_mse,efficiency,mpaths_per_s\n");
+    let mut csv = String::from("spp,seconds,rel_mse,efficiency,mpaths_per_s");
+    if args.variance {
+        header += &format!(" {:>12} {:>12}", "variance", "efficiency");
+        csv += ",rel_variance,variance_efficiency";
+    }
+    println!("{header}");
+    csv.push('\n');
     let mut points = Vec::new();
+    let mut last_images = Vec::new();
     for spp in counts {
-        let t = Instant::now();
-        let image = crate::cli::with_threads(args.threads.threads, || {
-            rift_render::frame::render(&prepared, &rift_render::frame::RenderOptions::new(spp))
-        })?;
-        let seconds = t.elapsed().as_secs_f64();
-        let rel = rift_render::frame::film::relative_mse(&image.rgb, &reference);
+        let mut images = Vec::new();
+        let mut seconds = 0.0;
+        for seeded in &prepared {
+            let t = Instant::now();
+            images.push(crate::cli::with_threads(args.threads.threads, || {
+                rift_render::frame::render(seeded, &rift_render::frame::RenderOptions::new(spp))
+            })?);
+            seconds += t.elapsed().as_secs_f64() / prepared.len() as f64;
+        }
+        let rel = images
+            .iter()
+            .map(|image| rift_render::frame::film::relative_mse(&image.rgb, &reference))
+            .sum::<f64>()
+            / images.len() as f64;
         let efficiency = 1.0 / (rel * seconds);
         let mpaths = (w as f64 * h as f64 * spp as f64) / seconds / 1e6;
-        println!("{spp:>6} {seconds:>10.3} {rel:>12.4e} {efficiency:>12.1} {mpaths:>10.3}");
-        csv.push_str(&format!("{spp},{seconds},{rel},{efficiency},{mpaths}\n"));
+        let mut line =
+            format!("{spp:>6} {seconds:>10.3} {rel:>12.4e} {efficiency:>12.1} {mpaths:>10.3}");
+        csv.push_str(&format!("{spp},{seconds},{rel},{efficiency},{mpaths}"));
+        if let [a, b] = &images[..] {
+            let variance = rift_render::frame::film::relative_variance(&a.rgb, &b.rgb, &reference);
+            let from_variance = 1.0 / (variance * seconds);
+            line += &format!(" {variance:>12.4e} {from_variance:>12.1}");
+            csv.push_str(&format!(",{variance},{from_variance}"));
+        }
+        println!("{line}");
+        csv.push('\n');
         points.push((spp, rel));
+        last_images = images;
     }
+    let reference_mean = rift_render::frame::film::channel_mean(&reference);
+    let mean = last_images
+        .iter()
+        .map(|image| rift_render::frame::film::channel_mean(&image.rgb))
+        .sum::<glam::DVec3>()
+        / last_images.len() as f64;
+    let off = (mean / reference_mean - 1.0) * 100.0;
+    println!(
+        "image mean against the reference at the last count (%): {:+.3} {:+.3} {:+.3}",
+        off.x, off.y, off.z
+    );
     for path in [&args.csv, &args.plot] {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             crate::cli::prepare_output_dir(dir)?;

@@ -366,15 +366,30 @@ pub fn channel_mean(pixels: &[Vec3]) -> glam::DVec3 {
 /// Relative MSE against a reference: the mean over pixels and channels of
 /// (v − ref)² / (ref² + 0.01), the error measure of `rift bench convergence`.
 pub fn relative_mse(image: &[Vec3], reference: &[Vec3]) -> f64 {
-    let sum: f64 = image
+    mean_regularised_square(image, reference, reference)
+}
+
+/// The variance of an unbiased renderer's image, from two renders with different seeds and
+/// measured as [`relative_mse`] is: half the mean of (a − b)² / (ref² + 0.01). A reference's
+/// own noise adds to every relMSE measured against it (the Cornell box's, 16,384 samples, adds
+/// about 1.7·10⁻⁵, a sixth of rift's error at 256 samples); it does not enter this, and bias
+/// does not either, so the mean against the reference still has to be checked beside it.
+pub fn relative_variance(a: &[Vec3], b: &[Vec3], reference: &[Vec3]) -> f64 {
+    mean_regularised_square(a, b, reference) / 2.0
+}
+
+/// The mean over pixels and channels of (a − b)² / (scale² + 0.01).
+fn mean_regularised_square(a: &[Vec3], b: &[Vec3], scale: &[Vec3]) -> f64 {
+    let sum: f64 = a
         .iter()
-        .zip(reference)
-        .map(|(v, r)| {
-            let (v, r) = (v.as_dvec3(), r.as_dvec3());
-            ((v - r) * (v - r) / (r * r + glam::DVec3::splat(0.01))).element_sum()
+        .zip(b)
+        .zip(scale)
+        .map(|((a, b), r)| {
+            let (d, r) = ((a.as_dvec3() - b.as_dvec3()), r.as_dvec3());
+            (d * d / (r * r + glam::DVec3::splat(0.01))).element_sum()
         })
         .sum();
-    sum / (3 * image.len()) as f64
+    sum / (3 * a.len()) as f64
 }
 
 /// Every channel of an EXR's first layer, with where it sits in the frame (for tests and
@@ -478,4 +493,53 @@ pub fn decode_exr_layer(bytes: &[u8], max_pixels: usize) -> Result<ExrLayer, Str
         world_to_ndc: layer.attributes.world_to_normalized_device,
         view: layer.attributes.view_name.as_ref().map(|t| t.to_string()),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Uniform noise in [−h, h] per channel, from a hashed counter (deterministic).
+    fn noisy(truth: &[Vec3], h: f32, stream: u32) -> Vec<Vec3> {
+        let mut k = stream.wrapping_mul(0x9e37_79b9);
+        let mut u = || {
+            k = k.wrapping_add(1);
+            crate::sampling::hash32(k) as f32 / u32::MAX as f32 * 2.0 - 1.0
+        };
+        truth
+            .iter()
+            .map(|&t| t + h * Vec3::new(u(), u(), u()))
+            .collect()
+    }
+
+    #[test]
+    fn two_seeds_measure_the_error_against_the_truth_that_a_noisy_reference_overstates() {
+        let truth: Vec<Vec3> = (0..40_000)
+            .map(|i| Vec3::splat(0.05 + (i % 200) as f32 / 200.0))
+            .collect();
+        // Uniform noise of half-width h has variance h²/3.
+        let (h, h_reference) = (0.03f32, 0.02f32);
+        let expected: f64 = truth
+            .iter()
+            .map(|t| (h * h / 3.0) as f64 / (t.x as f64 * t.x as f64 + 0.01))
+            .sum::<f64>()
+            / truth.len() as f64;
+        let (a, b) = (noisy(&truth, h, 1), noisy(&truth, h, 2));
+        let reference = noisy(&truth, h_reference, 3);
+        let variance = relative_variance(&a, &b, &truth);
+        assert!(
+            (variance / expected - 1.0).abs() < 0.02,
+            "{variance} {expected}"
+        );
+        // Against the truth relMSE agrees; against a noisy reference it grows by that
+        // reference's own error (h_reference² / h² = 4/9 of it), which the two seeds leave out.
+        let against_truth = relative_mse(&a, &truth);
+        assert!((against_truth / expected - 1.0).abs() < 0.02);
+        let against_noisy = relative_mse(&a, &reference);
+        assert!(
+            (against_noisy / expected - 13.0 / 9.0).abs() < 0.04,
+            "{against_noisy}"
+        );
+        assert_eq!(relative_variance(&a, &a, &truth), 0.0);
+    }
 }
