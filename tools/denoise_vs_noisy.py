@@ -117,4 +117,5 @@ def main():
                   f"{through_metrics(layer(more, 'RGB'), reference, region)}")
 
 
-main()
+if __name__ == "__main__":
+    main()
