@@ -2,7 +2,10 @@
 
 use super::Threads;
 use clap::Args;
+use glam::Vec3;
 use rift_fx::Shot;
+use rift_render::frame::Image;
+use rift_render::frame::film;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -45,20 +48,7 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
         "{}: the reference is {rw}x{rh}, the shot renders {w}x{h}",
         args.reference.display()
     );
-    let counts: Vec<u32> = args
-        .spp
-        .split(',')
-        .map(|t| {
-            t.trim()
-                .parse::<u32>()
-                .ok()
-                .filter(|&n| (1..=1 << 16).contains(&n))
-        })
-        .collect::<Option<_>>()
-        .ok_or_else(|| {
-            anyhow::anyhow!("--spp: expected comma-separated sample counts from 1 to 65536")
-        })?;
-    let frame = shot.frames.first;
+    let counts = sample_counts(&args.spp)?;
     let seed = match args.seed {
         Some(seed) => seed,
         None => rift_render::scene::Settings::read(&shot, &Default::default())?.seed,
@@ -75,37 +65,23 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
                 seed: Some(seed),
                 ..Default::default()
             };
-            rift_render::prepare::Prepared::build(&shot, frame, &overrides)
+            rift_render::prepare::Prepared::build(&shot, shot.frames.first, &overrides)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let threads = crate::cli::with_threads(args.threads.threads, rayon::current_num_threads)?;
+    let seed_list: Vec<String> = seeds.iter().map(u32::to_string).collect();
     println!(
         "rift bench convergence: {} against {}, {w}x{h}, {threads} threads, seed{} {}",
         args.shot.display(),
         args.reference.display(),
         if args.variance { "s" } else { "" },
-        seeds
-            .iter()
-            .map(u32::to_string)
-            .collect::<Vec<_>>()
-            .join(" and ")
+        seed_list.join(" and ")
     );
-    let mut header = format!(
-        "{:>6} {:>10} {:>12} {:>12} {:>10}",
-        "spp", "seconds", "relMSE", "efficiency", "Mpaths/s"
-    );
-    let mut csv = String::from("spp,seconds,rel_mse,efficiency,mpaths_per_s");
-    if args.variance {
-        header += &format!(" {:>12} {:>12}", "variance", "efficiency");
-        csv += ",rel_variance,variance_efficiency";
-    }
-    println!("{header}");
-    csv.push('\n');
-    let mut points = Vec::new();
-    let mut last_images = Vec::new();
+    let mut table = Table::new(args.variance, (w as usize) * (h as usize));
+    let mut last = Vec::new();
     for spp in counts {
-        let mut images = Vec::new();
         let mut seconds = 0.0;
+        let mut images = Vec::new();
         for seeded in &prepared {
             let t = Instant::now();
             images.push(crate::cli::with_threads(args.threads.threads, || {
@@ -113,44 +89,106 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
             })?);
             seconds += t.elapsed().as_secs_f64() / prepared.len() as f64;
         }
+        table.add(spp, seconds, &images, &reference);
+        last = images;
+    }
+    print_mean_against(&last, &reference);
+    write_outputs(&args, &table)
+}
+
+/// The sample counts `--spp` lists.
+fn sample_counts(list: &str) -> anyhow::Result<Vec<u32>> {
+    list.split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<u32>()
+                .ok()
+                .filter(|&n| (1..=1 << 16).contains(&n))
+        })
+        .collect::<Option<_>>()
+        .ok_or_else(|| {
+            anyhow::anyhow!("--spp: expected comma-separated sample counts from 1 to 65536")
+        })
+}
+
+/// The table printed as it grows, its CSV and the plot's points.
+struct Table {
+    variance: bool,
+    pixels: usize,
+    csv: String,
+    points: Vec<(u32, f64)>,
+}
+
+impl Table {
+    /// Prints the header; `variance`: with the two seeds' columns.
+    fn new(variance: bool, pixels: usize) -> Self {
+        let mut header = format!(
+            "{:>6} {:>10} {:>12} {:>12} {:>10}",
+            "spp", "seconds", "relMSE", "efficiency", "Mpaths/s"
+        );
+        let mut csv = String::from("spp,seconds,rel_mse,efficiency,mpaths_per_s");
+        if variance {
+            header += &format!(" {:>12} {:>12}", "variance", "efficiency");
+            csv += ",rel_variance,variance_efficiency";
+        }
+        println!("{header}");
+        csv.push('\n');
+        Self {
+            variance,
+            pixels,
+            csv,
+            points: Vec::new(),
+        }
+    }
+
+    /// The row of `images` (one per seed) rendered at `spp` in `seconds` each on average.
+    fn add(&mut self, spp: u32, seconds: f64, images: &[Image], reference: &[Vec3]) {
         let rel = images
             .iter()
-            .map(|image| rift_render::frame::film::relative_mse(&image.rgb, &reference))
+            .map(|image| film::relative_mse(&image.rgb, reference))
             .sum::<f64>()
             / images.len() as f64;
         let efficiency = 1.0 / (rel * seconds);
-        let mpaths = (w as f64 * h as f64 * spp as f64) / seconds / 1e6;
+        let mpaths = (self.pixels as f64 * spp as f64) / seconds / 1e6;
         let mut line =
             format!("{spp:>6} {seconds:>10.3} {rel:>12.4e} {efficiency:>12.1} {mpaths:>10.3}");
-        csv.push_str(&format!("{spp},{seconds},{rel},{efficiency},{mpaths}"));
-        if let [a, b] = &images[..] {
-            let variance = rift_render::frame::film::relative_variance(&a.rgb, &b.rgb, &reference);
+        self.csv
+            .push_str(&format!("{spp},{seconds},{rel},{efficiency},{mpaths}"));
+        if let (true, [a, b]) = (self.variance, images) {
+            let variance = film::relative_variance(&a.rgb, &b.rgb, reference);
             let from_variance = 1.0 / (variance * seconds);
             line += &format!(" {variance:>12.4e} {from_variance:>12.1}");
-            csv.push_str(&format!(",{variance},{from_variance}"));
+            self.csv.push_str(&format!(",{variance},{from_variance}"));
         }
         println!("{line}");
-        csv.push('\n');
-        points.push((spp, rel));
-        last_images = images;
+        self.csv.push('\n');
+        self.points.push((spp, rel));
     }
-    let reference_mean = rift_render::frame::film::channel_mean(&reference);
-    let mean = last_images
+}
+
+/// Prints the mean of `images` against the reference's, per channel: the bias check that the
+/// variance of two seeds cannot make.
+fn print_mean_against(images: &[Image], reference: &[Vec3]) {
+    let mean = images
         .iter()
-        .map(|image| rift_render::frame::film::channel_mean(&image.rgb))
+        .map(|image| film::channel_mean(&image.rgb))
         .sum::<glam::DVec3>()
-        / last_images.len() as f64;
-    let off = (mean / reference_mean - 1.0) * 100.0;
+        / images.len().max(1) as f64;
+    let off = (mean / film::channel_mean(reference) - 1.0) * 100.0;
     println!(
         "image mean against the reference at the last count (%): {:+.3} {:+.3} {:+.3}",
         off.x, off.y, off.z
     );
+}
+
+/// Writes the table's CSV and plot where `args` asks.
+fn write_outputs(args: &ConvergenceArgs, table: &Table) -> anyhow::Result<()> {
     for path in [&args.csv, &args.plot] {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             crate::cli::prepare_output_dir(dir)?;
         }
     }
-    rift_fx::export::atomic::write(&args.csv, |w| w.write_all(csv.as_bytes()))?;
+    rift_fx::export::atomic::write(&args.csv, |w| w.write_all(table.csv.as_bytes()))?;
     let title = format!(
         "{} against {}",
         args.shot.file_name().unwrap_or_default().to_string_lossy(),
@@ -159,7 +197,7 @@ pub fn run(args: ConvergenceArgs) -> anyhow::Result<()> {
             .unwrap_or_default()
             .to_string_lossy()
     );
-    crate::plot::convergence_png(&args.plot, &title, &points)?;
+    crate::plot::convergence_png(&args.plot, &title, &table.points)?;
     println!("wrote {} and {}", args.csv.display(), args.plot.display());
     Ok(())
 }
