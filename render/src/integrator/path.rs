@@ -41,16 +41,14 @@ const ROULETTE_MAX_SURVIVAL: f32 = 0.99;
 /// were unmoved (1.02×, 1.00×).
 const ROULETTE_MOST_WORTH: f32 = 3.0;
 /// The least survival probability of a path whose roulette follows what the bounce guide
-/// learned ([`roulette_terms`]), so a survivor's weight grows at most fivefold there. On
-/// `bounce_through` (160×90, 64 spp, two seeds in each of three alternated rounds, against
-/// 2,048 spp) least survivals of 0 (none), 0.1, 0.2, 0.3 and 0.5 gave efficiencies of 9.4,
-/// 11.8, 12.8, 12.6 and 12.4; with 0.2 the rounds spread 12.2-12.9 instead of 7.7-11.1, and
-/// the pixels differing most between seeds (the top 1%) hold 24% of the difference instead of
-/// 32%. Most of the gain is the guide's: its second training pass, which follows the first
-/// one's guide, reaches more regions (716 learned, 476 aiming, against 689 and 321), and the
-/// render takes a fifth less time for the same noise (efficiency 1.24× at the shot's 480×270,
-/// 16 spp; 1.10× at 64×36, 256 spp). With guiding turned on, `lit_through` gained 1.02× and
-/// `hall_of_mirrors` 1.03×; shots without a guide render as before, to the bit.
+/// learned ([`roulette_terms`]), so a survivor's weight grows at most fivefold there. Measured
+/// on `bounce_through` (160×90, 64 spp, two seeds in each of three alternated rounds, against
+/// 2,048 spp) before the two constants around it were retuned: least survivals of 0 (none),
+/// 0.1, 0.2, 0.3 and 0.5 gave efficiencies of 9.4, 11.8, 12.8, 12.6 and 12.4, the rounds of 0.2
+/// spreading 12.2-12.9 instead of 7.7-11.1. Most of the gain is the guide's: its second
+/// training pass, which follows the first one's guide, reaches more regions (716 learned, 476
+/// aiming, against 689 and 321), and the render takes a fifth less time for the same noise.
+/// Shots without a guide render as before, to the bit.
 const ROULETTE_GUIDED_LEAST_SURVIVAL: f32 = 0.2;
 /// The most roulette's threshold is lowered for a pixel whose camera path first bounced where
 /// bounces bring back far less than in the scene's brightest places (a dark room lit through a
