@@ -95,33 +95,42 @@ fn render_with_branches(spp: u32, branches: u32) -> (DVec3, f64) {
     (channel_mean(&img), relative_mse(&img, &reference))
 }
 
-#[test]
-fn convergence_bench_writes_table_csv_and_plot() {
-    let dir = cornell_dir(|t| t);
+/// `rift bench convergence` of the Cornell box with `options` (the counts among them), writing
+/// out/c.csv and out/c.png in `dir`: its standard output and the CSV's header and rows.
+fn convergence_bench(dir: &tempfile::TempDir, options: &[&str]) -> (String, String, Vec<Vec<f64>>) {
     let reference = reference();
-    let r = rift(
-        dir.path(),
-        &[
-            "bench",
-            "convergence",
-            "shot.toml",
-            "--reference",
-            reference.to_str().unwrap(),
-            "--spp",
-            "1,2",
-            "--csv",
-            "out/c.csv",
-            "--plot",
-            "out/c.png",
-        ],
-    );
+    let mut args = vec![
+        "bench",
+        "convergence",
+        "shot.toml",
+        "--reference",
+        reference.to_str().unwrap(),
+        "--csv",
+        "out/c.csv",
+        "--plot",
+        "out/c.png",
+    ];
+    args.extend_from_slice(options);
+    let r = rift(dir.path(), &args);
     assert!(r.status.success(), "{}", stderr(&r));
     let csv = std::fs::read_to_string(dir.path().join("out/c.csv")).unwrap();
-    let rows: Vec<Vec<f64>> = csv
+    let rows = csv
         .lines()
         .skip(1)
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
+    let header = csv.lines().next().unwrap_or_default().to_string();
+    (
+        String::from_utf8_lossy(&r.stdout).into_owned(),
+        header,
+        rows,
+    )
+}
+
+#[test]
+fn convergence_bench_writes_table_csv_and_plot() {
+    let dir = cornell_dir(|t| t);
+    let (_, _, rows) = convergence_bench(&dir, &["--spp", "1,2"]);
     assert_eq!(rows.len(), 2);
     assert!(
         rows[1][2] < rows[0][2],
@@ -137,37 +146,11 @@ fn convergence_bench_writes_table_csv_and_plot() {
 #[test]
 fn convergence_bench_measures_the_variance_of_two_seeds() {
     let dir = cornell_dir(|t| t);
-    let reference = reference();
-    let r = rift(
-        dir.path(),
-        &[
-            "bench",
-            "convergence",
-            "shot.toml",
-            "--reference",
-            reference.to_str().unwrap(),
-            "--spp",
-            "2,8",
-            "--variance",
-            "--seed",
-            "7",
-            "--csv",
-            "out/c.csv",
-            "--plot",
-            "out/c.png",
-        ],
-    );
-    assert!(r.status.success(), "{}", stderr(&r));
-    let out = String::from_utf8_lossy(&r.stdout);
+    let (out, header, rows) =
+        convergence_bench(&dir, &["--spp", "2,8", "--variance", "--seed", "7"]);
     assert!(out.contains("seeds 7 and 8"), "{out}");
     assert!(out.contains("image mean against the reference"), "{out}");
-    let csv = std::fs::read_to_string(dir.path().join("out/c.csv")).unwrap();
-    assert!(csv.starts_with("spp,seconds,rel_mse,efficiency,mpaths_per_s,rel_variance,"));
-    let rows: Vec<Vec<f64>> = csv
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
-        .collect();
+    assert!(header.starts_with("spp,seconds,rel_mse,efficiency,mpaths_per_s,rel_variance,"));
     for row in &rows {
         let (rel, variance) = (row[2], row[5]);
         assert!((variance / rel - 1.0).abs() < 0.1, "{rows:?}");
