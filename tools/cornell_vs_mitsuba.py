@@ -11,9 +11,10 @@ samples: relMSE about 1.7e-5), which adds to every relMSE measured against it, a
 rift's at 256 samples; so efficiency is also given from the variance the two seeds show (half
 their mean squared difference, regularised alike), which that noise does not enter, and the
 comparison is made both ways. Bias does not enter the variance either: each renderer's image
-mean against the reference is printed beside it. Mitsuba's seconds are those of `mi.render` and its evaluation, after a warm-up render
-that compiles its kernels (Dr.Jit caches them), until the image is in host memory, with the
-scene as `cornell_box()` builds it but the reference's box filter and unlimited path depth.
+mean against the reference is printed beside it. Mitsuba's seconds are those of `mi.render`
+and its evaluation, after a warm-up render that compiles its kernels (Dr.Jit caches them), until
+the image is in host memory, with the scene as `cornell_box()` builds it but the reference's
+box filter and unlimited path depth.
 Every one of Mitsuba's samplers is tried (independent, stratified, multijitter, orthogonal,
 ldsampler; each rounds the samples per pixel to what it can stratify: a square, a prime's
 square, a power of two), in the same rounds, and rift is compared with the most efficient.

@@ -113,7 +113,6 @@ fn sample_counts(list: &str) -> anyhow::Result<Vec<u32>> {
 
 /// The table printed as it grows, its CSV and the plot's points.
 struct Table {
-    variance: bool,
     pixels: usize,
     csv: String,
     points: Vec<(u32, f64)>,
@@ -134,14 +133,14 @@ impl Table {
         println!("{header}");
         csv.push('\n');
         Self {
-            variance,
             pixels,
             csv,
             points: Vec::new(),
         }
     }
 
-    /// The row of `images` (one per seed) rendered at `spp` in `seconds` each on average.
+    /// The row of `images` (one per seed; two give the variance columns) rendered at `spp` in
+    /// `seconds` each on average.
     fn add(&mut self, spp: u32, seconds: f64, images: &[Image], reference: &[Vec3]) {
         let rel = images
             .iter()
@@ -154,7 +153,7 @@ impl Table {
             format!("{spp:>6} {seconds:>10.3} {rel:>12.4e} {efficiency:>12.1} {mpaths:>10.3}");
         self.csv
             .push_str(&format!("{spp},{seconds},{rel},{efficiency},{mpaths}"));
-        if let (true, [a, b]) = (self.variance, images) {
+        if let [a, b] = images {
             let variance = film::relative_variance(&a.rgb, &b.rgb, reference);
             let from_variance = 1.0 / (variance * seconds);
             line += &format!(" {variance:>12.4e} {from_variance:>12.1}");
