@@ -135,19 +135,43 @@ pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// What [`alternate`] measured of each variant: median seconds × median relMSE against the
+/// reference, and with two seeds a round the same with the variance they show instead of the
+/// relMSE (lower is better for both).
+pub(crate) struct Products<const N: usize> {
+    pub relmse: [f64; N],
+    pub variance: Option<[f64; N]>,
+}
+
+impl<const N: usize> Products<N> {
+    /// How many times as efficient variant `a` is as variant `b`: against the reference, and
+    /// from two seeds' variance where measured.
+    pub fn ratios(&self, b: usize, a: usize) -> (f64, Option<f64>) {
+        (
+            self.relmse[b] / self.relmse[a],
+            self.variance.map(|v| v[b] / v[a]),
+        )
+    }
+}
+
 /// Renders variants of a scene in turn (`build(k, seed)` for variant k), `repeats` times each
 /// with its own seed, so a change in the machine's load between runs falls on all alike;
 /// prints each one's median seconds (of rendering, and of learning light selection where the
 /// variant does), median relMSE against `reference` over the pixels `keep` selects, and their
-/// product, which it returns (lower is better).
+/// product. With `two_seeds`, every round renders each variant twice more with seeds of its
+/// own and adds the variance the two show ([`relative_variance`]): a reference rendered with
+/// a few thousand samples has noise of its own, which adds to every relMSE measured against it
+/// and so brings the variants' ratios towards 1; it does not enter the variance.
+///
+/// [`relative_variance`]: rift_render::frame::film::relative_variance
 pub(crate) fn alternate<const N: usize>(
     names: [&str; N],
     build: impl Fn(usize, u32) -> anyhow::Result<rift_render::prepare::Prepared>,
-    (spp, repeats, threads): (u32, usize, Option<usize>),
+    (spp, repeats, threads, two_seeds): (u32, usize, Option<usize>, bool),
     reference: &[glam::Vec3],
     keep: impl Fn(usize) -> bool,
-) -> anyhow::Result<[f64; N]> {
-    use rift_render::frame::film::relative_mse;
+) -> anyhow::Result<Products<N>> {
+    use rift_render::frame::film::{relative_mse, relative_variance};
     use rift_render::frame::{RenderOptions, render};
     let kept = |pixels: &[glam::Vec3]| -> Vec<glam::Vec3> {
         (0..pixels.len())
@@ -156,33 +180,62 @@ pub(crate) fn alternate<const N: usize>(
             .collect()
     };
     let reference = kept(reference);
+    let seeds_a_round = if two_seeds { 2 } else { 1 };
     let mut seconds = [(); N].map(|_| Vec::new());
     let mut errors = [(); N].map(|_| Vec::new());
-    for seed in 0..repeats as u32 {
+    let mut variances = [(); N].map(|_| Vec::new());
+    for round in 0..repeats as u32 {
         for k in 0..N {
-            let prepared = build(k, seed)?;
-            let t = Instant::now();
-            let image =
-                crate::cli::with_threads(threads, || render(&prepared, &RenderOptions::new(spp)))?;
-            // Learning light selection is part of what a variant costs.
-            let training = prepared.training_seconds;
-            seconds[k].push(t.elapsed().as_secs_f64() + training);
-            errors[k].push(relative_mse(&kept(&image.rgb), &reference));
+            let mut images = Vec::new();
+            // The second seed of a round is one no round uses first.
+            for seed in [round, round + repeats as u32]
+                .into_iter()
+                .take(seeds_a_round)
+            {
+                let prepared = build(k, seed)?;
+                let t = Instant::now();
+                let image = crate::cli::with_threads(threads, || {
+                    render(&prepared, &RenderOptions::new(spp))
+                })?;
+                // Learning light selection is part of what a variant costs.
+                let training = prepared.training_seconds;
+                seconds[k].push(t.elapsed().as_secs_f64() + training);
+                errors[k].push(relative_mse(&kept(&image.rgb), &reference));
+                images.push(kept(&image.rgb));
+            }
+            if let [a, b] = &images[..] {
+                variances[k].push(relative_variance(a, b, &reference));
+            }
         }
     }
-    println!(
+    let mut header = format!(
         "{:<8} {:>5} {:>10} {:>10} {:>14}",
         "choice", "spp", "seconds", "relMSE", "relMSE·s"
     );
-    let mut products = [0.0; N];
-    for (k, (seconds, errors)) in seconds.into_iter().zip(errors).enumerate() {
+    if two_seeds {
+        header += &format!(" {:>10} {:>14}", "variance", "variance·s");
+    }
+    println!("{header}");
+    let mut products = Products {
+        relmse: [0.0; N],
+        variance: two_seeds.then_some([0.0; N]),
+    };
+    for (k, ((seconds, errors), variances)) in
+        seconds.into_iter().zip(errors).zip(variances).enumerate()
+    {
         let (s, e) = (median(seconds), median(errors));
-        products[k] = s * e;
-        println!(
+        products.relmse[k] = s * e;
+        let mut line = format!(
             "{:<8} {spp:>5} {s:>10.3} {e:>10.3e} {:>14.3e}",
             names[k],
             s * e
         );
+        if let Some(v) = &mut products.variance {
+            let var = median(variances);
+            v[k] = s * var;
+            line += &format!(" {var:>10.3e} {:>14.3e}", s * var);
+        }
+        println!("{line}");
     }
     Ok(products)
 }

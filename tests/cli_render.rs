@@ -1176,3 +1176,59 @@ fn the_noise_printed_is_what_two_seeds_measure_and_halves_with_four_times_the_sa
     let ratio = printed / more;
     assert!((1.7..2.3).contains(&ratio), "{printed} / {more} = {ratio}");
 }
+
+/// `rift bench through --variance`: every round also renders a second seed, and the table
+/// adds the variance the two show. At 4 samples against a 64-sample reference, the reference's
+/// own noise is a sixteenth of the error, so variance and relMSE agree; light sampling through
+/// openings is far ahead either way.
+#[test]
+fn the_through_bench_compares_by_two_seeds_variance_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let shot =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/shots/lit_through.toml");
+    let out = rift(
+        dir.path(),
+        &[
+            "bench",
+            "through",
+            shot.to_str().unwrap(),
+            "--spp",
+            "4",
+            "--reference-spp",
+            "64",
+            "--width",
+            "64",
+            "--repeats",
+            "1",
+            "--variance",
+        ],
+    );
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{table}\n{}", stderr(&out));
+    assert!(table.contains("variance·s"), "{table}");
+    let row = |name: &str| -> Vec<f64> {
+        let line = table
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap_or_else(|| panic!("no row {name}:\n{table}"));
+        line.split_whitespace()
+            .skip(1)
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (on, off) = (row("on"), row("off"));
+    // spp, seconds, relMSE, relMSE·s, variance, variance·s.
+    for r in [&on, &off] {
+        assert_eq!(r.len(), 6, "{table}");
+        assert!(
+            (r[4] / r[2] - 1.0).abs() < 0.5,
+            "variance against relMSE:\n{table}"
+        );
+        assert!((r[5] - r[1] * r[4]).abs() < 0.01 * r[5], "{table}");
+    }
+    assert!(off[5] / on[5] > 10.0, "{table}");
+    assert!(
+        table.contains("from two seeds' variance, which the reference's own noise does not enter"),
+        "{table}"
+    );
+}

@@ -29,6 +29,10 @@ pub struct LightsArgs {
     /// Timed repeats (the median is reported), each with its own seed.
     #[arg(long, default_value_t = 5)]
     repeats: usize,
+    /// Also render every round with a second seed and compare by the variance the two show,
+    /// which the reference's own noise does not enter (it brings relMSE ratios towards 1).
+    #[arg(long)]
+    variance: bool,
     #[command(flatten)]
     threads: Threads,
 }
@@ -90,15 +94,18 @@ pub fn run(args: LightsArgs) -> anyhow::Result<()> {
     let products = alternate(
         ["learned", "tree", "power"],
         |k, seed| build(choices[k], seed),
-        (args.spp, args.repeats, args.threads.threads),
+        (args.spp, args.repeats, args.threads.threads, args.variance),
         &reference.rgb,
         |_| true,
     )?;
+    let ((tree, tree_variance), (power, power_variance)) =
+        (products.ratios(1, 0), products.ratios(2, 0));
     println!(
-        "for the same error, the plain tree needs {:.2}x the time of the learned one, and \
-         power-proportional {:.2}x",
-        products[1] / products[0],
-        products[2] / products[0]
+        "for the same error, the plain tree needs {tree:.2}x the time of the learned one, and \
+         power-proportional {power:.2}x"
     );
+    if let (Some(tree), Some(power)) = (tree_variance, power_variance) {
+        println!("from two seeds' variance: {tree:.2}x and {power:.2}x");
+    }
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! `rift bench through` and `rift bench bounce`: light sampling through openings, and bounces
 //! aimed at them, each on against off.
 
-use super::{Timing, alternate};
+use super::{Products, Timing, alternate};
 use clap::Args;
 use rift_fx::Shot;
 use rift_render::prepare::Prepared;
@@ -44,6 +44,10 @@ pub struct OnOffArgs {
     /// Image width (the height follows the shot's aspect).
     #[arg(long, default_value_t = 160)]
     width: u32,
+    /// Also render every round with a second seed and compare by the variance the two show,
+    /// which the reference's own noise does not enter (it brings relMSE ratios towards 1).
+    #[arg(long)]
+    variance: bool,
     #[command(flatten)]
     timing: Timing,
 }
@@ -51,36 +55,49 @@ pub struct OnOffArgs {
 /// Efficiency of light sampling through openings: on and off in turn, against a reference
 /// rendered with it on, over the pixels of the room the camera stands in (no teleport).
 pub fn run(args: ThroughArgs) -> anyhow::Result<()> {
-    let ratio = on_against_off(&args.shot, &args.on_off, |on| Overrides {
+    let products = on_against_off(&args.shot, &args.on_off, |on| Overrides {
         light_through_openings: Some(on),
         ..Default::default()
     })?;
+    let (ratio, from_variance) = products.ratios(1, 0);
     println!(
-        "light sampling through openings is {ratio:.1}x as efficient (1/(relMSE·s)) as without it"
+        "light sampling through openings is {ratio:.2}x as efficient (1/(relMSE·s)) as without it"
     );
+    print_variance_ratio(from_variance);
     Ok(())
 }
 
 /// Efficiency of bounces aimed at openings, the same way.
 pub fn run_bounce(args: BounceArgs) -> anyhow::Result<()> {
-    let ratio = on_against_off(&args.shot, &args.on_off, |on| Overrides {
+    let products = on_against_off(&args.shot, &args.on_off, |on| Overrides {
         guide_through_openings: Some(on),
         ..Default::default()
     })?;
+    let (ratio, from_variance) = products.ratios(1, 0);
     println!(
-        "bounces aimed at openings are {ratio:.1}x as efficient (1/(relMSE·s)) as BSDF sampling alone"
+        "bounces aimed at openings are {ratio:.2}x as efficient (1/(relMSE·s)) as BSDF sampling alone"
     );
+    print_variance_ratio(from_variance);
     Ok(())
 }
 
+/// The ratio from two seeds' variance, where measured.
+fn print_variance_ratio(ratio: Option<f64>) {
+    if let Some(ratio) = ratio {
+        println!(
+            "from two seeds' variance, which the reference's own noise does not enter: {ratio:.2}x"
+        );
+    }
+}
+
 /// Renders `shot` with the `overrides` of a feature on and off in turn, against a reference
-/// rendered with it on, over the pixels of the room the camera stands in (no teleport); the
-/// efficiency of on over off.
+/// rendered with it on, over the pixels of the room the camera stands in (no teleport); what
+/// each costs for its error ("on" first).
 fn on_against_off(
     shot_path: &Path,
     args: &OnOffArgs,
     overrides: impl Fn(bool) -> Overrides,
-) -> anyhow::Result<f64> {
+) -> anyhow::Result<Products<2>> {
     use rift_render::frame::passes::{RenderOptions, render};
     anyhow::ensure!(
         args.spp > 0 && args.reference_spp > 0 && args.timing.repeats > 0 && args.width > 0,
@@ -129,12 +146,16 @@ fn on_against_off(
             reference_scene.training_seconds
         );
     }
-    let products = alternate(
+    alternate(
         ["on", "off"],
         |k, seed| Ok(build(k == 0, seed)?),
-        (args.spp, args.timing.repeats, args.timing.threads),
+        (
+            args.spp,
+            args.timing.repeats,
+            args.timing.threads,
+            args.variance,
+        ),
         &reference.rgb,
         room,
-    )?;
-    Ok(products[1] / products[0])
+    )
 }
