@@ -18,8 +18,6 @@ import numpy as np
 import OpenEXR
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-RIFT = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "target/release/rift"))
-SPP = int(sys.argv[2]) if len(sys.argv) > 2 else 256
 GRID = 3
 
 # Run inside Blender's Python (bpy): renders the .blend with Cycles, each light alone as well,
@@ -108,30 +106,38 @@ def compare(folder):
     return r / np.maximum(c, 1e-6) - 1, noise, r.mean(axis=(0, 1)) / c.mean(axis=(0, 1)) - 1
 
 
-with tempfile.TemporaryDirectory() as folder:
-    python = sys.executable
-    subprocess.run([python, os.path.join(ROOT, "tests/support/blender_set.py"), folder],
-                   check=True, capture_output=True)
-    script = os.path.join(folder, "render_with_cycles.py")
-    with open(script, "w") as f:
-        f.write(CYCLES)
-    subprocess.run([python, script, os.path.join(folder, "blender.blend"), folder, str(SPP)],
-                   check=True, capture_output=True)
-    print(f"rift / Cycles - 1 per region ({GRID}x{GRID}, rows top first) and channel; "
-          f"noise in brackets; {SPP} spp each, two seeds")
-    for variant in ["all", "Point", "Spot", "Area", "Sun", "flat"]:
-        out = os.path.join(folder, variant)
-        for name in os.listdir(folder):
-            if name.endswith(".png"):
-                os.symlink(os.path.join(folder, name), os.path.join(out, name))
-        for seed in (1, 2):
-            with open(os.path.join(out, f"shot{seed}.toml"), "w") as f:
-                f.write(SHOT.format(spp=SPP, seed=seed))
-            subprocess.run([RIFT, "render", f"shot{seed}.toml", "-o", f"rift{seed}.exr"],
-                           cwd=out, check=True, capture_output=True)
-        diff, noise, whole = compare(out)
-        print(f"\n{variant}: whole image R/G/B {whole[0]:+.3f} {whole[1]:+.3f} {whole[2]:+.3f}")
-        for j in range(GRID):
-            print("  " + "   ".join(
-                "/".join(f"{diff[j, i, k]:+.3f}" for k in range(3))
-                + f" ({max(noise[j, i]):.3f})" for i in range(GRID)))
+def main():
+    """Renders the set with Cycles and rift, each light alone too, and prints the table."""
+    rift = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "target/release/rift"))
+    spp = int(sys.argv[2]) if len(sys.argv) > 2 else 256
+    with tempfile.TemporaryDirectory() as folder:
+        python = sys.executable
+        subprocess.run([python, os.path.join(ROOT, "tests/support/blender_set.py"), folder],
+                       check=True, capture_output=True)
+        script = os.path.join(folder, "render_with_cycles.py")
+        with open(script, "w") as f:
+            f.write(CYCLES)
+        subprocess.run([python, script, os.path.join(folder, "blender.blend"), folder, str(spp)],
+                       check=True, capture_output=True)
+        print(f"rift / Cycles - 1 per region ({GRID}x{GRID}, rows top first) and channel; "
+              f"noise in brackets; {spp} spp each, two seeds")
+        for variant in ["all", "Point", "Spot", "Area", "Sun", "flat"]:
+            out = os.path.join(folder, variant)
+            for name in os.listdir(folder):
+                if name.endswith(".png"):
+                    os.symlink(os.path.join(folder, name), os.path.join(out, name))
+            for seed in (1, 2):
+                with open(os.path.join(out, f"shot{seed}.toml"), "w") as f:
+                    f.write(SHOT.format(spp=spp, seed=seed))
+                subprocess.run([rift, "render", f"shot{seed}.toml", "-o", f"rift{seed}.exr"],
+                               cwd=out, check=True, capture_output=True)
+            diff, noise, whole = compare(out)
+            print(f"\n{variant}: whole image R/G/B {whole[0]:+.3f} {whole[1]:+.3f} {whole[2]:+.3f}")
+            for j in range(GRID):
+                print("  " + "   ".join(
+                    "/".join(f"{diff[j, i, k]:+.3f}" for k in range(3))
+                    + f" ({max(noise[j, i]):.3f})" for i in range(GRID)))
+
+
+if __name__ == "__main__":
+    main()
