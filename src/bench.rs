@@ -158,8 +158,8 @@ impl<const N: usize> Products<N> {
 /// with its own seed, so a change in the machine's load between runs falls on all alike;
 /// prints each one's median seconds (of rendering, and of learning light selection where the
 /// variant does), median relMSE against `reference` over the pixels `keep` selects, and their
-/// product. With `two_seeds`, every round renders each variant twice more with seeds of its
-/// own and adds the variance the two show ([`relative_variance`]): a reference rendered with
+/// product. With `two_seeds`, every round renders each variant with a second seed too (one no
+/// round uses first) and adds the variance the two show ([`relative_variance`]): a reference rendered with
 /// a few thousand samples has noise of its own, which adds to every relMSE measured against it
 /// and so brings the variants' ratios towards 1; it does not enter the variance.
 ///
@@ -187,7 +187,6 @@ pub(crate) fn alternate<const N: usize>(
     for round in 0..repeats as u32 {
         for k in 0..N {
             let mut images = Vec::new();
-            // The second seed of a round is one no round uses first.
             for seed in [round, round + repeats as u32]
                 .into_iter()
                 .take(seeds_a_round)
@@ -208,21 +207,37 @@ pub(crate) fn alternate<const N: usize>(
             }
         }
     }
+    Ok(print_products(
+        names,
+        spp,
+        seconds,
+        errors,
+        two_seeds.then_some(variances),
+    ))
+}
+
+/// The table of [`alternate`]: each variant's median seconds, relMSE and their product, and
+/// with two seeds the median variance and its product; the products.
+fn print_products<const N: usize>(
+    names: [&str; N],
+    spp: u32,
+    seconds: [Vec<f64>; N],
+    errors: [Vec<f64>; N],
+    variances: Option<[Vec<f64>; N]>,
+) -> Products<N> {
     let mut header = format!(
         "{:<8} {:>5} {:>10} {:>10} {:>14}",
         "choice", "spp", "seconds", "relMSE", "relMSE·s"
     );
-    if two_seeds {
+    if variances.is_some() {
         header += &format!(" {:>10} {:>14}", "variance", "variance·s");
     }
     println!("{header}");
     let mut products = Products {
         relmse: [0.0; N],
-        variance: two_seeds.then_some([0.0; N]),
+        variance: variances.as_ref().map(|_| [0.0; N]),
     };
-    for (k, ((seconds, errors), variances)) in
-        seconds.into_iter().zip(errors).zip(variances).enumerate()
-    {
+    for (k, (seconds, errors)) in seconds.into_iter().zip(errors).enumerate() {
         let (s, e) = (median(seconds), median(errors));
         products.relmse[k] = s * e;
         let mut line = format!(
@@ -230,12 +245,12 @@ pub(crate) fn alternate<const N: usize>(
             names[k],
             s * e
         );
-        if let Some(v) = &mut products.variance {
-            let var = median(variances);
+        if let (Some(v), Some(variances)) = (&mut products.variance, &variances) {
+            let var = median(variances[k].clone());
             v[k] = s * var;
             line += &format!(" {var:>10.3e} {:>14.3e}", s * var);
         }
         println!("{line}");
     }
-    Ok(products)
+    products
 }

@@ -3,14 +3,16 @@
 renderers on the reference pack (../shared/reference/cornell: Mitsuba's own `cornell_box()`),
 each at the same samples per pixel and thread count, and the medians are compared.
 
-Efficiency is 1 / (relMSE x seconds), relMSE = mean((v - ref)^2 / (ref^2 + 0.01)) against the
-pack's converged reference, as `rift bench convergence` measures it; rift's figures are that
+Efficiency is 1 / (relMSE x seconds), relMSE = mean((v - ref)^2 / (ref^2 + 0.01)) against a
+converged reference, as `rift bench convergence` measures it; rift's figures are that
 command's. Each round renders every renderer with two seeds (different in every round), and
-seconds and relMSE are the two renders' means. The reference has noise of its own (16,384
-samples: relMSE about 1.7e-5), which adds to every relMSE measured against it, a sixth of
-rift's at 256 samples; so efficiency is also given from the variance the two seeds show (half
-their mean squared difference, regularised alike), which that noise does not enter, and the
-comparison is made both ways. Bias does not enter the variance either: each renderer's image
+seconds and relMSE are the two renders' means. The pack's reference has noise of its own
+(16,384 samples: relMSE about 1.7e-5), which adds to every relMSE measured against it, a sixth
+of rift's at 256 samples; so the reference is `examples/cornell_reference.exr` where it is
+there (the same scene rendered the same way with many times the samples by
+`tools/cornell_reference.py`; `--reference` picks another), and efficiency is also given from
+the variance the two seeds show (half their mean squared difference, regularised alike), which
+no reference's noise enters, and the comparison is made both ways. Bias does not enter the variance either: each renderer's image
 mean against the reference is printed beside it. Mitsuba's seconds are those of `mi.render`
 and its evaluation, after a warm-up render that compiles its kernels (Dr.Jit caches them), until
 the image is in host memory, with the scene as `cornell_box()` builds it but the reference's
@@ -54,12 +56,13 @@ def newest_libllvm():
     return max(found)[1] if found else None
 
 
-def rift_round(rift, spp, threads, seed, tmp):
+def rift_round(rift, spp, threads, seed, tmp, reference):
     """rift's (seconds, relMSE, variance, mean RGB against the reference's, %) from
-    `rift bench convergence --variance` at `spp` with seeds `seed` and `seed` + 1."""
+    `rift bench convergence --variance` at `spp` with seeds `seed` and `seed` + 1, against the
+    EXR at `reference`."""
     out = subprocess.run(
         [rift, "bench", "convergence", str(ROOT / "examples" / "cornell.toml"),
-         "--reference", str(PACK / "reference.exr"), "--spp", str(spp), "--variance",
+         "--reference", str(reference), "--spp", str(spp), "--variance",
          "--seed", str(seed), "--csv", str(tmp / "c.csv"), "--plot", str(tmp / "c.png"),
          "--threads", str(threads)],
         check=True, capture_output=True, text=True).stdout
@@ -88,6 +91,13 @@ def load_mitsuba(variant):
 
     mi.set_variant(variant)
     return mi
+
+
+def default_reference():
+    """The reference of many samples where `tools/cornell_reference.py` has made it, else the
+    pack's."""
+    many = ROOT / "examples" / "cornell_reference.exr"
+    return many if many.exists() else PACK / "reference.exr"
 
 
 SAMPLERS = ["independent", "stratified", "multijitter", "orthogonal", "ldsampler"]
@@ -128,13 +138,15 @@ def main():
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--samplers", default=",".join(SAMPLERS))
+    ap.add_argument("--reference", default=str(default_reference()))
     args = ap.parse_args()
 
     mi = load_mitsuba(args.variant)
     import drjit as dr
     if args.variant.startswith("llvm"):
         dr.set_thread_count(args.threads)
-    reference = read_rgb(PACK / "reference.exr")
+    reference = read_rgb(args.reference)
+    print(f"reference: {args.reference}", flush=True)
     scenes = mitsuba_scenes(mi, args.samplers.split(","), args.spp)
 
     runs = {"rift": []} | {name: [] for name in scenes}
@@ -142,7 +154,8 @@ def main():
         tmp = Path(tmp)
         for k in range(args.rounds):
             seeds = (2 * k + 1, 2 * k + 2)
-            runs["rift"].append(rift_round(args.rift, args.spp, args.threads, seeds[0], tmp))
+            runs["rift"].append(
+                rift_round(args.rift, args.spp, args.threads, seeds[0], tmp, args.reference))
             line = f"round {k + 1}: rift {runs['rift'][-1][0]:.2f} s relMSE {runs['rift'][-1][1]:.4e}"
             for name, (scene, spp) in scenes.items():
                 renders = [mitsuba_render(mi, scene, spp, seed) for seed in seeds]
