@@ -13,8 +13,8 @@ this measures it (relMSE of the pack against the result, less the result's noise
     python3 tools/cornell_reference.py [--minutes 40] [--chunk-spp 1024]
         [--out examples/cornell_reference.exr]
 
-The `multijitter` sampler is unbiased and converges fastest of Mitsuba's here; chunks with
-different seeds are independent, so their mean is as well. Needs `pip install mitsuba` (and
+The `multijitter` sampler is unbiased and the most efficient of Mitsuba's here; chunks with
+different seeds are independent, so the noise of their mean follows from their spread. Needs `pip install mitsuba` (and
 libLLVM, as tools/cornell_vs_mitsuba.py says).
 """
 import argparse
