@@ -13,10 +13,10 @@ there (the same scene rendered the same way with many times the samples by
 `tools/cornell_reference.py`; `--reference` picks another), and efficiency is also given from
 the variance the two seeds show (half their mean squared difference, regularised alike), which
 no reference's noise enters, and the comparison is made both ways. Bias does not enter the
-variance either: each renderer's image mean against the reference is printed beside it. Mitsuba's seconds are those of `mi.render`
-and its evaluation, after a warm-up render that compiles its kernels (Dr.Jit caches them), until
-the image is in host memory, with the scene as `cornell_box()` builds it but the reference's
-box filter and unlimited path depth.
+variance either: each renderer's image mean against the reference is printed beside it.
+Mitsuba's seconds are those of `mi.render` and its evaluation, after a warm-up render that
+compiles its kernels (Dr.Jit caches them), until the image is in host memory, with the scene as
+`cornell_box()` builds it but the reference's box filter and unlimited path depth.
 Every one of Mitsuba's samplers is tried (independent, stratified, multijitter, orthogonal,
 ldsampler; each rounds the samples per pixel to what it can stratify: a square, a prime's
 square, a power of two), in the same rounds, and rift is compared with the most efficient.
