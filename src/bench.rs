@@ -159,9 +159,10 @@ impl<const N: usize> Products<N> {
 /// prints each one's median seconds (of rendering, and of learning light selection where the
 /// variant does), median relMSE against `reference` over the pixels `keep` selects, and their
 /// product. With `two_seeds`, every round renders each variant with a second seed too (one no
-/// round uses first) and adds the variance the two show ([`relative_variance`]): a reference rendered with
-/// a few thousand samples has noise of its own, which adds to every relMSE measured against it
-/// and so brings the variants' ratios towards 1; it does not enter the variance.
+/// round uses first) and adds the variance the two show ([`relative_variance`]): a reference
+/// rendered with a few thousand samples has noise of its own, which adds to every relMSE
+/// measured against it and so brings the variants' ratios towards 1; it does not enter the
+/// variance.
 ///
 /// [`relative_variance`]: rift_render::frame::film::relative_variance
 pub(crate) fn alternate<const N: usize>(
@@ -199,8 +200,9 @@ pub(crate) fn alternate<const N: usize>(
                 // Learning light selection is part of what a variant costs.
                 let training = prepared.training_seconds;
                 seconds[k].push(t.elapsed().as_secs_f64() + training);
-                errors[k].push(relative_mse(&kept(&image.rgb), &reference));
-                images.push(kept(&image.rgb));
+                let image = kept(&image.rgb);
+                errors[k].push(relative_mse(&image, &reference));
+                images.push(image);
             }
             if let [a, b] = &images[..] {
                 variances[k].push(relative_variance(a, b, &reference));
@@ -237,7 +239,13 @@ fn print_products<const N: usize>(
         relmse: [0.0; N],
         variance: variances.as_ref().map(|_| [0.0; N]),
     };
-    for (k, (seconds, errors)) in seconds.into_iter().zip(errors).enumerate() {
+    let variances = match variances {
+        Some(v) => v.map(Some),
+        None => [(); N].map(|_| None),
+    };
+    for (k, ((seconds, errors), variances)) in
+        seconds.into_iter().zip(errors).zip(variances).enumerate()
+    {
         let (s, e) = (median(seconds), median(errors));
         products.relmse[k] = s * e;
         let mut line = format!(
@@ -245,8 +253,8 @@ fn print_products<const N: usize>(
             names[k],
             s * e
         );
-        if let (Some(v), Some(variances)) = (&mut products.variance, &variances) {
-            let var = median(variances[k].clone());
+        if let (Some(v), Some(variances)) = (&mut products.variance, variances) {
+            let var = median(variances);
             v[k] = s * var;
             line += &format!(" {var:>10.3e} {:>14.3e}", s * var);
         }
