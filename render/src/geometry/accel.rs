@@ -121,31 +121,52 @@ impl Accel {
     /// triangles `accept(triangle, t)` admits ([`every_triangle`] for all).
     pub fn intersect(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> Option<Hit> {
         debug_assert!(ray.t_min == 0.0);
-        let mut best = self
-            .statics
-            .intersect(ray.origin, ray.dir, ray.t_max, accept)
-            .map(|h| lift(h, STATIC));
-        if let Some(top) = &self.top {
-            let nearest = best.map_or(ray.t_max, |h| h.t);
-            closest_hit(
-                &top.nodes,
-                &Fixed,
-                &BoxRay::new(ray.origin, ray.dir),
-                nearest,
-                NOTHING_TO_FETCH,
-                worth_fetching_ahead(node_bytes(top)),
-                |slot, range| {
-                    let i = top.primitive_indices[slot];
-                    let bounded = Ray {
-                        t_max: range,
-                        ..*ray
-                    };
-                    let h = self.instances[i as usize].intersect(&bounded, accept)?;
-                    best = Some(lift(h, i));
-                    Some(h.t)
-                },
-            );
+        // The static triangles' hit goes straight out where nothing moves: kept in a variable
+        // that the moving instances' test also writes, it lived on the stack, and its copy
+        // out read the fields' separate stores with wider loads, which had to wait for them.
+        match &self.top {
+            None => self.static_hit(ray, accept),
+            Some(top) => self.intersect_moving(top, ray, accept),
         }
+    }
+
+    /// The closest hit along `ray` among the static triangles.
+    #[inline(always)]
+    fn static_hit(&self, ray: &Ray, accept: &impl Fn(u32, f32) -> bool) -> Option<Hit> {
+        self.statics
+            .intersect(ray.origin, ray.dir, ray.t_max, accept)
+            .map(|h| lift(h, STATIC))
+    }
+
+    /// The closest hit along `ray` among the static triangles and the moving instances of
+    /// `top`.
+    #[inline(never)]
+    fn intersect_moving(
+        &self,
+        top: &CwBvh,
+        ray: &Ray,
+        accept: &impl Fn(u32, f32) -> bool,
+    ) -> Option<Hit> {
+        let mut best = self.static_hit(ray, accept);
+        let nearest = best.map_or(ray.t_max, |h| h.t);
+        closest_hit(
+            &top.nodes,
+            &Fixed,
+            &BoxRay::new(ray.origin, ray.dir),
+            nearest,
+            NOTHING_TO_FETCH,
+            worth_fetching_ahead(node_bytes(top)),
+            |slot, range| {
+                let i = top.primitive_indices[slot];
+                let bounded = Ray {
+                    t_max: range,
+                    ..*ray
+                };
+                let h = self.instances[i as usize].intersect(&bounded, accept)?;
+                best = Some(lift(h, i));
+                Some(h.t)
+            },
+        );
         best
     }
 

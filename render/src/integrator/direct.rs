@@ -375,7 +375,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
     let time = at.time;
     match light.place {
         LightPlace::Direction { dir, part, delta } => Some(Incoming {
-            dir,
+            dir: dir.into(),
             radiance: light.radiance,
             end: ShadowEnd::SKY,
             pdf: light.pdf,
@@ -384,6 +384,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
             sky: !delta,
         }),
         LightPlace::Punctual { point, source } => {
+            let point = Vec3::from(point);
             let to = point - at.p;
             let dist2 = to.length_squared();
             (dist2 > 0.0).then(|| Incoming {
@@ -405,6 +406,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
             two_sided,
             source,
         } => {
+            let (point, normal) = (Vec3::from(point), Vec3::from(normal));
             if let LightSource::Triangle(triangle) = source
                 && ctx.scene.visibility.culled(triangle, point, time)
             {

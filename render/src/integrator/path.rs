@@ -15,7 +15,6 @@ use crate::media::volumes::Inside;
 use crate::portals::Portals;
 use crate::portals::visibility::RayClass;
 use crate::sampling::{Frame, SampleStream, power_heuristic};
-use crate::scene::SurfacePoint;
 use crate::scene::light_groups::MAX_LIGHT_GROUPS;
 use crate::scene::{NO_OBJECT, Scene, SceneHit};
 use crate::through::{Aim, Chain, Strategies};
@@ -788,7 +787,7 @@ fn surface_emission<'b, const FULL: bool>(
         path.touching = hit.triangle;
     }
     let bsdf = match material.textured() {
-        true => textured_bsdf(ctx, path, hit, &surface, material, textured),
+        true => textured_bsdf(ctx, path, hit, (ng, surface.area_scale), material, textured),
         false => {
             if FULL {
                 path.mapped_normal = ctx.scene.shading_normal(hit, time, ng);
@@ -846,7 +845,8 @@ fn record_first_hit(
     path.guides_follow = bsdf.is_delta();
 }
 
-/// The BSDF of the textured `material` where the path's ray met `hit` (at `surface`), its
+/// The BSDF of the textured `material` where the path's ray met `hit` (of geometric normal `ng`
+/// and `area_scale` there: values, so the caller's surface point stays in registers), its
 /// textures read at the hit's UV over the ray cone's footprint there, made in `slot` (the
 /// material's own where the mesh has no UVs); the shading normal (the mesh's smooth normal,
 /// bent by the normal map around it) goes to [`PathState::mapped_normal`].
@@ -855,15 +855,15 @@ fn textured_bsdf<'b>(
     ctx: &'b Context,
     path: &mut PathState,
     hit: &Hit,
-    surface: &SurfacePoint,
+    (ng, area_scale): (Vec3, f32),
     material: &'b Material,
     slot: &'b mut Option<Bsdf>,
 ) -> &'b Bsdf {
-    path.mapped_normal = ctx.scene.shading_normal(hit, path.ray.time, surface.ng);
-    let Some((uv, per_metre)) = ctx.scene.uv_at(hit, path.ray.time, surface.area_scale) else {
+    path.mapped_normal = ctx.scene.shading_normal(hit, path.ray.time, ng);
+    let Some((uv, per_metre)) = ctx.scene.uv_at(hit, path.ray.time, area_scale) else {
         return &material.bsdf;
     };
-    let cos = path.ray.dir.dot(surface.ng).abs().max(GRAZING_COS);
+    let cos = path.ray.dir.dot(ng).abs().max(GRAZING_COS);
     let footprint = path.width + path.spread * (path.travelled + hit.t);
     let at = Lookup {
         uv,
@@ -872,7 +872,7 @@ fn textured_bsdf<'b>(
     let textures = ctx.scene.textures.list();
     if let Some(local) = material.normal_at(textures, &at) {
         let tangents = ctx.scene.tangents(hit, path.ray.time);
-        let around = path.mapped_normal.unwrap_or(surface.ng);
+        let around = path.mapped_normal.unwrap_or(ng);
         let mapped = tangents.and_then(|t| tangent_to_world(local, t, around));
         path.mapped_normal = mapped.or(path.mapped_normal);
     }
@@ -1129,18 +1129,19 @@ fn continue_path<const FULL: bool>(
     let Some(bs) = drawn else {
         return false;
     };
-    path.beta *= bs.weight;
+    let (wi, weight) = (Vec3::from(bs.wi), Vec3::from(bs.weight));
+    path.beta *= weight;
     path.eta_scale *= bs.eta * bs.eta;
     path.prev_pdf = bs.pdf;
     path.prev_delta = bs.delta;
     path.prev_receiver = *at.receiver;
     // The side comes from the direction before its normalisation, which has the same sign,
     // so the new origin does not wait on the square root.
-    let towards = at.frame.to_world(bs.wi);
+    let towards = at.frame.to_world(wi);
     // A bounce the geometry puts under the surface would meet the surface itself again (a
     // flat face whose normals lean), so it ends; light sampling alone brings light from there
     // ([`Shading::shadow_origin`]).
-    if at.bent && at.crosses_wrongly(bs.wi, towards) {
+    if at.bent && at.crosses_wrongly(wi, towards) {
         return false;
     }
     let origin = at.origin_towards(towards);
@@ -1238,8 +1239,8 @@ fn aimed_bounce(
         let f = at.bsdf.eval(at.wo, wi, at.side);
         let pdf = at.bounce_pdf(portals, wi, dir);
         return (f != Vec3::ZERO && pdf > 0.0).then_some(BsdfSample {
-            wi,
-            weight: f / pdf,
+            wi: wi.into(),
+            weight: (f / pdf).into(),
             pdf,
             delta: false,
             eta: 1.0,
@@ -1252,7 +1253,7 @@ fn aimed_bounce(
         return Some(bs);
     }
     let f = bs.weight * bs.pdf;
-    let dir = at.frame.to_world(bs.wi);
+    let dir = at.frame.to_world(bs.wi.into());
     bs.pdf = aim.mixed(bs.pdf, aim.pdf(portals, time, p, dir));
     bs.weight = f / bs.pdf;
     Some(bs)

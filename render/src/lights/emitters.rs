@@ -17,7 +17,7 @@ use crate::lights::sky::{Sky, SkyPart};
 use crate::lights::strand_exposure;
 use crate::lights::tree::{LightBounds, LightTree, Path, PerLane};
 use crate::sampling::{AliasTable, uniform_triangle};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
 use std::f32::consts::PI;
 use std::ops::Range;
 
@@ -117,22 +117,25 @@ pub struct Emitter {
     pub area: f32,
 }
 
-/// Where a light sample lies.
+/// Where a light sample lies. Its vectors are kept in 16-byte lanes, as a BSDF sample's
+/// ([`crate::material::bsdf::BsdfSample`]): a sample is returned through memory from whichever
+/// emitter drew it, and vectors stored as eight bytes and four were read back by loads that
+/// straddled the stores and waited for both.
 #[derive(Clone, Copy, Debug)]
 pub enum LightPlace {
     /// A point on an emitter, with its unit geometric normal (front side).
     Point {
-        point: Vec3,
-        normal: Vec3,
+        point: Vec3A,
+        normal: Vec3A,
         two_sided: bool,
         source: LightSource,
     },
     /// A point light: no surface; the sample's radiance is its intensity towards the point.
-    Punctual { point: Vec3, source: LightSource },
+    Punctual { point: Vec3A, source: LightSource },
     /// A direction towards the sky, infinitely far, from its `part`; a `delta` one is a
     /// single direction (no ray finds it), whose radiance is the illuminance it gives.
     Direction {
-        dir: Vec3,
+        dir: Vec3A,
         part: SkyPart,
         delta: bool,
     },
@@ -657,7 +660,7 @@ impl LightSampler<'_> {
             let s = sky.sample(u_point, at.time)?;
             return (s.pdf > 0.0).then_some(LightSample {
                 place: LightPlace::Direction {
-                    dir: s.direction,
+                    dir: s.direction.into(),
                     part: s.part,
                     delta: s.delta,
                 },
@@ -691,8 +694,8 @@ impl LightSampler<'_> {
         };
         (area > 0.0).then(|| LightSample {
             place: LightPlace::Point {
-                point: tri.point(b1, b2),
-                normal,
+                point: tri.point(b1, b2).into(),
+                normal: normal.into(),
                 two_sided: e.two_sided,
                 source: LightSource::Triangle(e.triangle),
             },
@@ -911,13 +914,13 @@ fn sample_shape(
     let source = LightSource::Shape(k);
     let place = if light.is_point() {
         LightPlace::Punctual {
-            point: s.point,
+            point: s.point.into(),
             source,
         }
     } else {
         LightPlace::Point {
-            point: s.point,
-            normal: s.normal,
+            point: s.point.into(),
+            normal: s.normal.into(),
             two_sided: false,
             source,
         }
@@ -949,8 +952,8 @@ fn sample_segment(
     let pdf = pick * cylinder.area_pdf(normal);
     (pdf > 0.0).then(|| LightSample {
         place: LightPlace::Point {
-            point: cylinder.centre + normal * cylinder.radius,
-            normal,
+            point: (cylinder.centre + normal * cylinder.radius).into(),
+            normal: normal.into(),
             two_sided: false,
             source: LightSource::Strand(segment),
         },
@@ -1119,6 +1122,7 @@ mod tests {
                 else {
                     panic!("no environment here");
                 };
+                let (point, normal) = (Vec3::from(point), Vec3::from(normal));
                 let (evaluated, g) = match source {
                     LightSource::Triangle(t) => {
                         let scale = if t == 2 { placement.scale.powi(2) } else { 1.0 };
@@ -1304,7 +1308,7 @@ mod tests {
                 let evaluated = match s.place {
                     LightPlace::Direction { dir, .. } => {
                         sky += 1;
-                        lights.sampler(None).pdf_environment(dir, &at)
+                        lights.sampler(None).pdf_environment(dir.into(), &at)
                     }
                     LightPlace::Point {
                         source: LightSource::Triangle(t),

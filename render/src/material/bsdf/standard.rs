@@ -249,8 +249,8 @@ impl Standard {
         }
         let pdf = self.pdf_with(&lobes, wo, wi);
         (pdf > 0.0).then(|| BsdfSample {
-            wi,
-            weight: self.eval_with(&lobes, wo, wi) / pdf,
+            wi: wi.into(),
+            weight: (self.eval_with(&lobes, wo, wi) / pdf).into(),
             pdf,
             delta: false,
             eta: 1.0,
@@ -274,8 +274,8 @@ impl Standard {
             chance += lobes.p[METAL] + lobes.p[SPECULAR];
         }
         (chance > 0.0).then(|| BsdfSample {
-            wi: Vec3::new(-wo.x, -wo.y, wo.z),
-            weight: value / chance,
+            wi: Vec3::new(-wo.x, -wo.y, wo.z).into(),
+            weight: (value / chance).into(),
             pdf: chance,
             delta: true,
             eta: 1.0,
