@@ -14,7 +14,7 @@ use crate::sampling::{Frame, power_heuristic};
 use crate::scene::Scene;
 use crate::through::{Aim, aperture_sampling};
 use crate::through::{Chain, Space};
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// A surface point being shaded, as next-event estimation needs it.
 pub(super) struct Shading<'a> {
@@ -144,13 +144,13 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
         learn(0.0);
         return;
     };
-    let wi = at.frame.to_local(incoming.dir);
+    let (dir, radiance) = (Vec3::from(incoming.dir), Vec3::from(incoming.radiance));
+    let wi = at.frame.to_local(dir);
     let f = at.bsdf.eval(at.wo, wi, at.side);
     if f == Vec3::ZERO {
         learn(0.0);
         return;
     }
-    let dir = incoming.dir;
     let Some((from, lifted)) = at.shadow_origin(ctx.scene, wi, dir) else {
         learn(0.0);
         return;
@@ -179,7 +179,7 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
     if FULL && R::RECORDS {
         // What light sampling must bring: its MIS weight leaves out what BSDF sampling finds
         // well (a wide sky, a big lamp close by).
-        let brought = f * incoming.radiance * tint * (weight * coins / incoming.pdf);
+        let brought = f * radiance * tint * (weight * coins / incoming.pdf);
         learn(crate::color::luminance(brought));
     }
     let k = weight * coins / pdf_light;
@@ -201,7 +201,7 @@ pub(super) fn next_event<const FULL: bool, R: Recorder>(
             gather(f * light * tint * k, group)
         })
     } else {
-        gather(f * incoming.radiance * tint * k, incoming.group)
+        gather(f * radiance * tint * k, incoming.group)
     }
 }
 
@@ -224,11 +224,12 @@ pub(super) fn sky_group(ctx: &Context, part: SkyPart) -> u8 {
     }
 }
 
-/// One sample of light that may reach a point, before its shadow ray.
+/// One sample of light that may reach a point, before its shadow ray. Its vectors are kept in
+/// 16-byte lanes, as a light sample's ([`LightPlace`]).
 pub(crate) struct Incoming {
     /// Unit direction at the point.
-    pub dir: Vec3,
-    pub radiance: Vec3,
+    pub dir: Vec3A,
+    pub radiance: Vec3A,
     /// Where the shadow ray must reach (off the emitter's surface, beyond the openings).
     pub end: ShadowEnd,
     /// Solid-angle pdf (of all the strategy's techniques that could draw it).
@@ -301,15 +302,15 @@ pub(crate) fn incoming(
 pub fn probe_light(scene: &Scene, at: &Receiver, u: glam::Vec2) -> Option<Probe> {
     let ctx = &Context::plain(scene);
     let light = incoming(ctx, at, None, u, 0.0)?;
-    let weight = (crate::color::luminance(light.radiance) / light.pdf) as f64;
+    let weight = (crate::color::luminance(light.radiance.into()) / light.pdf) as f64;
     if !weight.is_finite() || weight <= 0.0 {
         return None;
     }
     let none = Chain::default();
-    let transmitted = shadow(ctx, &none, at.p, light.dir, light.end, at.time)
+    let transmitted = shadow(ctx, &none, at.p, light.dir.into(), light.end, at.time)
         .map_or(0.0, |(_, coins)| coins as f64);
     Some(Probe {
-        dir: light.dir,
+        dir: light.dir.into(),
         weight,
         transmitted,
         sky: light.end.target.is_none(),
@@ -333,10 +334,10 @@ pub struct Probe {
 /// and inlined they slowed the Cornell box by 2%.
 #[inline(never)]
 fn brought_back(ctx: &Context, at: &Receiver, space: &Space, arrival: Incoming) -> Incoming {
-    let dir = space.direction_back(arrival.dir);
+    let dir = space.direction_back(arrival.dir.into());
     let sky = arrival.sky.then_some((at, dir));
     Incoming {
-        dir,
+        dir: dir.into(),
         pdf: space.density(&ctx.scene.portals, arrival.pdf, sky),
         ..arrival
     }
@@ -358,8 +359,8 @@ fn sky_through_aperture(
     let time = space.receiver.time;
     let pdf_light = ctx.lights.pdf_environment(beyond, &space.receiver);
     Some(Incoming {
-        dir,
-        radiance: sky.radiance(beyond, time),
+        dir: dir.into(),
+        radiance: sky.radiance(beyond, time).into(),
         end: ShadowEnd::SKY,
         pdf: space.mixture(pdf_light, pdf_aperture),
         bsdf_can_find: true,
@@ -375,7 +376,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
     let time = at.time;
     match light.place {
         LightPlace::Direction { dir, part, delta } => Some(Incoming {
-            dir: dir.into(),
+            dir,
             radiance: light.radiance,
             end: ShadowEnd::SKY,
             pdf: light.pdf,
@@ -388,7 +389,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
             let to = point - at.p;
             let dist2 = to.length_squared();
             (dist2 > 0.0).then(|| Incoming {
-                dir: to / dist2.sqrt(),
+                dir: (to / dist2.sqrt()).into(),
                 radiance: light.radiance / dist2,
                 end: ShadowEnd {
                     target: Some(point),
@@ -421,7 +422,7 @@ fn arrival(ctx: &Context, light: &LightSample, at: &Receiver) -> Option<Incoming
             let dist2 = to.length_squared();
             let dir = to / dist2.sqrt();
             Some(Incoming {
-                dir,
+                dir: dir.into(),
                 radiance: light.radiance,
                 end: ShadowEnd {
                     target: Some(offset_target(point, light_side)),

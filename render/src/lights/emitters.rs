@@ -145,7 +145,7 @@ pub enum LightPlace {
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
     pub place: LightPlace,
-    pub radiance: Vec3,
+    pub radiance: Vec3A,
     /// Area-measure pdf for a point, solid-angle pdf for a direction.
     pub pdf: f32,
 }
@@ -664,7 +664,7 @@ impl LightSampler<'_> {
                     part: s.part,
                     delta: s.delta,
                 },
-                radiance: s.radiance,
+                radiance: s.radiance.into(),
                 pdf: p_env * s.pdf,
             });
         }
@@ -679,27 +679,29 @@ impl LightSampler<'_> {
             return sample_segment(strands, segment, at, u_point, pick);
         }
         let e = &self.lights.emitters[i];
-        let (tri, normal, area) = if e.instance == STATIC {
-            (e.vertices, e.normal, e.area)
+        let (b1, b2) = uniform_triangle(u_point);
+        // The point rather than the triangle out of each branch: a triangle copied out of the
+        // emitter was read back in pieces that straddled the copy's stores.
+        let (point, normal, area) = if e.instance == STATIC {
+            (e.vertices.point(b1, b2), e.normal, e.area)
         } else {
             let tri = moving(e);
             let n = tri.normal();
             let area = 0.5 * n.length();
-            (tri, n / (2.0 * area), area)
+            (tri.point(b1, b2), n / (2.0 * area), area)
         };
-        let (b1, b2) = uniform_triangle(u_point);
         let radiance = match e.textured {
             false => e.radiance,
             true => textured(e.triangle, b1, b2),
         };
         (area > 0.0).then(|| LightSample {
             place: LightPlace::Point {
-                point: tri.point(b1, b2).into(),
+                point: point.into(),
                 normal: normal.into(),
                 two_sided: e.two_sided,
                 source: LightSource::Triangle(e.triangle),
             },
-            radiance,
+            radiance: radiance.into(),
             pdf: pick / area,
         })
     }
@@ -927,7 +929,7 @@ fn sample_shape(
     };
     Some(LightSample {
         place,
-        radiance: s.radiance,
+        radiance: s.radiance.into(),
         pdf: pick * s.pdf,
     })
 }
@@ -957,7 +959,7 @@ fn sample_segment(
             two_sided: false,
             source: LightSource::Strand(segment),
         },
-        radiance: strands.radiance(segment, s),
+        radiance: strands.radiance(segment, s).into(),
         pdf,
     })
 }
