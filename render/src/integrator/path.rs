@@ -460,15 +460,21 @@ pub(super) fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) 
 /// Follows `path` in a scene of surfaces and lamps alone to its end.
 fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &mut PathSample) {
     let mut strategies = None;
-    while let Some(hit) = ctx.scene.intersect_surfaces(&path.ray) {
+    loop {
+        // Borrowed where the query left it: moved out, the hit was copied with loads wider
+        // than the query's stores of its fields, which had to wait for them.
+        let found = ctx.scene.intersect_surfaces(&path.ray);
+        let Some(hit) = &found else {
+            break;
+        };
         let mut textured = None;
         let Some((p, ng, bsdf)) =
-            surface_emission::<false>(ctx, &mut path, &strategies, &hit, &mut textured, out)
+            surface_emission::<false>(ctx, &mut path, &strategies, hit, &mut textured, out)
         else {
             break;
         };
         let plain = &mut NoRecorder;
-        let at = (p, ng, Some(&hit));
+        let at = (p, ng, Some(hit));
         if !scatter_at::<false, _>(ctx, &mut path, &mut strategies, at, bsdf, s, out, plain) {
             break;
         }
