@@ -1044,8 +1044,10 @@ fn scatter_at<const FULL: bool, R: Recorder>(
                 None => *strategies = None,
             }
         }
+        // The plain loop has no strategies through openings: said outright, its `None` is not
+        // copied through the stack with the space it never holds.
         let (space, q) = match (&*strategies, &ctx.through) {
-            (Some(strategies), Some(view)) => strategies.pick(view, u_strategy),
+            (Some(strategies), Some(view)) if FULL => strategies.pick(view, u_strategy),
             _ => (None, 1.0),
         };
         let through = path.lit_through || space.is_some_and(|s| s.chain.teleports() > 0);
