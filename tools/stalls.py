@@ -32,14 +32,16 @@ def width(mnemonic, operands):
     """Bytes `mnemonic` moves to or from memory, or None if unknown: from the mnemonic for
     scalar moves and operations, else from the width of its register."""
     fixed = {"movb": 1, "movzbl": 1, "movsbl": 1, "movw": 2, "movzwl": 2, "movl": 4,
-             "vinsertps": 4}
+             "vinsertps": 4, "vmovd": 4, "vpinsrd": 4, "vpextrd": 4, "vpbroadcastd": 4,
+             "vmovq": 8, "vpinsrq": 8, "vpextrq": 8, "vpbroadcastq": 8, "vmovlps": 8,
+             "vmovhps": 8, "vmovddup": 8}
     if mnemonic in fixed:
         return fixed[mnemonic]
-    if mnemonic.startswith("v"):
-        if mnemonic.endswith(("lps", "hps", "sd", "q")):
-            return 8
-        if mnemonic.endswith(("ss", "d")) and not mnemonic.endswith("pd"):
-            return 4
+    # Scalar single and double operations: vmovss, vmulss, vbroadcastss, vaddsd, ...
+    if mnemonic.startswith("v") and mnemonic.endswith("ss"):
+        return 4
+    if mnemonic.startswith("v") and mnemonic.endswith("sd"):
+        return 8
     registers = [r for r in re.findall(r"%([a-z0-9]+)", operands) if r != "rsp"]
     for r in registers:
         if r.startswith("ymm"):
@@ -97,9 +99,9 @@ def straddling(rows):
             frame[pointer.group(2)] = int(pointer.group(1) or "0", 16)
             continue
         access = stack_access(mnemonic, operands, frame)
-        written = re.search(r",%(\w+)$", operands)
-        if access is None and written:
-            frame.pop(written.group(1), None)
+        target = re.search(r",%(\w+)$", operands)
+        if access is None and target:
+            frame.pop(target.group(1), None)
         if access is None:
             continue
         kind, offset, size = access
@@ -108,10 +110,13 @@ def straddling(rows):
             continue
         if i < len(rows) - 8:
             continue
-        overlapping = [s for s in stores if s[0] < offset + size and offset < s[0] + s[1]]
-        contained = any(s[0] <= offset and offset + size <= s[0] + s[1] for s in overlapping)
-        if overlapping and not contained:
-            found.append((rows[i], [s[2] for s in overlapping]))
+        # Each byte comes from the latest store that wrote it (or from the cache); one store
+        # holding the whole load forwards it, anything else waits.
+        sources = [next((s for s in reversed(stores) if s[0] <= b < s[0] + s[1]), None)
+                   for b in range(offset, offset + size)]
+        written = [s for s in dict.fromkeys(sources) if s is not None]
+        if written and (len(written) > 1 or None in sources):
+            found.append((rows[i], [s[2] for s in written]))
     return found
 
 
