@@ -227,6 +227,7 @@ fn print_products<const N: usize>(
     errors: [Vec<f64>; N],
     variances: Option<[Vec<f64>; N]>,
 ) -> Products<N> {
+    let variances = variances.map(|v| v.map(median));
     let mut header = format!(
         "{:<8} {:>5} {:>10} {:>10} {:>14}",
         "choice", "spp", "seconds", "relMSE", "relMSE·s"
@@ -237,15 +238,9 @@ fn print_products<const N: usize>(
     println!("{header}");
     let mut products = Products {
         relmse: [0.0; N],
-        variance: variances.as_ref().map(|_| [0.0; N]),
+        variance: variances.map(|_| [0.0; N]),
     };
-    let variances = match variances {
-        Some(v) => v.map(Some),
-        None => [(); N].map(|_| None),
-    };
-    for (k, ((seconds, errors), variances)) in
-        seconds.into_iter().zip(errors).zip(variances).enumerate()
-    {
+    for (k, (seconds, errors)) in seconds.into_iter().zip(errors).enumerate() {
         let (s, e) = (median(seconds), median(errors));
         products.relmse[k] = s * e;
         let mut line = format!(
@@ -253,8 +248,7 @@ fn print_products<const N: usize>(
             names[k],
             s * e
         );
-        if let (Some(v), Some(variances)) = (&mut products.variance, variances) {
-            let var = median(variances);
+        if let (Some(v), Some(var)) = (&mut products.variance, variances.map(|v| v[k])) {
             v[k] = s * var;
             line += &format!(" {var:>10.3e} {:>14.3e}", s * var);
         }

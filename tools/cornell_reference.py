@@ -14,11 +14,12 @@ this measures it (relMSE of the pack against the result, less the result's noise
         [--out examples/cornell_reference.exr]
 
 The `multijitter` sampler is unbiased and the most efficient of Mitsuba's here; chunks with
-different seeds are independent, so the noise of their mean follows from their spread. Needs `pip install mitsuba` (and
-libLLVM, as tools/cornell_vs_mitsuba.py says).
+different seeds are independent, so the noise of their mean follows from their spread. Needs
+`pip install mitsuba` (and libLLVM, as tools/cornell_vs_mitsuba.py says).
 """
 import argparse
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -87,8 +88,8 @@ def main():
         print(f"chunk {len(chunks)} ({seconds:.1f} s): {len(chunks) * spp} spp, own noise "
               f"{noise:.3e}", flush=True)
 
-    mean = sum(chunks) / len(chunks)
-    noise = regularised_noise(chunks, mean)
+    if not chunks:
+        sys.exit("tools/cornell_reference.py: no chunk finished within --minutes")
     against = (mean.mean((0, 1)) / pack.mean((0, 1)) - 1) * 100
     print(f"\n{args.out}: {len(chunks) * spp} spp, own noise (relMSE) {noise:.3e}")
     print(f"mean against the pack's reference (%): {np.round(against, 3)}")

@@ -99,8 +99,9 @@ def straddling(rows):
             frame[pointer.group(2)] = int(pointer.group(1) or "0", 16)
             continue
         access = stack_access(mnemonic, operands, frame)
+        # A register written by anything else no longer points into the frame.
         target = re.search(r",%(\w+)$", operands)
-        if access is None and target:
+        if target:
             frame.pop(target.group(1), None)
         if access is None:
             continue
