@@ -10,7 +10,7 @@ breaks the tie between the two planes); a lifted block touches nothing, so only 
 
     python3 tools/contact_vs_mitsuba.py --spp 1024 [--gaps 0 0.001] [--rift target/release/rift]
 
-Needs `pip install mitsuba numpy OpenEXR`; the LLVM variant wants libLLVM 15 or newer (see
+Needs `pip install mitsuba numpy OpenEXR`; the LLVM variant wants libLLVM 16 or newer (see
 tools/cornell_vs_mitsuba.py).
 """
 import argparse

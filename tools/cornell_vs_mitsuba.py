@@ -23,9 +23,10 @@ square, a power of two), in the same rounds, and rift is compared with the most 
 
     python3 tools/cornell_vs_mitsuba.py --rift target/release/rift --spp 256 --rounds 3
 
-Needs `pip install mitsuba` and, for the LLVM variants, LLVM 15 or newer as a shared library
-(Debian: `apt-get install libllvm19`); LLVM 15.0 fails to compile Mitsuba's kernels on
-processors with AVX-512, so the newest libLLVM found is used.
+Needs `pip install mitsuba` and, for the LLVM variants, LLVM 16 or newer as a shared library
+(Debian: `apt-get install libllvm19`): LLVM 15.0 aborts compiling Mitsuba's kernels on
+processors with AVX-512 and on some without (an AMD EPYC with AVX2 only: "Cannot select ...
+fminimum"), so the newest libLLVM found is used, with a warning when it is older than 16.
 """
 import argparse
 import glob
@@ -33,6 +34,7 @@ import os
 import re
 import statistics
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -47,13 +49,13 @@ PACK = ROOT.parent / "shared" / "reference" / "cornell"
 
 
 def newest_libllvm():
-    """The newest libLLVM shared library on the system, or None."""
+    """The newest libLLVM shared library on the system as (major version, path), or None."""
     found = []
     for path in glob.glob("/usr/lib/*/libLLVM*.so*") + glob.glob("/usr/lib/libLLVM*.so*"):
         m = re.search(r"libLLVM(?:-|\.so\.)(\d+)", path)
         if m:
             found.append((int(m.group(1)), path))
-    return max(found)[1] if found else None
+    return max(found) if found else None
 
 
 def rift_round(rift, spp, threads, seed, tmp, reference):
@@ -84,9 +86,14 @@ def two_seed_figures(images, seconds, reference):
 def load_mitsuba(variant):
     """Mitsuba with `variant` set, its LLVM variants pointed at the newest libLLVM here."""
     if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
-        lib = newest_libllvm()
-        if lib:
+        newest = newest_libllvm()
+        if newest:
+            version, lib = newest
             os.environ["DRJIT_LIBLLVM_PATH"] = lib
+            if version < 16:
+                print(f"warning: the newest libLLVM here is {lib}; LLVM 15 and older can abort "
+                      "compiling Mitsuba's kernels (Debian: apt-get install libllvm19)",
+                      file=sys.stderr)
     import mitsuba as mi
 
     mi.set_variant(variant)

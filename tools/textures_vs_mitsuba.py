@@ -24,7 +24,7 @@ pixel's samples doing the rest).
 
     python3 tools/textures_vs_mitsuba.py --rift target/release/rift [--spp 256]
 
-Needs `pip install mitsuba numpy OpenEXR`; the LLVM variant wants libLLVM 15 or newer.
+Needs `pip install mitsuba numpy OpenEXR`; the LLVM variant wants libLLVM 16 or newer.
 """
 import argparse
 import math
