@@ -54,14 +54,12 @@ if command -v npm >/dev/null; then
     echo "tests/setup.sh: npm ci failed; the browser tests will be skipped" >&2
 fi
 
-# The fuzz targets' build for the smoke test (render/tests/fuzz_smoke.rs, with the same options),
+# The fuzz targets' build for the smoke test (render/tests/fuzz_smoke.rs runs the same script),
 # started in the background at the lowest priority: it takes the processor time the main build
 # and the tests leave idle, and the smoke test, among the last to run, waits for it. Its log is
 # fuzz/target/smoke-build.log. Without the nightly toolchain the smoke test skips, and says so.
 if cargo +nightly --version >/dev/null 2>&1; then
   mkdir -p fuzz/target
   # nice passes its priority on to cargo and every compiler it starts.
-  (cd fuzz && nice -n 19 sh -c \
-    '{ cargo fuzz --version || cargo install --locked cargo-fuzz; } &&
-     cargo +nightly fuzz build --dev --sanitizer none') </dev/null >fuzz/target/smoke-build.log 2>&1 &
+  nice -n 19 fuzz/build_smoke.sh </dev/null >fuzz/target/smoke-build.log 2>&1 &
 fi

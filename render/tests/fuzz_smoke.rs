@@ -1,13 +1,14 @@
-//! A short coverage-guided run of every fuzz target, where the nightly toolchain is installed
-//! (cargo-fuzz needs it; it is installed here when missing). Long campaigns are run by hand:
-//! `cd fuzz && cargo +nightly fuzz run -O -a TARGET`. Anything it finds is a failure; the input
-//! that found it goes into `fuzz/regressions/TARGET/` once fixed.
+//! A short coverage-guided run of every fuzz target, where the nightly toolchain is installed.
+//! Long campaigns are run by hand with cargo-fuzz: `cd fuzz && cargo +nightly fuzz run -O -a
+//! TARGET`. Anything it finds is a failure; the input that found it goes into
+//! `fuzz/regressions/TARGET/` once fixed.
 //!
-//! The build is the long part, and `tests/setup.sh` starts it in the background at the lowest
-//! priority, so that it takes the processor time the main build and the earlier tests leave
-//! idle (the browser tests leave much); this test, among the last the test command runs, then
-//! waits for it (cargo's lock on the build folder) instead of building from scratch. Its
-//! options here and there must stay the same, or the build is done twice.
+//! The build is the long part: `fuzz/build_smoke.sh` makes it (cargo-fuzz's instrumentation
+//! without cargo-fuzz, whose own build a fresh machine would add), and `tests/setup.sh` starts it
+//! in the background at the lowest priority, so that it takes the processor time the main build
+//! and the earlier tests leave idle (the browser tests leave much); this test, among the last the
+//! test command runs, runs the same script, which then waits for that build (cargo's lock on the
+//! build folder) instead of building from scratch.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -17,46 +18,23 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// Seconds each target runs for.
 const SECONDS: u32 = 4;
 
-/// The options of the fuzz build, here and in `tests/setup.sh`: lightly optimised
-/// (fuzz/Cargo.toml's dev profile, with debug assertions and overflow checks, which the stable
-/// replay of the corpora, `tests/fuzz_corpora.rs`, a release build, does not have), and without
-/// AddressSanitizer (a third of the build; the readers are safe Rust, and long campaigns run
-/// with it).
-const BUILD: [&str; 3] = ["--dev", "--sanitizer", "none"];
-
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn succeeds(command: &mut Command) -> bool {
-    command.output().is_ok_and(|o| o.status.success())
-}
-
 #[test]
 fn each_fuzz_target_runs_briefly_without_a_finding() {
-    if !succeeds(Command::new("cargo").args(["+nightly", "--version"])) {
-        eprintln!("skipped: no nightly toolchain (cargo-fuzz needs one)");
+    let nightly = Command::new("cargo")
+        .args(["+nightly", "--version"])
+        .output();
+    if !nightly.is_ok_and(|o| o.status.success()) {
+        eprintln!("skipped: no nightly toolchain (libFuzzer's instrumentation needs one)");
         return;
-    }
-    if !succeeds(Command::new("cargo").args(["fuzz", "--version"])) {
-        let installed = Command::new("cargo")
-            .args(["install", "--locked", "cargo-fuzz"])
-            .status()
-            .is_ok_and(|s| s.success());
-        if !installed {
-            eprintln!("skipped: cargo-fuzz could not be installed");
-            return;
-        }
     }
     let fuzz = root().join("fuzz");
     // Building needs what libFuzzer needs (a C++ compiler); a machine without it skips, while
     // the targets' code itself is built and tested on stable by the other tests.
-    let build = Command::new("cargo")
-        .current_dir(&fuzz)
-        .args(["+nightly", "fuzz", "build"])
-        .args(BUILD)
-        .output()
-        .unwrap();
+    let build = Command::new(fuzz.join("build_smoke.sh")).output().unwrap();
     if !build.status.success() {
         let log = String::from_utf8_lossy(&build.stderr);
         let tail: Vec<&str> = log.lines().rev().take(15).collect();
@@ -66,6 +44,7 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
         );
         return;
     }
+    let built = PathBuf::from(String::from_utf8_lossy(&build.stdout).trim());
     let work = tempfile::tempdir().unwrap();
     // The targets run on every core at once (two on the CI machines): each libFuzzer run is
     // one process on one core.
@@ -80,7 +59,7 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
         for _ in 0..cores.min(targets.len()) {
             scope.spawn(|| {
                 while let Some(&target) = targets.get(next.fetch_add(1, Ordering::Relaxed)) {
-                    let outcome = fuzz_briefly(&fuzz, work.path(), target);
+                    let outcome = fuzz_briefly(&fuzz, &built, work.path(), target);
                     outcomes.lock().unwrap().push((target, outcome));
                 }
             });
@@ -98,10 +77,10 @@ fn each_fuzz_target_runs_briefly_without_a_finding() {
     assert!(findings.is_empty(), "{}", findings.join("\n\n"));
 }
 
-/// Runs `target` for [`SECONDS`] from its committed corpus and regressions, new inputs going
-/// to a scratch folder under `work`: the number of runs, or the end of its log when it found
-/// something.
-fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String> {
+/// Runs `target` (its binary in `built`) for [`SECONDS`] from its committed corpus and
+/// regressions, new inputs going to a scratch folder under `work`: the number of runs, or what
+/// its log says it found, with how to reproduce it.
+fn fuzz_briefly(fuzz: &Path, built: &Path, work: &Path, target: &str) -> Result<String, String> {
     // New inputs go to a scratch folder; the committed seed corpus stays as it is.
     let scratch = work.join(target);
     std::fs::create_dir(&scratch).unwrap();
@@ -110,15 +89,10 @@ fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String
     std::fs::create_dir_all(&artifacts).unwrap();
     // The inputs that once crashed a target run here too.
     let regressions = Some(fuzz.join("regressions").join(target)).filter(|d| d.is_dir());
-    let out = Command::new("cargo")
-        .current_dir(fuzz)
-        .args(["+nightly", "fuzz", "run"])
-        .args(BUILD)
-        .arg(target)
+    let out = Command::new(built.join(target))
         .arg(&scratch)
         .arg(fuzz.join("corpus").join(target))
         .args(regressions)
-        .arg("--")
         .args([
             format!("-max_total_time={SECONDS}"),
             "-rss_limit_mb=2048".into(),
@@ -130,7 +104,10 @@ fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String
         .unwrap();
     let log = String::from_utf8_lossy(&out.stderr);
     if !out.status.success() {
-        return Err(what_it_found(&log));
+        return Err(format!(
+            "{}\nreproduce: cd fuzz && cargo +nightly fuzz run {target} <the input written above>",
+            what_it_found(&log)
+        ));
     }
     let runs = log
         .lines()
@@ -144,7 +121,7 @@ fn fuzz_briefly(fuzz: &Path, work: &Path, target: &str) -> Result<String, String
 /// libFuzzer's and the sanitizer's verdicts, and how to reproduce it (the input's own dump,
 /// one line of up to megabytes, left out); the log's last lines when none of them is there.
 fn what_it_found(log: &str) -> String {
-    const MARKS: [&str; 4] = ["panicked at", "ERROR:", "SUMMARY:", "cargo fuzz run"];
+    const MARKS: [&str; 4] = ["panicked at", "ERROR:", "SUMMARY:", "Test unit written to"];
     let lines: Vec<&str> = log.lines().collect();
     let mut kept = Vec::new();
     for (i, line) in lines.iter().enumerate() {
@@ -174,10 +151,10 @@ fn a_finding_is_reported_by_its_panic_and_how_to_reproduce_it() {
         "==22747== ERROR: libFuzzer: deadly signal",
         "    #0 0x55a60c09cd91 in __sanitizer_print_stack_trace",
         "SUMMARY: libFuzzer: deadly signal",
-        "Output of `std::fmt::Debug`:",
+        "MS: 1 ChangeByte-; base unit: 5a1b",
         &dump,
-        "Reproduce with:",
-        "\tcargo fuzz run -O -a vdb artifacts/vdb/crash-68a4",
+        "artifact_prefix='fuzz/artifacts/vdb/'; Test unit written to fuzz/artifacts/vdb/crash-68a4",
+        "Base64: AAAA",
     ]
     .join("\n");
     let found = what_it_found(&log);
@@ -188,7 +165,7 @@ fn a_finding_is_reported_by_its_panic_and_how_to_reproduce_it() {
             "attempt to multiply with overflow",
             "==22747== ERROR: libFuzzer: deadly signal",
             "SUMMARY: libFuzzer: deadly signal",
-            "\tcargo fuzz run -O -a vdb artifacts/vdb/crash-68a4",
+            "artifact_prefix='fuzz/artifacts/vdb/'; Test unit written to fuzz/artifacts/vdb/crash-68a4",
         ]
     );
     // A log without any of those ends in its last lines, each cut short.
