@@ -16,31 +16,81 @@ use std::path::Path;
 
 const FRAME: i64 = 12;
 
-/// The smallest radius at which a strand's polyline crosses the angle `theta`, `delta` seconds
-/// after the frame (0 where none does), found segment by segment without any table.
-fn exact_envelope(curves: &RingCurves, theta: f64, delta: f32) -> f64 {
+/// Angles at which the boundary is compared, per ring and time.
+const ANGLES: usize = 2048;
+
+/// The `k`-th compared angle.
+fn angle(k: usize) -> f64 {
+    TAU * (k as f64 + 0.37) / ANGLES as f64
+}
+
+/// The strands' polyline vertices in the opening's plane, `delta` seconds after the frame.
+fn polyline_points(curves: &RingCurves, delta: f32) -> Vec<DVec2> {
+    (0..curves.points.len())
+        .map(|i| {
+            let p = curves.position_at(i, delta);
+            Vec2::new(p.x, p.y).as_dvec2()
+        })
+        .collect()
+}
+
+/// Where the ray from the centre along `u` meets the segment from `a` to `b`: its radius, if
+/// it does.
+fn crossing(u: DVec2, a: DVec2, b: DVec2) -> Option<f64> {
+    let e = b - a;
+    let denominator = u.perp_dot(e);
+    if denominator == 0.0 {
+        return None;
+    }
+    // Where the ray meets the segment's line, and how far along the segment that is.
+    let r = a.perp_dot(e) / denominator;
+    let s = a.perp_dot(u) / denominator;
+    (r > 0.0 && (0.0..=1.0).contains(&s)).then_some(r)
+}
+
+/// The smallest radius at which a strand's polyline crosses the angle `theta` (0 where none
+/// does), every segment tried: the definition, which [`exact_envelope`] must equal.
+fn envelope_by_every_segment(curves: &RingCurves, points: &[DVec2], theta: f64) -> f64 {
     let u = DVec2::new(theta.cos(), theta.sin());
-    let at = |i: usize| {
-        let p = curves.position_at(i, delta);
-        Vec2::new(p.x, p.y).as_dvec2()
-    };
-    let mut nearest = f64::INFINITY;
+    let nearest = (curves.segments())
+        .filter_map(|(i, j)| crossing(u, points[i], points[j]))
+        .fold(f64::INFINITY, f64::min);
+    if nearest.is_finite() { nearest } else { 0.0 }
+}
+
+/// [`envelope_by_every_segment`] at each of the [`ANGLES`] angles, found segment by segment
+/// without any table: each segment is tried at the angles its ends subtend from the centre
+/// (and one more on each side), the only ones whose ray can meet it.
+fn exact_envelope(curves: &RingCurves, points: &[DVec2]) -> Vec<f64> {
+    let step = TAU / ANGLES as f64;
+    let mut nearest = vec![f64::INFINITY; ANGLES];
     for (i, j) in curves.segments() {
-        let (a, b) = (at(i), at(j));
-        let e = b - a;
-        let denominator = u.perp_dot(e);
-        if denominator == 0.0 {
-            continue;
-        }
-        // Where the ray from the centre along u meets the segment's line, and how far along
-        // the segment that is.
-        let r = a.perp_dot(e) / denominator;
-        let s = a.perp_dot(u) / denominator;
-        if r > 0.0 && (0.0..=1.0).contains(&s) {
-            nearest = nearest.min(r);
+        let (a, b) = (points[i], points[j]);
+        let from = a.y.atan2(a.x);
+        // The signed angle from a to b, the short way round.
+        let sweep = a.perp_dot(b).atan2(a.dot(b));
+        let (low, high) = if sweep.abs() > 3.0 {
+            // Passing next to the centre: every angle.
+            (0, ANGLES as i64)
+        } else {
+            let (start, end) = (from.min(from + sweep), from.max(from + sweep));
+            (
+                (start / step - 0.37).floor() as i64 - 1,
+                (end / step - 0.37).ceil() as i64 + 1,
+            )
+        };
+        for k in low..=high {
+            let k = k.rem_euclid(ANGLES as i64) as usize;
+            let theta = angle(k);
+            if let Some(r) = crossing(DVec2::new(theta.cos(), theta.sin()), a, b) {
+                nearest[k] = nearest[k].min(r);
+            }
         }
     }
-    if nearest.is_finite() { nearest } else { 0.0 }
+    nearest
+        .into_iter()
+        .map(|r| if r.is_finite() { r } else { 0.0 })
+        .collect()
 }
 
 /// The mask's radius along `theta` at `time`, by bisection on `Mask::contains` (what rays see).
@@ -92,10 +142,19 @@ fn boundary_matches_the_exact_envelope() {
             let here = scene.portals.here(opening, time);
             let distance = (shot.camera.position(time) - here.translation).length();
             let px_per_local = focal_pixels * here.scale / distance;
-            for k in 0..2048 {
-                let theta = TAU * (k as f64 + 0.37) / 2048.0;
-                let exact = exact_envelope(curves, theta, delta as f32);
-                let table = mask_radius(mask, theta, time);
+            let points = polyline_points(curves, delta as f32);
+            let envelope = exact_envelope(curves, &points);
+            // The pruned search finds what trying every segment finds, at a sample of angles.
+            for k in (0..ANGLES).step_by(61) {
+                assert_eq!(
+                    envelope[k],
+                    envelope_by_every_segment(curves, &points, angle(k)),
+                    "{} at angle {k}",
+                    curves.opening
+                );
+            }
+            for (k, exact) in envelope.into_iter().enumerate() {
+                let table = mask_radius(mask, angle(k), time);
                 let px = (table - exact) * px_per_local;
                 worst_px = worst_px.max(px.abs());
                 gaps += usize::from(px < -0.25);
