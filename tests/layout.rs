@@ -6,10 +6,13 @@ use crate::common;
 
 use common::root;
 use rift_render::frame::film::{read_exr_layer, relative_mse};
+use std::collections::HashMap;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// A running `rift layout` and its port; stopped with SIGINT when dropped.
 struct Layout {
@@ -269,26 +272,88 @@ fn a_port_in_use_a_bad_shot_and_ctrl_c() {
     assert!(status.success(), "{status:?}");
 }
 
-/// Runs tests/browser/layout.mjs on `url` with `args` in headless Chromium and returns what
-/// it prints, or `None` (with a message) where Chromium or the Node packages are missing.
+/// Visits `url` with `args` (the options of tests/browser/layout.mjs) in the tests' headless
+/// Chromium and returns what the page reports, or `None` (with a message) where Chromium or the
+/// Node packages are missing.
 fn run_page(url: &str, args: &[&str]) -> Option<serde_json::Value> {
     let modules = root().join("tests/browser/node_modules/playwright-core");
     if !Path::new("/usr/bin/chromium").exists() || !modules.exists() {
         eprintln!("skipped: Chromium or tests/browser/node_modules missing (run tests/setup.sh)");
         return None;
     }
-    let out = Command::new("node")
-        .arg(root().join("tests/browser/layout.mjs"))
-        .arg(url)
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    Some(serde_json::from_slice(&out.stdout).unwrap())
+    let argv: Vec<&str> = std::iter::once(url).chain(args.iter().copied()).collect();
+    let answer = Browser::shared().visit(&argv);
+    if let Some(error) = answer.get("error") {
+        panic!("{url} {args:?}: {error}");
+    }
+    Some(answer["result"].clone())
+}
+
+/// One headless Chromium for every test of this binary (`layout.mjs --serve`), started at the
+/// first visit: a browser's start and its software-GL shader compilations cost about 6 s of
+/// processor time a visit, twice what each further visit in the same browser costs. Each visit
+/// has a fresh browser context; visits from tests running at once run at once.
+struct Browser {
+    /// The service's stdin and the next request's id.
+    requests: Mutex<(ChildStdin, u64)>,
+    /// Where each request still unanswered wants its answer.
+    waiting: Arc<Mutex<HashMap<u64, Sender<serde_json::Value>>>>,
+}
+
+impl Browser {
+    fn shared() -> &'static Browser {
+        static SHARED: OnceLock<Browser> = OnceLock::new();
+        SHARED.get_or_init(Browser::start)
+    }
+
+    /// Starts the service and the thread that hands its answers out. It ends when this
+    /// process does (its stdin closes).
+    fn start() -> Browser {
+        let mut child = Command::new("node")
+            .arg(root().join("tests/browser/layout.mjs"))
+            .arg("--serve")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let waiting: Arc<Mutex<HashMap<u64, Sender<serde_json::Value>>>> = Arc::default();
+        let answers = BufReader::new(child.stdout.take().unwrap());
+        let hand_out = Arc::clone(&waiting);
+        std::thread::spawn(move || {
+            for line in answers.lines() {
+                let answer: serde_json::Value = serde_json::from_str(&line.unwrap()).unwrap();
+                let id = answer["id"].as_u64().unwrap();
+                let to = hand_out
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .remove(&id);
+                to.map(|to| to.send(answer));
+            }
+            // The service ended: every request still waiting fails.
+            hand_out.lock().unwrap_or_else(|e| e.into_inner()).clear();
+        });
+        Browser {
+            requests: Mutex::new((child.stdin.take().unwrap(), 0)),
+            waiting,
+        }
+    }
+
+    /// The service's answer to a visit with `argv` (the URL, then options).
+    fn visit(&self, argv: &[&str]) -> serde_json::Value {
+        let (to, answer) = std::sync::mpsc::channel();
+        {
+            let mut requests = self.requests.lock().unwrap_or_else(|e| e.into_inner());
+            let id = requests.1;
+            requests.1 += 1;
+            // Registered before it is sent, so the answer always finds it.
+            (self.waiting.lock().unwrap_or_else(|e| e.into_inner())).insert(id, to);
+            let line = serde_json::json!({ "id": id, "argv": argv });
+            writeln!(requests.0, "{line}").unwrap();
+        }
+        answer.recv().expect(
+            "the browser service (tests/browser/layout.mjs --serve) ended; its errors are above",
+        )
+    }
 }
 
 /// The page's report: its state, how much each view draws, its frame rate.
