@@ -294,6 +294,8 @@ fn run_page(url: &str, args: &[&str]) -> Option<serde_json::Value> {
 /// processor time a visit, twice what each further visit in the same browser costs. Each visit
 /// has a fresh browser context; visits from tests running at once run at once.
 struct Browser {
+    /// The service, never waited for: it ends with this process.
+    _service: Child,
     /// The service's stdin and the next request's id.
     requests: Mutex<(ChildStdin, u64)>,
     /// Where each request still unanswered wants its answer.
@@ -335,6 +337,7 @@ impl Browser {
         Browser {
             requests: Mutex::new((child.stdin.take().unwrap(), 0)),
             waiting,
+            _service: child,
         }
     }
 
