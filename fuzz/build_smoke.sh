@@ -13,12 +13,12 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 host=$(rustc +nightly -vV | sed -n 's/^host: //p')
-coverage="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4
+coverage=(-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4
   -Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table
   -Cllvm-args=-sanitizer-coverage-trace-compares -Cllvm-args=-sanitizer-coverage-stack-depth
-  -Cllvm-args=-simplifycfg-branch-fold-threshold=0"
+  -Cllvm-args=-simplifycfg-branch-fold-threshold=0)
 # The target is named so that the flags reach the targets' code and not build scripts or
 # procedural macros (cargo applies RUSTFLAGS to the host's own builds only without --target).
-RUSTFLAGS="$(echo $coverage) --cfg fuzzing -Cdebug-assertions" \
+RUSTFLAGS="${coverage[*]} --cfg fuzzing -Cdebug-assertions" \
   cargo +nightly build --bins --target "$host" >&2
 echo "$PWD/target/$host/debug"

@@ -322,9 +322,15 @@ impl Browser {
         let answers = BufReader::new(child.stdout.take().unwrap());
         let hand_out = Arc::clone(&waiting);
         std::thread::spawn(move || {
-            for line in answers.lines() {
-                let answer: serde_json::Value = serde_json::from_str(&line.unwrap()).unwrap();
-                let id = answer["id"].as_u64().unwrap();
+            // A line that is not an answer (something the service printed) is passed over;
+            // a panic here would leave every waiting test waiting for ever.
+            for line in answers.lines().map_while(Result::ok) {
+                let answer = serde_json::from_str::<serde_json::Value>(&line).ok();
+                let Some(id) = answer.as_ref().and_then(|a| a["id"].as_u64()) else {
+                    eprintln!("browser service: not an answer: {line}");
+                    continue;
+                };
+                let answer = answer.unwrap_or_default();
                 let to = hand_out
                     .lock()
                     .unwrap_or_else(|e| e.into_inner())

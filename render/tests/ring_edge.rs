@@ -71,7 +71,7 @@ fn exact_envelope(curves: &RingCurves, points: &[DVec2]) -> Vec<f64> {
         let sweep = a.perp_dot(b).atan2(a.dot(b));
         let (low, high) = if sweep.abs() > 3.0 {
             // Passing next to the centre: every angle.
-            (0, ANGLES as i64)
+            (0, ANGLES as i64 - 1)
         } else {
             let (start, end) = (from.min(from + sweep), from.max(from + sweep));
             (
