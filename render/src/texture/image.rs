@@ -83,7 +83,8 @@ pub fn decode_bytes(width: u64, height: u64, channels: u64, float: bool) -> u64 
 pub fn decode(bytes: &[u8], budget: u64) -> Result<Picture, String> {
     match format(bytes)? {
         Format::Exr => decode_exr(bytes, budget),
-        Format::Png | Format::Jpeg => decode_integer(bytes, budget),
+        Format::Png => decode_png(bytes, budget),
+        Format::Jpeg => decode_jpeg(bytes, budget),
     }
 }
 
@@ -116,32 +117,73 @@ fn check_size(
     Ok(())
 }
 
-/// A PNG or JPEG, through the `image` crate, as 8-bit texels.
-fn decode_integer(bytes: &[u8], budget: u64) -> Result<Picture, String> {
-    let reader = || {
-        ::image::ImageReader::new(Cursor::new(bytes))
-            .with_guessed_format()
-            .map_err(|e| e.to_string())
+/// A PNG as 8-bit texels: palettes, bit depths under 8 and transparency chunks expanded;
+/// 16-bit values rounded to 8.
+fn decode_png(bytes: &[u8], budget: u64) -> Result<Picture, String> {
+    let limits = png::Limits {
+        bytes: usize::try_from(budget).unwrap_or(usize::MAX),
     };
-    let (width, height) = reader()?.into_dimensions().map_err(|e| e.to_string())?;
-    // Channels are known only once decoding starts: four is the most.
+    let mut decoder = png::Decoder::new_with_limits(Cursor::new(bytes), limits);
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().map_err(|e| e.to_string())?;
+    let (width, height) = (reader.info().width as usize, reader.info().height as usize);
+    // Channels are known only once the transformations are: four is the most.
     check_size(width as u64, height as u64, 4, false, budget)?;
-    let mut decoder = reader()?;
-    let mut limits = ::image::Limits::default();
-    limits.max_alloc = Some(budget);
-    decoder.limits(limits);
-    let image = decoder.decode().map_err(|e| e.to_string())?;
-    let channels = image.color().channel_count() as usize;
-    let texels = match channels {
-        1 => image.into_luma8().into_raw(),
-        2 => image.into_luma_alpha8().into_raw(),
-        3 => image.into_rgb8().into_raw(),
-        _ => image.into_rgba8().into_raw(),
+    let (color, depth) = reader.output_color_type();
+    let size = reader
+        .output_buffer_size()
+        .ok_or("its decoded size does not fit in memory")?;
+    let mut decoded = vec![0; size];
+    let frame = reader.next_frame(&mut decoded).map_err(|e| e.to_string())?;
+    decoded.truncate(frame.buffer_size());
+    let texels = if depth == png::BitDepth::Sixteen {
+        decoded
+            .chunks_exact(2)
+            .map(|pair| sixteen_to_eight(u16::from_be_bytes([pair[0], pair[1]])))
+            .collect()
+    } else {
+        decoded
     };
     Ok(Picture {
-        width: width as usize,
-        height: height as usize,
-        channels: channels.min(4),
+        width,
+        height,
+        channels: color.samples(),
+        texels: Texels::Bytes(texels),
+    })
+}
+
+/// A 16-bit value rounded to the nearest of 8 bits (65535 to 255).
+fn sixteen_to_eight(value: u16) -> u8 {
+    ((u32::from(value) + 128) / 257) as u8
+}
+
+/// A JPEG as 8-bit texels: grey stays grey, every other colour model becomes RGB.
+fn decode_jpeg(bytes: &[u8], budget: u64) -> Result<Picture, String> {
+    use zune_jpeg::zune_core::{bytestream::ZCursor, colorspace::ColorSpace, options};
+    let options = options::DecoderOptions::default()
+        .set_strict_mode(false)
+        .set_max_width(usize::MAX)
+        .set_max_height(usize::MAX);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
+    decoder.decode_headers().map_err(|e| e.to_string())?;
+    let (width, height) = decoder.dimensions().ok_or("it has no frame header")?;
+    let wanted = match decoder.input_colorspace() {
+        Some(ColorSpace::Luma) => ColorSpace::Luma,
+        _ => ColorSpace::RGB,
+    };
+    check_size(
+        width as u64,
+        height as u64,
+        wanted.num_components() as u64,
+        false,
+        budget,
+    )?;
+    decoder.set_options(decoder.options().jpeg_set_out_colorspace(wanted));
+    let texels = decoder.decode().map_err(|e| e.to_string())?;
+    Ok(Picture {
+        width,
+        height,
+        channels: wanted.num_components(),
         texels: Texels::Bytes(texels),
     })
 }
