@@ -365,7 +365,7 @@ impl Browser {
     }
 }
 
-/// The page's report: its state, how much each view draws, its frame rate.
+/// The page's report: its state and how much each view draws.
 fn browse(url: &str) -> Option<serde_json::Value> {
     run_page(url, &[])
 }

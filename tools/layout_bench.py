@@ -41,7 +41,8 @@ def main():
         print(f"rift layout {args.shot} frame {args.frame}, 1280x720, medians of {args.repeats}")
         print(f"{'depth':>6} {'fps':>8}   (each run)")
         for depth in [int(d) for d in args.depths.split(",")]:
-            runs = [page(f"{base}&depth={depth}")["fps"] for _ in range(args.repeats)]
+            url = f"{base}&depth={depth}"
+            runs = [page(url, "--fps")["fps"] for _ in range(args.repeats)]
             print(f"{depth:>6} {statistics.median(runs):>8.1f}   "
                   + " ".join(f"{r:.1f}" for r in runs))
         # Moving the camera (the view through the openings follows at the next frame drawn),

@@ -1,8 +1,9 @@
 // Opens a `rift layout` page in headless Chromium (Debian's, with software WebGL) and prints
-// what the page shows as JSON: whether it loaded, its error message, the scene's counts, the
-// share of each view's pixels that differ from its background, and frames drawn per second;
+// what the page shows as JSON: whether it loaded, its error message, the scene's counts and the
+// share of each view's pixels that differ from its background; with --fps, also frames drawn
+// per second (a second of drawing, for tools/layout_bench.py; the tests do not ask for it);
 // with --ids W H, the shot camera's ID pass at W x H instead (object index per pixel).
-//   node tests/browser/layout.mjs URL [SCREENSHOT.png]
+//   node tests/browser/layout.mjs URL [SCREENSHOT.png] [--fps]
 //   node tests/browser/layout.mjs URL --ids W H
 //   node tests/browser/layout.mjs URL --steps JSON
 //   node tests/browser/layout.mjs --serve
@@ -94,7 +95,7 @@ async function visit([url, ...rest]) {
         const ids = await page.evaluate(([w, h]) => window.riftLayout.idPass(w, h), idSize);
         return { ids, dragMs, pageErrors: console_errors };
       }
-      return report(page, console_errors, screenshot);
+      return report(page, console_errors, screenshot, rest.includes('--fps'));
     })()]);
   } finally {
     clearTimeout(timer);
@@ -116,11 +117,11 @@ async function step(page, name, args) {
   return page.evaluate(([name, args]) => window.riftLayout[name](...args), [name, args]);
 }
 
-// The page's state, how much of each view it draws, and its frame rate, as JSON.
-async function report(page, console_errors, screenshot) {
+// The page's state and how much of each view it draws, as JSON; with `withFps`, its frame rate.
+async function report(page, console_errors, screenshot, withFps) {
   // Frames drawn per second, asking for one after another for a second (the page draws only
   // when something changed).
-  const fps = await page.evaluate(async () => {
+  const fps = withFps && await page.evaluate(async () => {
     let frames = 0;
     const start = performance.now();
     while (performance.now() - start < 1000) {
@@ -159,5 +160,5 @@ async function report(page, console_errors, screenshot) {
     };
   });
   if (screenshot) await page.screenshot({ path: screenshot });
-  return { ...result, fps, pageErrors: console_errors };
+  return { ...result, ...(withFps ? { fps } : {}), pageErrors: console_errors };
 }
