@@ -13,8 +13,8 @@ use rift_render::frame::film::Window;
 use rift_render::frame::passes::{Checkpointing, RenderOptions, Sums};
 use rift_render::lights::emitters::LightSelection;
 use rift_render::prepare::Prepared;
-use rift_render::scene::Overrides;
 use rift_render::scene::rings::frame_path;
+use rift_render::scene::{Overrides, Settings};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::AtomicBool;
@@ -279,13 +279,62 @@ struct Plan {
 /// Loads, prepares and renders `frame` of `shot`: each eye of a stereo camera, or the one
 /// `--eye` names.
 fn render_frame(args: &RenderArgs, shot: &Shot, frame: i64, plan: &Plan) -> anyhow::Result<()> {
+    let images = frame_images(args, shot, frame, plan)?;
+    // Preparing a production set takes minutes: a checkpoint of another render is refused
+    // first, from its header (the sums are read once the scene is ready).
+    if args.resume {
+        for image in &images {
+            check_checkpoint_header(image)?;
+        }
+    }
     let prepared = Prepared::build(shot, frame, &plan.overrides)?;
-    let scene = &prepared.scene;
-    for warning in &scene.warnings {
+    for warning in &prepared.scene.warnings {
         eprintln!("rift render: warning: {warning}");
     }
     report_bounce_guide(&prepared, frame);
-    let eyes: Vec<Option<Eye>> = match (&scene.stereo, args.eye) {
+    for image in images {
+        let run = Run {
+            time_limit: plan.time_limit,
+            checkpoint_every: plan.checkpoint_every,
+            resume: args.resume,
+            stop: plan.stop,
+            key: image.key,
+        };
+        render_one(
+            &prepared,
+            args,
+            image.eye,
+            plan.part,
+            &run,
+            frame,
+            &image.path,
+        )?;
+    }
+    Ok(())
+}
+
+/// One image a frame renders: an eye (or the only view), its output and its checkpoint key.
+struct FrameImage {
+    eye: Option<Eye>,
+    path: PathBuf,
+    /// The pixels rendered.
+    window: Window,
+    /// Present when checkpoints are written or read.
+    key: Option<Key>,
+}
+
+/// The images `frame` renders, worked out from the shot and the flags alone (before the scene
+/// is prepared): one, or each eye of a stereo camera, or the one `--eye` names.
+fn frame_images(
+    args: &RenderArgs,
+    shot: &Shot,
+    frame: i64,
+    plan: &Plan,
+) -> anyhow::Result<Vec<FrameImage>> {
+    let settings = Settings::read(shot, &plan.overrides)?;
+    let stereo =
+        rift_render::scene::camera::stereo(&shot.source, shot.render.camera_stereo.as_ref())?;
+    let eyes: Vec<Option<Eye>> = match (stereo, args.eye) {
         (None, Some(_)) => bail!("--eye: {} has no [camera.stereo]", args.shot.display()),
         (None, None) => vec![None],
         (Some(_), Some(eye)) => vec![Some(eye.into())],
@@ -294,39 +343,45 @@ fn render_frame(args: &RenderArgs, shot: &Shot, frame: i64, plan: &Plan) -> anyh
     let pattern = args
         .output
         .clone()
-        .unwrap_or_else(|| scene.settings.output.clone());
+        .unwrap_or_else(|| settings.output.clone());
     if plan.several_frames && !pattern.contains('#') {
         bail!("{pattern}: several frames need a `#` frame token in the output name");
     }
-    for eye in eyes {
+    let [w, h] = shot.camera.projection.resolution.map(|v| v as usize);
+    let window = plan.part.crop.unwrap_or(Window::full(w, h));
+    let image = |eye: Option<Eye>| {
         let pattern = match eye {
             Some(eye) => eye_path(&pattern, eye.name()),
             None => pattern.clone(),
         };
-        let path = PathBuf::from(frame_path(&pattern, frame));
-        let part = plan.part;
-        let run = Run {
-            time_limit: plan.time_limit,
-            checkpoint_every: plan.checkpoint_every,
-            resume: args.resume,
-            stop: plan.stop,
-            // Hashing the shot file and the program is done only where a checkpoint is
-            // written or read.
-            key: match plan.checkpoint_every.is_some() || args.resume {
-                true => Some(checkpoint_key(
-                    args,
-                    &shot.name,
-                    scene,
-                    &plan.overrides,
-                    eye,
-                    part,
-                )?),
-                false => None,
-            },
+        // Hashing the shot file and the program is done only where a checkpoint is written
+        // or read.
+        let key = match plan.checkpoint_every.is_some() || args.resume {
+            true => Some(checkpoint_key(
+                args, shot, frame, &settings, plan, eye, window,
+            )?),
+            false => None,
         };
-        render_one(&prepared, args, eye, part, &run, frame, &path)?;
+        anyhow::Ok(FrameImage {
+            eye,
+            path: PathBuf::from(frame_path(&pattern, frame)),
+            window,
+            key,
+        })
+    };
+    eyes.into_iter().map(image).collect()
+}
+
+/// Refuses to resume `image` from a checkpoint another render wrote, by its header.
+fn check_checkpoint_header(image: &FrameImage) -> anyhow::Result<()> {
+    let (Some(key), file) = (&image.key, crate::resume::checkpoint_path(&image.path)) else {
+        return Ok(());
+    };
+    if !file.exists() {
+        return Ok(());
     }
-    Ok(())
+    let (written, window) = Checkpoint::read_key(&file)?;
+    refuse_foreign(&file, &written, window, key, image.window)
 }
 
 /// Refuses a frame whose film (with its generated rings and checkpoints) cannot fit in memory;
@@ -414,17 +469,17 @@ struct Run {
 /// its pixels.
 fn checkpoint_key(
     args: &RenderArgs,
-    shot: &str,
-    scene: &Scene,
-    overrides: &Overrides,
+    shot: &Shot,
+    frame: i64,
+    s: &Settings,
+    plan: &Plan,
     eye: Option<Eye>,
-    part: Part,
+    window: Window,
 ) -> anyhow::Result<Key> {
-    let [w, h] = scene.camera.projection.resolution;
-    let window = part.crop.unwrap_or(Window::full(w as usize, h as usize));
-    let s = &scene.settings;
+    let [w, h] = shot.camera.projection.resolution;
+    let (part, overrides) = (plan.part, &plan.overrides);
     let settings = [
-        ("frame", scene.frame.to_string()),
+        ("frame", frame.to_string()),
         ("eye", eye.map_or("-", |e| e.name()).to_owned()),
         ("res", format!("{w}x{h}")),
         (
@@ -454,7 +509,7 @@ fn checkpoint_key(
         .into_iter()
         .map(|(k, v)| (k.to_owned(), v))
         .collect();
-    crate::resume::key(&args.shot, shot, settings)
+    crate::resume::key(&args.shot, &shot.name, settings)
 }
 
 /// Renders one image of the prepared scene (one eye, if `eye` is given) to `path`.
@@ -645,16 +700,29 @@ fn load_checkpoint(file: &Path, key: &Key, window: Window) -> anyhow::Result<Opt
         return Ok(None);
     }
     let checkpoint = Checkpoint::read(file)?;
-    let refusal = checkpoint.key.refusal(key).or_else(|| {
-        (checkpoint.window != window).then(|| "its pixel window differs from this render's".into())
+    refuse_foreign(file, &checkpoint.key, checkpoint.window, key, window)?;
+    Ok(Some(checkpoint))
+}
+
+/// Refuses a checkpoint (`file`) written with key `written` over `written_window` for a render
+/// whose own key and window these are not.
+fn refuse_foreign(
+    file: &Path,
+    written: &Key,
+    written_window: Window,
+    key: &Key,
+    window: Window,
+) -> anyhow::Result<()> {
+    let refusal = written.refusal(key).or_else(|| {
+        (written_window != window).then(|| "its pixel window differs from this render's".into())
     });
-    if let Some(why) = refusal {
-        bail!(
+    match refusal {
+        Some(why) => bail!(
             "{}: cannot resume from this checkpoint: {why}; delete it to render afresh",
             file.display()
-        );
+        ),
+        None => Ok(()),
     }
-    Ok(Some(checkpoint))
 }
 
 /// Removes a finished frame's checkpoint (there may be none).

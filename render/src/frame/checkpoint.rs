@@ -164,6 +164,22 @@ impl Checkpoint {
         })
     }
 
+    /// The key and pixel window of the checkpoint at `path`, from its header alone: enough to
+    /// refuse another render's checkpoint before anything is prepared or the sums are read.
+    pub fn read_key(path: &Path) -> Result<(Key, Window), RenderError> {
+        let error = |message: String| RenderError::Image {
+            path: path.to_owned(),
+            message,
+        };
+        let meta =
+            exr::meta::MetaData::read_from_file(path, false).map_err(|e| error(e.to_string()))?;
+        let header = meta
+            .headers
+            .first()
+            .ok_or_else(|| error("it has no layer".into()))?;
+        key_and_window(&header.own_attributes, header.layer_size).map_err(error)
+    }
+
     /// A checkpoint from EXR bytes of at most `max_pixels` (the reader the fuzz target drives).
     pub fn decode(bytes: &[u8], max_pixels: usize) -> Result<Self, String> {
         use exr::prelude::*;
@@ -179,29 +195,7 @@ impl Checkpoint {
             .from_buffered(std::io::Cursor::new(bytes))
             .map_err(|e| e.to_string())?;
         let layer = &image.layer_data;
-        let text: BTreeMap<String, String> = layer
-            .attributes
-            .other
-            .iter()
-            .filter_map(|(k, v)| match v {
-                AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
-                _ => None,
-            })
-            .collect();
-        let key = Key::from_attributes(&text)?;
-        let (x0, y0) = (
-            layer.attributes.layer_position.x(),
-            layer.attributes.layer_position.y(),
-        );
-        if x0 < 0 || y0 < 0 {
-            return Err("its data window starts outside the frame".into());
-        }
-        let window = Window {
-            x0: x0 as usize,
-            x1: x0 as usize + layer.size.width(),
-            y0: y0 as usize,
-            y1: y0 as usize + layer.size.height(),
-        };
+        let (key, window) = key_and_window(&layer.attributes, layer.size)?;
         let channels: BTreeMap<String, &FlatSamples> = layer
             .channel_data
             .list
@@ -401,6 +395,33 @@ impl<'a> StateChannels<'a> {
             })
             .collect()
     }
+}
+
+/// A checkpoint layer's key (its text attributes) and the pixels it covers (its data window).
+fn key_and_window(
+    attributes: &exr::meta::header::LayerAttributes,
+    size: exr::math::Vec2<usize>,
+) -> Result<(Key, Window), String> {
+    let text: BTreeMap<String, String> = attributes
+        .other
+        .iter()
+        .filter_map(|(k, v)| match v {
+            AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect();
+    let key = Key::from_attributes(&text)?;
+    let (x0, y0) = (attributes.layer_position.x(), attributes.layer_position.y());
+    if x0 < 0 || y0 < 0 {
+        return Err("its data window starts outside the frame".into());
+    }
+    let window = Window {
+        x0: x0 as usize,
+        x1: x0 as usize + size.width(),
+        y0: y0 as usize,
+        y1: y0 as usize + size.height(),
+    };
+    Ok((key, window))
 }
 
 #[cfg(test)]
