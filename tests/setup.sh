@@ -14,6 +14,14 @@ cd "$(dirname "$0")/.."
 # On a processor older than the optimised builds' target, say so before anything is built.
 tests/processor_check.sh
 
+# The test command's build (`cargo test --release --workspace` builds exactly this), started in
+# the background so that it runs while the packages below download and install (a minute or
+# more on a fresh machine, mostly waiting on the network); the `cargo test` that follows waits
+# for it on cargo's lock and finds everything built. Its log is target/setup-build.log; a
+# failure shows again, in full, when `cargo test` builds.
+mkdir -p target
+cargo test --release --workspace --no-run </dev/null >target/setup-build.log 2>&1 &
+
 venv=tests/.venv
 # A virtual environment whose interpreter no longer runs (Python upgraded or moved) is made anew.
 if [ -e "$venv" ] && ! "$venv/bin/python3" -c 'import sys' 2>/dev/null; then
