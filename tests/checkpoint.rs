@@ -236,6 +236,14 @@ fn checkpoints_of_anything_else_are_refused() {
     assert!(plain.status.success(), "{}", stderr(&plain));
     std::fs::rename(d.join("plain.exr"), &checkpoint).unwrap();
     expect_refused(d, &rift_exe, &args, "not a checkpoint");
+    // A FIFO in the checkpoint's place is refused at once, not read for ever.
+    std::fs::remove_file(&checkpoint).unwrap();
+    assert!(
+        sh(&format!("mkfifo '{}'", checkpoint.display()))
+            .status
+            .success()
+    );
+    expect_refused(d, &rift_exe, &args, "not a regular file");
 }
 
 /// Runs `script` (sh) and returns its output.

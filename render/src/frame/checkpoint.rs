@@ -171,6 +171,8 @@ impl Checkpoint {
             path: path.to_owned(),
             message,
         };
+        // A directory, device or FIFO in its place gets an error, not a read that never ends.
+        rift_fx::io::regular_file(path).map_err(|e| error(e.to_string()))?;
         let meta =
             exr::meta::MetaData::read_from_file(path, false).map_err(|e| error(e.to_string()))?;
         let header = meta
