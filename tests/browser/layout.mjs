@@ -28,7 +28,8 @@ const browser = await chromium.launch({
 });
 // The tests' visits (--serve) draw a quarter of the pixels a person's window would: software GL
 // draws every pixel on the processor, and the layout suite took 173 s of processor time at
-// 1280 x 720 against 148 s at 640 x 360. Screenshots and frame rates keep the full size.
+// 1280 x 720 against 148 s at 640 x 360. The command-line form (screenshots, frame rates)
+// keeps the full size.
 const FULL_VIEW = { width: 1280, height: 720 };
 const SMALL_VIEW = { width: 640, height: 360 };
 const serving = process.argv[2] === '--serve';
