@@ -292,23 +292,14 @@ fn render_frame(args: &RenderArgs, shot: &Shot, frame: i64, plan: &Plan) -> anyh
         eprintln!("rift render: warning: {warning}");
     }
     report_bounce_guide(&prepared, frame);
-    for image in images {
-        let run = Run {
-            time_limit: plan.time_limit,
-            checkpoint_every: plan.checkpoint_every,
-            resume: args.resume,
-            stop: plan.stop,
-            key: image.key,
-        };
-        render_one(
-            &prepared,
-            args,
-            image.eye,
-            plan.part,
-            &run,
-            frame,
-            &image.path,
-        )?;
+    let run = Run {
+        time_limit: plan.time_limit,
+        checkpoint_every: plan.checkpoint_every,
+        resume: args.resume,
+        stop: plan.stop,
+    };
+    for target in &images {
+        render_one(&prepared, args, target, plan.part, &run, frame)?;
     }
     Ok(())
 }
@@ -455,14 +446,12 @@ struct Part {
     shot_id: u32,
 }
 
-/// How one image is run: its time limit, and its checkpoints and their key.
+/// How each image is run: its time limit and its checkpoints.
 struct Run {
     time_limit: Option<Duration>,
     checkpoint_every: Option<Duration>,
     resume: bool,
     stop: Option<&'static AtomicBool>,
-    /// Present when checkpoints are written or read.
-    key: Option<Key>,
 }
 
 /// The key tying a checkpoint to this image: the shot file, and every setting that decides
@@ -512,32 +501,35 @@ fn checkpoint_key(
     crate::resume::key(&args.shot, &shot.name, settings)
 }
 
-/// Renders one image of the prepared scene (one eye, if `eye` is given) to `path`.
+/// Renders `target`, one image of the prepared scene (one eye, if it names one), to its output.
 fn render_one(
     prepared: &Prepared,
     args: &RenderArgs,
-    eye: Option<Eye>,
+    target: &FrameImage,
     part: Part,
     run: &Run,
     frame: i64,
-    path: &Path,
 ) -> anyhow::Result<()> {
-    let crop = part.crop;
+    let FrameImage {
+        eye,
+        path,
+        window,
+        key,
+    } = target;
+    let (eye, window, crop) = (*eye, *window, part.crop);
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         prepare_output_dir(dir)?;
     }
     let started = Instant::now();
     let scene = &prepared.scene;
     let spp = scene.settings.spp;
-    let [w, h] = scene.camera.projection.resolution.map(|v| v as usize);
-    let window = crop.unwrap_or(Window::full(w, h));
     let label = match eye {
         Some(eye) => format!("frame {frame} {}", eye.name()),
         None => format!("frame {frame}"),
     };
     let denoise = denoises(args, scene, &label)?;
     let checkpoint_file = crate::resume::checkpoint_path(path);
-    let resumed = match (run.resume, &run.key) {
+    let resumed = match (run.resume, key) {
         (true, Some(key)) => load_checkpoint(&checkpoint_file, key, window)?,
         _ => None,
     };
@@ -548,7 +540,7 @@ fn render_one(
     let advance = |n: u64| progress.advance(n);
     let save_error = Mutex::new(None);
     let save = |image: &Image, sums: Sums| {
-        let Some(key) = &run.key else {
+        let Some(key) = key else {
             return;
         };
         let checkpoint = Checkpoint {

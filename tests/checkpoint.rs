@@ -13,8 +13,6 @@ use std::time::{Duration, Instant};
 
 const SPP: &str = "64";
 
-/// A copy of the lit-through shot (a room lit through two openings) whose mesh paths work
-/// from `dir`, with `extra` appended.
 /// `lit_through` (with `extra` appended) as `shot.toml` in `dir`, its meshes read through a
 /// link `dir/assets` to the examples' assets (made if missing).
 fn shot_in(dir: &Path, extra: &str) -> PathBuf {
