@@ -440,9 +440,9 @@ fn bad_instancers_are_refused_naming_the_prim_and_the_attribute() {
             vec!["</Scatter>.orientations", "entry 0 is not a rotation"],
         ),
         (
-            "int[] protoIndices = [0]\n point3f[] positions.timeSamples = {\n  \
-             1: [(0,0,0)],\n  2: [(1,0,0)],\n }",
-            vec!["</Scatter>.positions", "sampled over time", "velocities"],
+            "int[] protoIndices = [0, 0]\n point3f[] positions.timeSamples = {\n  \
+             1: [(0,0,0)],\n  2: [(1,0,0), (2,0,0)],\n }",
+            vec!["</Scatter>.positions", "1 entries for 2 instances"],
         ),
     ];
     for (i, (body, expected)) in cases.iter().enumerate() {
@@ -489,6 +489,118 @@ fn bad_instancers_are_refused_naming_the_prim_and_the_attribute() {
     assert!(
         e.contains("</Scatter/Tri>.transform") && e.contains("2 instances"),
         "{e}"
+    );
+}
+
+/// A stage under a dome light with grey quads `placed` (a PointInstancer's, or meshes and
+/// instances of the class `/Proto`'s quad) under an Xform whose `translate` (`rig`) moves them
+/// too.
+fn moving_quads(placed: &str, rig: &str) -> String {
+    format!(
+        "#usda 1.0\n(\n timeCodesPerSecond = 24\n startTimeCode = 1\n endTimeCode = 2\n)\n\
+         class \"Proto\" {{\n {}\n}}\n\
+         def DomeLight \"Sky\" {{\n color3f inputs:color = (1, 0.9, 0.8)\n}}\n\
+         def Xform \"Rig\" {{\n double3 xformOp:translate{rig}\n \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]\n {placed}\n}}\n",
+        quad("Quad", "")
+    )
+}
+
+/// A quad mesh 0.4 across called `name`, with `ops` (its transform's attributes).
+fn quad(name: &str, ops: &str) -> String {
+    format!(
+        "def Mesh \"{name}\" {{\n  point3f[] points = [(-0.2,-0.2,0), (0.2,-0.2,0), \
+         (0.2,0.2,0), (-0.2,0.2,0)]\n  int[] faceVertexCounts = [4]\n  \
+         int[] faceVertexIndices = [0, 1, 2, 3]\n  uniform token subdivisionScheme = \"none\"\n  \
+         {ops}\n }}"
+    )
+}
+
+#[test]
+fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_instance_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The rig bobs up at time code 1.5, the end of frame 1's shutter, between the placements'
+    // samples at 1 and 2: the instance is placed there by its placements interpolated as USD
+    // interpolates them (positions and scales linearly, orientations along the sphere).
+    let bob = ".timeSamples = { 1: (0, 0, 0), 1.5: (0, 0.1, 0), 2: (0, 0, 0) }";
+    let instancer = |second: &str| {
+        format!(
+            "def PointInstancer \"Scatter\" {{\n  rel prototypes = [</Rig/Scatter/Quad>]\n  \
+             int[] protoIndices = [0, 0]\n  point3f[] positions.timeSamples = {{ \
+             1: [(-0.8, 1, -1), (0.3, 0.7, -1.2)], 2: [{second}, (0.3, 0.7, -1.2)] }}\n  \
+             {}\n }}",
+            quad("Quad", "")
+        )
+    };
+    let moving = instancer("(0.8, 1, -1)").replace(
+        "int[] protoIndices",
+        "quath[] orientations.timeSamples = { 1: [(1, 0, 0, 0), (1, 0, 0, 0)], \
+             2: [(0.70710677, 0, 0, 0.70710677), (1, 0, 0, 0)] }\n  \
+             float3[] scales.timeSamples = { 1: [(1, 1, 1), (1, 1, 1)], \
+             2: [(2, 2, 2), (1, 1, 1)] }\n  int[] protoIndices",
+    );
+    std::fs::write(d.join("instanced.usda"), moving_quads(&moving, bob)).unwrap();
+    // The same motion keyed by transform ops on an instance of the class's quad, which rift
+    // also keys by its world transforms. (The keys are written with decimal points: the USD
+    // crate reads `90` in a usda float attribute's samples as an integer and holds it
+    // between samples rather than interpolating.)
+    let keyed = "def Xform \"Moving\" (\n  inherits = </Proto>\n  instanceable = true\n ) {\n  \
+                 double3 xformOp:translate.timeSamples = { 1: (-0.8, 1, -1), 2: (0.8, 1, -1) }\n  \
+                 float xformOp:rotateZ.timeSamples = { 1: 0.0, 2: 90.0 }\n  \
+                 float3 xformOp:scale.timeSamples = { 1: (1.0, 1.0, 1.0), 2: (2.0, 2.0, 2.0) }\n  \
+                 uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateZ\", \
+                 \"xformOp:scale\"]\n }\n "
+        .to_owned()
+        + &quad(
+            "Still",
+            "double3 xformOp:translate = (0.3, 0.7, -1.2)\n  \
+             uniform token[] xformOpOrder = [\"xformOp:translate\"]",
+        );
+    std::fs::write(d.join("keyed.usda"), moving_quads(&keyed, bob)).unwrap();
+    // The instancer held where frame 1 starts: what rift rendered before it read the samples.
+    let held = instancer("(-0.8, 1, -1)");
+    std::fs::write(d.join("held.usda"), moving_quads(&held, bob)).unwrap();
+    for name in ["instanced", "keyed", "held"] {
+        let shot = shot_with(&format!("file = \"{name}.usda\""));
+        std::fs::write(d.join(format!("{name}.toml")), shot).unwrap();
+        let said = render(d, &format!("{name}.toml"), &format!("{name}.exr"));
+        assert!(!said.contains("Scatter"), "{name}: {said}");
+    }
+    let p = |name: &str| d.join(name);
+    // Frame 1's shutter sweeps the quad from the left third to the middle, turning and
+    // growing, as the keyed instance does (the same samples: only the BVH's ties may differ),
+    // and unlike the held one.
+    assert_means_agree(&p("instanced.exr"), &p("keyed.exr"), 2e-3);
+    assert_means_differ(&p("instanced.exr"), &p("held.exr"), 0.02);
+}
+
+#[test]
+fn an_instancer_whose_instances_cannot_be_followed_over_time_is_said_and_held() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Its second sample has an instance more (a particle born), and it gives velocities.
+    let body = "int[] protoIndices = [0]\n point3f[] positions.timeSamples = {\n  \
+                1: [(0,1,-1)],\n  2: [(1,1,-1), (0,1,-1)],\n }\n \
+                vector3f[] velocities = [(24, 0, 0)]";
+    std::fs::write(d.join("born.usda"), instancer(body)).unwrap();
+    std::fs::write(d.join("born.toml"), shot_with("file = \"born.usda\"")).unwrap();
+    let said = render(d, "born.toml", "born.exr");
+    assert!(
+        said.contains("born.usda")
+            && said.contains("</Scatter> cannot be followed over time")
+            && said.contains("at time code 2 positions has 2 entries"),
+        "{said}"
+    );
+    // Followed, its velocities are not used: said.
+    let body = "int[] protoIndices = [0]\n point3f[] positions.timeSamples = {\n  \
+                1: [(0,1,-1)],\n  2: [(1,1,-1)],\n }\n vector3f[] velocities = [(24, 0, 0)]";
+    std::fs::write(d.join("both.usda"), instancer(body)).unwrap();
+    std::fs::write(d.join("both.toml"), shot_with("file = \"both.usda\"")).unwrap();
+    let said = render(d, "both.toml", "both.exr");
+    assert!(
+        said.contains("</Scatter> gives velocities and samples its placements over time"),
+        "{said}"
     );
 }
 

@@ -20,6 +20,11 @@ use std::sync::Arc;
 /// before a PointInstancer's instances are made.
 const BYTES_PER_INSTANCE: u64 = 640;
 
+/// Bytes each further key of an instance takes, where a PointInstancer's placements are
+/// sampled over time: the key itself and the matrix it is made from.
+const BYTES_PER_KEY: u64 = (std::mem::size_of::<rift_fx::rig::TransformKey>()
+    + std::mem::size_of::<(f64, DMat4)>()) as u64;
+
 /// A mesh inside a prototype: its prim, its transform relative to the prototype's placement,
 /// its path below the prototype (which names it under each instance), and what its instances
 /// share it by (with the transform baked into its points).
@@ -185,8 +190,19 @@ impl Walk<'_> {
         let prototypes = prim.relationship("prototypes").targets().map_err(read)?;
         let arrays = self.instance_arrays(prim, prototypes.len())?;
         let n = arrays.proto_indices.len();
-        self.check_instances(&path, n)?;
-        let world = xform::world_samples(prim, self.source)?;
+        let mut world = xform::world_samples(prim, self.source)?;
+        if arrays.poses.len() > 1 {
+            // The instancer's transform at its own samples and at the placements'.
+            let mut codes: Vec<f64> = world.iter().map(|&(c, _)| c).collect();
+            codes.extend(arrays.poses.iter().map(|p| p.code));
+            codes.sort_by(f64::total_cmp);
+            codes.dedup();
+            world = codes
+                .into_iter()
+                .map(|c| Ok((c, xform::world(prim, c).map_err(read)?)))
+                .collect::<Result<_, RenderError>>()?;
+        }
+        self.check_instances(&path, n, world.len())?;
         let mut prototype_meshes = Vec::with_capacity(prototypes.len());
         for target in &prototypes {
             let proto = prim.stage().prim(target.clone());
@@ -222,10 +238,11 @@ impl Walk<'_> {
         Ok(())
     }
 
-    /// Refuses a PointInstancer of `n` instances whose placements would not fit in the memory
-    /// budget, before any is made.
-    fn check_instances(&self, path: &str, n: usize) -> Result<(), RenderError> {
-        let need = n as u64 * BYTES_PER_INSTANCE;
+    /// Refuses a PointInstancer of `n` instances, each placed by `keys` keys, whose placements
+    /// would not fit in the memory budget, before any is made.
+    fn check_instances(&self, path: &str, n: usize, keys: usize) -> Result<(), RenderError> {
+        let per_instance = BYTES_PER_INSTANCE + keys.saturating_sub(1) as u64 * BYTES_PER_KEY;
+        let need = (n as u64).saturating_mul(per_instance);
         match self.source.budget {
             Some(budget) if need > budget => Err(self.source.error(
                 path,
@@ -243,7 +260,7 @@ impl Walk<'_> {
 
     /// The per-instance arrays of a PointInstancer of `prototypes` prototypes, checked.
     fn instance_arrays(
-        &self,
+        &mut self,
         prim: &Prim,
         prototypes: usize,
     ) -> Result<InstanceArrays, RenderError> {
@@ -266,50 +283,40 @@ impl Walk<'_> {
                 format!("entry {i} is {p}, past the {prototypes} prototypes it targets"),
             ));
         }
-        let vectors = |name: &str| -> Result<Option<Vec<DVec3>>, RenderError> {
-            let Some(v) = values::value(prim, name, code).map_err(read)? else {
-                return Ok(None);
-            };
-            let array = values::vec3_array(&v)
-                .ok_or_else(|| error(name, "expected an array of 3-vectors".into()))?;
-            match array.len() == n {
-                true => Ok(Some(array.into_iter().map(|p| p.as_dvec3()).collect())),
-                false => Err(error(
-                    name,
-                    format!("it has {} entries for {n} instances", array.len()),
-                )),
-            }
-        };
-        let positions = vectors("positions")?
-            .ok_or_else(|| error("positions", "missing: a PointInstancer needs it".into()))?;
-        let scales = vectors("scales")?;
-        let velocities = vectors("velocities")?;
-        let orientations = self.orientations(prim, n)?;
+        let at_start = self.poses(prim, code)?;
+        if let Some((name, entries)) = at_start.miscounted(n) {
+            return Err(error(
+                name,
+                format!("it has {entries} entries for {n} instances"),
+            ));
+        }
+        let velocities = self.vectors(prim, "velocities", code)?;
+        if let Some(v) = velocities.as_ref().filter(|v| v.len() != n) {
+            return Err(error(
+                "velocities",
+                format!("it has {} entries for {n} instances", v.len()),
+            ));
+        }
         let ids = values::int_array(prim, "ids", code).map_err(read)?;
         let invisible = values::int_array(prim, "invisibleIds", code).map_err(read)?;
         let angular_velocities = values::value(prim, "angularVelocities", code)
             .map_err(read)?
             .is_some();
-        let animated = ["positions", "orientations", "orientationsf", "scales"]
-            .iter()
-            .find(|name| {
-                prim.attribute(**name)
-                    .time_sample_times()
-                    .is_ok_and(|t| xform::within(&t, self.source.codes()).len() > 1)
-            });
-        if let Some(name) = animated {
-            return Err(error(
-                name,
-                "it is sampled over time, which rift does not read yet; give velocities for \
-                 motion blur"
-                    .into(),
+        let mut poses = self.sampled_poses(prim, n, ids.as_ref())?;
+        if poses.len() > 1 && velocities.iter().flatten().any(|&v| v != DVec3::ZERO) {
+            self.out.warnings.push(format!(
+                "{}: <{path}> gives velocities and samples its placements over time: rift \
+                 moves its instances between the samples, as USD interpolates them, and does \
+                 not use the velocities",
+                self.source.layer.display()
             ));
+        }
+        if poses.is_empty() {
+            poses.push(at_start);
         }
         Ok(InstanceArrays {
             proto_indices,
-            positions,
-            orientations,
-            scales,
+            poses,
             velocities,
             ids,
             invisible,
@@ -317,10 +324,92 @@ impl Walk<'_> {
         })
     }
 
-    /// A PointInstancer's orientations (half or single precision), one per instance.
-    fn orientations(&self, prim: &Prim, n: usize) -> Result<Option<Vec<DQuat>>, RenderError> {
+    /// The placements of a PointInstancer of `n` instances at each time code the span needs
+    /// (its samples within it, and the nearest outside each end), where they are sampled over
+    /// time; none where they are not, or where the instances cannot be followed from sample to
+    /// sample (their number or `ids` change), which is said: they are then placed as at the
+    /// span's start, moved by their velocities.
+    fn sampled_poses(
+        &mut self,
+        prim: &Prim,
+        n: usize,
+        ids: Option<&Vec<u32>>,
+    ) -> Result<Vec<Poses>, RenderError> {
         let path = prim.path().as_str();
-        let code = self.source.codes()[0];
+        let read = |e| self.source.read_error(path, e);
+        let mut times = Vec::new();
+        for name in POSE_ATTRIBUTES {
+            times.extend(prim.attribute(name).time_sample_times().map_err(read)?);
+        }
+        times.retain(|t| t.is_finite());
+        times.sort_by(f64::total_cmp);
+        times.dedup();
+        let codes = xform::within(&times, self.source.codes());
+        if codes.len() < 2 {
+            return Ok(Vec::new());
+        }
+        let mut poses = Vec::with_capacity(codes.len());
+        for code in codes {
+            let pose = self.poses(prim, code)?;
+            let changed = match pose.miscounted(n) {
+                Some((name, entries)) => Some(format!("{name} has {entries} entries")),
+                None => {
+                    let ids_then = values::int_array(prim, "ids", code).map_err(read)?;
+                    (ids_then.as_ref() != ids).then(|| "its ids differ".to_owned())
+                }
+            };
+            if let Some(changed) = changed {
+                self.out.warnings.push(format!(
+                    "{}: <{path}> cannot be followed over time: at time code {code} {changed} \
+                     (against {n} instances at the span's start); its instances stay where the \
+                     span starts, moved by their velocities",
+                    self.source.layer.display()
+                ));
+                return Ok(Vec::new());
+            }
+            poses.push(pose);
+        }
+        Ok(poses)
+    }
+
+    /// A PointInstancer's placement arrays at `code`, each of the length authored.
+    fn poses(&self, prim: &Prim, code: f64) -> Result<Poses, RenderError> {
+        let positions = self.vectors(prim, "positions", code)?.ok_or_else(|| {
+            let message = "missing: a PointInstancer needs it".into();
+            self.source
+                .error(prim.path().as_str(), Some("positions"), message)
+        })?;
+        Ok(Poses {
+            code,
+            positions,
+            orientations: self.orientations(prim, code)?,
+            scales: self.vectors(prim, "scales", code)?,
+        })
+    }
+
+    /// An array of 3-vectors at `code`, `None` where it is not authored.
+    fn vectors(
+        &self,
+        prim: &Prim,
+        name: &str,
+        code: f64,
+    ) -> Result<Option<Vec<DVec3>>, RenderError> {
+        let path = prim.path().as_str();
+        let Some(v) =
+            values::value(prim, name, code).map_err(|e| self.source.read_error(path, e))?
+        else {
+            return Ok(None);
+        };
+        let array = values::vec3_array(&v).ok_or_else(|| {
+            self.source
+                .error(path, Some(name), "expected an array of 3-vectors".into())
+        })?;
+        Ok(Some(array.into_iter().map(|p| p.as_dvec3()).collect()))
+    }
+
+    /// A PointInstancer's orientations (half or single precision) at `code`.
+    fn orientations(&self, prim: &Prim, code: f64) -> Result<Option<Vec<DQuat>>, RenderError> {
+        let path = prim.path().as_str();
         let read = |e| self.source.read_error(path, e);
         for name in ["orientations", "orientationsf"] {
             let Some(v) = values::value(prim, name, code).map_err(read)? else {
@@ -344,13 +433,6 @@ impl Walk<'_> {
                     ));
                 }
             };
-            if quats.len() != n {
-                return Err(self.source.error(
-                    path,
-                    Some(name),
-                    format!("it has {} entries for {n} instances", quats.len()),
-                ));
-            }
             if let Some(i) = quats
                 .iter()
                 .position(|q| !q.is_finite() || q.length() == 0.0)
@@ -384,12 +466,46 @@ impl Walk<'_> {
     }
 }
 
-/// A PointInstancer's per-instance arrays, each as long as `proto_indices`.
-struct InstanceArrays {
-    proto_indices: Vec<u32>,
+/// The attributes that place a PointInstancer's instances, and may be sampled over time.
+const POSE_ATTRIBUTES: [&str; 4] = ["positions", "orientations", "orientationsf", "scales"];
+
+/// A PointInstancer's placement arrays at one time code.
+struct Poses {
+    code: f64,
     positions: Vec<DVec3>,
     orientations: Option<Vec<DQuat>>,
     scales: Option<Vec<DVec3>>,
+}
+
+impl Poses {
+    /// The first array whose length is not `n`, and its length.
+    fn miscounted(&self, n: usize) -> Option<(&'static str, usize)> {
+        let lengths = [
+            ("positions", Some(self.positions.len())),
+            ("orientations", self.orientations.as_ref().map(Vec::len)),
+            ("scales", self.scales.as_ref().map(Vec::len)),
+        ];
+        lengths
+            .into_iter()
+            .find_map(|(name, len)| len.filter(|&l| l != n).map(|l| (name, l)))
+    }
+
+    /// Instance `i`'s rotation, scale and position.
+    fn of(&self, i: usize) -> (DQuat, DVec3, DVec3) {
+        (
+            self.orientations.as_ref().map_or(DQuat::IDENTITY, |q| q[i]),
+            self.scales.as_ref().map_or(DVec3::ONE, |s| s[i]),
+            self.positions[i],
+        )
+    }
+}
+
+/// A PointInstancer's per-instance arrays, each as long as `proto_indices`.
+struct InstanceArrays {
+    proto_indices: Vec<u32>,
+    /// The placements at each time code the span needs, in order; one (at the span's start)
+    /// where they are not sampled over time.
+    poses: Vec<Poses>,
     velocities: Option<Vec<DVec3>>,
     ids: Option<Vec<u32>>,
     invisible: Option<Vec<u32>>,
@@ -412,17 +528,30 @@ impl InstanceArrays {
     }
 
     /// Instance `i`'s world transform at each of the instancer's `world` samples (time code
-    /// and matrix), moved by its velocity where it has one: then at the span's ends.
+    /// and matrix): where its placements are sampled over time, interpolated between them at
+    /// each (`world` then holds every placement's code too); otherwise moved by its velocity
+    /// where it has one, at the span's ends.
     fn placements(
         &self,
         i: usize,
         world: &[(f64, DMat4)],
         source: &super::Source,
     ) -> Vec<(f64, DMat4)> {
-        let rotation = self.orientations.as_ref().map_or(DQuat::IDENTITY, |q| q[i]);
-        let scale = self.scales.as_ref().map_or(DVec3::ONE, |s| s[i]);
+        if self.poses.len() > 1 {
+            return world
+                .iter()
+                .map(|&(c, m)| {
+                    let (rotation, scale, position) = self.pose_at(i, c);
+                    (
+                        c,
+                        m * DMat4::from_scale_rotation_translation(scale, rotation, position),
+                    )
+                })
+                .collect();
+        }
+        let (rotation, scale, position) = self.poses[0].of(i);
         let at = |offset: DVec3| {
-            DMat4::from_scale_rotation_translation(scale, rotation, self.positions[i] + offset)
+            DMat4::from_scale_rotation_translation(scale, rotation, position + offset)
         };
         match self.velocities.as_ref().map(|v| v[i]) {
             Some(v) if v != DVec3::ZERO => {
@@ -447,6 +576,23 @@ impl InstanceArrays {
                 .map(|&(c, m)| (c, m * at(DVec3::ZERO)))
                 .collect(),
         }
+    }
+
+    /// Instance `i`'s rotation, scale and position at `code`, interpolated between the
+    /// placements' samples as USD does (positions and scales linearly, rotations along the
+    /// sphere), held beyond the first and the last.
+    fn pose_at(&self, i: usize, code: f64) -> (DQuat, DVec3, DVec3) {
+        let after = self.poses.partition_point(|p| p.code <= code);
+        let (Some(a), Some(b)) = (
+            after.checked_sub(1).map(|k| &self.poses[k]),
+            self.poses.get(after),
+        ) else {
+            let held = &self.poses[after.min(self.poses.len() - 1)];
+            return held.of(i);
+        };
+        let t = (code - a.code) / (b.code - a.code);
+        let ((ra, sa, pa), (rb, sb, pb)) = (a.of(i), b.of(i));
+        (ra.slerp(rb, t), sa.lerp(sb, t), pa.lerp(pb, t))
     }
 }
 
