@@ -592,6 +592,19 @@ fn an_instancer_whose_instances_cannot_be_followed_over_time_is_said_and_held() 
             && said.contains("at time code 2 positions has 2 entries"),
         "{said}"
     );
+    // Its instances renumbered between the samples: followed by index they would swap.
+    let body = "int[] protoIndices = [0, 0]\n point3f[] positions.timeSamples = {\n  \
+                1: [(0,1,-1), (1,1,-1)],\n  2: [(1,1,-1), (0,1,-1)],\n }\n \
+                int64[] ids.timeSamples = { 1: [3, 4], 2: [4, 3] }";
+    std::fs::write(d.join("renumbered.usda"), instancer(body)).unwrap();
+    let shot = shot_with("file = \"renumbered.usda\"");
+    std::fs::write(d.join("renumbered.toml"), shot).unwrap();
+    let said = render(d, "renumbered.toml", "renumbered.exr");
+    assert!(
+        said.contains("</Scatter> cannot be followed over time")
+            && said.contains("at time code 2 its ids differ"),
+        "{said}"
+    );
     // Followed, its velocities are not used: said.
     let body = "int[] protoIndices = [0]\n point3f[] positions.timeSamples = {\n  \
                 1: [(0,1,-1)],\n  2: [(1,1,-1)],\n }\n vector3f[] velocities = [(24, 0, 0)]";

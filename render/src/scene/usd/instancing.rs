@@ -302,7 +302,7 @@ impl Walk<'_> {
         let angular_velocities = values::value(prim, "angularVelocities", code)
             .map_err(read)?
             .is_some();
-        let mut poses = self.sampled_poses(prim, n, ids.as_ref())?;
+        let mut poses = self.sampled_poses(prim, (&proto_indices, ids.as_ref()))?;
         if poses.len() > 1 && velocities.iter().flatten().any(|&v| v != DVec3::ZERO) {
             self.out.warnings.push(format!(
                 "{}: <{path}> gives velocities and samples its placements over time: rift \
@@ -324,17 +324,17 @@ impl Walk<'_> {
         })
     }
 
-    /// The placements of a PointInstancer of `n` instances at each time code the span needs
-    /// (its samples within it, and the nearest outside each end), where they are sampled over
-    /// time; none where they are not, or where the instances cannot be followed from sample to
-    /// sample (their number or `ids` change), which is said: they are then placed as at the
-    /// span's start, moved by their velocities.
+    /// The placements of a PointInstancer with `proto_indices` and `ids` at the span's start at
+    /// each time code the span needs (its samples within it, and the nearest outside each end),
+    /// where they are sampled over time; none where they are not, or where the instances cannot
+    /// be followed from sample to sample (their number, prototypes or `ids` change), which is
+    /// said: they are then placed as at the span's start, moved by their velocities.
     fn sampled_poses(
         &mut self,
         prim: &Prim,
-        n: usize,
-        ids: Option<&Vec<u32>>,
+        (proto_indices, ids): (&[u32], Option<&Vec<u32>>),
     ) -> Result<Vec<Poses>, RenderError> {
+        let n = proto_indices.len();
         let path = prim.path().as_str();
         let read = |e| self.source.read_error(path, e);
         let mut times = Vec::new();
@@ -354,8 +354,17 @@ impl Walk<'_> {
             let changed = match pose.miscounted(n) {
                 Some((name, entries)) => Some(format!("{name} has {entries} entries")),
                 None => {
-                    let ids_then = values::int_array(prim, "ids", code).map_err(read)?;
-                    (ids_then.as_ref() != ids).then(|| "its ids differ".to_owned())
+                    let same = |name: &str, then: Option<&[u32]>| {
+                        let now = values::int_array(prim, name, code).map_err(read)?;
+                        Ok::<_, RenderError>(now.as_deref() == then)
+                    };
+                    if !same("protoIndices", Some(proto_indices))? {
+                        Some("its protoIndices differ".to_owned())
+                    } else if !same("ids", ids.map(Vec::as_slice))? {
+                        Some("its ids differ".to_owned())
+                    } else {
+                        None
+                    }
                 }
             };
             if let Some(changed) = changed {
