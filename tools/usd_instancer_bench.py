@@ -1,5 +1,6 @@
 """Memory and time of a PointInstancer of 10^5 instances (usdc) against the same stage with one
-instance: the prototype is a wavy grid of 20,000 triangles, the instances a random field of
+instance, and against the same 10^5 instances moving (their positions sampled at three time codes
+around the frame, so each is keyed three times): the prototype is a wavy grid of 20,000 triangles, the instances a random field of
 rotated, uniformly scaled copies on a plane, rendered at 64x64 with 4 samples a pixel. Shared
 instances should cost their prototype's triangles once and a few hundred bytes each; as copies,
 10^5 instances would be 2x10^9 triangles. Runs alternate; medians are printed.
@@ -48,7 +49,7 @@ def prototype():
     return points, quads
 
 
-def write(folder, count, name):
+def write(folder, count, name, moving=False):
     stage = Usd.Stage.CreateNew(os.path.join(folder, name))
     pi = UsdGeom.PointInstancer.Define(stage, "/Field")
     mesh = UsdGeom.Mesh.Define(stage, "/Field/Prototypes/Tile")
@@ -67,7 +68,14 @@ def write(folder, count, name):
     orientations = [Gf.Quath(float(np.cos(a)), Gf.Vec3h(0.0, float(np.sin(a)), 0.0)) for a in angles]
     scales = np.repeat(rng.uniform(0.5, 1.5, count)[:, None], 3, 1).astype(np.float32)
     pi.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(np.zeros(count, np.int32)))
-    pi.CreatePositionsAttr(Vt.Vec3fArray.FromNumpy(positions))
+    if moving:
+        drift = np.zeros((count, 3), np.float32)
+        drift[:, 0] = rng.uniform(-0.5, 0.5, count)
+        attribute = pi.CreatePositionsAttr()
+        for code in (0.0, 1.0, 2.0):
+            attribute.Set(Vt.Vec3fArray.FromNumpy(positions + code * drift), code)
+    else:
+        pi.CreatePositionsAttr(Vt.Vec3fArray.FromNumpy(positions))
     pi.CreateOrientationsAttr(Vt.QuathArray(orientations))
     pi.CreateScalesAttr(Vt.Vec3fArray.FromNumpy(scales))
     stage.GetRootLayer().Save()
@@ -79,18 +87,21 @@ def write(folder, count, name):
 with tempfile.TemporaryDirectory() as folder:
     triangles = write(folder, 1, "one.usdc")
     write(folder, INSTANCES, "many.usdc")
+    write(folder, INSTANCES, "moving.usdc", moving=True)
     size = os.path.getsize(os.path.join(folder, "many.usdc")) >> 20
-    results = {"one": [], "many": []}
+    results = {"one": [], "many": [], "moving": []}
     for _ in range(ROUNDS):
-        for kind in ("one", "many"):
+        for kind in ("one", "many", "moving"):
             results[kind].append(timed_run(RIFT, folder, f"{kind}.toml"))
     print(f"prototype of {triangles} triangles; {INSTANCES} instances ({size} MiB usdc) against one;"
           f" as copies they would be {triangles * INSTANCES:.2e} triangles; medians of {ROUNDS}, alternated")
     print("| stage | wall s (load + 64x64 at 4 spp) | peak RSS MiB |")
     print("|---|---|---|")
     rss = {}
-    for kind, label in (("one", "1 instance"), ("many", f"{INSTANCES} instances")):
+    for kind, label in (("one", "1 instance"), ("many", f"{INSTANCES} instances"),
+                        ("moving", f"{INSTANCES} instances, positions at 3 time codes")):
         wall = statistics.median(t for t, _ in results[kind])
         rss[kind] = statistics.median(r for _, r in results[kind])
         print(f"| {label} | {wall:.2f} | {rss[kind]:.0f} |")
-    print(f"per instance: {(rss['many'] - rss['one']) * 1048576 / INSTANCES:.0f} bytes")
+    print(f"per instance: {(rss['many'] - rss['one']) * 1048576 / INSTANCES:.0f} bytes; "
+          f"moving: {(rss['moving'] - rss['one']) * 1048576 / INSTANCES:.0f} bytes")
