@@ -480,6 +480,36 @@ fn bad_instancers_are_refused_naming_the_prim_and_the_attribute() {
         e.contains("</Scatter>.protoIndices") && e.contains("20000 instances"),
         "{e}"
     );
+    // Fewer instances that fit still, but not keyed at ten times within the shutter.
+    let points = vec!["(0,0,0)"; 4000].join(", ");
+    let samples: Vec<String> = (0..10)
+        .map(|k| format!("{}: [{points}]", 1.0 + 0.05 * k as f64))
+        .collect();
+    let keyed = format!(
+        "int[] protoIndices = [{}]\n point3f[] positions.timeSamples = {{ {} }}",
+        vec!["0"; 4000].join(", "),
+        samples.join(", ")
+    );
+    std::fs::write(d.join("many.usda"), instancer(&keyed)).unwrap();
+    let out = rift(
+        d,
+        &[
+            "render",
+            "bad.toml",
+            "-o",
+            "bad.exr",
+            "--frames",
+            "1",
+            "--max-memory",
+            "8M",
+        ],
+    );
+    let e = stderr(&out);
+    assert!(!out.status.success() && !d.join("bad.exr").exists(), "{e}");
+    assert!(
+        e.contains("</Scatter>.protoIndices") && e.contains("4000 instances"),
+        "{e}"
+    );
     // An instanced prim cannot be moved from the shot file: its instancer places it.
     let fine = "int[] protoIndices = [0, 0]\n point3f[] positions = [(0,0,0), (2,0,0)]";
     std::fs::write(d.join("fine.usda"), instancer(fine)).unwrap();

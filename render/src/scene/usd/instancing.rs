@@ -21,9 +21,11 @@ use std::sync::Arc;
 const BYTES_PER_INSTANCE: u64 = 640;
 
 /// Bytes each further key of an instance takes, where a PointInstancer's placements are
-/// sampled over time: the key itself and the matrix it is made from.
+/// sampled over time: the key itself, the matrix it is made from, and the instance's position,
+/// orientation and scale read at that time.
 const BYTES_PER_KEY: u64 = (std::mem::size_of::<rift_fx::rig::TransformKey>()
-    + std::mem::size_of::<(f64, DMat4)>()) as u64;
+    + std::mem::size_of::<(f64, DMat4)>()
+    + std::mem::size_of::<(DVec3, DQuat, DVec3)>()) as u64;
 
 /// A mesh inside a prototype: its prim, its transform relative to the prototype's placement,
 /// its path below the prototype (which names it under each instance), and what its instances
@@ -348,6 +350,7 @@ impl Walk<'_> {
         if codes.len() < 2 {
             return Ok(Vec::new());
         }
+        self.check_instances(path, n, codes.len())?;
         let mut poses = Vec::with_capacity(codes.len());
         for code in codes {
             let pose = self.poses(prim, code)?;
