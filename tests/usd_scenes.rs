@@ -572,13 +572,12 @@ fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_ins
     );
     std::fs::write(d.join("instanced.usda"), moving_quads(&moving, bob)).unwrap();
     // The same motion keyed by transform ops on an instance of the class's quad, which rift
-    // also keys by its world transforms. (The keys are written with decimal points: the USD
-    // crate reads `90` in a usda float attribute's samples as an integer and holds it
-    // between samples rather than interpolating.)
+    // also keys by its world transforms. Its rotation is keyed in whole degrees, as usd-core
+    // writes them, which the USD crate alone would hold at 0 until time code 2.
     let keyed = "def Xform \"Moving\" (\n  inherits = </Proto>\n  instanceable = true\n ) {\n  \
                  double3 xformOp:translate.timeSamples = { 1: (-0.8, 1, -1), 2: (0.8, 1, -1) }\n  \
-                 float xformOp:rotateZ.timeSamples = { 1: 0.0, 2: 90.0 }\n  \
-                 float3 xformOp:scale.timeSamples = { 1: (1.0, 1.0, 1.0), 2: (2.0, 2.0, 2.0) }\n  \
+                 float xformOp:rotateZ.timeSamples = { 1: 0, 2: 90 }\n  \
+                 float3 xformOp:scale.timeSamples = { 1: (1, 1, 1), 2: (2, 2, 2) }\n  \
                  uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateZ\", \
                  \"xformOp:scale\"]\n }\n "
         .to_owned()

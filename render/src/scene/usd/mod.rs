@@ -13,6 +13,7 @@ mod crate_check;
 mod instancing;
 mod lights;
 mod mesh;
+mod ops;
 mod shading;
 mod stage;
 mod values;

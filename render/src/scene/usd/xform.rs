@@ -14,7 +14,7 @@ use rift_fx::shot::schema::{InterpolationSpec, PoseSpec};
 use std::sync::Arc;
 
 /// Any prim, seen as imageable and transformable (every prim rift reads is).
-struct Placed(Prim);
+pub(super) struct Placed(pub(super) Prim);
 
 impl SchemaBase for Placed {
     const KIND: SchemaKind = SchemaKind::AbstractTyped;
@@ -276,8 +276,15 @@ pub fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, 
 pub fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
     let mut m = DMat4::IDENTITY;
     for placed in chain(prim) {
-        let local = placed.local_to_parent_transform(TimeCode::new(code))?;
-        m = DMat4::from_cols_array(&local.0) * m;
+        let order = placed.xform_op_order()?.unwrap_or_default();
+        let local = match super::ops::where_held(placed.prim(), &order, code)? {
+            Some(local) => local,
+            None => {
+                let local = placed.local_to_parent_transform(TimeCode::new(code))?;
+                DMat4::from_cols_array(&local.0)
+            }
+        };
+        m = local * m;
         if placed.resets_xform_stack()? {
             break;
         }

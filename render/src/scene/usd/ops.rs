@@ -1,0 +1,303 @@
+//! A prim's xformOps evaluated by rift where the USD crate would hold a value that USD
+//! interpolates. The crate reads a usda sample of a scalar attribute written as a whole number
+//! (`90`, as usd-core writes a float 90.0) as an integer, and holds integers between samples:
+//! a `rotateZ` keyed 0 then 90 would stay at 0 until its second sample. Only a stack that has
+//! such an op, asked for between two of its samples, is evaluated here; every other stack is the
+//! crate's own evaluation, unchanged.
+
+use glam::{DMat4, DQuat, DVec3};
+use openusd::sdf::Value;
+use openusd::usd::{Prim, TimeCode};
+
+/// `prim`'s local transform (column-vector) at time `code` from its xformOps `order`, where one
+/// of its scalar ops has whole-number samples on both sides of `code`; `None` where the crate's
+/// own evaluation is right.
+pub fn where_held(prim: &Prim, order: &[String], code: f64) -> anyhow::Result<Option<DMat4>> {
+    let mut held = false;
+    for op in order {
+        let (_, name) = parts(op);
+        if is_scalar(kind(name)) && whole_numbers_around(prim, name, code)?.is_some() {
+            held = true;
+            break;
+        }
+    }
+    if !held {
+        return Ok(None);
+    }
+    let mut m = DMat4::IDENTITY;
+    for op in order.iter().filter(|op| *op != "!resetXformStack!") {
+        m *= op_matrix(prim, op, code)?;
+    }
+    Ok(Some(m))
+}
+
+/// An op's `!invert!` prefix (whether it has one) and its attribute's name.
+fn parts(op: &str) -> (bool, &str) {
+    match op.strip_prefix("!invert!") {
+        Some(name) => (true, name),
+        None => (false, op),
+    }
+}
+
+/// The op's kind (`rotateZ` of `xformOp:rotateZ:spin`).
+fn kind(name: &str) -> &str {
+    let after = name.strip_prefix("xformOp:").unwrap_or(name);
+    after.split(':').next().unwrap_or(after)
+}
+
+/// True for the ops whose value is one number.
+fn is_scalar(kind: &str) -> bool {
+    matches!(
+        kind,
+        "translateX"
+            | "translateY"
+            | "translateZ"
+            | "scaleX"
+            | "scaleY"
+            | "scaleZ"
+            | "rotateX"
+            | "rotateY"
+            | "rotateZ"
+    )
+}
+
+/// The samples (time and number) of the attribute `name` on each side of `code`, where `code`
+/// lies strictly between two and either is read as an integer.
+fn whole_numbers_around(
+    prim: &Prim,
+    name: &str,
+    code: f64,
+) -> anyhow::Result<Option<[(f64, f64); 2]>> {
+    let attribute = prim.attribute(name);
+    let times = attribute.time_sample_times()?;
+    let after = times.partition_point(|&t| t <= code);
+    let (Some(&lo), Some(&hi)) = (
+        after.checked_sub(1).and_then(|i| times.get(i)),
+        times.get(after),
+    ) else {
+        return Ok(None);
+    };
+    if lo == code {
+        return Ok(None);
+    }
+    let at = |t: f64| attribute.get_at::<Value>(TimeCode::new(t));
+    let (a, b) = (at(lo)?, at(hi)?);
+    let whole = |v: &Option<Value>| matches!(v, Some(Value::Int(_) | Value::Int64(_)));
+    if !whole(&a) && !whole(&b) {
+        return Ok(None);
+    }
+    let (Some(a), Some(b)) = (a.as_ref().and_then(number), b.as_ref().and_then(number)) else {
+        return Ok(None);
+    };
+    Ok(Some([(lo, a), (hi, b)]))
+}
+
+/// The matrix of op `op` (column-vector) at `code`, inverted where it says so: a scalar op's
+/// number interpolated linearly between its samples, any other value as the crate gives it.
+fn op_matrix(prim: &Prim, op: &str, code: f64) -> anyhow::Result<DMat4> {
+    let (inverted, name) = parts(op);
+    let kind = kind(name);
+    let value = prim.attribute(name).get_at::<Value>(TimeCode::new(code))?;
+    let scalar = || -> anyhow::Result<f64> {
+        if let Some([(t0, a), (t1, b)]) = whole_numbers_around(prim, name, code)? {
+            return Ok(a + (b - a) * (code - t0) / (t1 - t0));
+        }
+        Ok(value.as_ref().and_then(number).unwrap_or(match kind {
+            "scaleX" | "scaleY" | "scaleZ" => 1.0,
+            _ => 0.0,
+        }))
+    };
+    let vector = |default: f64| {
+        value
+            .as_ref()
+            .and_then(vec3)
+            .unwrap_or(DVec3::splat(default))
+    };
+    let m = match kind {
+        "translate" => DMat4::from_translation(vector(0.0)),
+        "translateX" => DMat4::from_translation(DVec3::X * scalar()?),
+        "translateY" => DMat4::from_translation(DVec3::Y * scalar()?),
+        "translateZ" => DMat4::from_translation(DVec3::Z * scalar()?),
+        "scale" => DMat4::from_scale(vector(1.0)),
+        "scaleX" => DMat4::from_scale(DVec3::new(scalar()?, 1.0, 1.0)),
+        "scaleY" => DMat4::from_scale(DVec3::new(1.0, scalar()?, 1.0)),
+        "scaleZ" => DMat4::from_scale(DVec3::new(1.0, 1.0, scalar()?)),
+        "rotateX" => DMat4::from_rotation_x(scalar()?.to_radians()),
+        "rotateY" => DMat4::from_rotation_y(scalar()?.to_radians()),
+        "rotateZ" => DMat4::from_rotation_z(scalar()?.to_radians()),
+        "orient" => DMat4::from_quat(value.as_ref().and_then(quat).unwrap_or(DQuat::IDENTITY)),
+        "transform" => match value {
+            // Row-vector rows, read as column-vector columns.
+            Some(Value::Matrix4d(m)) => DMat4::from_cols_array(&m.0),
+            _ => DMat4::IDENTITY,
+        },
+        three if three.starts_with("rotate") && three.len() == 9 => euler(three, vector(0.0)),
+        _ => DMat4::IDENTITY,
+    };
+    match inverted {
+        false => Ok(m),
+        true if m.determinant() != 0.0 => Ok(m.inverse()),
+        true => anyhow::bail!("xformOp `{op}` is singular and cannot be inverted"),
+    }
+}
+
+/// A three-axis rotation op such as `rotateXYZ` (degrees, the first axis named turned first).
+fn euler(kind: &str, degrees: DVec3) -> DMat4 {
+    kind[6..].chars().fold(DMat4::IDENTITY, |m, axis| {
+        let turn = match axis {
+            'X' => DMat4::from_rotation_x(degrees.x.to_radians()),
+            'Y' => DMat4::from_rotation_y(degrees.y.to_radians()),
+            _ => DMat4::from_rotation_z(degrees.z.to_radians()),
+        };
+        turn * m
+    })
+}
+
+/// A number of any precision, integers included.
+fn number(v: &Value) -> Option<f64> {
+    super::values::number(v)
+}
+
+/// A 3-vector of any precision.
+fn vec3(v: &Value) -> Option<DVec3> {
+    match v {
+        Value::Vec3d(a) => Some(DVec3::new(a.x, a.y, a.z)),
+        Value::Vec3f(a) => Some(DVec3::new(a.x as f64, a.y as f64, a.z as f64)),
+        Value::Vec3h(a) => Some(DVec3::new(
+            a.x.to_f32() as f64,
+            a.y.to_f32() as f64,
+            a.z.to_f32() as f64,
+        )),
+        _ => None,
+    }
+}
+
+/// A quaternion of any precision.
+fn quat(v: &Value) -> Option<DQuat> {
+    let [w, x, y, z] = match v {
+        Value::Quatd(q) => [q.w, q.x, q.y, q.z],
+        Value::Quatf(q) => [q.w, q.x, q.y, q.z].map(f64::from),
+        Value::Quath(q) => [q.w, q.x, q.y, q.z].map(|c| c.to_f64()),
+        _ => return None,
+    };
+    Some(DQuat::from_xyzw(x, y, z, w).normalize())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::usd::xform::Placed;
+    use openusd::schemas::geom::Xformable;
+    use openusd::usd::Stage;
+
+    /// A stage of one Xform, `/A`, with the ops `ops` (usda lines) in the order `order`.
+    fn stage_with(ops: &str, order: &str) -> (tempfile::TempDir, Stage) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.usda");
+        let text = format!(
+            "#usda 1.0\ndef Xform \"A\" {{\n{ops}\n uniform token[] xformOpOrder = [{order}]\n}}\n"
+        );
+        std::fs::write(&path, text).unwrap();
+        let stage = Stage::builder().open(path.to_str().unwrap()).unwrap();
+        (dir, stage)
+    }
+
+    const ORDER: &str = "\"xformOp:translate\", \"xformOp:rotateZ\", \"xformOp:rotateXYZ\", \
+                         \"xformOp:translateX\", \"xformOp:orient\", \"!invert!xformOp:scaleY\", \
+                         \"xformOp:rotateYZX:tilt\", \"xformOp:scale\", \"xformOp:transform\"";
+
+    /// Every kind of op, sampled at 1 and 3, with `n(x)` writing the scalars' numbers.
+    fn ops(n: impl Fn(f64) -> String) -> String {
+        format!(
+            " double3 xformOp:translate.timeSamples = {{ 1: (0, 1, 2), 3: (2, -1, 0) }}\n \
+             float xformOp:rotateZ.timeSamples = {{ 1: {}, 3: {} }}\n \
+             float3 xformOp:rotateXYZ.timeSamples = {{ 1: (10, 20, 30), 3: (40, -20, 0) }}\n \
+             double xformOp:translateX.timeSamples = {{ 1: {}, 3: {} }}\n \
+             quatf xformOp:orient = (0.9238795, 0, 0.38268343, 0)\n \
+             float xformOp:scaleY.timeSamples = {{ 1: {}, 3: {} }}\n \
+             float3 xformOp:rotateYZX:tilt = (5, 15, 25)\n \
+             float3 xformOp:scale = (1, 2, 3)\n \
+             matrix4d xformOp:transform = ( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (4, 5, 6, 1) )",
+            n(0.0),
+            n(90.0),
+            n(-3.0),
+            n(5.0),
+            n(1.0),
+            n(3.0)
+        )
+    }
+
+    fn crate_transform(stage: &Stage, code: f64) -> DMat4 {
+        let placed = Placed(stage.prim("/A"));
+        DMat4::from_cols_array(
+            &placed
+                .local_to_parent_transform(TimeCode::new(code))
+                .unwrap()
+                .0,
+        )
+    }
+
+    fn order(stage: &Stage) -> Vec<String> {
+        Placed(stage.prim("/A")).xform_op_order().unwrap().unwrap()
+    }
+
+    #[test]
+    fn whole_number_samples_are_interpolated_as_the_crate_interpolates_decimal_ones() {
+        let (_d1, decimal) = stage_with(&ops(|x| format!("{x:.1}")), ORDER);
+        let (_d2, whole) = stage_with(&ops(|x| format!("{x}")), ORDER);
+        for code in [0.5, 1.0, 1.25, 2.0, 2.9, 3.0, 4.0] {
+            let right = crate_transform(&decimal, code);
+            // The decimal stack is the crate's own, exact: nothing is held.
+            assert!(
+                where_held(&decimal.prim("/A"), &order(&decimal), code)
+                    .unwrap()
+                    .is_none()
+            );
+            let ours = match where_held(&whole.prim("/A"), &order(&whole), code).unwrap() {
+                Some(m) => m,
+                None => crate_transform(&whole, code),
+            };
+            let between = code > 1.0 && code < 3.0;
+            assert_eq!(
+                where_held(&whole.prim("/A"), &order(&whole), code)
+                    .unwrap()
+                    .is_some(),
+                between,
+                "{code}"
+            );
+            assert!(
+                ours.abs_diff_eq(right, 1e-5),
+                "{code}: {ours} against {right}"
+            );
+            // What the crate does alone with whole numbers: held between samples.
+            if between {
+                assert!(
+                    !crate_transform(&whole, code).abs_diff_eq(right, 1e-3),
+                    "{code}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn every_op_kind_matches_the_crates_matrix() {
+        // With one whole-number op held, every other op is evaluated here too: each kind
+        // must give the crate's matrix.
+        let (_d, stage) = stage_with(&ops(|x| format!("{x:.1}")), ORDER);
+        let held = " float xformOp:rotateX:held.timeSamples = { 1: 0, 3: 0 }";
+        let (_e, with_held) = stage_with(
+            &format!("{}\n{held}", ops(|x| format!("{x:.1}"))),
+            &format!("{ORDER}, \"xformOp:rotateX:held\""),
+        );
+        for code in [1.5, 2.0, 2.5] {
+            let ours = where_held(&with_held.prim("/A"), &order(&with_held), code)
+                .unwrap()
+                .expect("a held op");
+            let right = crate_transform(&stage, code);
+            assert!(
+                ours.abs_diff_eq(right, 1e-5),
+                "{code}: {ours} against {right}"
+            );
+        }
+    }
+}
