@@ -169,7 +169,7 @@ fn lens_at(
 ) -> Result<LensKey, RenderError> {
     let path = prim.path().as_str();
     let number = |name: &str, default: f64| -> Result<f64, RenderError> {
-        let value = values::value(prim, name, code).map_err(|e| source.read_error(path, e))?;
+        let value = values::scalar_at(prim, name, code).map_err(|e| source.read_error(path, e))?;
         match value {
             None => Ok(default),
             Some(v) => values::number(&v).filter(|x| x.is_finite()).ok_or_else(|| {

@@ -8,7 +8,7 @@ use super::{Entry, Imported, values};
 use crate::error::RenderError;
 use glam::{DMat3, DVec3};
 use openusd::sdf::Value;
-use openusd::usd::{Prim, TimeCode};
+use openusd::usd::Prim;
 
 /// Reads the light `prim` of type `kind` into `out`.
 pub fn read(
@@ -94,7 +94,7 @@ impl Light<'_> {
                 "{name} is keyed: rift reads it at the shutter's opening, without motion"
             ));
         }
-        attr.get_at::<Value>(TimeCode::new(code))
+        values::scalar_at(self.prim, name, code)
             .map_err(|e| self.source.read_error(self.path(), e))
     }
 

@@ -5,9 +5,10 @@
 //! such an op, asked for between two of its samples, is evaluated here; every other stack is the
 //! crate's own evaluation, unchanged.
 
+use super::values;
 use glam::{DMat4, DQuat, DVec3};
 use openusd::sdf::Value;
-use openusd::usd::{Prim, TimeCode};
+use openusd::usd::Prim;
 
 /// `prim`'s local transform (column-vector) at time `code` from its xformOps `order`, where one
 /// of its scalar ops has whole-number samples on both sides of `code`; `None` where the crate's
@@ -16,7 +17,7 @@ pub fn where_held(prim: &Prim, order: &[String], code: f64) -> anyhow::Result<Op
     let mut held = false;
     for op in order {
         let (_, name) = parts(op);
-        if is_scalar(kind(name)) && whole_numbers_around(prim, name, code)?.is_some() {
+        if is_scalar(kind(name)) && values::whole_numbers_around(prim, name, code)?.is_some() {
             held = true;
             break;
         }
@@ -61,51 +62,23 @@ fn is_scalar(kind: &str) -> bool {
     )
 }
 
-/// The samples (time and number) of the attribute `name` on each side of `code`, where `code`
-/// lies strictly between two and either is read as an integer.
-fn whole_numbers_around(
-    prim: &Prim,
-    name: &str,
-    code: f64,
-) -> anyhow::Result<Option<[(f64, f64); 2]>> {
-    let attribute = prim.attribute(name);
-    let times = attribute.time_sample_times()?;
-    let after = times.partition_point(|&t| t <= code);
-    let (Some(&lo), Some(&hi)) = (
-        after.checked_sub(1).and_then(|i| times.get(i)),
-        times.get(after),
-    ) else {
-        return Ok(None);
-    };
-    if lo == code {
-        return Ok(None);
-    }
-    let at = |t: f64| attribute.get_at::<Value>(TimeCode::new(t));
-    let (a, b) = (at(lo)?, at(hi)?);
-    let whole = |v: &Option<Value>| matches!(v, Some(Value::Int(_) | Value::Int64(_)));
-    if !whole(&a) && !whole(&b) {
-        return Ok(None);
-    }
-    let (Some(a), Some(b)) = (a.as_ref().and_then(number), b.as_ref().and_then(number)) else {
-        return Ok(None);
-    };
-    Ok(Some([(lo, a), (hi, b)]))
-}
-
 /// The matrix of op `op` (column-vector) at `code`, inverted where it says so: a scalar op's
 /// number interpolated linearly between its samples, any other value as the crate gives it.
 fn op_matrix(prim: &Prim, op: &str, code: f64) -> anyhow::Result<DMat4> {
     let (inverted, name) = parts(op);
     let kind = kind(name);
-    let value = prim.attribute(name).get_at::<Value>(TimeCode::new(code))?;
+    let value = match is_scalar(kind) {
+        true => values::scalar_at(prim, name, code)?,
+        false => values::value(prim, name, code)?,
+    };
     let scalar = || -> anyhow::Result<f64> {
-        if let Some([(t0, a), (t1, b)]) = whole_numbers_around(prim, name, code)? {
-            return Ok(a + (b - a) * (code - t0) / (t1 - t0));
-        }
-        Ok(value.as_ref().and_then(number).unwrap_or(match kind {
-            "scaleX" | "scaleY" | "scaleZ" => 1.0,
-            _ => 0.0,
-        }))
+        Ok(value
+            .as_ref()
+            .and_then(values::number)
+            .unwrap_or(match kind {
+                "scaleX" | "scaleY" | "scaleZ" => 1.0,
+                _ => 0.0,
+            }))
     };
     let vector = |default: f64| {
         value
@@ -153,11 +126,6 @@ fn euler(kind: &str, degrees: DVec3) -> DMat4 {
     })
 }
 
-/// A number of any precision, integers included.
-fn number(v: &Value) -> Option<f64> {
-    super::values::number(v)
-}
-
 /// A 3-vector of any precision.
 fn vec3(v: &Value) -> Option<DVec3> {
     match v {
@@ -188,7 +156,7 @@ mod tests {
     use super::*;
     use crate::scene::usd::xform::Placed;
     use openusd::schemas::geom::Xformable;
-    use openusd::usd::Stage;
+    use openusd::usd::{Stage, TimeCode};
 
     /// A stage of one Xform, `/A`, with the ops `ops` (usda lines) in the order `order`.
     fn stage_with(ops: &str, order: &str) -> (tempfile::TempDir, Stage) {
@@ -299,5 +267,19 @@ mod tests {
                 "{code}: {ours} against {right}"
             );
         }
+    }
+
+    #[test]
+    fn a_scalar_keyed_in_whole_numbers_is_read_between_its_samples_as_usd_interpolates_it() {
+        // As a light's intensity or a camera's focal length is read.
+        let (_d, stage) = stage_with(" float intensity.timeSamples = { 1: 10, 3: 30.5 }", "");
+        let at = |code: f64| {
+            let v = values::scalar_at(&stage.prim("/A"), "intensity", code).unwrap();
+            v.as_ref().and_then(values::number).unwrap()
+        };
+        assert_eq!(
+            [at(0.0), at(1.0), at(2.0), at(3.0), at(4.0)],
+            [10.0, 10.0, 20.25, 30.5, 30.5]
+        );
     }
 }

@@ -10,6 +10,47 @@ pub fn value(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Value>
     prim.attribute(name).get_at::<Value>(TimeCode::new(code))
 }
 
+/// An attribute's value at `code` as [`value`] reads it, except where it is sampled in whole
+/// numbers on either side of `code`: the USD crate reads a usda sample written `90` (as usd-core
+/// writes a float 90.0) as an integer and holds it until the next sample, where USD
+/// interpolates; that value is interpolated here.
+pub fn scalar_at(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Value>> {
+    if let Some([(t0, a), (t1, b)]) = whole_numbers_around(prim, name, code)? {
+        return Ok(Some(Value::Double(a + (b - a) * (code - t0) / (t1 - t0))));
+    }
+    value(prim, name, code)
+}
+
+/// The samples (time and number) of the attribute `name` on each side of `code`, where `code`
+/// lies strictly between two of them and either is read as an integer.
+pub fn whole_numbers_around(
+    prim: &Prim,
+    name: &str,
+    code: f64,
+) -> anyhow::Result<Option<[(f64, f64); 2]>> {
+    let attribute = prim.attribute(name);
+    let times = attribute.time_sample_times()?;
+    let after = times.partition_point(|&t| t <= code);
+    let (Some(&lo), Some(&hi)) = (
+        after.checked_sub(1).and_then(|i| times.get(i)),
+        times.get(after),
+    ) else {
+        return Ok(None);
+    };
+    if lo == code {
+        return Ok(None);
+    }
+    let (a, b) = (value(prim, name, lo)?, value(prim, name, hi)?);
+    let whole = |v: &Option<Value>| matches!(v, Some(Value::Int(_) | Value::Int64(_)));
+    if !whole(&a) && !whole(&b) {
+        return Ok(None);
+    }
+    let (Some(a), Some(b)) = (a.as_ref().and_then(number), b.as_ref().and_then(number)) else {
+        return Ok(None);
+    };
+    Ok(Some([(lo, a), (hi, b)]))
+}
+
 /// An integer array attribute at `code`.
 pub fn int_array(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Vec<u32>>> {
     let Some(value) = value(prim, name, code)? else {
