@@ -417,6 +417,32 @@ fn instancer(body: &str) -> String {
     )
 }
 
+/// Renders `stage` (usda text) in `dir` under a memory budget of 8 MiB and returns rift's
+/// standard error, asserting it failed without writing the image.
+fn refused_under_8_mib(dir: &Path, stage: &str) -> String {
+    std::fs::write(dir.join("many.usda"), stage).unwrap();
+    std::fs::write(dir.join("bad.toml"), shot_with("file = \"many.usda\"")).unwrap();
+    let out = rift(
+        dir,
+        &[
+            "render",
+            "bad.toml",
+            "-o",
+            "bad.exr",
+            "--frames",
+            "1",
+            "--max-memory",
+            "8M",
+        ],
+    );
+    let e = stderr(&out);
+    assert!(
+        !out.status.success() && !dir.join("bad.exr").exists(),
+        "{e}"
+    );
+    e
+}
+
 #[test]
 fn bad_instancers_are_refused_naming_the_prim_and_the_attribute() {
     let dir = tempfile::tempdir().unwrap();
@@ -459,23 +485,7 @@ fn bad_instancers_are_refused_naming_the_prim_and_the_attribute() {
         vec!["0"; 20000].join(", "),
         vec!["(0,0,0)"; 20000].join(", ")
     );
-    std::fs::write(d.join("many.usda"), instancer(&many)).unwrap();
-    std::fs::write(d.join("bad.toml"), shot_with("file = \"many.usda\"")).unwrap();
-    let out = rift(
-        d,
-        &[
-            "render",
-            "bad.toml",
-            "-o",
-            "bad.exr",
-            "--frames",
-            "1",
-            "--max-memory",
-            "8M",
-        ],
-    );
-    let e = stderr(&out);
-    assert!(!out.status.success() && !d.join("bad.exr").exists(), "{e}");
+    let e = refused_under_8_mib(d, &instancer(&many));
     assert!(
         e.contains("</Scatter>.protoIndices") && e.contains("20000 instances"),
         "{e}"
@@ -490,22 +500,7 @@ fn bad_instancers_are_refused_naming_the_prim_and_the_attribute() {
         vec!["0"; 4000].join(", "),
         samples.join(", ")
     );
-    std::fs::write(d.join("many.usda"), instancer(&keyed)).unwrap();
-    let out = rift(
-        d,
-        &[
-            "render",
-            "bad.toml",
-            "-o",
-            "bad.exr",
-            "--frames",
-            "1",
-            "--max-memory",
-            "8M",
-        ],
-    );
-    let e = stderr(&out);
-    assert!(!out.status.success() && !d.join("bad.exr").exists(), "{e}");
+    let e = refused_under_8_mib(d, &instancer(&keyed));
     assert!(
         e.contains("</Scatter>.protoIndices") && e.contains("4000 instances"),
         "{e}"

@@ -94,8 +94,7 @@ impl Light<'_> {
                 "{name} is keyed: rift reads it at the shutter's opening, without motion"
             ));
         }
-        values::scalar_at(self.prim, name, code)
-            .map_err(|e| self.source.read_error(self.path(), e))
+        values::scalar_at(self.prim, name, code).map_err(|e| self.source.read_error(self.path(), e))
     }
 
     /// A ShapingAPI input: `inputs:shaping:<name>`, or as USD before 21.02 named it,
