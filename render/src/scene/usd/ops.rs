@@ -14,22 +14,17 @@ use openusd::usd::Prim;
 /// of its scalar ops has whole-number samples on both sides of `code`; `None` where the crate's
 /// own evaluation is right.
 pub fn where_held(prim: &Prim, order: &[String], code: f64) -> anyhow::Result<Option<DMat4>> {
-    let mut held = false;
     for op in order {
         let (_, name) = parts(op);
         if is_scalar(kind(name)) && values::whole_numbers_around(prim, name, code)?.is_some() {
-            held = true;
-            break;
+            let mut m = DMat4::IDENTITY;
+            for op in order.iter().filter(|op| *op != "!resetXformStack!") {
+                m *= op_matrix(prim, op, code)?;
+            }
+            return Ok(Some(m));
         }
     }
-    if !held {
-        return Ok(None);
-    }
-    let mut m = DMat4::IDENTITY;
-    for op in order.iter().filter(|op| *op != "!resetXformStack!") {
-        m *= op_matrix(prim, op, code)?;
-    }
-    Ok(Some(m))
+    Ok(None)
 }
 
 /// An op's `!invert!` prefix (whether it has one) and its attribute's name.
@@ -71,14 +66,9 @@ fn op_matrix(prim: &Prim, op: &str, code: f64) -> anyhow::Result<DMat4> {
         true => values::scalar_at(prim, name, code)?,
         false => values::value(prim, name, code)?,
     };
-    let scalar = || -> anyhow::Result<f64> {
-        Ok(value
-            .as_ref()
-            .and_then(values::number)
-            .unwrap_or(match kind {
-                "scaleX" | "scaleY" | "scaleZ" => 1.0,
-                _ => 0.0,
-            }))
+    let scalar = || {
+        let default = if kind.starts_with("scale") { 1.0 } else { 0.0 };
+        value.as_ref().and_then(values::number).unwrap_or(default)
     };
     let vector = |default: f64| {
         value
@@ -88,16 +78,16 @@ fn op_matrix(prim: &Prim, op: &str, code: f64) -> anyhow::Result<DMat4> {
     };
     let m = match kind {
         "translate" => DMat4::from_translation(vector(0.0)),
-        "translateX" => DMat4::from_translation(DVec3::X * scalar()?),
-        "translateY" => DMat4::from_translation(DVec3::Y * scalar()?),
-        "translateZ" => DMat4::from_translation(DVec3::Z * scalar()?),
+        "translateX" => DMat4::from_translation(DVec3::X * scalar()),
+        "translateY" => DMat4::from_translation(DVec3::Y * scalar()),
+        "translateZ" => DMat4::from_translation(DVec3::Z * scalar()),
         "scale" => DMat4::from_scale(vector(1.0)),
-        "scaleX" => DMat4::from_scale(DVec3::new(scalar()?, 1.0, 1.0)),
-        "scaleY" => DMat4::from_scale(DVec3::new(1.0, scalar()?, 1.0)),
-        "scaleZ" => DMat4::from_scale(DVec3::new(1.0, 1.0, scalar()?)),
-        "rotateX" => DMat4::from_rotation_x(scalar()?.to_radians()),
-        "rotateY" => DMat4::from_rotation_y(scalar()?.to_radians()),
-        "rotateZ" => DMat4::from_rotation_z(scalar()?.to_radians()),
+        "scaleX" => DMat4::from_scale(DVec3::new(scalar(), 1.0, 1.0)),
+        "scaleY" => DMat4::from_scale(DVec3::new(1.0, scalar(), 1.0)),
+        "scaleZ" => DMat4::from_scale(DVec3::new(1.0, 1.0, scalar())),
+        "rotateX" => DMat4::from_rotation_x(scalar().to_radians()),
+        "rotateY" => DMat4::from_rotation_y(scalar().to_radians()),
+        "rotateZ" => DMat4::from_rotation_z(scalar().to_radians()),
         "orient" => DMat4::from_quat(value.as_ref().and_then(quat).unwrap_or(DQuat::IDENTITY)),
         "transform" => match value {
             // Row-vector rows, read as column-vector columns.
