@@ -1,30 +1,28 @@
-//! A prim's xformOps evaluated by rift where the USD crate would hold a value that USD
-//! interpolates. The crate reads a usda sample of a scalar attribute written as a whole number
-//! (`90`, as usd-core writes a float 90.0) as an integer, and holds integers between samples:
-//! a `rotateZ` keyed 0 then 90 would stay at 0 until its second sample. Only a stack that has
-//! such an op, asked for between two of its samples, is evaluated here; every other stack is the
-//! crate's own evaluation, unchanged.
+//! A prim's local transform from its xformOps, evaluated by rift rather than the USD crate:
+//! the crate reads a usda sample of a scalar attribute written as a whole number (`90`, as
+//! usd-core writes a float 90.0) as an integer and holds integers between samples, where USD
+//! interpolates them (a `rotateZ` keyed 0 then 90 would stay at 0 until its second sample).
+//! Every op gives the crate's matrix (tests below); a scalar op read as an integer between two
+//! samples is interpolated here. One read per op, as the crate's own evaluation makes.
 
 use super::values;
 use glam::{DMat4, DQuat, DVec3};
 use openusd::sdf::Value;
 use openusd::usd::Prim;
 
-/// `prim`'s local transform (column-vector) at time `code` from its xformOps `order`, where one
-/// of its scalar ops has whole-number samples on both sides of `code`; `None` where the crate's
-/// own evaluation is right.
-pub fn where_held(prim: &Prim, order: &[String], code: f64) -> anyhow::Result<Option<DMat4>> {
-    for op in order {
-        let (_, name) = parts(op);
-        if is_scalar(kind(name)) && values::whole_numbers_around(prim, name, code)?.is_some() {
-            let mut m = DMat4::IDENTITY;
-            for op in order.iter().filter(|op| *op != "!resetXformStack!") {
-                m *= op_matrix(prim, op, code)?;
+/// `prim`'s local transform (column-vector) at time `code` from its xformOps `order`.
+pub fn local_transform(prim: &Prim, order: &[String], code: f64) -> anyhow::Result<DMat4> {
+    let mut m = DMat4::IDENTITY;
+    for (i, op) in order.iter().enumerate() {
+        if op == "!resetXformStack!" {
+            if i == 0 {
+                continue;
             }
-            return Ok(Some(m));
+            anyhow::bail!("xformOpOrder: `!resetXformStack!` is only valid first, found at {i}");
         }
+        m *= op_matrix(prim, op, code)?;
     }
-    Ok(None)
+    Ok(m)
 }
 
 /// An op's `!invert!` prefix (whether it has one) and its attribute's name.
@@ -62,10 +60,10 @@ fn is_scalar(kind: &str) -> bool {
 fn op_matrix(prim: &Prim, op: &str, code: f64) -> anyhow::Result<DMat4> {
     let (inverted, name) = parts(op);
     let kind = kind(name);
-    let value = match is_scalar(kind) {
-        true => values::scalar_at(prim, name, code)?,
-        false => values::value(prim, name, code)?,
-    };
+    let mut value = values::value(prim, name, code)?;
+    if is_scalar(kind) && matches!(value, Some(Value::Int(_) | Value::Int64(_))) {
+        value = values::scalar_at(prim, name, code)?;
+    }
     let scalar = || {
         let default = if kind.starts_with("scale") { 1.0 } else { 0.0 };
         value.as_ref().and_then(values::number).unwrap_or(default)
@@ -205,24 +203,8 @@ mod tests {
         let (_d2, whole) = stage_with(&ops(|x| format!("{x}")), ORDER);
         for code in [0.5, 1.0, 1.25, 2.0, 2.9, 3.0, 4.0] {
             let right = crate_transform(&decimal, code);
-            // The decimal stack is the crate's own, exact: nothing is held.
-            assert!(
-                where_held(&decimal.prim("/A"), &order(&decimal), code)
-                    .unwrap()
-                    .is_none()
-            );
-            let ours = match where_held(&whole.prim("/A"), &order(&whole), code).unwrap() {
-                Some(m) => m,
-                None => crate_transform(&whole, code),
-            };
+            let ours = local_transform(&whole.prim("/A"), &order(&whole), code).unwrap();
             let between = code > 1.0 && code < 3.0;
-            assert_eq!(
-                where_held(&whole.prim("/A"), &order(&whole), code)
-                    .unwrap()
-                    .is_some(),
-                between,
-                "{code}"
-            );
             assert!(
                 ours.abs_diff_eq(right, 1e-5),
                 "{code}: {ours} against {right}"
@@ -239,24 +221,29 @@ mod tests {
 
     #[test]
     fn every_op_kind_matches_the_crates_matrix() {
-        // With one whole-number op held, every other op is evaluated here too: each kind
-        // must give the crate's matrix.
+        // Decimal samples, which the crate interpolates, and a reset of the stack first.
         let (_d, stage) = stage_with(&ops(|x| format!("{x:.1}")), ORDER);
-        let held = " float xformOp:rotateX:held.timeSamples = { 1: 0, 3: 0 }";
-        let (_e, with_held) = stage_with(
-            &format!("{}\n{held}", ops(|x| format!("{x:.1}"))),
-            &format!("{ORDER}, \"xformOp:rotateX:held\""),
-        );
-        for code in [1.5, 2.0, 2.5] {
-            let ours = where_held(&with_held.prim("/A"), &order(&with_held), code)
-                .unwrap()
-                .expect("a held op");
+        for code in [0.0, 1.0, 1.5, 2.0, 2.5, 3.0, 7.0] {
+            let ours = local_transform(&stage.prim("/A"), &order(&stage), code).unwrap();
             let right = crate_transform(&stage, code);
             assert!(
-                ours.abs_diff_eq(right, 1e-5),
+                ours.abs_diff_eq(right, 1e-6),
                 "{code}: {ours} against {right}"
             );
         }
+        let reset = format!("\"!resetXformStack!\", {ORDER}");
+        let (_e, stage) = stage_with(&ops(|x| format!("{x:.1}")), &reset);
+        let ours = local_transform(&stage.prim("/A"), &order(&stage), 2.0).unwrap();
+        assert!(ours.abs_diff_eq(crate_transform(&stage, 2.0), 1e-6));
+        // A reset anywhere else is refused, as the crate refuses it.
+        let late = format!("{ORDER}, \"!resetXformStack!\"");
+        let (_f, stage) = stage_with(&ops(|x| format!("{x:.1}")), &late);
+        assert!(local_transform(&stage.prim("/A"), &order(&stage), 2.0).is_err());
+        assert!(
+            Placed(stage.prim("/A"))
+                .local_to_parent_transform(TimeCode::new(2.0))
+                .is_err()
+        );
     }
 
     #[test]

@@ -8,7 +8,7 @@ use crate::scene::mesh::Shape;
 use crate::scene::schema::ObjectSection;
 use glam::{DAffine3, DMat3, DMat4, DVec3};
 use openusd::schemas::geom::{Imageable, Purpose, Visibility, Xformable};
-use openusd::usd::{Prim, SchemaBase, SchemaKind, TimeCode};
+use openusd::usd::{Prim, SchemaBase, SchemaKind};
 use rift_fx::rig::{AnimatedTransform, Interpolation, Similarity, TransformKey};
 use rift_fx::shot::schema::{InterpolationSpec, PoseSpec};
 use std::sync::Arc;
@@ -277,14 +277,7 @@ pub fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
     let mut m = DMat4::IDENTITY;
     for placed in chain(prim) {
         let order = placed.xform_op_order()?.unwrap_or_default();
-        let local = match super::ops::where_held(placed.prim(), &order, code)? {
-            Some(local) => local,
-            None => {
-                let local = placed.local_to_parent_transform(TimeCode::new(code))?;
-                DMat4::from_cols_array(&local.0)
-            }
-        };
-        m = local * m;
+        m = super::ops::local_transform(placed.prim(), &order, code)? * m;
         if placed.resets_xform_stack()? {
             break;
         }
