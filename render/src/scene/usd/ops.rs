@@ -25,12 +25,15 @@ pub fn local_transform(prim: &Prim, order: &[String], code: f64) -> anyhow::Resu
     Ok(m)
 }
 
-/// An op's `!invert!` prefix (whether it has one) and its attribute's name.
-fn parts(op: &str) -> (bool, &str) {
-    match op.strip_prefix("!invert!") {
-        Some(name) => (true, name),
-        None => (false, op),
+/// The name of op `op`'s attribute (without its `!invert!` prefix), checked before the crate
+/// composes it (its composition loops on a malformed one).
+pub fn attribute_name(op: &str) -> anyhow::Result<&str> {
+    let name = op.strip_prefix("!invert!").unwrap_or(op);
+    let plain = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == ':';
+    if name.is_empty() || name.len() > 256 || !name.chars().all(plain) {
+        anyhow::bail!("xformOpOrder names a malformed op {op:?}");
     }
+    Ok(name)
 }
 
 /// The op's kind (`rotateZ` of `xformOp:rotateZ:spin`).
@@ -58,7 +61,7 @@ fn is_scalar(kind: &str) -> bool {
 /// The matrix of op `op` (column-vector) at `code`, inverted where it says so: a scalar op's
 /// number interpolated linearly between its samples, any other value as the crate gives it.
 fn op_matrix(prim: &Prim, op: &str, code: f64) -> anyhow::Result<DMat4> {
-    let (inverted, name) = parts(op);
+    let (inverted, name) = (op.starts_with("!invert!"), attribute_name(op)?);
     let kind = kind(name);
     let mut value = values::value(prim, name, code)?;
     if is_scalar(kind) && matches!(value, Some(Value::Int(_) | Value::Int64(_))) {
@@ -92,7 +95,9 @@ fn op_matrix(prim: &Prim, op: &str, code: f64) -> anyhow::Result<DMat4> {
             Some(Value::Matrix4d(m)) => DMat4::from_cols_array(&m.0),
             _ => DMat4::IDENTITY,
         },
-        three if three.starts_with("rotate") && three.len() == 9 => euler(three, vector(0.0)),
+        "rotateXYZ" | "rotateXZY" | "rotateYXZ" | "rotateYZX" | "rotateZXY" | "rotateZYX" => {
+            euler(kind, vector(0.0))
+        }
         _ => DMat4::IDENTITY,
     };
     match inverted {

@@ -309,15 +309,10 @@ fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
     let mut all: Vec<f64> = Vec::new();
     for placed in chain(prim) {
         for op in placed.xform_op_order()?.unwrap_or_default() {
-            let name = op.strip_prefix("!invert!").unwrap_or(&op);
-            if name == "!resetXformStack!" {
+            if op == "!resetXformStack!" {
                 continue;
             }
-            // Checked before the crate composes it (its composition loops on a malformed one).
-            let plain = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == ':';
-            if name.is_empty() || name.len() > 256 || !name.chars().all(plain) {
-                anyhow::bail!("xformOpOrder names a malformed op {op:?}");
-            }
+            let name = super::ops::attribute_name(&op)?;
             all.extend(placed.prim().attribute(name).time_sample_times()?);
         }
         if placed.resets_xform_stack()? {
