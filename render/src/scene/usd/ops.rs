@@ -2,8 +2,8 @@
 //! the crate reads a usda sample of a scalar attribute written as a whole number (`90`, as
 //! usd-core writes a float 90.0) as an integer and holds integers between samples, where USD
 //! interpolates them (a `rotateZ` keyed 0 then 90 would stay at 0 until its second sample).
-//! Every op gives the crate's matrix (tests below); a scalar op read as an integer between two
-//! samples is interpolated here. One read per op, as the crate's own evaluation makes.
+//! Every op gives the crate's matrix (tests below); a scalar op between two samples either of
+//! which is a whole number is interpolated here.
 
 use super::values;
 use glam::{DMat4, DQuat, DVec3};
@@ -14,7 +14,7 @@ use openusd::usd::Prim;
 pub fn local_transform(prim: &Prim, order: &[String], code: f64) -> anyhow::Result<DMat4> {
     let mut m = DMat4::IDENTITY;
     for (i, op) in order.iter().enumerate() {
-        if op == "!resetXformStack!" {
+        if op == super::xform::RESET {
             if i == 0 {
                 continue;
             }
@@ -63,10 +63,12 @@ fn is_scalar(kind: &str) -> bool {
 fn op_matrix(prim: &Prim, op: &str, code: f64) -> anyhow::Result<DMat4> {
     let (inverted, name) = (op.starts_with("!invert!"), attribute_name(op)?);
     let kind = kind(name);
-    let mut value = values::value(prim, name, code)?;
-    if is_scalar(kind) && matches!(value, Some(Value::Int(_) | Value::Int64(_))) {
-        value = values::scalar_at(prim, name, code)?;
-    }
+    // Whether the crate would hold a scalar only the samples around `code` tell (a decimal one
+    // before a whole one is held too, as a float), so a scalar op always asks for them.
+    let value = match is_scalar(kind) {
+        true => values::scalar_at(prim, name, code)?,
+        false => values::value(prim, name, code)?,
+    };
     let scalar = || {
         let default = if kind.starts_with("scale") { 1.0 } else { 0.0 };
         value.as_ref().and_then(values::number).unwrap_or(default)
@@ -249,6 +251,19 @@ mod tests {
                 .local_to_parent_transform(TimeCode::new(2.0))
                 .is_err()
         );
+    }
+
+    #[test]
+    fn a_decimal_sample_before_a_whole_one_is_interpolated_too() {
+        // The crate holds 10.5 (a float) until 3 here: what it returns between the samples is
+        // no integer, so only the samples themselves tell.
+        let (_d, stage) = stage_with(
+            " float xformOp:rotateZ.timeSamples = { 1: 10.5, 3: 90 }",
+            "\"xformOp:rotateZ\"",
+        );
+        let ours = local_transform(&stage.prim("/A"), &order(&stage), 2.0).unwrap();
+        let right = DMat4::from_rotation_z(50.25f64.to_radians());
+        assert!(ours.abs_diff_eq(right, 1e-9), "{ours} against {right}");
     }
 
     #[test]

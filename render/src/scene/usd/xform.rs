@@ -278,11 +278,19 @@ pub fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
     for placed in chain(prim) {
         let order = placed.xform_op_order()?.unwrap_or_default();
         m = super::ops::local_transform(placed.prim(), &order, code)? * m;
-        if placed.resets_xform_stack()? {
+        if resets(&order) {
             break;
         }
     }
     Ok(m)
+}
+
+/// The op that, first in `xformOpOrder`, stops a prim inheriting its parent's transform.
+pub const RESET: &str = "!resetXformStack!";
+
+/// True when xformOps `order` starts with [`RESET`].
+fn resets(order: &[String]) -> bool {
+    order.first().is_some_and(|op| op == RESET)
 }
 
 /// `prim` and its ancestors below the pseudo-root, nearest first.
@@ -308,14 +316,12 @@ fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
     let [start, end] = source.codes();
     let mut all: Vec<f64> = Vec::new();
     for placed in chain(prim) {
-        for op in placed.xform_op_order()?.unwrap_or_default() {
-            if op == "!resetXformStack!" {
-                continue;
-            }
-            let name = super::ops::attribute_name(&op)?;
+        let order = placed.xform_op_order()?.unwrap_or_default();
+        for op in order.iter().filter(|op| *op != RESET) {
+            let name = super::ops::attribute_name(op)?;
             all.extend(placed.prim().attribute(name).time_sample_times()?);
         }
-        if placed.resets_xform_stack()? {
+        if resets(&order) {
             break;
         }
     }
