@@ -194,15 +194,13 @@ impl Walk<'_> {
         let n = arrays.proto_indices.len();
         let mut world = xform::world_samples(prim, self.source)?;
         if arrays.poses.len() > 1 {
-            // The instancer's transform at its own samples and at the placements'.
-            let mut codes: Vec<f64> = world.iter().map(|&(c, _)| c).collect();
-            codes.extend(arrays.poses.iter().map(|p| p.code));
-            codes.sort_by(f64::total_cmp);
-            codes.dedup();
-            world = codes
-                .into_iter()
-                .map(|c| Ok((c, xform::world(prim, c).map_err(read)?)))
-                .collect::<Result<_, RenderError>>()?;
+            // The instancer's transform at the placements' samples too.
+            for code in arrays.poses.iter().map(|p| p.code) {
+                if !world.iter().any(|&(c, _)| c == code) {
+                    world.push((code, xform::world(prim, code).map_err(read)?));
+                }
+            }
+            world.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
         self.check_instances(&path, n, world.len())?;
         let mut prototype_meshes = Vec::with_capacity(prototypes.len());
@@ -343,10 +341,7 @@ impl Walk<'_> {
         for name in POSE_ATTRIBUTES {
             times.extend(prim.attribute(name).time_sample_times().map_err(read)?);
         }
-        times.retain(|t| t.is_finite());
-        times.sort_by(f64::total_cmp);
-        times.dedup();
-        let codes = xform::within(&times, self.source.codes());
+        let codes = xform::codes_within(times, self.source.codes());
         if codes.len() < 2 {
             return Ok(Vec::new());
         }

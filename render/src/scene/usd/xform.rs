@@ -310,10 +310,8 @@ fn chain(prim: &Prim) -> Vec<Placed> {
 
 /// The time codes `prim`'s world transform is read at: every time sample of the ops of it
 /// and its ancestors within the span, with the nearest one outside each end; the span's
-/// start alone when nothing is sampled there. Every op's name is checked here, before
-/// [`world`] has the crate compose them.
+/// start alone when nothing is sampled there.
 fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
-    let [start, end] = source.codes();
     let mut all: Vec<f64> = Vec::new();
     for placed in chain(prim) {
         let order = placed.xform_op_order()?.unwrap_or_default();
@@ -325,10 +323,15 @@ fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
             break;
         }
     }
-    all.retain(|t| t.is_finite());
-    all.sort_by(f64::total_cmp);
-    all.dedup();
-    Ok(within(&all, [start, end]))
+    Ok(codes_within(all, source.codes()))
+}
+
+/// Of sample `times` (any order, repeats and non-finite ones included), those [`within`] `span`.
+pub fn codes_within(mut times: Vec<f64>, span: [f64; 2]) -> Vec<f64> {
+    times.retain(|t| t.is_finite());
+    times.sort_by(f64::total_cmp);
+    times.dedup();
+    within(&times, span)
 }
 
 /// Of sorted `times`, those within `[start, end]` and the nearest outside each end; `start`
