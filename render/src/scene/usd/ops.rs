@@ -10,11 +10,14 @@ use glam::{DMat4, DQuat, DVec3};
 use openusd::sdf::Value;
 use openusd::usd::Prim;
 
+/// The op that, first in `xformOpOrder`, stops a prim inheriting its parent's transform.
+pub const RESET: &str = "!resetXformStack!";
+
 /// `prim`'s local transform (column-vector) at time `code` from its xformOps `order`.
 pub fn local_transform(prim: &Prim, order: &[String], code: f64) -> anyhow::Result<DMat4> {
     let mut m = DMat4::IDENTITY;
     for (i, op) in order.iter().enumerate() {
-        if op == super::xform::RESET {
+        if op == RESET {
             if i == 0 {
                 continue;
             }

@@ -2,7 +2,7 @@
 //! ancestors' xform ops around the times rays reach, split into a constant part baked into its
 //! points and a similarity that moves it (the only motion rift blurs).
 
-use super::Source;
+use super::{Source, ops};
 use crate::error::RenderError;
 use crate::scene::mesh::Shape;
 use crate::scene::schema::ObjectSection;
@@ -277,7 +277,7 @@ pub fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
     let mut m = DMat4::IDENTITY;
     for placed in chain(prim) {
         let order = placed.xform_op_order()?.unwrap_or_default();
-        m = super::ops::local_transform(placed.prim(), &order, code)? * m;
+        m = ops::local_transform(placed.prim(), &order, code)? * m;
         if resets(&order) {
             break;
         }
@@ -285,12 +285,9 @@ pub fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
     Ok(m)
 }
 
-/// The op that, first in `xformOpOrder`, stops a prim inheriting its parent's transform.
-pub const RESET: &str = "!resetXformStack!";
-
-/// True when xformOps `order` starts with [`RESET`].
+/// True when xformOps `order` starts with [`ops::RESET`].
 fn resets(order: &[String]) -> bool {
-    order.first().is_some_and(|op| op == RESET)
+    order.first().is_some_and(|op| op == ops::RESET)
 }
 
 /// `prim` and its ancestors below the pseudo-root, nearest first.
@@ -315,8 +312,8 @@ fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
     let mut all: Vec<f64> = Vec::new();
     for placed in chain(prim) {
         let order = placed.xform_op_order()?.unwrap_or_default();
-        for op in order.iter().filter(|op| *op != RESET) {
-            let name = super::ops::attribute_name(op)?;
+        for op in order.iter().filter(|op| *op != ops::RESET) {
+            let name = ops::attribute_name(op)?;
             all.extend(placed.prim().attribute(name).time_sample_times()?);
         }
         if resets(&order) {
