@@ -1045,7 +1045,7 @@ mod tests {
             base: Vec3::splat(2.0),
             normalize: false,
             cone: None,
-            placement: at(p),
+            placement: at(p).into(),
             flags: crate::portals::Flags::ALL,
             group: 0,
         };

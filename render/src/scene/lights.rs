@@ -104,7 +104,7 @@ fn light(shot: &Shot, key: &str, s: &LightSection, group: u8) -> Result<Light, I
         base,
         normalize,
         cone,
-        placement,
+        placement: placement.into(),
         flags,
         group,
     }))
