@@ -23,7 +23,7 @@ pub fn scalar_at(prim: &Prim, name: &str, code: f64) -> anyhow::Result<Option<Va
 
 /// The samples (time and number) of the attribute `name` on each side of `code`, where `code`
 /// lies strictly between two of them and either is read as an integer.
-pub fn whole_numbers_around(
+fn whole_numbers_around(
     prim: &Prim,
     name: &str,
     code: f64,
