@@ -541,6 +541,23 @@ fn quad(name: &str, ops: &str) -> String {
     )
 }
 
+/// A quad's transform ops, keyed to move it from the left third to the middle over frame 1's
+/// shutter while it turns a quarter about its own centre and doubles in size.
+const KEYED_OPS: &str = "double3 xformOp:translate.timeSamples = { 1: (-0.8, 1, -1), 2: (0.8, 1, -1) }\n  \
+     float xformOp:rotateZ.timeSamples = { 1: 0, 2: 90 }\n  \
+     float3 xformOp:scale.timeSamples = { 1: (1, 1, 1), 2: (2, 2, 2) }\n  \
+     uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateZ\", \
+     \"xformOp:scale\"]";
+
+/// A quad standing still beside the moving ones.
+fn still_quad() -> String {
+    quad(
+        "Still",
+        "double3 xformOp:translate = (0.3, 0.7, -1.2)\n  \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]",
+    )
+}
+
 #[test]
 fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_instance_does() {
     let dir = tempfile::tempdir().unwrap();
@@ -569,18 +586,11 @@ fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_ins
     // The same motion keyed by transform ops on an instance of the class's quad, which rift
     // also keys by its world transforms. Its rotation is keyed in whole degrees, as usd-core
     // writes them, which the USD crate alone would hold at 0 until time code 2.
-    let keyed = "def Xform \"Moving\" (\n  inherits = </Proto>\n  instanceable = true\n ) {\n  \
-                 double3 xformOp:translate.timeSamples = { 1: (-0.8, 1, -1), 2: (0.8, 1, -1) }\n  \
-                 float xformOp:rotateZ.timeSamples = { 1: 0, 2: 90 }\n  \
-                 float3 xformOp:scale.timeSamples = { 1: (1, 1, 1), 2: (2, 2, 2) }\n  \
-                 uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateZ\", \
-                 \"xformOp:scale\"]\n }\n "
-        .to_owned()
-        + &quad(
-            "Still",
-            "double3 xformOp:translate = (0.3, 0.7, -1.2)\n  \
-             uniform token[] xformOpOrder = [\"xformOp:translate\"]",
-        );
+    let keyed = format!(
+        "def Xform \"Moving\" (\n  inherits = </Proto>\n  instanceable = true\n ) {{\n  \
+         {KEYED_OPS}\n }}\n {}",
+        still_quad()
+    );
     std::fs::write(d.join("keyed.usda"), moving_quads(&keyed, bob)).unwrap();
     // The instancer held where frame 1 starts: what rift rendered before it read the samples.
     let held = instancer("(-0.8, 1, -1)");
@@ -597,6 +607,54 @@ fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_ins
     // and unlike the held one.
     assert_means_agree(&p("instanced.exr"), &p("keyed.exr"), 2e-3);
     assert_means_differ(&p("instanced.exr"), &p("held.exr"), 0.02);
+}
+
+/// A mesh keyed by its own transform ops moves as the same keyed instance does: its keys
+/// place its centre where its ops put it, so it turns about that centre between samples rather
+/// than about the stage's origin.
+#[test]
+fn a_keyed_mesh_moves_as_the_same_keyed_instance_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let still = " = (0, 0, 0)";
+    let instanced = format!(
+        "def Xform \"Moving\" (\n  inherits = </Proto>\n  instanceable = true\n ) {{\n  \
+         {KEYED_OPS}\n }}\n {}",
+        still_quad()
+    );
+    let mesh = format!("{}\n {}", quad("Moving", KEYED_OPS), still_quad());
+    std::fs::write(d.join("instanced.usda"), moving_quads(&instanced, still)).unwrap();
+    std::fs::write(d.join("mesh.usda"), moving_quads(&mesh, still)).unwrap();
+    for name in ["instanced", "mesh"] {
+        let shot = shot_with(&format!("file = \"{name}.usda\""));
+        std::fs::write(d.join(format!("{name}.toml")), shot).unwrap();
+        render(d, &format!("{name}.toml"), &format!("{name}.exr"));
+    }
+    assert_means_agree(&d.join("mesh.exr"), &d.join("instanced.exr"), 2e-3);
+    // Its section's transform, and a copy's own, place it from where the stage puts it at its
+    // first sample, as they place a prim that stands there.
+    let first = quad(
+        "Moving",
+        "double3 xformOp:translate = (-0.8, 1, -1)\n  \
+         uniform token[] xformOpOrder = [\"xformOp:translate\"]",
+    );
+    let standing = format!("{first}\n {}", still_quad());
+    std::fs::write(d.join("standing.usda"), moving_quads(&standing, still)).unwrap();
+    let moved = "\n[[object]]\nname = \"/Rig/Moving\"\ntransform = { position = [0.5, 0.0, 0.0] }\n\
+                 \n[[object]]\nname = \"moved_copy\"\ncopy_of = \"/Rig/Moving\"\n\
+                 transform = { position = [0.9, -0.3, 0.0] }\n";
+    for name in ["mesh", "standing"] {
+        let shot = shot_with(&format!("file = \"{name}.usda\"")) + moved;
+        std::fs::write(d.join(format!("{name}_moved.toml")), shot).unwrap();
+        render(
+            d,
+            &format!("{name}_moved.toml"),
+            &format!("{name}_moved.exr"),
+        );
+    }
+    let p = |name: &str| d.join(name);
+    assert_means_agree(&p("mesh_moved.exr"), &p("standing_moved.exr"), 2e-3);
+    assert_means_differ(&p("mesh_moved.exr"), &p("mesh.exr"), 0.02);
 }
 
 #[test]

@@ -65,13 +65,25 @@ impl AnimatedTransform {
     /// same interpolation. This is exact: Hermite translation is linear in the keys, slerp is
     /// unchanged by a fixed rotation applied first, and geometric scale by a fixed factor.
     pub fn then(&self, applied: &Similarity) -> Self {
+        self.map_keys(|k| applied.compose(k))
+    }
+
+    /// `first` before this transform at every key: exact at the keys; between them the keys'
+    /// translations are interpolated as they come out, so a `first` off the origin moves along
+    /// the chord while the keys turn, not the arc.
+    pub fn after(&self, first: &Similarity) -> Self {
+        self.map_keys(|k| k.compose(first))
+    }
+
+    /// Every key's value replaced by `f` of it, at the same times.
+    fn map_keys(&self, f: impl Fn(&Similarity) -> Similarity) -> Self {
         Self {
             keys: self
                 .keys
                 .iter()
                 .map(|k| TransformKey {
                     time: k.time,
-                    value: applied.compose(&k.value),
+                    value: f(&k.value),
                 })
                 .collect(),
             interpolation: self.interpolation,

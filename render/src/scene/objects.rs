@@ -6,7 +6,7 @@
 use super::light_groups::LightGroups;
 use super::materials::{self, BOUNDARY_MATERIAL, TextureReader};
 use super::media::MediaSections;
-use super::schema::ObjectSection;
+use super::schema::{ObjectSection, StageOrigin};
 use super::sequence::{self, Sequence};
 use super::{flags, mesh, parse, within_single_precision};
 use crate::error::{RenderError, key_error};
@@ -19,7 +19,7 @@ use crate::portals::openings::Portals;
 use crate::portals::visibility::Flags;
 use crate::sampling::uniform_triangle;
 use crate::texture::Texture;
-use glam::{Vec2, Vec3};
+use glam::{DQuat, DVec3, Vec2, Vec3};
 use rift_fx::rig::{AnimatedTransform, Rig, Similarity};
 use rift_fx::shot::check;
 use rift_fx::shot::pose::{self, Facing};
@@ -101,6 +101,10 @@ pub(super) fn object_sections(
             }
             o.mesh = o.mesh.or_else(|| from.mesh.clone());
             o.material = o.material.or_else(|| from.material.clone());
+            o.stage_origin = match o.transform {
+                Some(_) => from.stage_origin.replaced(),
+                None => from.stage_origin,
+            };
             o.transform = o.transform.or_else(|| from.transform.clone());
             if o.transform.is_none() {
                 o.instances = from.instances.clone();
@@ -115,6 +119,9 @@ pub(super) fn object_sections(
 /// opening, visibility and light group, each where the section gives it.
 fn override_prim(prim: &mut ObjectSection, o: ObjectSection) {
     prim.material = o.material.or(prim.material.take());
+    if o.transform.is_some() {
+        prim.stage_origin = prim.stage_origin.replaced();
+    }
     prim.transform = o.transform.or(prim.transform.take());
     if o.through.is_some() || o.back_through.is_some() {
         (prim.through, prim.back_through) = (o.through, o.back_through);
@@ -445,7 +452,13 @@ impl Loader<'_> {
     /// back through one) by the constraint solver.
     fn motion(&self, key: &str, o: &ObjectSection) -> Result<ObjectMotion, RenderError> {
         let carried = self.carried(key, o)?;
-        self.placement(key, o.transform.as_ref(), carried)
+        let mut transform = self.pose(key, o.transform.as_ref())?;
+        if let StageOrigin::Replaced(origin) = o.stage_origin {
+            // The shot file's transform places the prim from where its stage puts it.
+            let from = Similarity::new(DQuat::IDENTITY, DVec3::from(origin), 1.0);
+            transform = transform.after(&from);
+        }
+        self.carry(key, transform, carried)
     }
 
     /// Where each instance of an instanced object is over time, each carried through the
@@ -501,17 +514,26 @@ impl Loader<'_> {
         transform: Option<&rift_fx::shot::schema::PoseSpec>,
         carried: Option<Carried<'_>>,
     ) -> Result<ObjectMotion, RenderError> {
-        let transform = match transform {
+        let transform = self.pose(key, transform)?;
+        self.carry(key, transform, carried)
+    }
+
+    /// A section's `transform` key (under `key`) over time; none stands at the origin.
+    fn pose(
+        &self,
+        key: &str,
+        transform: Option<&rift_fx::shot::schema::PoseSpec>,
+    ) -> Result<AnimatedTransform, RenderError> {
+        match transform {
             Some(spec) => pose::animated(
                 &format!("{key}.transform"),
                 spec,
                 Facing::PositiveZ,
                 self.shot.fps,
             )
-            .map_err(|e| self.invalid(e))?,
-            None => AnimatedTransform::constant(Similarity::IDENTITY),
-        };
-        self.carry(key, transform, carried)
+            .map_err(|e| self.invalid(e)),
+            None => Ok(AnimatedTransform::constant(Similarity::IDENTITY)),
+        }
     }
 
     /// `transform`, carried through the opening `carried` names (under `key`).

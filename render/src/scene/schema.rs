@@ -395,6 +395,34 @@ pub struct ObjectSection {
     /// they go by the object's name (never a shot-file key).
     #[serde(skip)]
     pub instance_names: Vec<String>,
+    /// Where a moving USD prim's keys start from (never a shot-file key).
+    #[serde(skip)]
+    pub stage_origin: StageOrigin,
+}
+
+/// A moving USD prim's points leave out where the stage puts it at its first sample, and its
+/// keys put it there, so it turns about its own origin between samples. A shot-file
+/// `transform` that replaces those keys (the prim's own section, or a copy's) places it from
+/// that position, as it places a still prim from where the stage leaves it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub enum StageOrigin {
+    /// Not a moving USD prim: `transform` applies to the points as they are.
+    #[default]
+    Included,
+    /// Moving under the stage's own keys, which put it at this position at its first sample.
+    Keyed([f64; 3]),
+    /// Moving in USD, placed by a shot-file `transform` from this position.
+    Replaced([f64; 3]),
+}
+
+impl StageOrigin {
+    /// The same prim once a shot-file `transform` replaces its stage's keys.
+    pub fn replaced(self) -> Self {
+        match self {
+            Self::Keyed(p) | Self::Replaced(p) => Self::Replaced(p),
+            Self::Included => Self::Included,
+        }
+    }
 }
 
 /// `[object.visibility]`: which rays see the object (each defaults to true).

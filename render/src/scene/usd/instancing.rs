@@ -9,7 +9,7 @@
 use super::stage::Walk;
 use super::{values, xform};
 use crate::error::RenderError;
-use crate::scene::schema::ObjectSection;
+use crate::scene::schema::{ObjectSection, StageOrigin};
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use openusd::sdf::Value;
 use openusd::usd::Prim;
@@ -154,6 +154,7 @@ impl Walk<'_> {
                 transform: Some(xform::pose_of(self.source, &placed)),
                 instances: Vec::new(),
                 instance_names: Vec::new(),
+                stage_origin: StageOrigin::Included,
                 ..object.clone()
             };
             // The object as made (at no transform) becomes the first copy.

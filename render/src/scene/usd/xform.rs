@@ -5,7 +5,7 @@
 use super::{Source, ops};
 use crate::error::RenderError;
 use crate::scene::mesh::Shape;
-use crate::scene::schema::ObjectSection;
+use crate::scene::schema::{ObjectSection, StageOrigin};
 use glam::{DAffine3, DMat3, DMat4, DVec3};
 use openusd::schemas::geom::{Imageable, Purpose, Visibility, Xformable};
 use openusd::usd::{Prim, SchemaBase, SchemaKind};
@@ -37,8 +37,10 @@ pub fn rendered(prim: &Prim) -> anyhow::Result<bool> {
     ))
 }
 
-/// A prim's placement: `bake` (column-vector, world units) applied to its points once, then
-/// `keys` (shot frames, similarities) moving them; no keys when it stands still.
+/// A prim's placement: `bake` (column-vector) applied to its points once, then `keys` (shot
+/// frames, similarities) moving them. Standing still, `bake` is its whole world transform and
+/// there are no keys; moving, `bake` is its first sample's linear part (what of its shape no
+/// similarity can carry, with its turn and size then) and the keys place its origin.
 pub struct Placement {
     pub bake: DMat4,
     pub keys: Vec<(f64, DMat4)>,
@@ -60,6 +62,10 @@ impl Placement {
             shape: Some(shape),
             instances: Vec::new(),
             instance_names: Vec::new(),
+            stage_origin: match self.keys.as_slice() {
+                [(_, first), _, ..] => StageOrigin::Keyed(first.w_axis.truncate().to_array()),
+                _ => StageOrigin::Included,
+            },
         }
     }
 
@@ -162,7 +168,12 @@ pub fn of_samples(
             keys: Vec::new(),
         });
     }
-    let inverse = bake.inverse();
+    // Moving: only the first sample's linear part is baked, about the prim's own origin, and
+    // each key places that origin where the sample puts it (absolute keys, as instances have).
+    // Keys relative to the first sample's whole transform would turn the prim about the
+    // stage's origin between samples, off its own centre.
+    let shape = DMat4::from_mat3(DMat3::from_mat4(bake));
+    let inverse = shape.inverse();
     let mut keys = Vec::with_capacity(samples.len());
     for &(code, m) in samples {
         let relative = m * inverse;
@@ -178,7 +189,7 @@ pub fn of_samples(
         }
         keys.push((source.clock.frame(code), relative));
     }
-    Ok(Placement { bake, keys })
+    Ok(Placement { bake: shape, keys })
 }
 
 /// A light's placement: its world transform's per-axis scales at the first sample (which
