@@ -657,6 +657,42 @@ fn a_keyed_mesh_moves_as_the_same_keyed_instance_does() {
     assert_means_differ(&p("mesh_moved.exr"), &p("mesh.exr"), 0.02);
 }
 
+/// A stage whose Xform "Arm" turns `turn` (the rotateZ's samples) and carries a quad 0.8 out.
+fn arm(turn: &str) -> String {
+    format!(
+        "#usda 1.0\n(\n timeCodesPerSecond = 24\n startTimeCode = 1\n endTimeCode = 2\n)\n\
+         def DomeLight \"Sky\" {{\n color3f inputs:color = (1, 0.9, 0.8)\n}}\n\
+         def Xform \"Arm\" {{\n double3 xformOp:translate = (-0.4, 0.8, -1.2)\n \
+         float xformOp:rotateZ.timeSamples = {{ {turn} }}\n \
+         uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateZ\"]\n {}\n}}\n",
+        quad(
+            "Quad",
+            "double3 xformOp:translate = (0.8, 0, 0)\n  \
+             uniform token[] xformOpOrder = [\"xformOp:translate\"]"
+        )
+    )
+}
+
+/// A prim a turning parent carries sweeps its arc, as USD places it, though the parent's turn
+/// is keyed only at whole frames: rift adds samples where its blend of two would cut across.
+#[test]
+fn a_prim_on_a_turning_arm_sweeps_its_arc_between_sparse_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Three quarters of a turn between time codes 1 and 2, 135° within frame 1's shutter.
+    let dense: Vec<String> = (0..=32)
+        .map(|i| format!("{}: {}", 1.0 + i as f64 / 32.0, 270.0 * i as f64 / 32.0))
+        .collect();
+    std::fs::write(d.join("sparse.usda"), arm("1: 0, 2: 270")).unwrap();
+    std::fs::write(d.join("dense.usda"), arm(&dense.join(", "))).unwrap();
+    for name in ["sparse", "dense"] {
+        let shot = shot_with(&format!("file = \"{name}.usda\""));
+        std::fs::write(d.join(format!("{name}.toml")), shot).unwrap();
+        render(d, &format!("{name}.toml"), &format!("{name}.exr"));
+    }
+    assert_means_agree(&d.join("sparse.exr"), &d.join("dense.exr"), 2e-3);
+}
+
 #[test]
 fn an_instancer_whose_instances_cannot_be_followed_over_time_is_said_and_held() {
     let dir = tempfile::tempdir().unwrap();

@@ -272,15 +272,97 @@ fn is_similarity(m: DMat3) -> bool {
     off.to_cols_array().iter().all(|x| x.abs() < 1e-5)
 }
 
-/// `prim`'s world transform at each of its [`sample_codes`] (at least one): the time code
-/// and the matrix.
+/// Most times an interval between two of a prim's samples is halved to follow its path
+/// ([`follow_between`]): a turn of 90° between samples is followed in steps of 1.4°.
+const MOST_HALVINGS: u32 = 6;
+
+/// How far rift's blend of two samples may stray from where USD puts the prim halfway between
+/// them before that halfway sample is added: as a share of how far its origin moves (an arc of
+/// angle θ strays about θ/8 of its chord from it, so arcs are followed in steps of about 4.6°,
+/// a blur streak's middle within 1% of its length of the arc), as a share of its size, and in
+/// radians of its turn.
+const MOST_STRAY: f64 = 0.01;
+
+/// `prim`'s world transform at each of its [`sample_codes`] (at least one), and between them
+/// wherever rift's blend of two would stray from the prim's path ([`follow_between`]): the
+/// time code and the matrix, in order.
 pub fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, RenderError> {
-    let read = |e| source.read_error(prim.path().as_str(), e);
-    let codes = sample_codes(prim, source).map_err(read)?;
-    codes
-        .into_iter()
-        .map(|code| Ok((code, world(prim, code).map_err(read)?)))
-        .collect()
+    let at = |code| world(prim, code).map_err(|e| source.read_error(prim.path().as_str(), e));
+    let codes =
+        sample_codes(prim, source).map_err(|e| source.read_error(prim.path().as_str(), e))?;
+    let mut out: Vec<(f64, DMat4)> = Vec::with_capacity(codes.len());
+    let follow = Follow {
+        span: source.codes(),
+        at: &at,
+    };
+    for code in codes {
+        let sample = (code, at(code)?);
+        if let Some(&before) = out.last() {
+            follow.between(before, sample, MOST_HALVINGS, &mut out)?;
+        }
+        out.push(sample);
+    }
+    Ok(out)
+}
+
+/// How [`world_samples`] follows a prim between its samples: over the time codes `span` the
+/// frame's rays see, reading the prim's world transform with `at`.
+struct Follow<'a, F> {
+    span: [f64; 2],
+    at: &'a F,
+}
+
+impl<F: Fn(f64) -> Result<DMat4, RenderError>> Follow<'_, F> {
+    /// Adds to `out`, in order, the samples between `a` and `b` (time code, world matrix) that
+    /// rift needs to follow the prim where its blend of the two strays from where USD puts it
+    /// ([`strays`]): a parent turning it along an arc, ops that turn it about several axes, a
+    /// scale op's straight growth. Halves the interval up to `halvings` times, where it
+    /// overlaps the span.
+    fn between(
+        &self,
+        a: (f64, DMat4),
+        b: (f64, DMat4),
+        halvings: u32,
+        out: &mut Vec<(f64, DMat4)>,
+    ) -> Result<(), RenderError> {
+        let [start, end] = self.span;
+        if halvings == 0 || b.0 <= start || a.0 >= end {
+            return Ok(());
+        }
+        let code = 0.5 * (a.0 + b.0);
+        let half = (code, (self.at)(code)?);
+        if !strays(a.1, b.1, half.1) {
+            return Ok(());
+        }
+        self.between(a, half, halvings - 1, out)?;
+        out.push(half);
+        self.between(half, b, halvings - 1, out)
+    }
+}
+
+/// Whether rift's halfway blend of world transforms `a` and `b` strays from `half`, the prim's
+/// transform halfway, by more than [`MOST_STRAY`]. Compared as the similarities left after
+/// `a`'s linear part, as a moving prim's keys are ([`of_samples`]); transforms that change
+/// shape are left for `of_samples` to refuse.
+fn strays(a: DMat4, b: DMat4, half: DMat4) -> bool {
+    let shape = DMat4::from_mat3(DMat3::from_mat4(a));
+    if !shape.is_finite() || shape.determinant() == 0.0 {
+        return false;
+    }
+    let inverse = shape.inverse();
+    let similarity = |m: DMat4| Similarity::from_affine(&DAffine3::from_mat4(m * inverse)).ok();
+    let (Some(a), Some(b), Some(half)) = (similarity(a), similarity(b), similarity(half)) else {
+        return false;
+    };
+    let blend = a.interpolate(&b, 0.5);
+    // How far the origin moves, kept above rounding where it stands still.
+    let size = 1.0 + a.translation.length() + b.translation.length();
+    let travel = a.translation.distance(b.translation).max(1e-9 * size);
+    blend.translation.distance(half.translation) > MOST_STRAY * travel
+        || (blend.scale - half.scale).abs() > MOST_STRAY * half.scale
+        || blend.rotation.angle_between(half.rotation) > MOST_STRAY
+        // Near a half turn, which way the blend turns is a matter of rounding.
+        || a.rotation.angle_between(b.rotation) > std::f64::consts::FRAC_PI_2
 }
 
 /// `prim`'s local-to-world transform at time `code`, column-vector.
@@ -378,5 +460,75 @@ mod tests {
         assert!(!is_similarity(DMat3::from_diagonal(DVec3::new(
             -1.0, 1.0, 1.0
         ))));
+    }
+
+    /// The samples [`world_samples`] keeps for `at` between time codes 1 and 2, over the span
+    /// `span`.
+    fn followed_over(span: [f64; 2], at: impl Fn(f64) -> DMat4) -> Vec<(f64, DMat4)> {
+        let at = |code| Ok(at(code));
+        let (a, b) = ((1.0, at(1.0).unwrap()), (2.0, at(2.0).unwrap()));
+        let mut out = vec![a];
+        let follow = Follow { span, at: &at };
+        follow.between(a, b, MOST_HALVINGS, &mut out).unwrap();
+        out.push(b);
+        out
+    }
+
+    /// [`followed_over`] the whole interval.
+    fn followed(at: impl Fn(f64) -> DMat4) -> Vec<(f64, DMat4)> {
+        followed_over([1.0, 2.0], at)
+    }
+
+    #[test]
+    fn an_arc_is_followed_and_straight_motion_is_not() {
+        let turn = |code: f64| DMat4::from_rotation_y((code - 1.0) * std::f64::consts::FRAC_PI_2);
+        // Carried 3 m out on an arm that turns a quarter: samples are added until each step
+        // strays less than MOST_STRAY of its chord from the arc.
+        let arm = followed(|code| turn(code) * DMat4::from_translation(DVec3::new(3.0, 0.0, 0.0)));
+        assert!(arm.len() > 16, "{} samples", arm.len());
+        assert!(arm.windows(2).all(|w| w[0].0 < w[1].0));
+        for w in arm.windows(2) {
+            let half = 0.5 * (w[0].0 + w[1].0);
+            let arc = turn(half) * DMat4::from_translation(DVec3::new(3.0, 0.0, 0.0));
+            assert!(
+                !strays(w[0].1, w[1].1, arc),
+                "between {} and {}",
+                w[0].0,
+                w[1].0
+            );
+        }
+        // Turning about its own origin as it slides, growing geometrically, under a fixed
+        // non-uniform scale: rift's blend is the path itself.
+        let stretch = DMat4::from_scale(DVec3::new(1.0, 2.0, 0.5));
+        let own = |code: f64| {
+            DMat4::from_translation(DVec3::new(code, 5.0, -2.0))
+                * turn(code)
+                * DMat4::from_scale(DVec3::splat(4f64.powf(code - 1.0)))
+                * stretch
+        };
+        assert_eq!(followed(own).len(), 2);
+        // A scale op's straight growth is followed (rift blends scale geometrically).
+        let grows = followed(|code| DMat4::from_scale(DVec3::splat(code)));
+        assert!(
+            grows.len() > 2 && grows.len() <= 9,
+            "{} samples",
+            grows.len()
+        );
+        // A whole turn between samples, which their matrices alone do not show: followed in
+        // quarter turns, each of which the blend takes the short way.
+        let spins = followed(|code| DMat4::from_rotation_z((code - 1.0) * std::f64::consts::TAU));
+        let codes: Vec<f64> = spins.iter().map(|s| s.0).collect();
+        assert_eq!(codes, [1.0, 1.25, 1.5, 1.75, 2.0]);
+        // Only where the frame's rays look: the first half of the interval.
+        let half_arm = followed_over([1.0, 1.5], |code| {
+            turn(code) * DMat4::from_translation(DVec3::new(3.0, 0.0, 0.0))
+        });
+        assert!(
+            half_arm.len() <= arm.len() / 2 + 2,
+            "{} of {}",
+            half_arm.len(),
+            arm.len()
+        );
+        assert!(half_arm[half_arm.len() - 2].0 <= 1.5);
     }
 }
