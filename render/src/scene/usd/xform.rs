@@ -276,6 +276,10 @@ fn is_similarity(m: DMat3) -> bool {
 /// ([`follow_between`]): a turn of 90° between samples is followed in steps of 1.4°.
 const MOST_HALVINGS: u32 = 6;
 
+/// Most samples a prim keeps once [`world_samples`] follows it between its own: past them a
+/// file with samples by the thousand within a frame is read at those alone, as before.
+const MOST_FOLLOWED: usize = 1024;
+
 /// How far rift's blend of two samples may stray from where USD puts the prim halfway between
 /// them before that halfway sample is added: as a share of how far its origin moves (an arc of
 /// angle θ strays about θ/8 of its chord from it, so arcs are followed in steps of about 4.6°,
@@ -326,7 +330,7 @@ impl<F: Fn(f64) -> Result<DMat4, RenderError>> Follow<'_, F> {
         out: &mut Vec<(f64, DMat4)>,
     ) -> Result<(), RenderError> {
         let [start, end] = self.span;
-        if halvings == 0 || b.0 <= start || a.0 >= end {
+        if halvings == 0 || b.0 <= start || a.0 >= end || out.len() >= MOST_FOLLOWED {
             return Ok(());
         }
         let code = 0.5 * (a.0 + b.0);
@@ -530,5 +534,17 @@ mod tests {
             arm.len()
         );
         assert!(half_arm[half_arm.len() - 2].0 <= 1.5);
+        // Past MOST_FOLLOWED samples nothing more is read.
+        let mut full = vec![(1.0, DMat4::IDENTITY); MOST_FOLLOWED];
+        let never = |_: f64| -> Result<DMat4, RenderError> { panic!("read past the cap") };
+        let follow = Follow {
+            span: [1.0, 2.0],
+            at: &never,
+        };
+        let ends = ((1.0, turn(1.0)), (2.0, turn(2.0)));
+        follow
+            .between(ends.0, ends.1, MOST_HALVINGS, &mut full)
+            .unwrap();
+        assert_eq!(full.len(), MOST_FOLLOWED);
     }
 }
