@@ -14,7 +14,7 @@
 //! An opening with a time offset shifts the path's time: the there side, and everything the
 //! path meets after, is evaluated at the shifted time.
 //!
-//! Visibility: each ray has a [`RayClass`] (camera, through a portal, indirect, shadow) that the
+//! Visibility: each ray has a [`RayClass`](crate::portals::RayClass) (camera, through a portal, indirect, shadow) that the
 //! objects' flags and cull volumes filter. An emitter that indirect rays do not see can only be
 //! found by light sampling, which then gets the full MIS weight.
 //!

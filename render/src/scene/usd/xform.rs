@@ -172,8 +172,8 @@ pub fn of_samples(
     // each key places that origin where the sample puts it (absolute keys, as instances have).
     // Keys relative to the first sample's whole transform would turn the prim about the
     // stage's origin between samples, off its own centre.
-    let shape = DMat4::from_mat3(DMat3::from_mat4(bake));
-    let inverse = shape.inverse();
+    let linear = DMat4::from_mat3(DMat3::from_mat4(bake));
+    let inverse = linear.inverse();
     let mut keys = Vec::with_capacity(samples.len());
     for &(code, m) in samples {
         let relative = m * inverse;
@@ -189,7 +189,7 @@ pub fn of_samples(
         }
         keys.push((source.clock.frame(code), relative));
     }
-    Ok(Placement { bake: shape, keys })
+    Ok(Placement { bake: linear, keys })
 }
 
 /// A light's placement: its world transform's per-axis scales at the first sample (which
@@ -273,7 +273,7 @@ fn is_similarity(m: DMat3) -> bool {
 }
 
 /// Most times an interval between two of a prim's samples is halved to follow its path
-/// ([`follow_between`]): a turn of 90° between samples is followed in steps of 1.4°.
+/// ([`Follow::between`]): at most 64 steps between two samples.
 const MOST_HALVINGS: u32 = 6;
 
 /// Most samples a prim keeps once [`world_samples`] follows it between its own: past them a
@@ -288,12 +288,12 @@ const MOST_FOLLOWED: usize = 1024;
 const MOST_STRAY: f64 = 0.01;
 
 /// `prim`'s world transform at each of its [`sample_codes`] (at least one), and between them
-/// wherever rift's blend of two would stray from the prim's path ([`follow_between`]): the
+/// wherever rift's blend of two would stray from the prim's path ([`Follow::between`]): the
 /// time code and the matrix, in order.
 pub fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, RenderError> {
-    let at = |code| world(prim, code).map_err(|e| source.read_error(prim.path().as_str(), e));
-    let codes =
-        sample_codes(prim, source).map_err(|e| source.read_error(prim.path().as_str(), e))?;
+    let read = |e| source.read_error(prim.path().as_str(), e);
+    let at = |code| world(prim, code).map_err(read);
+    let codes = sample_codes(prim, source).map_err(read)?;
     let mut out: Vec<(f64, DMat4)> = Vec::with_capacity(codes.len());
     let follow = Follow {
         span: source.codes(),
@@ -349,11 +349,11 @@ impl<F: Fn(f64) -> Result<DMat4, RenderError>> Follow<'_, F> {
 /// `a`'s linear part, as a moving prim's keys are ([`of_samples`]); transforms that change
 /// shape are left for `of_samples` to refuse.
 fn strays(a: DMat4, b: DMat4, half: DMat4) -> bool {
-    let shape = DMat4::from_mat3(DMat3::from_mat4(a));
-    if !shape.is_finite() || shape.determinant() == 0.0 {
+    let linear = DMat4::from_mat3(DMat3::from_mat4(a));
+    if !linear.is_finite() || linear.determinant() == 0.0 {
         return false;
     }
-    let inverse = shape.inverse();
+    let inverse = linear.inverse();
     let similarity = |m: DMat4| Similarity::from_affine(&DAffine3::from_mat4(m * inverse)).ok();
     let (Some(a), Some(b), Some(half)) = (similarity(a), similarity(b), similarity(half)) else {
         return false;
