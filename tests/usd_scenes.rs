@@ -558,6 +558,28 @@ fn still_quad() -> String {
     )
 }
 
+/// An instanceable prim of the class `/Proto`'s quad moved by [`KEYED_OPS`], beside the still
+/// quad.
+fn keyed_instance() -> String {
+    format!(
+        "def Xform \"Moving\" (\n  inherits = </Proto>\n  instanceable = true\n ) {{\n  \
+         {KEYED_OPS}\n }}\n {}",
+        still_quad()
+    )
+}
+
+/// Renders the stage `<name>.usda` in `dir` through a shot of its own (`<name><suffix>.toml`,
+/// the shot's sections `extra` added) to `<name><suffix>.exr`; returns rift's standard error.
+fn render_stage(dir: &Path, name: &str, suffix: &str, extra: &str) -> String {
+    let shot = shot_with(&format!("file = \"{name}.usda\"")) + extra;
+    std::fs::write(dir.join(format!("{name}{suffix}.toml")), shot).unwrap();
+    render(
+        dir,
+        &format!("{name}{suffix}.toml"),
+        &format!("{name}{suffix}.exr"),
+    )
+}
+
 #[test]
 fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_instance_does() {
     let dir = tempfile::tempdir().unwrap();
@@ -586,19 +608,12 @@ fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_ins
     // The same motion keyed by transform ops on an instance of the class's quad, which rift
     // also keys by its world transforms. Its rotation is keyed in whole degrees, as usd-core
     // writes them, which the USD crate alone would hold at 0 until time code 2.
-    let keyed = format!(
-        "def Xform \"Moving\" (\n  inherits = </Proto>\n  instanceable = true\n ) {{\n  \
-         {KEYED_OPS}\n }}\n {}",
-        still_quad()
-    );
-    std::fs::write(d.join("keyed.usda"), moving_quads(&keyed, bob)).unwrap();
+    std::fs::write(d.join("keyed.usda"), moving_quads(&keyed_instance(), bob)).unwrap();
     // The instancer held where frame 1 starts: what rift rendered before it read the samples.
     let held = instancer("(-0.8, 1, -1)");
     std::fs::write(d.join("held.usda"), moving_quads(&held, bob)).unwrap();
     for name in ["instanced", "keyed", "held"] {
-        let shot = shot_with(&format!("file = \"{name}.usda\""));
-        std::fs::write(d.join(format!("{name}.toml")), shot).unwrap();
-        let said = render(d, &format!("{name}.toml"), &format!("{name}.exr"));
+        let said = render_stage(d, name, "", "");
         assert!(!said.contains("Scatter"), "{name}: {said}");
     }
     let p = |name: &str| d.join(name);
@@ -617,18 +632,15 @@ fn a_keyed_mesh_moves_as_the_same_keyed_instance_does() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let still = " = (0, 0, 0)";
-    let instanced = format!(
-        "def Xform \"Moving\" (\n  inherits = </Proto>\n  instanceable = true\n ) {{\n  \
-         {KEYED_OPS}\n }}\n {}",
-        still_quad()
-    );
     let mesh = format!("{}\n {}", quad("Moving", KEYED_OPS), still_quad());
-    std::fs::write(d.join("instanced.usda"), moving_quads(&instanced, still)).unwrap();
+    std::fs::write(
+        d.join("instanced.usda"),
+        moving_quads(&keyed_instance(), still),
+    )
+    .unwrap();
     std::fs::write(d.join("mesh.usda"), moving_quads(&mesh, still)).unwrap();
     for name in ["instanced", "mesh"] {
-        let shot = shot_with(&format!("file = \"{name}.usda\""));
-        std::fs::write(d.join(format!("{name}.toml")), shot).unwrap();
-        render(d, &format!("{name}.toml"), &format!("{name}.exr"));
+        render_stage(d, name, "", "");
     }
     assert_means_agree(&d.join("mesh.exr"), &d.join("instanced.exr"), 2e-3);
     // Its section's transform, and a copy's own, place it from where the stage puts it at its
@@ -644,13 +656,7 @@ fn a_keyed_mesh_moves_as_the_same_keyed_instance_does() {
                  \n[[object]]\nname = \"moved_copy\"\ncopy_of = \"/Rig/Moving\"\n\
                  transform = { position = [0.9, -0.3, 0.0] }\n";
     for name in ["mesh", "standing"] {
-        let shot = shot_with(&format!("file = \"{name}.usda\"")) + moved;
-        std::fs::write(d.join(format!("{name}_moved.toml")), shot).unwrap();
-        render(
-            d,
-            &format!("{name}_moved.toml"),
-            &format!("{name}_moved.exr"),
-        );
+        render_stage(d, name, "_moved", moved);
     }
     let p = |name: &str| d.join(name);
     assert_means_agree(&p("mesh_moved.exr"), &p("standing_moved.exr"), 2e-3);
@@ -659,18 +665,18 @@ fn a_keyed_mesh_moves_as_the_same_keyed_instance_does() {
 
 /// A stage whose Xform "Arm" turns `turn` (the rotateZ's samples) and carries a quad 0.8 out.
 fn arm(turn: &str) -> String {
-    format!(
-        "#usda 1.0\n(\n timeCodesPerSecond = 24\n startTimeCode = 1\n endTimeCode = 2\n)\n\
-         def DomeLight \"Sky\" {{\n color3f inputs:color = (1, 0.9, 0.8)\n}}\n\
-         def Xform \"Arm\" {{\n double3 xformOp:translate = (-0.4, 0.8, -1.2)\n \
+    let arm = format!(
+        "def Xform \"Arm\" {{\n double3 xformOp:translate = (-0.4, -0.2, -0.2)\n \
          float xformOp:rotateZ.timeSamples = {{ {turn} }}\n \
-         uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateZ\"]\n {}\n}}\n",
+         uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:rotateZ\"]\n {}\n}}",
         quad(
             "Quad",
             "double3 xformOp:translate = (0.8, 0, 0)\n  \
              uniform token[] xformOpOrder = [\"xformOp:translate\"]"
         )
-    )
+    );
+    // The rig stands at (0, 1, -1), so the arm turns about (-0.4, 0.8, -1.2).
+    moving_quads(&arm, " = (0, 1, -1)")
 }
 
 /// A prim a turning parent carries sweeps its arc, as USD places it, though the parent's turn
@@ -686,9 +692,7 @@ fn a_prim_on_a_turning_arm_sweeps_its_arc_between_sparse_samples() {
     std::fs::write(d.join("sparse.usda"), arm("1: 0, 2: 270")).unwrap();
     std::fs::write(d.join("dense.usda"), arm(&dense.join(", "))).unwrap();
     for name in ["sparse", "dense"] {
-        let shot = shot_with(&format!("file = \"{name}.usda\""));
-        std::fs::write(d.join(format!("{name}.toml")), shot).unwrap();
-        render(d, &format!("{name}.toml"), &format!("{name}.exr"));
+        render_stage(d, name, "", "");
     }
     assert_means_agree(&d.join("sparse.exr"), &d.join("dense.exr"), 2e-3);
 }

@@ -14,9 +14,10 @@
 //! An opening with a time offset shifts the path's time: the there side, and everything the
 //! path meets after, is evaluated at the shifted time.
 //!
-//! Visibility: each ray has a [`RayClass`](crate::portals::RayClass) (camera, through a portal, indirect, shadow) that the
-//! objects' flags and cull volumes filter. An emitter that indirect rays do not see can only be
-//! found by light sampling, which then gets the full MIS weight.
+//! Visibility: each ray has a [`RayClass`](crate::portals::RayClass) (camera, through a
+//! portal, indirect, shadow) that the objects' flags and cull volumes filter. An emitter that
+//! indirect rays do not see can only be found by light sampling, which then gets the full MIS
+//! weight.
 //!
 //! Light sampling looks through openings ([`crate::through::strategies`]): each shading point picks a
 //! strategy (ordinary, or a chain of openings) with the hashed strategy number, samples a light
