@@ -88,6 +88,7 @@ fn source<'a>(
         ],
         budget,
         shot_camera: None,
+        ancestors: Default::default(),
     }
 }
 

@@ -49,7 +49,7 @@ impl Walk<'_> {
         let shared_by = prototype.map_or_else(|| path.clone(), |p| p.as_str().to_owned());
         let samples = xform::world_samples(prim, self.source)?;
         // The meshes relative to the instance where the span starts (they move with it).
-        let at_start = xform::world(prim, self.source.codes()[0]).map_err(read)?;
+        let at_start = xform::world(prim, self.source.codes()[0], self.source).map_err(read)?;
         let inverse = invertible(at_start).ok_or_else(|| self.singular(&path))?;
         for mesh in self.meshes_below(prim, inverse, &shared_by)? {
             let name = format!("{path}{}", mesh.relative);
@@ -81,7 +81,7 @@ impl Walk<'_> {
             let kind = prim.type_name().map_err(read)?;
             match kind.as_ref().map_or("", |t| t.as_str()) {
                 "Mesh" => out.push(ProtoMesh {
-                    local: inverse * xform::world(&prim, code).map_err(read)?,
+                    local: inverse * xform::world(&prim, code, self.source).map_err(read)?,
                     key: format!("{shared_by}{relative}"),
                     prim: prim.clone(),
                     relative,
@@ -198,7 +198,7 @@ impl Walk<'_> {
             // The instancer's transform at the placements' samples too.
             for code in arrays.poses.iter().map(|p| p.code) {
                 if !world.iter().any(|&(c, _)| c == code) {
-                    world.push((code, xform::world(prim, code).map_err(read)?));
+                    world.push((code, xform::world(prim, code, self.source).map_err(read)?));
                 }
             }
             world.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -208,8 +208,12 @@ impl Walk<'_> {
         for target in &prototypes {
             let proto = prim.stage().prim(target.clone());
             let parent_world = match target.parent().filter(|p| !p.is_abs_root()) {
-                Some(parent) => xform::world(&prim.stage().prim(parent), self.source.codes()[0])
-                    .map_err(read)?,
+                Some(parent) => xform::world(
+                    &prim.stage().prim(parent),
+                    self.source.codes()[0],
+                    self.source,
+                )
+                .map_err(read)?,
                 None => DMat4::IDENTITY,
             };
             let inverse = invertible(parent_world).ok_or_else(|| self.singular(&path))?;

@@ -186,6 +186,7 @@ fn read_stage(
         span,
         budget,
         shot_camera: layer.shot_camera,
+        ancestors: Default::default(),
     };
     stage::read(&stage, &source, out)
 }
@@ -216,6 +217,8 @@ pub struct Source<'a> {
     pub budget: Option<u64>,
     /// The camera the shot frames itself with (`[camera] usd`), read elsewhere.
     pub shot_camera: Option<&'a str>,
+    /// The stage's ancestors' transforms and sample times, read once.
+    pub ancestors: xform::Ancestors,
 }
 
 impl Source<'_> {

@@ -11,6 +11,9 @@ use openusd::schemas::geom::{Imageable, Purpose, Visibility, Xformable};
 use openusd::usd::{Prim, SchemaBase, SchemaKind};
 use rift_fx::rig::{AnimatedTransform, Interpolation, Similarity, TransformKey};
 use rift_fx::shot::schema::{InterpolationSpec, PoseSpec};
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::rc::Rc;
 use std::sync::Arc;
 
 /// Any prim, seen as imageable and transformable (every prim rift reads is).
@@ -292,7 +295,7 @@ const MOST_STRAY: f64 = 0.01;
 /// time code and the matrix, in order.
 pub fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, RenderError> {
     let read = |e| source.read_error(prim.path().as_str(), e);
-    let at = |code| world(prim, code).map_err(read);
+    let at = |code| world(prim, code, source).map_err(read);
     let codes = sample_codes(prim, source).map_err(read)?;
     let mut out: Vec<(f64, DMat4)> = Vec::with_capacity(codes.len());
     let follow = Follow {
@@ -369,14 +372,50 @@ fn strays(a: DMat4, b: DMat4, half: DMat4) -> bool {
         || a.rotation.angle_between(b.rotation) > std::f64::consts::FRAC_PI_2
 }
 
-/// `prim`'s local-to-world transform at time `code`, column-vector.
-pub fn world(prim: &Prim, code: f64) -> anyhow::Result<DMat4> {
-    let mut m = DMat4::IDENTITY;
-    for placed in chain(prim) {
-        let order = placed.xform_op_order()?.unwrap_or_default();
-        m = ops::local_transform(placed.prim(), &order, code)? * m;
-        if resets(&order) {
+/// What a stage's prims share with their siblings, read once: each ancestor's world transform
+/// at the time codes asked for, and the time samples of its ops and those above it. Read per
+/// prim, a stage of thousands of prims under a deep hierarchy spent most of its load reading
+/// the same ancestors' ops again for every child and time code.
+#[derive(Default)]
+pub struct Ancestors {
+    /// By ancestor path and time code (its bits).
+    worlds: RefCell<HashMap<(String, u64), DMat4>>,
+    /// By ancestor path: every time sample of its ops and of those above it, up to a reset.
+    codes: RefCell<HashMap<String, Rc<[f64]>>>,
+}
+
+/// `prim`'s local-to-world transform at time `code`, column-vector: its own ops on its
+/// parent's world transform (from `source`'s [`Ancestors`]), or alone after a reset.
+pub fn world(prim: &Prim, code: f64, source: &Source) -> anyhow::Result<DMat4> {
+    let worlds = &source.ancestors.worlds;
+    // Walk up to the nearest ancestor already known, the root, or a reset; then compose
+    // downwards, keeping each ancestor's world for its other children.
+    let mut locals: Vec<(Option<String>, DMat4)> = Vec::new();
+    let mut above = DMat4::IDENTITY;
+    let mut next = Some(prim.clone());
+    while let Some(at) = next {
+        let key = (!locals.is_empty()).then(|| at.path().as_str().to_owned());
+        if let Some(known) = key
+            .as_ref()
+            .and_then(|k| worlds.borrow().get(&(k.clone(), code.to_bits())).copied())
+        {
+            above = known;
             break;
+        }
+        let placed = Placed(at);
+        let order = placed.xform_op_order()?.unwrap_or_default();
+        locals.push((key, ops::local_transform(placed.prim(), &order, code)?));
+        next = if resets(&order) {
+            None
+        } else {
+            parent(placed.prim())
+        };
+    }
+    let mut m = above;
+    for (key, local) in locals.into_iter().rev() {
+        m *= local;
+        if let Some(key) = key {
+            worlds.borrow_mut().insert((key, code.to_bits()), m);
         }
     }
     Ok(m)
@@ -387,37 +426,62 @@ fn resets(order: &[String]) -> bool {
     order.first().is_some_and(|op| op == ops::RESET)
 }
 
-/// `prim` and its ancestors below the pseudo-root, nearest first.
-fn chain(prim: &Prim) -> Vec<Placed> {
-    let stage = prim.stage();
-    let mut out = vec![Placed(prim.clone())];
-    let mut path = prim.path().parent();
-    while let Some(p) = path {
-        if p.is_abs_root() {
-            break;
-        }
-        path = p.parent();
-        out.push(Placed(stage.prim(p)));
-    }
-    out
+/// `prim`'s parent, unless that is the pseudo-root.
+fn parent(prim: &Prim) -> Option<Prim> {
+    let path = prim.path().parent()?;
+    (!path.is_abs_root()).then(|| prim.stage().prim(path))
 }
 
 /// The time codes `prim`'s world transform is read at: every time sample of the ops of it
 /// and its ancestors within the span, with the nearest one outside each end; the span's
 /// start alone when nothing is sampled there.
 fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
-    let mut all: Vec<f64> = Vec::new();
-    for placed in chain(prim) {
-        let order = placed.xform_op_order()?.unwrap_or_default();
-        for op in order.iter().filter(|op| *op != ops::RESET) {
-            let name = ops::attribute_name(op)?;
-            all.extend(placed.prim().attribute(name).time_sample_times()?);
-        }
-        if resets(&order) {
-            break;
-        }
+    let (mut all, resets) = own_codes(prim)?;
+    if !resets && let Some(parent) = parent(prim) {
+        all.extend_from_slice(&ancestor_codes(&parent, source)?);
     }
     Ok(codes_within(all, source.codes()))
+}
+
+/// The time samples of `prim`'s own ops, and whether its ops reset the ancestors' transform.
+fn own_codes(prim: &Prim) -> anyhow::Result<(Vec<f64>, bool)> {
+    let placed = Placed(prim.clone());
+    let order = placed.xform_op_order()?.unwrap_or_default();
+    let mut codes = Vec::new();
+    for op in order.iter().filter(|op| *op != ops::RESET) {
+        let name = ops::attribute_name(op)?;
+        codes.extend(prim.attribute(name).time_sample_times()?);
+    }
+    Ok((codes, resets(&order)))
+}
+
+/// Every time sample of the ops of ancestor `prim` and of those above it (up to a reset),
+/// from `source`'s [`Ancestors`] once read. Walks up as far as the nearest ancestor known,
+/// then keeps each one's codes on the way down.
+fn ancestor_codes(prim: &Prim, source: &Source) -> anyhow::Result<Rc<[f64]>> {
+    let known = &source.ancestors.codes;
+    let mut owns: Vec<(String, Vec<f64>)> = Vec::new();
+    let mut above: Rc<[f64]> = Rc::from([]);
+    let mut next = Some(prim.clone());
+    while let Some(at) = next {
+        let key = at.path().as_str().to_owned();
+        if let Some(codes) = known.borrow().get(&key) {
+            above = codes.clone();
+            break;
+        }
+        let (codes, resets) = own_codes(&at)?;
+        owns.push((key, codes));
+        next = if resets { None } else { parent(&at) };
+    }
+    for (key, mut codes) in owns.into_iter().rev() {
+        codes.extend_from_slice(&above);
+        codes.retain(|t| t.is_finite());
+        codes.sort_by(f64::total_cmp);
+        codes.dedup();
+        above = Rc::from(codes);
+        known.borrow_mut().insert(key, above.clone());
+    }
+    Ok(above)
 }
 
 /// Of sample `times` (any order, repeats and non-finite ones included), those [`within`] `span`.
@@ -451,6 +515,114 @@ mod tests {
         assert_eq!(within(&t, [-5.0, -4.0]), vec![0.0]);
         assert_eq!(within(&t, [9.0, 10.0]), vec![4.0]);
         assert_eq!(within(&[], [1.0, 2.0]), vec![1.0]);
+    }
+
+    /// A stage of a turning root, a sliding middle and three leaves (one resetting the
+    /// transform stack). Samples keyed in decimals: the crate, the reference here, holds
+    /// scalars keyed in whole numbers between samples (which rift's reading of ops corrects).
+    fn hierarchy() -> (tempfile::TempDir, openusd::usd::Stage) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.usda");
+        let op =
+            |name: &str, value: &str| format!("{value}\n uniform token[] xformOpOrder = [{name}]");
+        let leaf = |name: &str, order: &str, x: f64| {
+            format!(
+                "def Xform \"{name}\" {{\n double3 xformOp:translate = ({x}, 0, 1)\n \
+                 uniform token[] xformOpOrder = [{order}\"xformOp:translate\"]\n }}\n"
+            )
+        };
+        let text = format!(
+            "#usda 1.0\ndef Xform \"Root\" {{\n {}\n def Xform \"Mid\" {{\n {}\n {}{}{} }}\n}}\n",
+            op(
+                "\"xformOp:rotateY\"",
+                "float xformOp:rotateY.timeSamples = { 1.0: 0.0, 3.0: 90.0 }"
+            ),
+            op(
+                "\"xformOp:translate\"",
+                "double3 xformOp:translate.timeSamples = { 2.0: (1, 0, 0), 2.5: (2, 0, 0) }"
+            ),
+            leaf("A", "", 1.0),
+            leaf("B", "\"!resetXformStack!\", ", 2.0),
+            leaf("C", "", 3.0),
+        );
+        std::fs::write(&path, text).unwrap();
+        let stage = openusd::usd::Stage::builder()
+            .open(path.to_str().unwrap())
+            .unwrap();
+        (dir, stage)
+    }
+
+    /// A source over time codes 0 to 4, with no ancestors read yet.
+    fn source() -> Source<'static> {
+        Source {
+            layer: std::path::Path::new("h.usda"),
+            key: "usd[0]",
+            shot_file: std::path::Path::new("h.toml"),
+            root: None,
+            clock: super::super::Clock {
+                codes_per_second: 1.0,
+                offset: 0.0,
+                fps: 1.0,
+            },
+            span: [0.0, 4.0],
+            budget: None,
+            shot_camera: None,
+            ancestors: Ancestors::default(),
+        }
+    }
+
+    /// The crate's own local-to-parent transforms, composed up to the root or a reset.
+    fn composed_by_the_crate(stage: &openusd::usd::Stage, path: &str, code: f64) -> DMat4 {
+        let mut m = DMat4::IDENTITY;
+        let mut prim = Some(stage.prim(path));
+        while let Some(p) = prim {
+            let placed = Placed(p.clone());
+            let local = placed
+                .local_to_parent_transform(openusd::usd::TimeCode::new(code))
+                .unwrap();
+            m = DMat4::from_cols_array(&local.0) * m;
+            let order = placed.xform_op_order().unwrap().unwrap_or_default();
+            prim = if resets(&order) { None } else { parent(&p) };
+        }
+        m
+    }
+
+    /// World transforms read through the shared ancestors are the ones each prim's own walk up
+    /// its hierarchy gives, whichever prim and time code comes first; a reset leaves them out.
+    #[test]
+    fn ancestors_read_once_give_every_prim_its_own_world_transform() {
+        let (_dir, stage) = hierarchy();
+        let shared = source();
+        for round in 0..2 {
+            for leaf in ["A", "B", "C", "A"] {
+                let path = format!("/Root/Mid/{leaf}");
+                for code in [0.0, 1.0, 1.5, 2.25, 3.0, 4.0] {
+                    let prim = stage.prim(path.as_str());
+                    let fresh = world(&prim, code, &source()).unwrap();
+                    let expected = composed_by_the_crate(&stage, &path, code);
+                    assert!(fresh.abs_diff_eq(expected, 1e-12), "{path} at {code}");
+                    let cached = world(&prim, code, &shared).unwrap();
+                    assert_eq!(cached, fresh, "{path} at {code}, round {round}");
+                }
+            }
+        }
+        assert_eq!(
+            shared.ancestors.worlds.borrow().len(),
+            2 * 6,
+            "Root and Mid, six codes"
+        );
+        // Sample times: the leaves' own ops have none; the ancestors' are theirs, within the
+        // span with the nearest outside, except after a reset.
+        let codes = |leaf: &str| {
+            sample_codes(&stage.prim(format!("/Root/Mid/{leaf}").as_str()), &shared).unwrap()
+        };
+        assert_eq!(codes("A"), vec![1.0, 2.0, 2.5, 3.0]);
+        assert_eq!(codes("C"), codes("A"));
+        assert_eq!(
+            codes("B"),
+            vec![0.0],
+            "a reset ignores the ancestors' samples"
+        );
     }
 
     #[test]
