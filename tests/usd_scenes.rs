@@ -624,6 +624,34 @@ fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_ins
     assert_means_differ(&p("instanced.exr"), &p("held.exr"), 0.02);
 }
 
+/// A PointInstancer's instance grows between its scales' samples as USD interpolates them,
+/// linearly, as a mesh grown by the same samples of a scale op does: rift blends keys' scales
+/// geometrically, so an instance's keys follow its growth as a prim's do.
+#[test]
+fn an_instance_grows_between_its_samples_as_a_scale_op_grows_a_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let instancer = format!(
+        "def PointInstancer \"Scatter\" {{\n  rel prototypes = [</Rig/Scatter/Quad>]\n  \
+         int[] protoIndices = [0]\n  point3f[] positions = [(0, 1, -1)]\n  \
+         float3[] scales.timeSamples = {{ 1: [(1, 1, 1)], 2: [(6, 6, 6)] }}\n  {}\n }}",
+        quad("Quad", "")
+    );
+    let mesh = quad(
+        "Grown",
+        "double3 xformOp:translate = (0, 1, -1)\n  \
+         float3 xformOp:scale.timeSamples = { 1: (1, 1, 1), 2: (6, 6, 6) }\n  \
+         uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:scale\"]",
+    );
+    let still = " = (0, 0, 0)";
+    std::fs::write(d.join("instanced.usda"), moving_quads(&instancer, still)).unwrap();
+    std::fs::write(d.join("mesh.usda"), moving_quads(&mesh, still)).unwrap();
+    for name in ["instanced", "mesh"] {
+        render_stage(d, name, "", "");
+    }
+    assert_means_agree(&d.join("instanced.exr"), &d.join("mesh.exr"), 2e-3);
+}
+
 /// A mesh keyed by its own transform ops moves as the same keyed instance does: its keys
 /// place its centre where its ops put it, so it turns about that centre between samples rather
 /// than about the stage's origin.

@@ -13,6 +13,8 @@ use crate::scene::schema::{ObjectSection, StageOrigin};
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use openusd::sdf::Value;
 use openusd::usd::Prim;
+use std::cell::RefCell;
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Bytes each shared instance takes while it is read and placed (its keys, its placement, its
@@ -203,7 +205,7 @@ impl Walk<'_> {
             }
             world.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
-        self.check_instances(&path, n, world.len())?;
+        self.check_instances(&path, n, (n * world.len()) as u64)?;
         let mut prototype_meshes = Vec::with_capacity(prototypes.len());
         for target in &prototypes {
             let proto = prim.stage().prim(target.clone());
@@ -222,12 +224,19 @@ impl Walk<'_> {
             prototype_meshes.push((format!("{path}/{name}"), meshes));
         }
         let hidden = arrays.hidden();
+        let world_at = WorldAt::new(prim, &world, self.source);
+        let mut followed = 0;
         for i in 0..n {
             if hidden.get(i).copied().unwrap_or(false) {
                 continue;
             }
             let (base, meshes) = &prototype_meshes[arrays.proto_indices[i] as usize];
-            let samples = arrays.placements(i, &world, self.source);
+            let samples = arrays.placements(i, &world, &world_at)?;
+            if samples.len() > world.len() {
+                // Keys beyond those counted up front, where instances were followed.
+                followed += (samples.len() - world.len()) as u64;
+                self.check_instances(&path, n, (n * world.len()) as u64 + followed)?;
+            }
             for mesh in meshes {
                 let shared = format!("{base}{}", mesh.relative);
                 self.place(mesh, (&shared, &format!("{shared}[{i}]")), &samples)?;
@@ -243,11 +252,12 @@ impl Walk<'_> {
         Ok(())
     }
 
-    /// Refuses a PointInstancer of `n` instances, each placed by `keys` keys, whose placements
-    /// would not fit in the memory budget, before any is made.
-    fn check_instances(&self, path: &str, n: usize, keys: usize) -> Result<(), RenderError> {
-        let per_instance = BYTES_PER_INSTANCE + keys.saturating_sub(1) as u64 * BYTES_PER_KEY;
-        let need = (n as u64).saturating_mul(per_instance);
+    /// Refuses a PointInstancer of `n` instances, placed by `keys` keys in all, whose
+    /// placements would not fit in the memory budget, before they are made.
+    fn check_instances(&self, path: &str, n: usize, keys: u64) -> Result<(), RenderError> {
+        let need = (n as u64)
+            .saturating_mul(BYTES_PER_INSTANCE)
+            .saturating_add(keys.saturating_sub(n as u64).saturating_mul(BYTES_PER_KEY));
         match self.source.budget {
             Some(budget) if need > budget => Err(self.source.error(
                 path,
@@ -350,7 +360,7 @@ impl Walk<'_> {
         if codes.len() < 2 {
             return Ok(Vec::new());
         }
-        self.check_instances(path, n, codes.len())?;
+        self.check_instances(path, n, (n * codes.len()) as u64)?;
         let mut poses = Vec::with_capacity(codes.len());
         for code in codes {
             let pose = self.poses(prim, code)?;
@@ -540,32 +550,25 @@ impl InstanceArrays {
     }
 
     /// Instance `i`'s world transform at each of the instancer's `world` samples (time code
-    /// and matrix): where its placements are sampled over time, interpolated between them at
-    /// each (`world` then holds every placement's code too); otherwise moved by its velocity
-    /// where it has one, at the span's ends.
+    /// and matrix, read between them by `world_at`): where its placements are sampled over
+    /// time, interpolated between them at each (`world` then holds every placement's code too)
+    /// and followed between them ([`Self::followed`]); otherwise moved by its velocity where it
+    /// has one, at the span's ends.
     fn placements(
         &self,
         i: usize,
         world: &[(f64, DMat4)],
-        source: &super::Source,
-    ) -> Vec<(f64, DMat4)> {
+        world_at: &WorldAt,
+    ) -> Result<Vec<(f64, DMat4)>, RenderError> {
         if self.poses.len() > 1 {
-            return world
-                .iter()
-                .map(|&(c, m)| {
-                    let (rotation, scale, position) = self.pose_at(i, c);
-                    (
-                        c,
-                        m * DMat4::from_scale_rotation_translation(scale, rotation, position),
-                    )
-                })
-                .collect();
+            return self.followed(i, world, world_at);
         }
+        let source = world_at.source;
         let (rotation, scale, position) = self.poses[0].of(i);
         let at = |offset: DVec3| {
             DMat4::from_scale_rotation_translation(scale, rotation, position + offset)
         };
-        match self.velocities.as_ref().map(|v| v[i]) {
+        Ok(match self.velocities.as_ref().map(|v| v[i]) {
             Some(v) if v != DVec3::ZERO => {
                 let [start, end] = source.codes();
                 let first = source.clock.seconds(start);
@@ -587,7 +590,47 @@ impl InstanceArrays {
                 .iter()
                 .map(|&(c, m)| (c, m * at(DVec3::ZERO)))
                 .collect(),
+        })
+    }
+
+    /// Instance `i`'s world transform at the instancer's `world` samples, and between two of
+    /// them wherever rift's blend of the two would stray from where USD puts it: its scales
+    /// grow linearly, which rift's blend of keys does geometrically, and a turning instancer
+    /// carries its moving instances along curves ([`xform::Follow`]).
+    fn followed(
+        &self,
+        i: usize,
+        world: &[(f64, DMat4)],
+        world_at: &WorldAt,
+    ) -> Result<Vec<(f64, DMat4)>, RenderError> {
+        let matrix = |code: f64| {
+            let (rotation, scale, position) = self.pose_at(i, code);
+            DMat4::from_scale_rotation_translation(scale, rotation, position)
+        };
+        let at = |code: f64| Ok(world_at.at(code)? * matrix(code));
+        let follow = xform::Follow::new(world_at.source.codes(), &at);
+        let mut out = Vec::with_capacity(world.len());
+        let mut previous: Option<(f64, DMat4)> = None;
+        for &(code, m) in world {
+            let sample = (code, m * matrix(code));
+            if let (Some((before, before_world)), Some(&last)) = (previous, out.last())
+                && self.may_stray(i, (before, code), before_world != m)
+            {
+                follow.between(last, sample, xform::MOST_HALVINGS, &mut out)?;
+            }
+            out.push(sample);
+            previous = Some((code, m));
         }
+        Ok(out)
+    }
+
+    /// Whether rift's blend of instance `i`'s transforms at time codes `a` and `b` could
+    /// stray from USD's interpolation between them: where its scale changes, or where it
+    /// moves or turns while the instancer's transform changes (`carried`). Its position and
+    /// turn alone blend as USD interpolates them.
+    fn may_stray(&self, i: usize, (a, b): (f64, f64), carried: bool) -> bool {
+        let ((ra, sa, pa), (rb, sb, pb)) = (self.pose_at(i, a), self.pose_at(i, b));
+        sa != sb || (carried && (ra != rb || pa != pb))
     }
 
     /// Instance `i`'s rotation, scale and position at `code`, interpolated between the
@@ -605,6 +648,37 @@ impl InstanceArrays {
         let t = (code - a.code) / (b.code - a.code);
         let ((ra, sa, pa), (rb, sb, pb)) = (a.of(i), b.of(i));
         (ra.slerp(rb, t), sa.lerp(sb, t), pa.lerp(pb, t))
+    }
+}
+
+/// A PointInstancer's world transform at any time code, each read once: its instances are
+/// followed between samples at the same halfway codes.
+struct WorldAt<'a> {
+    prim: &'a Prim,
+    source: &'a super::Source<'a>,
+    known: RefCell<HashMap<u64, DMat4>>,
+}
+
+impl<'a> WorldAt<'a> {
+    /// Knowing the instancer `prim`'s world transform at its `samples` already.
+    fn new(prim: &'a Prim, samples: &[(f64, DMat4)], source: &'a super::Source<'a>) -> Self {
+        let known = samples.iter().map(|&(c, m)| (c.to_bits(), m)).collect();
+        Self {
+            prim,
+            source,
+            known: RefCell::new(known),
+        }
+    }
+
+    fn at(&self, code: f64) -> Result<DMat4, RenderError> {
+        if let Some(&m) = self.known.borrow().get(&code.to_bits()) {
+            return Ok(m);
+        }
+        let path = self.prim.path().as_str();
+        let m = xform::world(self.prim, code, self.source)
+            .map_err(|e| self.source.read_error(path, e))?;
+        self.known.borrow_mut().insert(code.to_bits(), m);
+        Ok(m)
     }
 }
 

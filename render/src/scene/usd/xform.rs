@@ -277,7 +277,7 @@ fn is_similarity(m: DMat3) -> bool {
 
 /// Most times an interval between two of a prim's samples is halved to follow its path
 /// ([`Follow::between`]): at most 64 steps between two samples.
-const MOST_HALVINGS: u32 = 6;
+pub(super) const MOST_HALVINGS: u32 = 6;
 
 /// Most samples a prim keeps once [`world_samples`] follows it between its own: past them a
 /// file with samples by the thousand within a frame is read at those alone, as before.
@@ -298,10 +298,7 @@ pub fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, 
     let at = |code| world(prim, code, source).map_err(read);
     let codes = sample_codes(prim, source).map_err(read)?;
     let mut out: Vec<(f64, DMat4)> = Vec::with_capacity(codes.len());
-    let follow = Follow {
-        span: source.codes(),
-        at: &at,
-    };
+    let follow = Follow::new(source.codes(), &at);
     for code in codes {
         let sample = (code, at(code)?);
         if let Some(&before) = out.last() {
@@ -312,20 +309,25 @@ pub fn world_samples(prim: &Prim, source: &Source) -> Result<Vec<(f64, DMat4)>, 
     Ok(out)
 }
 
-/// How [`world_samples`] follows a prim between its samples: over the time codes `span` the
-/// frame's rays see, reading the prim's world transform with `at`.
-struct Follow<'a, F> {
+/// How [`world_samples`] follows a prim between its samples (and a PointInstancer its
+/// instances): over the time codes `span` the frame's rays see, reading the world transform
+/// with `at`.
+pub(super) struct Follow<'a, F> {
     span: [f64; 2],
     at: &'a F,
 }
 
-impl<F: Fn(f64) -> Result<DMat4, RenderError>> Follow<'_, F> {
+impl<'a, F: Fn(f64) -> Result<DMat4, RenderError>> Follow<'a, F> {
+    pub(super) fn new(span: [f64; 2], at: &'a F) -> Self {
+        Self { span, at }
+    }
+
     /// Adds to `out`, in order, the samples between `a` and `b` (time code, world matrix) that
     /// rift needs to follow the prim where its blend of the two strays from where USD puts it
     /// ([`strays`]): a parent turning it along an arc, ops that turn it about several axes, a
     /// scale op's straight growth. Halves the interval up to `halvings` times, where it
     /// overlaps the span.
-    fn between(
+    pub(super) fn between(
         &self,
         a: (f64, DMat4),
         b: (f64, DMat4),
