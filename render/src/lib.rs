@@ -19,6 +19,11 @@
 //! - [`integrator`]: the path loop, direct light, shadow rays.
 //! - [`prepare`]: the measuring and training passes that run once per scene.
 //! - [`frame`]: render passes, the film, checkpoints, Cryptomatte.
+//!
+//! The crate is read with its private items (`cargo doc --document-private-items`): its one
+//! user is the `rift` binary, and its docs are for the people working on it, so a public
+//! item's doc may name the private ones it rests on.
+#![allow(rustdoc::private_intra_doc_links)]
 
 pub mod camera;
 pub mod color;

@@ -448,7 +448,7 @@ fn seen_by(scene: &Scene, class: RayClass, p: Vec3, time: f64) -> impl Fn(u32) -
     move |b| !visibility.hides_anything() || visibility.admits(b, class, p, time)
 }
 
-/// [`trace`] in a scene of surfaces and lamps alone: the same path, sample for sample, without
+/// [`super::trace`] in a scene of surfaces and lamps alone: the same path, sample for sample, without
 /// the tests for openings, media, strands, the sky and hidden objects, none of which it holds.
 pub(super) fn trace_plain(ctx: &Context, camera_ray: Ray, s: &mut SampleStream) -> PathSample {
     let mut out = PathSample::default();
@@ -481,7 +481,7 @@ fn follow_plain(ctx: &Context, mut path: PathState, s: &mut SampleStream, out: &
     }
 }
 
-/// Follows `path` to its end, in the loop that [`trace`] chose for the scene.
+/// Follows `path` to its end, in the loop that [`super::trace`] chose for the scene.
 fn follow<const FULL: bool, R: Recorder>(
     ctx: &Context,
     path: PathState,
@@ -497,7 +497,7 @@ fn follow<const FULL: bool, R: Recorder>(
     }
 }
 
-/// [`trace`] in any scene.
+/// [`super::trace`] in any scene.
 pub(super) fn trace_full<R: Recorder>(
     ctx: &Context,
     camera_ray: Ray,

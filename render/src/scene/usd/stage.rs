@@ -327,7 +327,7 @@ impl Walk<'_> {
     }
 }
 
-/// "1 mesh <one>" or "n meshes <many>".
+/// "1 mesh `one`" or "n meshes `many`".
 fn meshes(n: usize, one: &str, many: &str) -> String {
     match n {
         1 => format!("1 mesh {one}"),
