@@ -652,6 +652,38 @@ fn an_instance_grows_between_its_samples_as_a_scale_op_grows_a_mesh() {
     assert_means_agree(&d.join("instanced.exr"), &d.join("mesh.exr"), 2e-3);
 }
 
+/// A turning PointInstancer carries an instance standing 0.8 from its origin along the arc, as
+/// a turning Xform carries a mesh there: rift's blend of two keys a quarter turn apart would cut
+/// the arc's chord, so the instance's keys follow it as a prim's do.
+#[test]
+fn a_turning_instancer_carries_its_instances_along_arcs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let turn = "float xformOp:rotateZ.timeSamples = { 1: 0, 2: 90 }\n  \
+                uniform token[] xformOpOrder = [\"xformOp:rotateZ\"]";
+    let instancer = format!(
+        "def PointInstancer \"Scatter\" {{\n  {turn}\n  \
+         rel prototypes = [</Rig/Scatter/Quad>]\n  int[] protoIndices = [0]\n  \
+         point3f[] positions = [(0.8, 0, 0)]\n  {}\n }}",
+        quad("Quad", "")
+    );
+    let mesh = format!(
+        "def Xform \"Turn\" {{\n  {turn}\n  {}\n }}",
+        quad(
+            "Quad",
+            "double3 xformOp:translate = (0.8, 0, 0)\n  \
+             uniform token[] xformOpOrder = [\"xformOp:translate\"]"
+        )
+    );
+    let rig = " = (0, 1, -1)";
+    std::fs::write(d.join("instanced.usda"), moving_quads(&instancer, rig)).unwrap();
+    std::fs::write(d.join("mesh.usda"), moving_quads(&mesh, rig)).unwrap();
+    for name in ["instanced", "mesh"] {
+        render_stage(d, name, "", "");
+    }
+    assert_means_agree(&d.join("instanced.exr"), &d.join("mesh.exr"), 2e-3);
+}
+
 /// A mesh keyed by its own transform ops moves as the same keyed instance does: its keys
 /// place its centre where its ops put it, so it turns about that centre between samples rather
 /// than about the stage's origin.

@@ -550,10 +550,10 @@ impl InstanceArrays {
     }
 
     /// Instance `i`'s world transform at each of the instancer's `world` samples (time code
-    /// and matrix, read between them by `world_at`): where its placements are sampled over
-    /// time, interpolated between them at each (`world` then holds every placement's code too)
-    /// and followed between them ([`Self::followed`]); otherwise moved by its velocity where it
-    /// has one, at the span's ends.
+    /// and matrix, read between them by `world_at`), its placements interpolated between their
+    /// samples at each (`world` then holds every placement's code too), and followed between
+    /// them ([`Self::followed`]); or, standing in the instancer and given a velocity, moved by
+    /// it at the span's ends.
     fn placements(
         &self,
         i: usize,
@@ -568,8 +568,8 @@ impl InstanceArrays {
         let at = |offset: DVec3| {
             DMat4::from_scale_rotation_translation(scale, rotation, position + offset)
         };
-        Ok(match self.velocities.as_ref().map(|v| v[i]) {
-            Some(v) if v != DVec3::ZERO => {
+        match self.velocities.as_ref().map(|v| v[i]) {
+            Some(v) if v != DVec3::ZERO => Ok({
                 let [start, end] = source.codes();
                 let first = source.clock.seconds(start);
                 let world_at = |code: f64| nearest(world, code);
@@ -585,12 +585,9 @@ impl InstanceArrays {
                         (c, world_at(c) * at(v * dt))
                     })
                     .collect()
-            }
-            _ => world
-                .iter()
-                .map(|&(c, m)| (c, m * at(DVec3::ZERO)))
-                .collect(),
-        })
+            }),
+            _ => self.followed(i, world, world_at),
+        }
     }
 
     /// Instance `i`'s world transform at the instancer's `world` samples, and between two of
@@ -610,27 +607,28 @@ impl InstanceArrays {
         let at = |code: f64| Ok(world_at.at(code)? * matrix(code));
         let follow = xform::Follow::new(world_at.source.codes(), &at);
         let mut out = Vec::with_capacity(world.len());
-        let mut previous: Option<(f64, DMat4)> = None;
+        // The sample before, and the instancer's transform then.
+        let mut previous: Option<((f64, DMat4), DMat4)> = None;
         for &(code, m) in world {
             let sample = (code, m * matrix(code));
-            if let (Some((before, before_world)), Some(&last)) = (previous, out.last())
-                && self.may_stray(i, (before, code), before_world != m)
+            if let Some((before, before_world)) = previous
+                && (before_world != m || self.grows(i, (before.0, code)))
             {
-                follow.between(last, sample, xform::MOST_HALVINGS, &mut out)?;
+                follow.between(before, sample, xform::MOST_HALVINGS, &mut out)?;
             }
             out.push(sample);
-            previous = Some((code, m));
+            previous = Some((sample, m));
         }
         Ok(out)
     }
 
-    /// Whether rift's blend of instance `i`'s transforms at time codes `a` and `b` could
-    /// stray from USD's interpolation between them: where its scale changes, or where it
-    /// moves or turns while the instancer's transform changes (`carried`). Its position and
-    /// turn alone blend as USD interpolates them.
-    fn may_stray(&self, i: usize, (a, b): (f64, f64), carried: bool) -> bool {
-        let ((ra, sa, pa), (rb, sb, pb)) = (self.pose_at(i, a), self.pose_at(i, b));
-        sa != sb || (carried && (ra != rb || pa != pb))
+    /// Whether instance `i`'s scale changes between time codes `a` and `b`: the one change of
+    /// its own placement that rift's blend of keys does not make as USD interpolates it (its
+    /// position and turn alone blend alike). Where the instancer's transform changes, the
+    /// instance's keys are checked whatever it does: an instance away from the instancer's
+    /// origin is carried along an arc when it turns, even standing still in it.
+    fn grows(&self, i: usize, (a, b): (f64, f64)) -> bool {
+        self.pose_at(i, a).1 != self.pose_at(i, b).1
     }
 
     /// Instance `i`'s rotation, scale and position at `code`, interpolated between the

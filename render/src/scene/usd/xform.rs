@@ -392,15 +392,13 @@ pub fn world(prim: &Prim, code: f64, source: &Source) -> anyhow::Result<DMat4> {
     let worlds = &source.ancestors.worlds;
     // Walk up to the nearest ancestor already known, the root, or a reset; then compose
     // downwards, keeping each ancestor's world for its other children.
-    let mut locals: Vec<(Option<String>, DMat4)> = Vec::new();
+    let mut locals: Vec<(Option<(String, u64)>, DMat4)> = Vec::new();
     let mut above = DMat4::IDENTITY;
     let mut next = Some(prim.clone());
     while let Some(at) = next {
-        let key = (!locals.is_empty()).then(|| at.path().as_str().to_owned());
-        if let Some(known) = key
-            .as_ref()
-            .and_then(|k| worlds.borrow().get(&(k.clone(), code.to_bits())).copied())
-        {
+        // Ancestors only: the prim's own world is wanted once.
+        let key = (!locals.is_empty()).then(|| (at.path().as_str().to_owned(), code.to_bits()));
+        if let Some(known) = key.as_ref().and_then(|k| worlds.borrow().get(k).copied()) {
             above = known;
             break;
         }
@@ -417,7 +415,7 @@ pub fn world(prim: &Prim, code: f64, source: &Source) -> anyhow::Result<DMat4> {
     for (key, local) in locals.into_iter().rev() {
         m *= local;
         if let Some(key) = key {
-            worlds.borrow_mut().insert((key, code.to_bits()), m);
+            worlds.borrow_mut().insert(key, m);
         }
     }
     Ok(m)
