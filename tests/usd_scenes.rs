@@ -629,8 +629,6 @@ fn a_point_instancer_sampled_over_time_moves_its_instances_as_the_same_keyed_ins
 /// geometrically, so an instance's keys follow its growth as a prim's do.
 #[test]
 fn an_instance_grows_between_its_samples_as_a_scale_op_grows_a_mesh() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
     let instancer = format!(
         "def PointInstancer \"Scatter\" {{\n  rel prototypes = [</Rig/Scatter/Quad>]\n  \
          int[] protoIndices = [0]\n  point3f[] positions = [(0, 1, -1)]\n  \
@@ -643,13 +641,7 @@ fn an_instance_grows_between_its_samples_as_a_scale_op_grows_a_mesh() {
          float3 xformOp:scale.timeSamples = { 1: (1, 1, 1), 2: (6, 6, 6) }\n  \
          uniform token[] xformOpOrder = [\"xformOp:translate\", \"xformOp:scale\"]",
     );
-    let still = " = (0, 0, 0)";
-    std::fs::write(d.join("instanced.usda"), moving_quads(&instancer, still)).unwrap();
-    std::fs::write(d.join("mesh.usda"), moving_quads(&mesh, still)).unwrap();
-    for name in ["instanced", "mesh"] {
-        render_stage(d, name, "", "");
-    }
-    assert_means_agree(&d.join("instanced.exr"), &d.join("mesh.exr"), 2e-3);
+    assert_stages_agree(&instancer, &mesh, " = (0, 0, 0)");
 }
 
 /// A turning PointInstancer carries an instance standing 0.8 from its origin along the arc, as
@@ -657,8 +649,6 @@ fn an_instance_grows_between_its_samples_as_a_scale_op_grows_a_mesh() {
 /// the arc's chord, so the instance's keys follow it as a prim's do.
 #[test]
 fn a_turning_instancer_carries_its_instances_along_arcs() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
     let turn = "float xformOp:rotateZ.timeSamples = { 1: 0, 2: 90 }\n  \
                 uniform token[] xformOpOrder = [\"xformOp:rotateZ\"]";
     let instancer = format!(
@@ -675,9 +665,16 @@ fn a_turning_instancer_carries_its_instances_along_arcs() {
              uniform token[] xformOpOrder = [\"xformOp:translate\"]"
         )
     );
-    let rig = " = (0, 1, -1)";
-    std::fs::write(d.join("instanced.usda"), moving_quads(&instancer, rig)).unwrap();
-    std::fs::write(d.join("mesh.usda"), moving_quads(&mesh, rig)).unwrap();
+    assert_stages_agree(&instancer, &mesh, " = (0, 1, -1)");
+}
+
+/// Renders `instancer` and `mesh` each in [`moving_quads`] (its rig at `rig`) and asserts the
+/// two images' means agree.
+fn assert_stages_agree(instancer: &str, mesh: &str, rig: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("instanced.usda"), moving_quads(instancer, rig)).unwrap();
+    std::fs::write(d.join("mesh.usda"), moving_quads(mesh, rig)).unwrap();
     for name in ["instanced", "mesh"] {
         render_stage(d, name, "", "");
     }
