@@ -378,12 +378,46 @@ fn strays(a: DMat4, b: DMat4, half: DMat4) -> bool {
 /// at the time codes asked for, and the time samples of its ops and those above it. Read per
 /// prim, a stage of thousands of prims under a deep hierarchy spent most of its load reading
 /// the same ancestors' ops again for every child and time code.
-#[derive(Default)]
+///
+/// Each table is emptied when it reaches [`MOST_ANCESTORS_KEPT`] entries: the stage is walked
+/// depth first, so siblings follow one another, and what was dropped is read again once.
+/// Kept whole, a stage of a million meshes each under an Xform of its own (as many exporters
+/// write them) would hold a million transforms no sibling reads.
 pub struct Ancestors {
     /// By ancestor path and time code (its bits).
     worlds: RefCell<HashMap<(String, u64), DMat4>>,
     /// By ancestor path: every time sample of its ops and of those above it, up to a reset.
     codes: RefCell<HashMap<String, Rc<[f64]>>>,
+    most_kept: usize,
+}
+
+/// Entries each table of [`Ancestors`] keeps at most (about 3 MiB of transforms).
+const MOST_ANCESTORS_KEPT: usize = 1 << 14;
+
+impl Default for Ancestors {
+    fn default() -> Self {
+        Self::keeping(MOST_ANCESTORS_KEPT)
+    }
+}
+
+impl Ancestors {
+    /// Tables that keep at most `most_kept` entries each.
+    fn keeping(most_kept: usize) -> Self {
+        Self {
+            worlds: RefCell::default(),
+            codes: RefCell::default(),
+            most_kept,
+        }
+    }
+
+    /// Adds `key` to `table`, emptied first when full.
+    fn keep<K: std::hash::Hash + Eq, V>(&self, table: &RefCell<HashMap<K, V>>, key: K, value: V) {
+        let mut table = table.borrow_mut();
+        if table.len() >= self.most_kept {
+            table.clear();
+        }
+        table.insert(key, value);
+    }
 }
 
 /// `prim`'s local-to-world transform at time `code`, column-vector: its own ops on its
@@ -415,7 +449,7 @@ pub fn world(prim: &Prim, code: f64, source: &Source) -> anyhow::Result<DMat4> {
     for (key, local) in locals.into_iter().rev() {
         m *= local;
         if let Some(key) = key {
-            worlds.borrow_mut().insert(key, m);
+            source.ancestors.keep(worlds, key, m);
         }
     }
     Ok(m)
@@ -479,7 +513,7 @@ fn ancestor_codes(prim: &Prim, source: &Source) -> anyhow::Result<Rc<[f64]>> {
         codes.sort_by(f64::total_cmp);
         codes.dedup();
         above = Rc::from(codes);
-        known.borrow_mut().insert(key, above.clone());
+        source.ancestors.keep(known, key, above.clone());
     }
     Ok(above)
 }
@@ -611,6 +645,19 @@ mod tests {
             2 * 6,
             "Root and Mid, six codes"
         );
+        // Tables emptied every third entry give the same transforms.
+        let forgetful = Source {
+            ancestors: Ancestors::keeping(2),
+            ..source()
+        };
+        for leaf in ["A", "B", "C"] {
+            let prim = stage.prim(format!("/Root/Mid/{leaf}").as_str());
+            for code in [1.5, 2.25, 1.5, 4.0] {
+                let expected = world(&prim, code, &shared).unwrap();
+                assert_eq!(world(&prim, code, &forgetful).unwrap(), expected);
+                assert!(forgetful.ancestors.worlds.borrow().len() <= 2);
+            }
+        }
         // Sample times: the leaves' own ops have none; the ancestors' are theirs, within the
         // span with the nearest outside, except after a reset.
         let codes = |leaf: &str| {
