@@ -418,41 +418,64 @@ impl Ancestors {
         }
         table.insert(key, value);
     }
+
+    /// What ancestor `prim` passes down to its children: `inherit(above, own)`, its `own` part
+    /// (and whether its ops reset those above it) on what its parent passes down, `top` above
+    /// the root or a reset. Walks up to the nearest ancestor `table` knows (by `key`), then
+    /// keeps each one's on the way down.
+    fn passed_down<K: std::hash::Hash + Eq, V: Clone, P>(
+        &self,
+        prim: &Prim,
+        (table, key): (&RefCell<HashMap<K, V>>, impl Fn(&Prim) -> K),
+        own: impl Fn(&Prim) -> anyhow::Result<(P, bool)>,
+        top: V,
+        inherit: impl Fn(&V, P) -> V,
+    ) -> anyhow::Result<V> {
+        let mut owns = Vec::new();
+        let mut above = top;
+        let mut next = Some(prim.clone());
+        while let Some(at) = next {
+            let k = key(&at);
+            if let Some(known) = table.borrow().get(&k) {
+                above = known.clone();
+                break;
+            }
+            let (part, resets) = own(&at)?;
+            owns.push((k, part));
+            next = if resets { None } else { parent(&at) };
+        }
+        for (k, part) in owns.into_iter().rev() {
+            above = inherit(&above, part);
+            self.keep(table, k, above.clone());
+        }
+        Ok(above)
+    }
 }
 
 /// `prim`'s local-to-world transform at time `code`, column-vector: its own ops on its
 /// parent's world transform (from `source`'s [`Ancestors`]), or alone after a reset.
 pub fn world(prim: &Prim, code: f64, source: &Source) -> anyhow::Result<DMat4> {
-    let worlds = &source.ancestors.worlds;
-    // Walk up to the nearest ancestor already known, the root, or a reset; then compose
-    // downwards, keeping each ancestor's world for its other children.
-    let mut locals: Vec<(Option<(String, u64)>, DMat4)> = Vec::new();
-    let mut above = DMat4::IDENTITY;
-    let mut next = Some(prim.clone());
-    while let Some(at) = next {
-        // Ancestors only: the prim's own world is wanted once.
-        let key = (!locals.is_empty()).then(|| (at.path().as_str().to_owned(), code.to_bits()));
-        if let Some(known) = key.as_ref().and_then(|k| worlds.borrow().get(k).copied()) {
-            above = known;
-            break;
-        }
-        let placed = Placed(at);
-        let order = placed.xform_op_order()?.unwrap_or_default();
-        locals.push((key, ops::local_transform(placed.prim(), &order, code)?));
-        next = if resets(&order) {
-            None
-        } else {
-            parent(placed.prim())
-        };
-    }
-    let mut m = above;
-    for (key, local) in locals.into_iter().rev() {
-        m *= local;
-        if let Some(key) = key {
-            source.ancestors.keep(worlds, key, m);
-        }
-    }
-    Ok(m)
+    let (own, resets) = local(prim, code)?;
+    let Some(parent) = parent(prim).filter(|_| !resets) else {
+        return Ok(own);
+    };
+    let ancestors = &source.ancestors;
+    let key = |p: &Prim| (p.path().as_str().to_owned(), code.to_bits());
+    let above = ancestors.passed_down(
+        &parent,
+        (&ancestors.worlds, key),
+        |p| local(p, code),
+        DMat4::IDENTITY,
+        |above, own| *above * own,
+    )?;
+    Ok(above * own)
+}
+
+/// `prim`'s transform relative to its parent at time `code`, and whether its ops reset the
+/// ancestors' transform.
+fn local(prim: &Prim, code: f64) -> anyhow::Result<(DMat4, bool)> {
+    let order = Placed(prim.clone()).xform_op_order()?.unwrap_or_default();
+    Ok((ops::local_transform(prim, &order, code)?, resets(&order)))
 }
 
 /// True when xformOps `order` starts with [`ops::RESET`].
@@ -471,8 +494,24 @@ fn parent(prim: &Prim) -> Option<Prim> {
 /// start alone when nothing is sampled there.
 fn sample_codes(prim: &Prim, source: &Source) -> anyhow::Result<Vec<f64>> {
     let (mut all, resets) = own_codes(prim)?;
-    if !resets && let Some(parent) = parent(prim) {
-        all.extend_from_slice(&ancestor_codes(&parent, source)?);
+    if let Some(parent) = parent(prim).filter(|_| !resets) {
+        let ancestors = &source.ancestors;
+        let key = |p: &Prim| p.path().as_str().to_owned();
+        // Every time sample of the parent's ops and of those above it, sorted, once a stage.
+        let above = ancestors.passed_down(
+            &parent,
+            (&ancestors.codes, key),
+            own_codes,
+            Rc::from([]),
+            |above, mut codes| {
+                codes.extend_from_slice(above);
+                codes.retain(|t| t.is_finite());
+                codes.sort_by(f64::total_cmp);
+                codes.dedup();
+                Rc::from(codes)
+            },
+        )?;
+        all.extend_from_slice(&above);
     }
     Ok(codes_within(all, source.codes()))
 }
@@ -487,35 +526,6 @@ fn own_codes(prim: &Prim) -> anyhow::Result<(Vec<f64>, bool)> {
         codes.extend(prim.attribute(name).time_sample_times()?);
     }
     Ok((codes, resets(&order)))
-}
-
-/// Every time sample of the ops of ancestor `prim` and of those above it (up to a reset),
-/// from `source`'s [`Ancestors`] once read. Walks up as far as the nearest ancestor known,
-/// then keeps each one's codes on the way down.
-fn ancestor_codes(prim: &Prim, source: &Source) -> anyhow::Result<Rc<[f64]>> {
-    let known = &source.ancestors.codes;
-    let mut owns: Vec<(String, Vec<f64>)> = Vec::new();
-    let mut above: Rc<[f64]> = Rc::from([]);
-    let mut next = Some(prim.clone());
-    while let Some(at) = next {
-        let key = at.path().as_str().to_owned();
-        if let Some(codes) = known.borrow().get(&key) {
-            above = codes.clone();
-            break;
-        }
-        let (codes, resets) = own_codes(&at)?;
-        owns.push((key, codes));
-        next = if resets { None } else { parent(&at) };
-    }
-    for (key, mut codes) in owns.into_iter().rev() {
-        codes.extend_from_slice(&above);
-        codes.retain(|t| t.is_finite());
-        codes.sort_by(f64::total_cmp);
-        codes.dedup();
-        above = Rc::from(codes);
-        source.ancestors.keep(known, key, above.clone());
-    }
-    Ok(above)
 }
 
 /// Of sample `times` (any order, repeats and non-finite ones included), those [`within`] `span`.
