@@ -1114,6 +1114,7 @@ fn the_numerical_stress_table_holds_its_tolerances() {
         "emitting 1e30",
         "sky furnace, dielectric",
         "256 teleports",
+        "rays aimed at vertices",
     ] {
         assert!(table.contains(family), "{family} missing:\n{table}");
     }
