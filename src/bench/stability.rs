@@ -12,6 +12,7 @@ use rift_render::Ray;
 use rift_render::Scene;
 use rift_render::frame::film::Image;
 use rift_render::frame::passes::{RenderOptions, render};
+use rift_render::geometry::triangle::Triangle;
 use rift_render::portals::openings::{Mask, OpeningLook, Portals};
 use rift_render::prepare::Prepared;
 use std::path::Path;
@@ -397,22 +398,11 @@ fn teleport_chains() -> Vec<Row> {
 /// through the tree is not the nearest of every triangle's: rays that meet a node's face or
 /// corner within rounding, which its slab test can reject (a known limit, docs/performance.md).
 fn rays_aimed_at_vertices() -> Vec<Row> {
-    use rift_render::geometry::triangle::{ShearedRay, Triangle, intersect_watertight};
+    use rift_render::geometry::triangle::{ShearedRay, intersect_watertight};
     use rift_render::geometry::triangle_bvh::TriangleBvh;
     let mut rows = Vec::new();
     for (n, size) in [(8, 0.01f32), (12, 3.0), (24, 1000.0)] {
-        let step = 2.0 * size / n as f32;
-        // Heights on a grid of eighths, so every vertex is exact and many lie on node faces.
-        let vertex = |i: usize, j: usize| {
-            let h = ((i * 7 + j * 13) % 11) as f32 / 8.0 - 0.5;
-            Vec3::new(-size + i as f32 * step, h, -size + j as f32 * step)
-        };
-        let mut triangles = Vec::new();
-        for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
-            let [a, b, c, d] =
-                [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(x, z)| vertex(x, z));
-            triangles.extend([Triangle { v: [a, b, c] }, Triangle { v: [a, c, d] }]);
-        }
+        let (triangles, vertices) = height_field(n, size);
         let bvh = TriangleBvh::build(&triangles, 0);
         let (mut hits, mut missed) = (0usize, 0usize);
         for k in 0..40 {
@@ -421,8 +411,8 @@ fn rays_aimed_at_vertices() -> Vec<Row> {
             let origin = Vec3::new((f * 0.37).sin(), (f * 0.53).cos() * 1.5, (f * 1.3).sin())
                 * size
                 * [0.5, 1.0, 2.0, 40.0][k % 4];
-            for v in (0..=n).flat_map(|i| (0..=n).map(move |j| (i, j))) {
-                let dir = vertex(v.0, v.1) - origin;
+            for &vertex in &vertices {
+                let dir = vertex - origin;
                 let sheared = ShearedRay::new(origin, dir);
                 let Some(nearest) = triangles
                     .iter()
@@ -449,6 +439,28 @@ fn rays_aimed_at_vertices() -> Vec<Row> {
         });
     }
     rows
+}
+
+/// A height field of `n`×`n` quads (two triangles each) over [−`size`, `size`]² and its
+/// vertices: heights on a grid of eighths, so every vertex is exact and many lie on the faces
+/// of the tree's nodes.
+fn height_field(n: usize, size: f32) -> (Vec<Triangle>, Vec<Vec3>) {
+    let step = 2.0 * size / n as f32;
+    let vertex = |i: usize, j: usize| {
+        let h = ((i * 7 + j * 13) % 11) as f32 / 8.0 - 0.5;
+        Vec3::new(-size + i as f32 * step, h, -size + j as f32 * step)
+    };
+    let mut triangles = Vec::new();
+    for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
+        let [a, b, c, d] =
+            [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(x, z)| vertex(x, z));
+        triangles.extend([Triangle { v: [a, b, c] }, Triangle { v: [a, c, d] }]);
+    }
+    let vertices = (0..=n)
+        .flat_map(|i| (0..=n).map(move |j| (i, j)))
+        .map(|(i, j)| vertex(i, j))
+        .collect();
+    (triangles, vertices)
 }
 
 /// Two openings facing each other: A at `offset` (on every axis) facing +Z, B `4 × ratio`
