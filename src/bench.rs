@@ -98,6 +98,24 @@ pub(crate) fn hashed(i: usize, count: u32, k: u32) -> f32 {
         / u32::MAX as f32
 }
 
+/// A grid of `cells`² quads, two triangles each, whose corner (`i`, `j`) for `i`, `j` in
+/// 0..=`cells` is `at(i, j)`: the benchmarks' height fields.
+pub(crate) fn quad_grid(
+    cells: usize,
+    at: impl Fn(usize, usize) -> glam::Vec3,
+) -> Vec<rift_render::geometry::Triangle> {
+    use rift_render::geometry::Triangle;
+    let mut tris = Vec::with_capacity(2 * cells * cells);
+    for i in 0..cells {
+        for j in 0..cells {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            tris.push(Triangle { v: [a, b, c] });
+            tris.push(Triangle { v: [a, c, d] });
+        }
+    }
+    tris
+}
+
 /// A closed box from `lo` to `hi` as OBJ, its faces towards the inside (counter-clockwise seen
 /// from inside) or, with `outward`, towards the outside.
 pub(crate) fn box_obj(lo: [f32; 3], hi: [f32; 3], outward: bool) -> String {

@@ -110,22 +110,13 @@ fn height_field(cells: usize) -> Vec<Triangle> {
     let height = |x: f32, z: f32| {
         0.1 * (7.0 * x).sin() * (5.0 * z).cos() + 0.03 * (31.0 * x + 17.0 * z).sin()
     };
-    let at = |i: usize, j: usize| {
+    super::quad_grid(cells, |i, j| {
         let (x, z) = (
             2.0 * i as f32 / cells as f32 - 1.0,
             2.0 * j as f32 / cells as f32 - 1.0,
         );
         Vec3::new(x, height(x, z), z)
-    };
-    let mut tris = Vec::with_capacity(2 * cells * cells);
-    for i in 0..cells {
-        for j in 0..cells {
-            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            tris.push(Triangle { v: [a, b, c] });
-            tris.push(Triangle { v: [a, c, d] });
-        }
-    }
-    tris
+    })
 }
 
 /// Writes the triangles and `rays` to `dir` (see [`RaysArgs::dump`]).

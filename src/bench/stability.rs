@@ -450,12 +450,7 @@ fn height_field(n: usize, size: f32) -> (Vec<Triangle>, Vec<Vec3>) {
         let h = ((i * 7 + j * 13) % 11) as f32 / 8.0 - 0.5;
         Vec3::new(-size + i as f32 * step, h, -size + j as f32 * step)
     };
-    let mut triangles = Vec::new();
-    for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
-        let [a, b, c, d] =
-            [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(x, z)| vertex(x, z));
-        triangles.extend([Triangle { v: [a, b, c] }, Triangle { v: [a, c, d] }]);
-    }
+    let triangles = super::quad_grid(n, vertex);
     let vertices = (0..=n)
         .flat_map(|i| (0..=n).map(move |j| (i, j)))
         .map(|(i, j)| vertex(i, j))
