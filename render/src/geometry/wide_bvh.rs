@@ -113,7 +113,7 @@ pub trait LeafTest {
 /// crossing cost about 75 instructions a query on a Cornell box.
 ///
 /// # Safety
-/// `AVX2` only in code compiled for AVX2, FMA, POPCNT, LZCNT and BMI1 (so on a processor that has
+/// `AVX2` only in code compiled for AVX2, POPCNT, LZCNT and BMI1 (so on a processor that has
 /// them: [`crate::platform::cpu::has_avx2_set`]).
 #[inline(always)]
 pub unsafe fn traverse_compiled<const AVX2: bool, L: LeafData + ?Sized>(
@@ -820,10 +820,9 @@ fn widen_avx2(row: &[u8; 8]) -> std::arch::x86_64::__m256 {
 
 /// The slab tests of [`slab_hits_portable`] in AVX2 registers, the eight comparisons gathered
 /// by one movemask. A swept node's two plane sets share its grid, so they mix before the one
-/// scaling to ray distances. Planes go to distances in fused multiply-adds: one instruction's
-/// latency where a product and a sum took two, on the chain each node's test waits on.
+/// scaling to ray distances.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2")]
 #[inline]
 fn slab_hits_avx2(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32) -> (u32, [f32; 8]) {
     use std::arch::x86_64::*;
@@ -837,10 +836,10 @@ fn slab_hits_avx2(node: &CwBvhNode, end: EndPlanes, ray: &BoxRay, t_max: f32) ->
             let at = _mm256_set1_ps(at);
             for (side, q) in planes.iter_mut().enumerate() {
                 let toward = _mm256_sub_ps(widen_avx2(&end[2 * a + side]), *q);
-                *q = _mm256_fmadd_ps(at, toward, *q);
+                *q = _mm256_add_ps(*q, _mm256_mul_ps(at, toward));
             }
         }
-        let [t_lo, t_hi] = planes.map(|q| _mm256_fmadd_ps(q, scale, offset));
+        let [t_lo, t_hi] = planes.map(|q| _mm256_add_ps(_mm256_mul_ps(q, scale), offset));
         // The entry plane is the nearer of the two whichever way the ray runs (the distance
         // is monotonic in the plane): a minimum, not a branch on the ray's direction that
         // each new ray's signs mispredict.

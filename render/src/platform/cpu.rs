@@ -9,10 +9,9 @@
 //! AVX2 code cannot be inlined, so the boundary belongs at the top of a whole query (a
 //! triangle query's ray set-up crossed it at about 75 instructions a query).
 
-/// Whether the processor has AVX2 and what came with it: fused multiply-adds (FMA3), which the
-/// node tests map planes to distances with, and the bit instructions (POPCNT, LZCNT, BMI1),
-/// which the traversal's bookkeeping uses in place of multiply-and-shift emulations. Every
-/// processor with AVX2 has them; checked all the same, once.
+/// Whether the processor has AVX2 and the bit instructions that came with it (POPCNT, LZCNT,
+/// BMI1), which the traversal's bookkeeping uses in place of multiply-and-shift emulations.
+/// Every processor with AVX2 has them; checked all the same, once.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub fn has_avx2_set() -> bool {
@@ -26,7 +25,6 @@ pub fn has_avx2_set() -> bool {
     match FOUND.load(Ordering::Relaxed) {
         0 => {
             let found = std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
                 && std::arch::is_x86_feature_detected!("popcnt")
                 && std::arch::is_x86_feature_detected!("lzcnt")
                 && std::arch::is_x86_feature_detected!("bmi1");
@@ -44,17 +42,17 @@ pub trait TwoWays {
     /// Does the work, in the compilation `AVX2` names (inline it into [`run`]).
     ///
     /// # Safety
-    /// `AVX2` only in code compiled for AVX2, FMA, POPCNT, LZCNT and BMI1, which [`run`] ensures.
+    /// `AVX2` only in code compiled for AVX2, POPCNT, LZCNT and BMI1, which [`run`] ensures.
     unsafe fn run<const AVX2: bool>(self) -> Self::Output;
 }
 
-/// Runs `work` in its AVX2 compilation where the processor has AVX2, FMA and the bit instructions
+/// Runs `work` in its AVX2 compilation where the processor has AVX2 and the bit instructions
 /// ([`has_avx2_set`]), else in its baseline one.
 #[inline(always)]
 pub fn run<W: TwoWays>(work: W) -> W::Output {
     #[cfg(target_arch = "x86_64")]
     if has_avx2_set() {
-        // SAFETY: the processor has AVX2, FMA and the bit instructions, checked just above.
+        // SAFETY: the processor has AVX2 and the bit instructions, checked just above.
         return unsafe { run_avx2(work) };
     }
     // SAFETY: the baseline compilation.
@@ -62,9 +60,9 @@ pub fn run<W: TwoWays>(work: W) -> W::Output {
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1")]
+#[target_feature(enable = "avx2,popcnt,lzcnt,bmi1")]
 fn run_avx2<W: TwoWays>(work: W) -> W::Output {
-    // SAFETY: compiled for AVX2, FMA and the bit instructions.
+    // SAFETY: compiled for AVX2 and the bit instructions.
     unsafe { work.run::<true>() }
 }
 
