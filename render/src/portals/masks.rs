@@ -13,7 +13,6 @@
 //! the same whatever the strand count.
 
 use glam::{DVec2, Vec2};
-use rayon::prelude::*;
 use rift_fx::ring::RingCurves;
 use std::f64::consts::TAU;
 
@@ -233,12 +232,10 @@ impl RingBoundary {
                 }
             })
             .collect();
-        // Each time sample's row on its own thread: a frame's set-up waits on the table.
-        let radii = sample_times
-            .par_iter()
-            .map(|&t| envelope(curves, (t - frame_time) as f32))
-            .collect::<Vec<_>>()
-            .concat();
+        let mut radii = Vec::with_capacity(samples * ANGLE_BINS);
+        for &t in &sample_times {
+            radii.extend(envelope(curves, (t - frame_time) as f32));
+        }
         let max_radius = radii.iter().fold(0.0f32, |m, &r| m.max(r)) as f64;
         let min_radius = radii
             .iter()
@@ -307,11 +304,9 @@ fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
         Vec2::new(p.x, p.y).as_dvec2()
     };
     let bin = TAU / ANGLE_BINS as f64;
-    let directions = bin_directions();
     for (i, j) in curves.segments() {
         let (a, b) = (at(i), at(j));
-        let from = a.y.atan2(a.x);
-        let sweep = wrap(b.y.atan2(b.x) - from);
+        let (from, sweep) = (a.y.atan2(a.x), wrap(b.y.atan2(b.x) - a.y.atan2(a.x)));
         // Bins whose central angle the segment's angular span covers.
         let (lo, hi) = if sweep >= 0.0 {
             (from, from + sweep)
@@ -322,13 +317,14 @@ fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
         let last = (hi / bin - 0.5).floor() as i64;
         let e = b - a;
         for k in first..=last {
-            let k = k.rem_euclid(ANGLE_BINS as i64) as usize;
-            let denominator = directions[k].perp_dot(e);
+            let theta = (k as f64 + 0.5) * bin;
+            let u = DVec2::new(theta.cos(), theta.sin());
+            let denominator = u.perp_dot(e);
             if denominator == 0.0 {
                 continue;
             }
             let r = a.perp_dot(e) / denominator;
-            let slot = &mut radii[k];
+            let slot = &mut radii[k.rem_euclid(ANGLE_BINS as i64) as usize];
             if r > 0.0 {
                 *slot = slot.min(r as f32);
             }
@@ -340,19 +336,6 @@ fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
         }
     }
     radii
-}
-
-/// The unit direction of each bin's central angle, (k + ½)·2π/bins, made once: every segment
-/// of every time sample reads them, and made per crossing they were ten million sines and
-/// cosines a frame of the showcase.
-fn bin_directions() -> &'static [DVec2] {
-    static DIRECTIONS: std::sync::OnceLock<Vec<DVec2>> = std::sync::OnceLock::new();
-    DIRECTIONS.get_or_init(|| {
-        let bin = TAU / ANGLE_BINS as f64;
-        (0..ANGLE_BINS)
-            .map(|k| DVec2::from_angle((k as f64 + 0.5) * bin))
-            .collect()
-    })
 }
 
 /// An angle difference brought into (−π, π].
