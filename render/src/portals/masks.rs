@@ -296,7 +296,9 @@ impl RingBoundary {
 
 /// The inner envelope of the strands `delta` seconds after their frame: per angular bin, the
 /// smallest radius at which a strand's polyline crosses the bin's central angle (0 where none
-/// does, so an open gap never teleports).
+/// does, so an open gap never teleports). Kept out of line: it is a frame's set-up, and the
+/// render crate's hot code is laid out as if it were not there.
+#[inline(never)]
 fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
     let mut radii = vec![f32::INFINITY; ANGLE_BINS];
     let at = |i: usize| {
@@ -304,9 +306,11 @@ fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
         Vec2::new(p.x, p.y).as_dvec2()
     };
     let bin = TAU / ANGLE_BINS as f64;
+    let directions = bin_directions();
     for (i, j) in curves.segments() {
         let (a, b) = (at(i), at(j));
-        let (from, sweep) = (a.y.atan2(a.x), wrap(b.y.atan2(b.x) - a.y.atan2(a.x)));
+        let from = a.y.atan2(a.x);
+        let sweep = wrap(b.y.atan2(b.x) - from);
         // Bins whose central angle the segment's angular span covers.
         let (lo, hi) = if sweep >= 0.0 {
             (from, from + sweep)
@@ -317,14 +321,13 @@ fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
         let last = (hi / bin - 0.5).floor() as i64;
         let e = b - a;
         for k in first..=last {
-            let theta = (k as f64 + 0.5) * bin;
-            let u = DVec2::new(theta.cos(), theta.sin());
-            let denominator = u.perp_dot(e);
+            let k = k.rem_euclid(ANGLE_BINS as i64) as usize;
+            let denominator = directions[k].perp_dot(e);
             if denominator == 0.0 {
                 continue;
             }
             let r = a.perp_dot(e) / denominator;
-            let slot = &mut radii[k.rem_euclid(ANGLE_BINS as i64) as usize];
+            let slot = &mut radii[k];
             if r > 0.0 {
                 *slot = slot.min(r as f32);
             }
@@ -336,6 +339,19 @@ fn envelope(curves: &RingCurves, delta: f32) -> Vec<f32> {
         }
     }
     radii
+}
+
+/// The unit direction of each bin's central angle, (k + ½)·2π/bins, made once: every segment
+/// of every time sample reads them, and made per crossing they were ten million sines and
+/// cosines a frame of the showcase.
+fn bin_directions() -> &'static [DVec2] {
+    static DIRECTIONS: std::sync::OnceLock<Vec<DVec2>> = std::sync::OnceLock::new();
+    DIRECTIONS.get_or_init(|| {
+        let bin = TAU / ANGLE_BINS as f64;
+        (0..ANGLE_BINS)
+            .map(|k| DVec2::from_angle((k as f64 + 0.5) * bin))
+            .collect()
+    })
 }
 
 /// An angle difference brought into (−π, π].
