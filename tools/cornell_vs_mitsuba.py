@@ -23,6 +23,12 @@ square, a power of two), in the same rounds, and rift is compared with the most 
 
     python3 tools/cornell_vs_mitsuba.py --rift target/release/rift --spp 256 --rounds 3
 
+`--avx2-only` compiles Mitsuba's kernels for AVX2 in eight lanes (Dr.Jit's LLVM target set
+to Haswell through its C library), as on a processor without AVX-512, where it takes longer:
+on a host with AVX-512 this shows in one run how the comparison stands on such processors
+(Embree, which traces Mitsuba's rays, still picks its own kernels). It is not Mitsuba at its
+best on such a host, which the default is.
+
 Needs `pip install mitsuba` and, for the LLVM variants, LLVM 16 or newer as a shared library
 (Debian: `apt-get install libllvm19`): LLVM 15.0 aborts compiling Mitsuba's kernels on
 processors with AVX-512 and on some without (an AMD EPYC with AVX2 only: "Cannot select ...
@@ -100,6 +106,26 @@ def load_mitsuba(variant):
     return mi
 
 
+# Dr.Jit's C library entry points (C++ names) for its LLVM backend's target.
+SET_TARGET = "_Z19jit_llvm_set_targetPKcS0_j"
+TARGET_CPU = "_Z19jit_llvm_target_cpuv"
+VECTOR_WIDTH = "_Z21jit_llvm_vector_widthv"
+AVX2_FEATURES = ("+avx,+avx2,+fma,+f16c,+bmi,+bmi2,+lzcnt,+popcnt,+sse4.2,"
+                 "-avx512f,-avx512vl,-avx512dq,-avx512bw,-avx512cd")
+
+
+def restrict_to_avx2():
+    """Compiles Dr.Jit's LLVM kernels from here on for AVX2 (Haswell) in eight lanes; returns
+    the target and lane count it reports, to be printed."""
+    import ctypes
+    import drjit as dr
+    core = ctypes.CDLL(str(Path(dr.__file__).parent / "libdrjit-core.so"))
+    getattr(core, SET_TARGET)(b"haswell", AVX2_FEATURES.encode(), ctypes.c_uint32(8))
+    cpu, width = getattr(core, TARGET_CPU), getattr(core, VECTOR_WIDTH)
+    cpu.restype, width.restype = ctypes.c_char_p, ctypes.c_uint32
+    return cpu().decode(), width()
+
+
 def default_reference():
     """The reference of many samples where `tools/cornell_reference.py` has made it, else the
     pack's."""
@@ -146,12 +172,20 @@ def main():
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--samplers", default=",".join(SAMPLERS))
     ap.add_argument("--reference", default=str(default_reference()))
+    ap.add_argument("--avx2-only", action="store_true",
+                    help="Mitsuba's kernels for AVX2 in eight lanes, as without AVX-512")
     args = ap.parse_args()
 
     mi = load_mitsuba(args.variant)
     import drjit as dr
     if args.variant.startswith("llvm"):
         dr.set_thread_count(args.threads)
+    kernels = ""
+    if args.avx2_only:
+        if not args.variant.startswith("llvm"):
+            sys.exit("--avx2-only: only for Mitsuba's LLVM variants")
+        cpu, width = restrict_to_avx2()
+        kernels = f", kernels for {cpu} in {width} lanes"
     reference = read_rgb(args.reference)
     print(f"reference: {args.reference}", flush=True)
     scenes = mitsuba_scenes(mi, args.samplers.split(","), args.spp)
@@ -171,8 +205,8 @@ def main():
                 line += f" | {name} {runs[name][-1][0]:.2f} s {runs[name][-1][1]:.4e}"
             print(line, flush=True)
 
-    print(f"\nCornell box, {args.threads} threads, Mitsuba {mi.__version__} {args.variant}, "
-          f"medians of {args.rounds} rounds, two seeds each")
+    print(f"\nCornell box, {args.threads} threads, Mitsuba {mi.__version__} {args.variant}"
+          f"{kernels}, medians of {args.rounds} rounds, two seeds each")
     print(f"host: {host.describe()}")
     print(f"{'':12} {'spp':>5} {'seconds':>9} {'relMSE':>11} {'efficiency':>11} {'variance':>11} "
           f"{'efficiency':>11}  mean against the reference (%)")
