@@ -119,7 +119,13 @@ def restrict_to_avx2():
     the target and lane count it reports, to be printed."""
     import ctypes
     import drjit as dr
-    core = ctypes.CDLL(str(Path(dr.__file__).parent / "libdrjit-core.so"))
+    library = Path(dr.__file__).parent / "libdrjit-core.so"
+    try:
+        core = ctypes.CDLL(str(library))
+        for name in (SET_TARGET, TARGET_CPU, VECTOR_WIDTH):
+            getattr(core, name)
+    except (OSError, AttributeError) as e:
+        sys.exit(f"--avx2-only: this Dr.Jit's {library} has no LLVM target to set ({e})")
     getattr(core, SET_TARGET)(b"haswell", AVX2_FEATURES.encode(), ctypes.c_uint32(8))
     cpu, width = getattr(core, TARGET_CPU), getattr(core, VECTOR_WIDTH)
     cpu.restype, width.restype = ctypes.c_char_p, ctypes.c_uint32
