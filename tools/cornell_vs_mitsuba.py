@@ -122,12 +122,10 @@ def restrict_to_avx2():
     library = Path(dr.__file__).parent / "libdrjit-core.so"
     try:
         core = ctypes.CDLL(str(library))
-        for name in (SET_TARGET, TARGET_CPU, VECTOR_WIDTH):
-            getattr(core, name)
+        set_target, cpu, width = (getattr(core, n) for n in (SET_TARGET, TARGET_CPU, VECTOR_WIDTH))
     except (OSError, AttributeError) as e:
         sys.exit(f"--avx2-only: this Dr.Jit's {library} has no LLVM target to set ({e})")
-    getattr(core, SET_TARGET)(b"haswell", AVX2_FEATURES.encode(), ctypes.c_uint32(8))
-    cpu, width = getattr(core, TARGET_CPU), getattr(core, VECTOR_WIDTH)
+    set_target(b"haswell", AVX2_FEATURES.encode(), ctypes.c_uint32(8))
     cpu.restype, width.restype = ctypes.c_char_p, ctypes.c_uint32
     return cpu().decode(), width()
 
@@ -181,6 +179,8 @@ def main():
     ap.add_argument("--avx2-only", action="store_true",
                     help="Mitsuba's kernels for AVX2 in eight lanes, as without AVX-512")
     args = ap.parse_args()
+    if args.avx2_only and not args.variant.startswith("llvm"):
+        sys.exit("--avx2-only: only for Mitsuba's LLVM variants")
 
     mi = load_mitsuba(args.variant)
     import drjit as dr
@@ -188,8 +188,6 @@ def main():
         dr.set_thread_count(args.threads)
     kernels = ""
     if args.avx2_only:
-        if not args.variant.startswith("llvm"):
-            sys.exit("--avx2-only: only for Mitsuba's LLVM variants")
         cpu, width = restrict_to_avx2()
         kernels = f", kernels for {cpu} in {width} lanes"
     reference = read_rgb(args.reference)
