@@ -21,7 +21,6 @@ Needs bpy (tests/requirements.txt installs it in tests/.venv).
 import argparse
 import json
 import os
-import statistics
 import sys
 import tempfile
 import time
@@ -30,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 import host
-from cornell_vs_mitsuba import PACK, default_reference, rift_round, two_seed_figures
+from cornell_vs_mitsuba import (PACK, default_reference, print_efficiencies, rift_round,
+                                two_seed_figures)
 from images import read_rgb
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -205,22 +205,7 @@ def main():
           f"Blender {bpy.app.version_string} Cycles (CPU), "
           f"medians of {args.rounds} rounds, two seeds each")
     print(f"host: {host.describe()}")
-    print(f"{'':26} {'seconds':>9} {'relMSE':>11} {'efficiency':>11} {'variance':>11} "
-          f"{'efficiency':>11}  mean against the reference (%)")
-    eff, eff_var = {}, {}
-    for who, rows in runs.items():
-        seconds = statistics.median(r[0] for r in rows)
-        rel = statistics.median(r[1] for r in rows)
-        var = statistics.median(r[2] for r in rows)
-        eff[who], eff_var[who] = 1.0 / (seconds * rel), 1.0 / (seconds * var)
-        mean = np.round(np.mean([r[3] for r in rows], axis=0), 3)
-        print(f"{who:26} {seconds:9.3f} {rel:11.4e} {eff[who]:11.1f} {var:11.4e} "
-              f"{eff_var[who]:11.1f}  {mean}")
-    for name, table in (("against the reference", eff), ("from the two seeds' variance", eff_var)):
-        best = max((who for who in runs if who != "rift"), key=table.get)
-        print(f"efficiency {name}, rift / Cycles at its best ({best}): "
-              f"{table['rift'] / table[best]:.2f}")
-
+    print_efficiencies(runs, "Cycles")
 
 if __name__ == "__main__":
     main()

@@ -167,6 +167,31 @@ def mitsuba_render(mi, scene, spp, seed):
     return img, time.perf_counter() - start
 
 
+def print_efficiencies(runs, peer, spp_of=None):
+    """The table of `runs` ({who: [(seconds, relMSE, variance, mean %)] a round}, rift's
+    first): medians, efficiency against the reference and from the variance, each run's mean
+    against the reference, and rift's ratio to the most efficient of `peer`'s runs both ways.
+    `spp_of(who)` adds a column of samples per pixel."""
+    width = max(len(who) for who in runs)
+    spp_head = f" {'spp':>5}" if spp_of else ""
+    print(f"{'':{width}}{spp_head} {'seconds':>9} {'relMSE':>11} {'efficiency':>11} "
+          f"{'variance':>11} {'efficiency':>11}  mean against the reference (%)")
+    eff, eff_var = {}, {}
+    for who, rows in runs.items():
+        seconds = statistics.median(r[0] for r in rows)
+        rel = statistics.median(r[1] for r in rows)
+        var = statistics.median(r[2] for r in rows)
+        eff[who], eff_var[who] = 1.0 / (seconds * rel), 1.0 / (seconds * var)
+        spp = f" {spp_of(who):5d}" if spp_of else ""
+        mean = np.round(np.mean([r[3] for r in rows], axis=0), 3)
+        print(f"{who:{width}}{spp} {seconds:9.3f} {rel:11.4e} {eff[who]:11.1f} {var:11.4e} "
+              f"{eff_var[who]:11.1f}  {mean}")
+    for name, table in (("against the reference", eff), ("from the two seeds' variance", eff_var)):
+        best = max((who for who in runs if who != "rift"), key=table.get)
+        print(f"efficiency {name}, rift / {peer} at its best ({best}): "
+              f"{table['rift'] / table[best]:.2f}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rift", default=str(ROOT / "target/release/rift"))
@@ -201,7 +226,8 @@ def main():
             seeds = (2 * k + 1, 2 * k + 2)
             runs["rift"].append(
                 rift_round(args.rift, args.spp, args.threads, seeds[0], tmp, args.reference))
-            line = f"round {k + 1}: rift {runs['rift'][-1][0]:.2f} s relMSE {runs['rift'][-1][1]:.4e}"
+            seconds, rel = runs["rift"][-1][:2]
+            line = f"round {k + 1}: rift {seconds:.2f} s relMSE {rel:.4e}"
             for name, (scene, spp) in scenes.items():
                 renders = [mitsuba_render(mi, scene, spp, seed) for seed in seeds]
                 runs[name].append(two_seed_figures([r[0] for r in renders],
@@ -212,23 +238,7 @@ def main():
     print(f"\nCornell box, {args.threads} threads, Mitsuba {mi.__version__} {args.variant}"
           f"{kernels}, medians of {args.rounds} rounds, two seeds each")
     print(f"host: {host.describe()}")
-    print(f"{'':12} {'spp':>5} {'seconds':>9} {'relMSE':>11} {'efficiency':>11} {'variance':>11} "
-          f"{'efficiency':>11}  mean against the reference (%)")
-    eff, eff_var = {}, {}
-    for who, rows in runs.items():
-        seconds = statistics.median(r[0] for r in rows)
-        rel = statistics.median(r[1] for r in rows)
-        var = statistics.median(r[2] for r in rows)
-        eff[who], eff_var[who] = 1.0 / (seconds * rel), 1.0 / (seconds * var)
-        spp = args.spp if who == "rift" else scenes[who][1]
-        mean = np.round(np.mean([r[3] for r in rows], axis=0), 3)
-        print(f"{who:12} {spp:5d} {seconds:9.3f} {rel:11.4e} {eff[who]:11.1f} {var:11.4e} "
-              f"{eff_var[who]:11.1f}  {mean}")
-    for name, table in (("against the reference", eff), ("from the two seeds' variance", eff_var)):
-        best = max((who for who in runs if who != "rift"), key=table.get)
-        print(f"efficiency {name}, rift / mitsuba at its best ({best}): "
-              f"{table['rift'] / table[best]:.2f}")
-
+    print_efficiencies(runs, "mitsuba", lambda who: args.spp if who == "rift" else scenes[who][1])
 
 if __name__ == "__main__":
     main()
