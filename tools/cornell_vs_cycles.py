@@ -18,9 +18,7 @@ render (scene sync included, guiding's training too when it guides).
 
 Needs bpy (tests/requirements.txt installs it in tests/.venv).
 """
-import argparse
 import json
-import os
 import sys
 import tempfile
 import time
@@ -29,11 +27,10 @@ from pathlib import Path
 import numpy as np
 
 import host
-from cornell_vs_mitsuba import (PACK, default_reference, print_efficiencies, rift_round,
+from cornell_vs_mitsuba import (PACK, comparison_arguments, print_efficiencies, rift_round,
                                 two_seed_figures)
 from images import read_rgb
 
-ROOT = Path(__file__).resolve().parent.parent
 # Cycles' limit on every bounce count.
 MOST_BOUNCES = 1024
 
@@ -157,15 +154,10 @@ def cycles_render(bpy, scene, spp, seed, out):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rift", default=str(ROOT / "target/release/rift"))
-    ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--threads", type=int, default=os.cpu_count())
+    ap = comparison_arguments(__doc__)
     ap.add_argument("--patterns", default="TABULATED_SOBOL,BLUE_NOISE",
                     help="Cycles' sampling patterns to try, comma-separated (in Blender 4.5 "
                          "AUTOMATIC is BLUE_NOISE, the same images)")
-    ap.add_argument("--reference", default=str(default_reference()))
     args = ap.parse_args()
 
     bpy = load_bpy()

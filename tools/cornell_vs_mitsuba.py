@@ -167,6 +167,18 @@ def mitsuba_render(mi, scene, spp, seed):
     return img, time.perf_counter() - start
 
 
+def comparison_arguments(doc):
+    """The options every Cornell comparison takes: rift's binary, samples per pixel, rounds,
+    threads and the reference; the script's `doc` describes it."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("--rift", default=str(ROOT / "target/release/rift"))
+    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--threads", type=int, default=os.cpu_count())
+    ap.add_argument("--reference", default=str(default_reference()))
+    return ap
+
+
 def print_efficiencies(runs, peer, spp_of=None):
     """The table of `runs` ({who: [(seconds, relMSE, variance, mean %)] a round}, rift's
     first): medians, efficiency against the reference and from the variance, each run's mean
@@ -193,14 +205,9 @@ def print_efficiencies(runs, peer, spp_of=None):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rift", default=str(ROOT / "target/release/rift"))
-    ap.add_argument("--spp", type=int, default=256)
-    ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--threads", type=int, default=os.cpu_count())
+    ap = comparison_arguments(__doc__)
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--samplers", default=",".join(SAMPLERS))
-    ap.add_argument("--reference", default=str(default_reference()))
     ap.add_argument("--avx2-only", action="store_true",
                     help="Mitsuba's kernels for AVX2 in eight lanes, as without AVX-512")
     args = ap.parse_args()
