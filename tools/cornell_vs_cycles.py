@@ -199,5 +199,6 @@ def main():
     print(f"host: {host.describe()}")
     print_efficiencies(runs, "Cycles")
 
+
 if __name__ == "__main__":
     main()

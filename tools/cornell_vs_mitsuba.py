@@ -247,5 +247,6 @@ def main():
     print(f"host: {host.describe()}")
     print_efficiencies(runs, "mitsuba", lambda who: args.spp if who == "rift" else scenes[who][1])
 
+
 if __name__ == "__main__":
     main()
